@@ -1,0 +1,191 @@
+//! Errors a user can act on.
+//!
+//! Library code returns [`Error`]; only the command line renders it. A problem in a model
+//! file is a [`Diagnostic`] with the byte span of the offending text, a label, and a help
+//! line; rendering turns the span into `file:line:col` and shows the source line
+//! (ariadne). The loader collects every problem it can find before it gives up, so one
+//! run reports them all.
+
+use std::fmt;
+use std::ops::Range;
+use std::sync::Arc;
+
+/// A model file's text, kept for error messages and provenance.
+#[derive(Debug, Clone)]
+pub struct SourceFile {
+    /// Path as the user gave it.
+    pub path: String,
+    /// Full text.
+    pub text: Arc<str>,
+}
+
+impl SourceFile {
+    /// 1-based line and column (in characters) of a byte offset.
+    pub fn line_col(&self, offset: usize) -> (usize, usize) {
+        let offset = offset.min(self.text.len());
+        let before = &self.text[..offset];
+        let line = before.matches('\n').count() + 1;
+        let line_start = before.rfind('\n').map_or(0, |i| i + 1);
+        let col = self.text[line_start..offset].chars().count() + 1;
+        (line, col)
+    }
+}
+
+/// One problem in a model file (or in a `--set` value).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Diagnostic {
+    /// What is wrong, one sentence.
+    pub message: String,
+    /// Byte range in the source; `None` when no location exists.
+    pub span: Option<Range<usize>>,
+    /// Short text shown under the span.
+    pub label: Option<String>,
+    /// What to do about it.
+    pub help: Option<String>,
+}
+
+impl Diagnostic {
+    pub fn new(message: impl Into<String>) -> Self {
+        Diagnostic {
+            message: message.into(),
+            span: None,
+            label: None,
+            help: None,
+        }
+    }
+    pub fn at(mut self, span: Range<usize>) -> Self {
+        self.span = Some(span);
+        self
+    }
+    pub fn label(mut self, label: impl Into<String>) -> Self {
+        self.label = Some(label.into());
+        self
+    }
+    pub fn help(mut self, help: impl Into<String>) -> Self {
+        self.help = Some(help.into());
+        self
+    }
+}
+
+/// Everything that can go wrong, with the numbers a user needs.
+#[derive(Debug, Clone)]
+pub enum Error {
+    /// Problems in a model file, each located in `source`.
+    Model {
+        source: SourceFile,
+        diagnostics: Vec<Diagnostic>,
+    },
+    /// A bad request on the command line or through the API (unknown parameter, bad range).
+    Request {
+        message: String,
+        help: Option<String>,
+    },
+    /// A computation that could not be completed (no assembly, NaN, step size underflow).
+    Numerical {
+        message: String,
+        help: Option<String>,
+    },
+    /// Reading or writing a file.
+    Io { path: String, message: String },
+}
+
+pub type Result<T> = std::result::Result<T, Error>;
+
+impl Error {
+    pub fn request(message: impl Into<String>, help: impl Into<String>) -> Self {
+        Error::Request {
+            message: message.into(),
+            help: Some(help.into()),
+        }
+    }
+    pub fn numerical(message: impl Into<String>, help: impl Into<String>) -> Self {
+        Error::Numerical {
+            message: message.into(),
+            help: Some(help.into()),
+        }
+    }
+    pub fn io(path: impl Into<String>, err: impl fmt::Display) -> Self {
+        Error::Io {
+            path: path.into(),
+            message: err.to_string(),
+        }
+    }
+
+    /// The full human-readable report: for model errors, `file:line:col`, the source line
+    /// with the span marked, and the help line.
+    pub fn render(&self, color: bool) -> String {
+        match self {
+            Error::Model {
+                source,
+                diagnostics,
+            } => {
+                let mut out = String::new();
+                for d in diagnostics {
+                    out.push_str(&render_diagnostic(source, d, color));
+                }
+                if diagnostics.len() > 1 {
+                    out.push_str(&format!(
+                        "{} problems in {}\n",
+                        diagnostics.len(),
+                        source.path
+                    ));
+                }
+                out
+            }
+            Error::Request { message, help } | Error::Numerical { message, help } => {
+                let mut out = format!("error: {message}\n");
+                if let Some(h) = help {
+                    out.push_str(&format!("help: {h}\n"));
+                }
+                out
+            }
+            Error::Io { path, message } => format!("error: {path}: {message}\n"),
+        }
+    }
+}
+
+impl fmt::Display for Error {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(&self.render(false))
+    }
+}
+
+impl std::error::Error for Error {}
+
+/// `error: message` / `--> file:line:col` header, then ariadne's source excerpt.
+fn render_diagnostic(source: &SourceFile, d: &Diagnostic, color: bool) -> String {
+    use ariadne::{Config, IndexType, Label, Report, ReportKind, Source};
+    let Some(span) = d.span.clone() else {
+        let mut out = format!("error: {}\n  --> {}\n", d.message, source.path);
+        if let Some(h) = &d.help {
+            out.push_str(&format!("help: {h}\n"));
+        }
+        return out;
+    };
+    let (line, col) = source.line_col(span.start);
+    let header = format!("{}:{}:{}: {}", source.path, line, col, d.message);
+    let id = source.path.as_str();
+    let mut label = Label::new((id, span.clone()));
+    if let Some(l) = &d.label {
+        label = label.with_message(l);
+    }
+    let mut report = Report::build(ReportKind::Error, (id, span))
+        .with_config(
+            Config::default()
+                .with_color(color)
+                .with_index_type(IndexType::Byte),
+        )
+        .with_message(&header)
+        .with_label(label);
+    if let Some(h) = &d.help {
+        report = report.with_help(h);
+    }
+    let mut buf = Vec::new();
+    let written = report
+        .finish()
+        .write((id, Source::from(source.text.as_ref())), &mut buf);
+    match written {
+        Ok(()) => String::from_utf8_lossy(&buf).into_owned(),
+        Err(_) => format!("error: {header}\n"),
+    }
+}

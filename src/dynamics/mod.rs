@@ -1,0 +1,332 @@
+//! The fundamental equation, assembly of consistent states, and drift projection.
+//!
+//! ```text
+//! a  = M⁻¹ f                               unconstrained acceleration
+//! v̇  = a + M^-½ (A M^-½)⁺ (b − A a)        Udwadia–Kalaba
+//! ```
+//!
+//! The pseudoinverse solve `x = B⁺ r` with `B = A M^-½` (m × n) takes a Cholesky path
+//! `x = Bᵀ (B Bᵀ)⁻¹ r` when B has full row rank (well conditioned), and an SVD with a
+//! relative rank tolerance otherwise, so redundant constraints and rank-deficient poses
+//! are ordinary events.
+
+pub mod simulate;
+
+use crate::diag::{Error, Result};
+use crate::system::{System, Workspace};
+use nalgebra::{DMatrix, DVector};
+
+/// Singular values below `RANK_TOL · σ_max` count as zero.
+pub const RANK_TOL: f64 = 1e-10;
+
+/// Cholesky pivots below `CHOL_TOL · max diag(B Bᵀ)` send the solve to the SVD.
+const CHOL_TOL: f64 = 1e-10;
+
+/// Scratch space for the dynamics of one system on one thread.
+#[derive(Debug, Clone)]
+pub struct DynWorkspace {
+    pub sys: Workspace,
+    /// A (m × n)
+    pub a: DMatrix<f64>,
+    /// b (m)
+    pub b: DVector<f64>,
+    /// B = A M^-½ (m × n)
+    bm: DMatrix<f64>,
+    /// B Bᵀ (m × m)
+    gram: DMatrix<f64>,
+    /// f (n)
+    f: DVector<f64>,
+    /// a = M⁻¹ f (n)
+    acc: DVector<f64>,
+    /// r (m)
+    r: DVector<f64>,
+    /// How many solves took the SVD path.
+    pub svd_solves: usize,
+}
+
+impl DynWorkspace {
+    pub fn new(sys: &System) -> Self {
+        let (m, n) = (sys.m(), sys.n());
+        DynWorkspace {
+            sys: Workspace::new(sys),
+            a: DMatrix::zeros(m, n),
+            b: DVector::zeros(m),
+            bm: DMatrix::zeros(m, n),
+            gram: DMatrix::zeros(m, m),
+            f: DVector::zeros(n),
+            acc: DVector::zeros(n),
+            r: DVector::zeros(m),
+            svd_solves: 0,
+        }
+    }
+}
+
+/// `x = B⁺ r` (minimum-norm least squares); returns the numerical rank of B.
+pub fn pinv_solve(
+    bm: &DMatrix<f64>,
+    r: &DVector<f64>,
+    gram: &mut DMatrix<f64>,
+    svd_count: &mut usize,
+) -> (DVector<f64>, usize) {
+    let m = bm.nrows();
+    if m == 0 {
+        return (DVector::zeros(bm.ncols()), 0);
+    }
+    bm.mul_to(&bm.transpose(), gram);
+    let scale = gram.diagonal().max();
+    if let Some(ch) = gram.clone().cholesky() {
+        let l = ch.l_dirty();
+        let min_pivot = (0..m)
+            .map(|i| l[(i, i)] * l[(i, i)])
+            .fold(f64::INFINITY, f64::min);
+        if min_pivot > CHOL_TOL * scale {
+            let y = ch.solve(r);
+            return (bm.transpose() * y, m);
+        }
+    }
+    *svd_count += 1;
+    let svd = bm.clone().svd(true, true);
+    let smax = svd.singular_values.max();
+    let eps = RANK_TOL * smax;
+    let rank = svd.rank(eps);
+    let x = svd
+        .solve(r, eps)
+        .unwrap_or_else(|_| DVector::zeros(bm.ncols()));
+    (x, rank)
+}
+
+/// Numerical rank of A M^-½ at a pose.
+pub fn constraint_rank(sys: &System, q: &[f64], t: f64) -> usize {
+    let mut ws = DynWorkspace::new(sys);
+    sys.jacobian(&mut ws.sys, q, t, &mut ws.a);
+    if sys.m() == 0 {
+        return 0;
+    }
+    let bm = &ws.a * &sys.mass_inv_sqrt;
+    let svd = bm.svd(false, false);
+    let smax = svd.singular_values.max();
+    svd.singular_values
+        .iter()
+        .filter(|&&s| s > RANK_TOL * smax)
+        .count()
+}
+
+/// Accelerations v̇ from the fundamental equation at (q, v, t).
+pub fn accelerations(
+    sys: &System,
+    ws: &mut DynWorkspace,
+    q: &[f64],
+    v: &[f64],
+    t: f64,
+    vdot: &mut [f64],
+) {
+    // f = impressed forces; a = M⁻¹ f
+    sys.forces(q, v, t, ws.f.as_mut_slice());
+    sys.mass_inv.mul_to(&ws.f, &mut ws.acc);
+    if sys.m() == 0 {
+        vdot.copy_from_slice(ws.acc.as_slice());
+        return;
+    }
+    // A, b by automatic differentiation
+    sys.jacobian(&mut ws.sys, q, t, &mut ws.a);
+    sys.bias(&mut ws.sys, q, v, t, &mut ws.b);
+    // r = b − A a ; B = A M^-½
+    ws.a.mul_to(&ws.acc, &mut ws.r);
+    ws.r.neg_mut();
+    ws.r += &ws.b;
+    ws.a.mul_to(&sys.mass_inv_sqrt, &mut ws.bm);
+    let (x, _) = pinv_solve(&ws.bm, &ws.r, &mut ws.gram, &mut ws.svd_solves);
+    // v̇ = a + M^-½ x
+    let corr = &sys.mass_inv_sqrt * x;
+    for i in 0..vdot.len() {
+        vdot[i] = ws.acc[i] + corr[i];
+    }
+}
+
+/// Largest |Φ| at q.
+pub fn residual_norm(sys: &System, q: &[f64], t: f64) -> f64 {
+    sys.residual(q, t).amax()
+}
+
+/// Newton projection of q onto Φ(q, t) = 0 with the M-weighted minimum-norm correction
+/// Δq = −M^-½ (A M^-½)⁺ Φ. Returns the final |Φ|∞.
+pub fn project_position(
+    sys: &System,
+    ws: &mut DynWorkspace,
+    q: &mut [f64],
+    t: f64,
+    tol: f64,
+    max_iter: usize,
+) -> f64 {
+    let mut phi = sys.residual(q, t);
+    let mut norm = phi.amax();
+    for _ in 0..max_iter {
+        if norm <= tol {
+            break;
+        }
+        sys.jacobian(&mut ws.sys, q, t, &mut ws.a);
+        ws.a.mul_to(&sys.mass_inv_sqrt, &mut ws.bm);
+        let (x, _) = pinv_solve(&ws.bm, &phi, &mut ws.gram, &mut ws.svd_solves);
+        let dq = &sys.mass_inv_sqrt * x;
+        for i in 0..q.len() {
+            q[i] -= dq[i];
+        }
+        let new_phi = sys.residual(q, t);
+        let new_norm = new_phi.amax();
+        if !(new_norm < norm) {
+            norm = new_norm;
+            break;
+        }
+        phi = new_phi;
+        norm = new_norm;
+    }
+    norm
+}
+
+/// Velocity constraint residual ψ = A v + ∂Φ/∂t.
+pub fn velocity_residual(
+    sys: &System,
+    ws: &mut DynWorkspace,
+    q: &[f64],
+    v: &[f64],
+    t: f64,
+) -> DVector<f64> {
+    sys.jacobian(&mut ws.sys, q, t, &mut ws.a);
+    let mut pt = DVector::zeros(sys.m());
+    sys.phi_t(&mut ws.sys, q, t, &mut pt);
+    &ws.a * DVector::from_column_slice(v) + pt
+}
+
+/// Project v onto A v + Φ_t = 0 (M-weighted minimum change). Returns |ψ|∞ before.
+pub fn project_velocity(
+    sys: &System,
+    ws: &mut DynWorkspace,
+    q: &[f64],
+    v: &mut [f64],
+    t: f64,
+) -> f64 {
+    let psi = velocity_residual(sys, ws, q, v, t);
+    let before = psi.amax();
+    if sys.m() == 0 {
+        return before;
+    }
+    ws.a.mul_to(&sys.mass_inv_sqrt, &mut ws.bm);
+    let (x, _) = pinv_solve(&ws.bm, &psi, &mut ws.gram, &mut ws.svd_solves);
+    let dv = &sys.mass_inv_sqrt * x;
+    for i in 0..v.len() {
+        v[i] -= dv[i];
+    }
+    before
+}
+
+/// A consistent state: positions on Φ = 0, velocities on A v + Φ_t = 0.
+#[derive(Debug, Clone)]
+pub struct State {
+    pub t: f64,
+    pub q: Vec<f64>,
+    pub v: Vec<f64>,
+}
+
+/// Assemble the initial state: solve Φ(q, 0) = 0 for the coordinates the model does not
+/// fix, starting from its guesses (damped Gauss–Newton with minimum-norm steps), then the
+/// velocities the model does not give from A v + Φ_t = 0.
+pub fn assemble(sys: &System) -> Result<State> {
+    let n = sys.n();
+    let init = &sys.initial;
+    let mut q = init.q.clone();
+    if let Some(i) = q.iter().position(|x| !x.is_finite()) {
+        return Err(Error::numerical(
+            format!(
+                "the initial value of `{}` is not finite",
+                sys.coordinates[i]
+            ),
+            "check the body's initial pose and the parameters it uses",
+        ));
+    }
+    let free: Vec<usize> = (0..n).filter(|&i| !init.fixed[i]).collect();
+    let mut ws = DynWorkspace::new(sys);
+    let t = 0.0;
+    let tol = 1e-13 * (1.0 + q.iter().fold(0.0f64, |a, x| a.max(x.abs())));
+    let mut phi = sys.residual(&q, t);
+    let mut norm = phi.amax();
+    let mut iterations = 0;
+    while norm > tol && iterations < 100 {
+        iterations += 1;
+        sys.jacobian(&mut ws.sys, &q, t, &mut ws.a);
+        let af = ws.a.select_columns(free.iter());
+        let svd = af.svd(true, true);
+        let eps = RANK_TOL * svd.singular_values.max();
+        let dx = svd
+            .solve(&phi, eps)
+            .unwrap_or_else(|_| DVector::zeros(free.len()));
+        // damped step: halve until |Φ| decreases
+        let mut step = 1.0;
+        let mut accepted = false;
+        for _ in 0..30 {
+            let mut trial = q.clone();
+            for (k, &i) in free.iter().enumerate() {
+                trial[i] -= step * dx[k];
+            }
+            let p = sys.residual(&trial, t);
+            if p.amax() < norm {
+                q = trial;
+                phi = p;
+                norm = phi.amax();
+                accepted = true;
+                break;
+            }
+            step *= 0.5;
+        }
+        if !accepted {
+            break;
+        }
+    }
+    if norm > 1e-9 || !norm.is_finite() {
+        let worst = (0..sys.m())
+            .max_by(|&i, &j| phi[i].abs().total_cmp(&phi[j].abs()))
+            .map(|i| sys.constraint_names[i].clone())
+            .unwrap_or_default();
+        let fixed: Vec<String> = (0..n)
+            .filter(|&i| init.fixed[i])
+            .map(|i| format!("{} = {}", sys.coordinates[i], init.q[i]))
+            .collect();
+        return Err(Error::numerical(
+            format!(
+                "the initial pose cannot be assembled: constraint residual {norm:.3e} after {iterations} iterations (worst: `{worst}`)"
+            ),
+            format!(
+                "no pose satisfies the constraints with {}; check those values and the guesses of the other coordinates",
+                if fixed.is_empty() {
+                    "the guesses given".to_string()
+                } else {
+                    fixed.join(", ")
+                }
+            ),
+        ));
+    }
+    // Velocities: the given ones are held; solve the others, minimum norm.
+    let mut v = init.v.clone();
+    if sys.m() > 0 {
+        let vfree: Vec<usize> = (0..n).filter(|&i| !init.v_given[i]).collect();
+        let psi = velocity_residual(sys, &mut ws, &q, &v, t);
+        let af = ws.a.select_columns(vfree.iter());
+        let svd = af.svd(true, true);
+        let eps = RANK_TOL * svd.singular_values.max().max(1e-300);
+        let dv = svd
+            .solve(&psi, eps)
+            .unwrap_or_else(|_| DVector::zeros(vfree.len()));
+        for (k, &i) in vfree.iter().enumerate() {
+            v[i] -= dv[k];
+        }
+        let after = velocity_residual(sys, &mut ws, &q, &v, t).amax();
+        if after > 1e-8 * (1.0 + v.iter().fold(0.0f64, |a, x| a.max(x.abs()))) {
+            return Err(Error::numerical(
+                format!(
+                    "the initial velocities are inconsistent with the constraints (residual {after:.3e})"
+                ),
+                "give fewer initial velocities, or velocities the joints allow",
+            ));
+        }
+    }
+    Ok(State { t, q, v })
+}

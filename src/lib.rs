@@ -1,0 +1,28 @@
+//! detune: preliminary-design dynamics of constrained mechanisms.
+//!
+//! Pipeline (data flows one way):
+//!
+//! ```text
+//! model file (TOML) ──Model::load──▶ Model ──System::new──▶ System (Φ, A, b, M, f)
+//!                                                      │
+//!                      dynamics::assemble ─▶ State ─▶ dynamics::simulate::simulate
+//!                                                      │
+//!                                                  output (CSV, JSON, SVG)
+//! ```
+//!
+//! The equations of motion are the Udwadia–Kalaba fundamental equation
+//! `v̇ = a + M^-½ (A M^-½)⁺ (b − A a)`, with A and b from automatic differentiation of the
+//! model's constraint function (see `docs/theory.md`).
+
+pub mod diag;
+pub mod dynamics;
+pub mod model;
+pub mod output;
+pub mod scalar;
+pub mod system;
+
+pub use diag::{Error, Result};
+pub use dynamics::simulate::{SimOptions, Trajectory, simulate};
+pub use dynamics::{State, assemble};
+pub use model::Model;
+pub use system::System;

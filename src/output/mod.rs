@@ -1,0 +1,110 @@
+//! Results to files: CSV, JSON with provenance, SVG plots.
+//!
+//! Every file is written to a temporary file in the target directory and renamed into
+//! place when complete, so an error or an interrupt never leaves a half-written output.
+
+pub mod plot;
+
+use crate::diag::{Error, Result};
+use crate::dynamics::simulate::Trajectory;
+use crate::model::Model;
+use std::io::Write;
+use std::path::Path;
+
+/// Write `path` atomically: `fill` writes the content into a temporary file next to it,
+/// which is renamed to `path` only if `fill` succeeds.
+pub fn write_atomic(
+    path: &str,
+    fill: impl FnOnce(&mut dyn Write) -> std::io::Result<()>,
+) -> Result<()> {
+    let p = Path::new(path);
+    let dir = match p.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    };
+    let mut tmp = tempfile::Builder::new()
+        .prefix(".detune-")
+        .tempfile_in(dir)
+        .map_err(|e| {
+            Error::io(
+                path,
+                format!("cannot create a file in {}: {e}", dir.display()),
+            )
+        })?;
+    {
+        let mut w = std::io::BufWriter::new(tmp.as_file_mut());
+        fill(&mut w).map_err(|e| Error::io(path, e))?;
+        w.flush().map_err(|e| Error::io(path, e))?;
+    }
+    tmp.persist(p).map_err(|e| Error::io(path, e.error))?;
+    Ok(())
+}
+
+/// Where a result came from: detune version, model file and hash, overrides.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct Provenance {
+    pub detune_version: String,
+    pub model_file: String,
+    pub model_sha256: String,
+    /// `--set` overrides as given, `NAME=VALUE`.
+    pub overrides: Vec<String>,
+}
+
+impl Provenance {
+    pub fn of(model: &Model) -> Self {
+        Provenance {
+            detune_version: env!("CARGO_PKG_VERSION").to_string(),
+            model_file: model.source.path.clone(),
+            model_sha256: model.hash.clone(),
+            overrides: model
+                .overrides
+                .iter()
+                .map(|(n, v)| format!("{n}={v}"))
+                .collect(),
+        }
+    }
+}
+
+/// Format a float for CSV: the shortest text that reads back to the same value, in
+/// plain notation for ordinary magnitudes and scientific notation otherwise.
+pub fn num(x: f64) -> String {
+    let a = x.abs();
+    if x == 0.0 || (1e-4..1e15).contains(&a) || !x.is_finite() {
+        format!("{x}")
+    } else {
+        format!("{x:e}")
+    }
+}
+
+/// CSV of a trajectory: `t,<coordinates>...[,<coordinate>_dot...]`, SI units.
+pub fn write_trajectory_csv(path: &str, traj: &Trajectory, velocities: bool) -> Result<()> {
+    write_atomic(path, |w| {
+        let mut header = vec!["t".to_string()];
+        header.extend(traj.coordinates.iter().cloned());
+        if velocities {
+            header.extend(traj.coordinates.iter().map(|c| format!("{c}_dot")));
+        }
+        writeln!(w, "{}", header.join(","))?;
+        for (k, t) in traj.t.iter().enumerate() {
+            write!(w, "{}", num(*t))?;
+            for x in &traj.q[k] {
+                write!(w, ",{}", num(*x))?;
+            }
+            if velocities {
+                for x in &traj.v[k] {
+                    write!(w, ",{}", num(*x))?;
+                }
+            }
+            writeln!(w)?;
+        }
+        Ok(())
+    })
+}
+
+/// Write a JSON value atomically, pretty-printed.
+pub fn write_json(path: &str, value: &serde_json::Value) -> Result<()> {
+    write_atomic(path, |w| {
+        serde_json::to_writer_pretty(&mut *w, value)?;
+        writeln!(w)
+    })
+}

@@ -1,0 +1,102 @@
+//! SVG plots (plotters, SVG backend only: no system font libraries needed).
+//!
+//! Plot functions are pure functions of result structs: they never run an analysis.
+
+use crate::diag::{Error, Result};
+use plotters::prelude::*;
+
+/// One curve of a line plot.
+pub struct Series {
+    pub label: String,
+    pub x: Vec<f64>,
+    pub y: Vec<f64>,
+    /// Dashed (e.g. an unstable branch).
+    pub dashed: bool,
+}
+
+/// A simple line plot.
+pub struct LinePlot {
+    pub title: String,
+    pub x_label: String,
+    pub y_label: String,
+    pub series: Vec<Series>,
+}
+
+const COLORS: [RGBColor; 6] = [
+    RGBColor(31, 119, 180),
+    RGBColor(214, 39, 40),
+    RGBColor(44, 160, 44),
+    RGBColor(255, 127, 14),
+    RGBColor(148, 103, 189),
+    RGBColor(140, 86, 75),
+];
+
+fn range(values: impl Iterator<Item = f64>) -> (f64, f64) {
+    let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+    for v in values.filter(|v| v.is_finite()) {
+        lo = lo.min(v);
+        hi = hi.max(v);
+    }
+    if !lo.is_finite() {
+        return (0.0, 1.0);
+    }
+    if hi - lo < 1e-12 * (1.0 + hi.abs()) {
+        return (lo - 0.5, hi + 0.5);
+    }
+    let pad = 0.05 * (hi - lo);
+    (lo - pad, hi + pad)
+}
+
+/// Render a line plot to an SVG string.
+pub fn line_plot_svg(plot: &LinePlot) -> std::result::Result<String, String> {
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, (900, 540)).into_drawing_area();
+        root.fill(&WHITE).map_err(|e| e.to_string())?;
+        let (x0, x1) = range(plot.series.iter().flat_map(|s| s.x.iter().copied()));
+        let (y0, y1) = range(plot.series.iter().flat_map(|s| s.y.iter().copied()));
+        let mut chart = ChartBuilder::on(&root)
+            .caption(&plot.title, ("sans-serif", 22))
+            .margin(15)
+            .x_label_area_size(45)
+            .y_label_area_size(70)
+            .build_cartesian_2d(x0..x1, y0..y1)
+            .map_err(|e| e.to_string())?;
+        chart
+            .configure_mesh()
+            .x_desc(&plot.x_label)
+            .y_desc(&plot.y_label)
+            .draw()
+            .map_err(|e| e.to_string())?;
+        for (i, s) in plot.series.iter().enumerate() {
+            let color = COLORS[i % COLORS.len()];
+            let pts: Vec<(f64, f64)> = s.x.iter().copied().zip(s.y.iter().copied()).collect();
+            let style = color.stroke_width(2);
+            let drawn = if s.dashed {
+                chart.draw_series(DashedLineSeries::new(pts, 6, 4, style))
+            } else {
+                chart.draw_series(LineSeries::new(pts, style))
+            }
+            .map_err(|e| e.to_string())?;
+            drawn.label(s.label.clone()).legend(move |(x, y)| {
+                PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(2))
+            });
+        }
+        if plot.series.len() > 1 || !plot.series.is_empty() {
+            chart
+                .configure_series_labels()
+                .background_style(WHITE.mix(0.8))
+                .border_style(BLACK)
+                .draw()
+                .map_err(|e| e.to_string())?;
+        }
+        root.present().map_err(|e| e.to_string())?;
+    }
+    Ok(svg)
+}
+
+/// Write a line plot to an SVG file (atomically).
+pub fn write_line_plot(path: &str, plot: &LinePlot) -> Result<()> {
+    let svg = line_plot_svg(plot).map_err(|e| Error::io(path, format!("plot failed: {e}")))?;
+    super::write_atomic(path, |w| w.write_all(svg.as_bytes()))
+}

@@ -1,0 +1,233 @@
+//! A catalogue of bad inputs: each gives a located message with a hint, a non-zero exit,
+//! no panic, and no output file.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+fn shipped() -> String {
+    std::fs::read_to_string(format!(
+        "{}/models/overcentre.toml",
+        env!("CARGO_MANIFEST_DIR")
+    ))
+    .unwrap()
+}
+
+struct Outcome {
+    code: Option<i32>,
+    stderr: String,
+    output_exists: bool,
+    dir: tempfile::TempDir,
+}
+
+/// Run `detune simulate` on `text` written to `bad.toml`, with extra arguments.
+fn simulate(text: &str, extra: &[&str]) -> Outcome {
+    let dir = tempfile::tempdir().unwrap();
+    let model = dir.path().join("bad.toml");
+    std::fs::write(&model, text).unwrap();
+    let out: PathBuf = dir.path().join("out.csv");
+    let o = Command::new(env!("CARGO_BIN_EXE_detune"))
+        .current_dir(dir.path())
+        .args([
+            "simulate", "bad.toml", "-o", "out.csv", "--t-end", "3", "--plot", "out.svg",
+        ])
+        .args(extra)
+        .output()
+        .unwrap();
+    Outcome {
+        code: o.status.code(),
+        stderr: String::from_utf8_lossy(&o.stderr).into_owned(),
+        output_exists: out.exists() || dir.path().join("out.svg").exists(),
+        dir,
+    }
+}
+
+/// The common promises: non-zero exit, no panic, no output, a help line, and the message.
+fn assert_clean_failure(o: &Outcome, message: &str) {
+    assert_eq!(o.code, Some(1), "exit code; stderr:\n{}", o.stderr);
+    assert!(!o.stderr.contains("panicked"), "{}", o.stderr);
+    assert!(!o.output_exists, "an output file was written");
+    assert!(
+        o.stderr.contains(message),
+        "expected `{message}` in:\n{}",
+        o.stderr
+    );
+    assert!(
+        o.stderr.to_lowercase().contains("help"),
+        "no hint in:\n{}",
+        o.stderr
+    );
+    // no temporary files left behind either
+    let left: Vec<_> = std::fs::read_dir(o.dir.path())
+        .unwrap()
+        .map(|e| e.unwrap().file_name())
+        .collect();
+    assert_eq!(left.len(), 1, "files left: {left:?}");
+}
+
+/// `bad.toml:LINE:COL` of the first occurrence of `needle` in `text` (plus `offset` chars).
+fn location(text: &str, needle: &str, offset: usize) -> String {
+    let at = text.find(needle).expect("needle in text") + offset;
+    let line = text[..at].matches('\n').count() + 1;
+    let col = at - text[..at].rfind('\n').map_or(0, |i| i + 1) + 1;
+    format!("bad.toml:{line}:{col}")
+}
+
+fn replaced(from: &str, to: &str) -> String {
+    let s = shipped();
+    assert!(s.contains(from), "`{from}` not in the shipped model");
+    s.replacen(from, to, 1)
+}
+
+#[test]
+fn toml_syntax_error() {
+    let text = replaced("[parameters]", "[parameters");
+    let o = simulate(&text, &[]);
+    assert_clean_failure(&o, &location(&text, "[parameters", 11)[..10]);
+    assert!(o.stderr.contains("bad.toml:"), "{}", o.stderr);
+}
+
+#[test]
+fn unknown_parameter_in_expression() {
+    let text = replaced("inertia = \"m1*L1^2/12\"", "inertia = \"m1*Lx^2/12\"");
+    let o = simulate(&text, &[]);
+    assert_clean_failure(&o, "unknown parameter `Lx`");
+    assert!(
+        o.stderr.contains(&location(&text, "Lx^2", 0)),
+        "{}",
+        o.stderr
+    );
+}
+
+#[test]
+fn unknown_body_in_joint_and_expression() {
+    let text = replaced("body1 = \"bar2\"", "body1 = \"bar3\"");
+    let o = simulate(&text, &[]);
+    assert_clean_failure(&o, "unknown body `bar3`");
+    assert!(
+        o.stderr.contains(&location(&text, "\"bar3\"", 0)),
+        "{}",
+        o.stderr
+    );
+
+    let text = shipped() + "\n[[constraints]]\nexpr = \"bar9.x - 1\"\n";
+    let o = simulate(&text, &[]);
+    assert_clean_failure(&o, "unknown body `bar9`");
+    assert!(
+        o.stderr.contains(&location(&text, "bar9.x", 0)),
+        "{}",
+        o.stderr
+    );
+}
+
+#[test]
+fn unknown_coordinate_in_expression() {
+    let text = shipped() + "\n[[constraints]]\nexpr = \"bar1.phi - 1\"\n";
+    let o = simulate(&text, &[]);
+    assert_clean_failure(&o, "unknown coordinate `bar1.phi`");
+    assert!(
+        o.stderr.contains(&location(&text, "bar1.phi", 0)),
+        "{}",
+        o.stderr
+    );
+}
+
+#[test]
+fn unit_of_the_wrong_dimension() {
+    let text = replaced("mass = \"m1\"", "mass = \"3 mm\"");
+    let o = simulate(&text, &[]);
+    assert_clean_failure(&o, "mass");
+    assert!(
+        o.stderr.contains(&location(&text, "\"3 mm\"", 0)),
+        "{}",
+        o.stderr
+    );
+
+    // a --set value whose unit differs from the parameter's declared unit
+    let o = simulate(&shipped(), &["--set", "k=3 mm"]);
+    assert_clean_failure(&o, "--set k=3 mm");
+}
+
+#[test]
+fn unknown_unit() {
+    let text = replaced(
+        "value = 50, unit = \"N/m\"",
+        "value = \"50 N/mmm\", unit = \"N/m\"",
+    );
+    let o = simulate(&text, &[]);
+    assert_clean_failure(&o, "mmm");
+    assert!(
+        o.stderr.contains(&location(&text, "mmm", 0)),
+        "{}",
+        o.stderr
+    );
+}
+
+#[test]
+fn negative_or_zero_mass() {
+    let text = replaced("m1 = { value = 1,", "m1 = { value = -1,");
+    let o = simulate(&text, &[]);
+    assert_clean_failure(&o, "must be positive");
+    assert!(
+        o.stderr.contains(&location(&text, "mass = \"m1\"", 7)),
+        "{}",
+        o.stderr
+    );
+
+    let o = simulate(&shipped(), &["--set", "m2=0"]);
+    assert_clean_failure(&o, "must be positive");
+}
+
+#[test]
+fn parameter_cycle() {
+    let text = replaced("L0 = { value = 2,", "L0 = { value = \"s\",").replacen(
+        "value = \"L1\"",
+        "value = \"L0\"",
+        1,
+    );
+    let o = simulate(&text, &[]);
+    assert_clean_failure(&o, "parameter cycle");
+    assert!(
+        o.stderr.contains("L0") && o.stderr.contains("→"),
+        "{}",
+        o.stderr
+    );
+}
+
+#[test]
+fn pose_that_cannot_be_assembled() {
+    // L1 sin θ1 = 2 > L2: bar 2 cannot reach the ground line.
+    let o = simulate(&shipped(), &["--set", "L2=1.5"]);
+    assert_clean_failure(&o, "cannot be assembled");
+}
+
+#[test]
+fn nan_during_integration() {
+    let text = replaced("\"Fs + F0*sin(omega*t)\"", "\"sqrt(1 - t)\"");
+    let o = simulate(&text, &[]);
+    assert_clean_failure(&o, "non-finite");
+    assert!(
+        o.stderr.contains("t = 1.0") || o.stderr.contains("t = 0.99"),
+        "{}",
+        o.stderr
+    );
+}
+
+#[test]
+fn unknown_parameter_in_set() {
+    let o = simulate(&shipped(), &["--set", "FS=3"]);
+    assert_clean_failure(&o, "no parameter `FS`");
+    assert!(o.stderr.contains("did you mean `Fs`"), "{}", o.stderr);
+}
+
+#[test]
+fn missing_model_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let o = Command::new(env!("CARGO_BIN_EXE_detune"))
+        .current_dir(dir.path())
+        .args(["simulate", "nope.toml", "-o", "out.csv"])
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("nope.toml"));
+    assert!(!Path::new(&dir.path().join("out.csv")).exists());
+}
