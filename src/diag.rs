@@ -165,10 +165,7 @@ fn render_diagnostic(source: &SourceFile, d: &Diagnostic, color: bool) -> String
     let (line, col) = source.line_col(span.start);
     let header = format!("{}:{}:{}: {}", source.path, line, col, d.message);
     let id = source.path.as_str();
-    let mut label = Label::new((id, span.clone()));
-    if let Some(l) = &d.label {
-        label = label.with_message(l);
-    }
+    let label = Label::new((id, span.clone())).with_message(d.label.as_deref().unwrap_or("here"));
     let mut report = Report::build(ReportKind::Error, (id, span))
         .with_config(
             Config::default()

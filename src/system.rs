@@ -560,7 +560,15 @@ impl Compiler<'_> {
                 .enumerate()
             {
                 let what = format!("`{}.{c}`", b.name);
-                let q0 = self.constant(&b.initial[k], *d, &what).unwrap_or(f64::NAN);
+                // A guess may be undefined (NaN) for some parameters: assembly reports it.
+                let q0 = if b.fixed[k] {
+                    self.constant(&b.initial[k], *d, &what).unwrap_or(f64::NAN)
+                } else if self.check_dim(&b.initial[k], *d, &what) {
+                    self.compile_field(&b.initial[k], false, false)
+                        .map_or(f64::NAN, |c| c.eval::<f64>(&[], 0.0))
+                } else {
+                    f64::NAN
+                };
                 initial.q.push(q0);
                 initial.fixed.push(b.fixed[k]);
                 match &b.velocity[k] {

@@ -237,10 +237,10 @@ pub fn assemble(sys: &System) -> Result<State> {
     if let Some(i) = q.iter().position(|x| !x.is_finite()) {
         return Err(Error::numerical(
             format!(
-                "the initial value of `{}` is not finite",
+                "the initial pose cannot be assembled: the guess for `{}` is undefined (NaN) with these parameters",
                 sys.coordinates[i]
             ),
-            "check the body's initial pose and the parameters it uses",
+            "the mechanism probably cannot close in this configuration (a link too short to reach); check the parameters and the fixed coordinates, or give a guess that stays defined",
         ));
     }
     let free: Vec<usize> = (0..n).filter(|&i| !init.fixed[i]).collect();

@@ -116,7 +116,11 @@ pub fn expr_diag(e: &ExprError, offset: usize) -> Diagnostic {
 pub fn suggest<'a>(name: &str, candidates: impl IntoIterator<Item = &'a str>) -> Option<String> {
     let mut best: Option<(f64, &str)> = None;
     for c in candidates {
-        let score = strsim::jaro_winkler(name, c);
+        let score = if name.eq_ignore_ascii_case(c) {
+            1.0
+        } else {
+            strsim::jaro_winkler(&name.to_lowercase(), &c.to_lowercase())
+        };
         if score > 0.8 && best.is_none_or(|(s, _)| score > s) {
             best = Some((score, c));
         }
