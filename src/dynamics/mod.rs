@@ -10,6 +10,7 @@
 //! relative rank tolerance otherwise, so redundant constraints and rank-deficient poses
 //! are ordinary events.
 
+pub mod integrator;
 pub mod simulate;
 
 use crate::diag::{Error, Result};
