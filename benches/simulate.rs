@@ -1,0 +1,179 @@
+//! The overcentre mechanism's 20 s free case (baseline, c = 5 N·s/m, output every
+//! 0.01 s) at rtol = atol = 3e-10, which keeps θ1 within 3e-10 rad of the Lagrange
+//! reference (tests/overcentre.rs checks 1e-8 at the defaults):
+//!
+//! * `detune_free_case`: the general path (Udwadia–Kalaba, A and b by dual numbers,
+//!   Cholesky pseudoinverse, projection) through `detune::simulate`;
+//! * `minimal_free_case`: a hand-written θ1-only Lagrange right-hand side integrated by
+//!   the same integrator wrapper with the same outputs: the price of generality;
+//! * `stage_*`: one right-hand side split into its stages, to see where the time goes.
+//!
+//! Figures are recorded in docs/performance.md. Run: `cargo bench --bench simulate`.
+
+use detune::dynamics::integrator::{IntegratorOptions, integrate};
+use detune::dynamics::{DynWorkspace, accelerations, pinv_solve};
+use detune::{Model, SimOptions, State, System, assemble, simulate};
+use differential_equations::ode::ODE;
+use nalgebra::{DMatrix, DVector};
+
+const TOL: f64 = 3e-10;
+
+fn main() {
+    divan::main();
+}
+
+fn overcentre() -> (System, State) {
+    let path = format!("{}/models/overcentre.toml", env!("CARGO_MANIFEST_DIR"));
+    let model = Model::load(&path).unwrap();
+    let sys = System::new(&model).unwrap();
+    let state = assemble(&sys).unwrap();
+    (sys, state)
+}
+
+#[divan::bench(sample_count = 50)]
+fn detune_free_case(bencher: divan::Bencher) {
+    let (sys, state) = overcentre();
+    let opts = SimOptions {
+        rtol: TOL,
+        atol: TOL,
+        ..SimOptions::default()
+    };
+    bencher.bench_local(|| simulate(&sys, &state, &opts, &mut |_| {}).unwrap());
+}
+
+/// Baseline overcentre in θ1 alone (L1 = L2 = L, m = n = 0, force at J):
+/// M(θ) = m1 L²/3 + m2 L² (1/3 + 2 sin²θ), M' = 4 m2 L² sinθ cosθ,
+/// Q = k (L cosθ − L0) L sinθ + c L² sin²θ θ̇ ... (dashpot: T = k(d − L0) + c ḋ,
+/// d = L cosθ, ḋ = −L sinθ θ̇, Q_spring = T L sinθ), gravity −g (m1 + m2) L/2 cosθ,
+/// force F L cosθ; M θ̈ + ½ M' θ̇² = Q.
+struct Minimal {
+    l: f64,
+    m1: f64,
+    m2: f64,
+    k: f64,
+    c: f64,
+    l0: f64,
+    g: f64,
+}
+
+impl ODE<f64, Vec<f64>> for Minimal {
+    fn diff(&self, _t: f64, y: &Vec<f64>, dydt: &mut Vec<f64>) {
+        let (th, w) = (y[0], y[1]);
+        let (s, c) = th.sin_cos();
+        let l2 = self.l * self.l;
+        let mass = self.m1 * l2 / 3.0 + self.m2 * l2 * (1.0 / 3.0 + 2.0 * s * s);
+        let dmass = 4.0 * self.m2 * l2 * s * c;
+        let d = self.l * c;
+        let ddot = -self.l * s * w;
+        let tension = self.k * (d - self.l0) + self.c * ddot;
+        let q = tension * self.l * s - self.g * (self.m1 + self.m2) * self.l / 2.0 * c;
+        dydt[0] = w;
+        dydt[1] = (q - 0.5 * dmass * w * w) / mass;
+    }
+}
+
+#[divan::bench(sample_count = 50)]
+fn minimal_free_case(bencher: divan::Bencher) {
+    let ode = Minimal {
+        l: 2.0 * 2f64.sqrt(),
+        m1: 1.0,
+        m2: 1.0,
+        k: 50.0,
+        c: 5.0,
+        l0: 2.0,
+        g: 9.81,
+    };
+    let opts = IntegratorOptions {
+        t0: 0.0,
+        t_end: 20.0,
+        dt_out: 0.01,
+        rtol: TOL,
+        atol: TOL,
+        max_steps: 10_000_000,
+    };
+    bencher.bench_local(|| {
+        let mut out = Vec::with_capacity(2001);
+        integrate(
+            &ode,
+            &[std::f64::consts::FRAC_PI_4, 0.0],
+            &opts,
+            &mut |_, y| out.push(y[0]),
+            &mut |_, _| false,
+            &mut |_| {},
+        )
+        .unwrap();
+        out
+    });
+}
+
+/// A state in the middle of the motion.
+fn mid_state() -> (System, DynWorkspace, Vec<f64>, Vec<f64>) {
+    let (sys, state) = overcentre();
+    let traj = simulate(
+        &sys,
+        &state,
+        &SimOptions {
+            t_end: 0.37,
+            ..SimOptions::default()
+        },
+        &mut |_| {},
+    )
+    .unwrap();
+    let ws = DynWorkspace::new(&sys);
+    let (q, v) = (
+        traj.q.last().unwrap().clone(),
+        traj.v.last().unwrap().clone(),
+    );
+    (sys, ws, q, v)
+}
+
+#[divan::bench]
+fn stage_rhs_total(bencher: divan::Bencher) {
+    let (sys, mut ws, q, v) = mid_state();
+    let mut out = vec![0.0; sys.n()];
+    bencher.bench_local(|| accelerations(&sys, &mut ws, &q, &v, 0.37, &mut out));
+}
+
+#[divan::bench]
+fn stage_jacobian_a(bencher: divan::Bencher) {
+    let (sys, mut ws, q, _) = mid_state();
+    let mut a = DMatrix::zeros(sys.m(), sys.n());
+    bencher.bench_local(|| sys.jacobian(&mut ws.sys, &q, 0.37, &mut a));
+}
+
+#[divan::bench]
+fn stage_bias_b(bencher: divan::Bencher) {
+    let (sys, mut ws, q, v) = mid_state();
+    let mut b = DVector::zeros(sys.m());
+    bencher.bench_local(|| sys.bias(&mut ws.sys, &q, &v, 0.37, &mut b));
+}
+
+#[divan::bench]
+fn stage_forces(bencher: divan::Bencher) {
+    let (sys, _, q, v) = mid_state();
+    let mut f = vec![0.0; sys.n()];
+    bencher.bench_local(|| sys.forces(&q, &v, 0.37, &mut f));
+}
+
+#[divan::bench]
+fn stage_pseudoinverse_cholesky(bencher: divan::Bencher) {
+    let (sys, mut ws, q, _) = mid_state();
+    sys.jacobian(&mut ws.sys, &q, 0.37, &mut ws.a);
+    let bm = &ws.a * &sys.mass_inv_sqrt;
+    let r = DVector::from_element(sys.m(), 1.0);
+    let mut gram = DMatrix::zeros(sys.m(), sys.m());
+    let mut count = 0;
+    bencher.bench_local(|| pinv_solve(&bm, &r, &mut gram, &mut count));
+}
+
+#[divan::bench]
+fn stage_pseudoinverse_svd(bencher: divan::Bencher) {
+    let (sys, mut ws, q, _) = mid_state();
+    sys.jacobian(&mut ws.sys, &q, 0.37, &mut ws.a);
+    let bm = &ws.a * &sys.mass_inv_sqrt;
+    let r = DVector::from_element(sys.m(), 1.0);
+    bencher.bench_local(|| {
+        let svd = bm.clone().svd(true, true);
+        svd.solve(&r, 1e-10).unwrap()
+    });
+}
