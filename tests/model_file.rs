@@ -1,0 +1,170 @@
+//! The model file and `--set`: units, dependent parameters, assembly branches.
+
+use detune::{Model, System, assemble};
+use std::f64::consts::PI;
+
+fn model() -> Model {
+    Model::load(&format!(
+        "{}/models/overcentre.toml",
+        env!("CARGO_MANIFEST_DIR")
+    ))
+    .unwrap()
+}
+
+fn with(sets: &[(&str, &str)]) -> detune::Result<Model> {
+    let sets: Vec<(String, String)> = sets
+        .iter()
+        .map(|(a, b)| (a.to_string(), b.to_string()))
+        .collect();
+    model().with_overrides(&sets)
+}
+
+#[test]
+fn baseline_parameters_are_si() {
+    let m = model();
+    let p = &m.parameters;
+    assert_eq!(p.value("L1"), Some(2.0 * 2f64.sqrt()));
+    assert_eq!(p.value("s"), p.value("L1"));
+    assert_eq!(p.value("theta1_0"), Some(PI / 4.0));
+}
+
+#[test]
+fn frequencies_convert_with_two_pi() {
+    let want = 4.3 * 2.0 * PI; // 27.0177 rad/s
+    let hz = with(&[("omega", "4.3 Hz")]).unwrap();
+    assert!((hz.parameters.value("omega").unwrap() - want).abs() < 1e-12);
+    let rpm = with(&[("omega", "258 rpm")]).unwrap();
+    assert!((rpm.parameters.value("omega").unwrap() - want).abs() < 1e-12);
+    assert!((want - 27.0177).abs() < 1e-4);
+}
+
+#[test]
+fn quantities_and_expressions_in_set() {
+    let m = with(&[
+        ("theta1_0", "45 deg"),
+        ("L0", "2000 mm"),
+        ("m1", "2*m2"),
+        ("Fs", "-3"),
+    ])
+    .unwrap();
+    let p = &m.parameters;
+    assert!((p.value("theta1_0").unwrap() - PI / 4.0).abs() < 1e-15);
+    assert!((p.value("L0").unwrap() - 2.0).abs() < 1e-15);
+    assert_eq!(p.value("m1"), Some(2.0));
+    assert_eq!(p.value("Fs"), Some(-3.0));
+    // c in lbf*s/in: 1 lbf·s/in = 175.1268 N·s/m
+    let m = with(&[("c", "1 lbf*s/in")]).unwrap();
+    assert!((m.parameters.value("c").unwrap() - 4.4482216152605 / 0.0254).abs() < 1e-9);
+}
+
+#[test]
+fn dependent_parameters_are_reevaluated() {
+    // s = L1 in the file: overriding L1 moves s with it; overriding s itself wins.
+    let m = with(&[("L1", "2.5")]).unwrap();
+    assert_eq!(m.parameters.value("s"), Some(2.5));
+    let m = with(&[("L1", "2.5"), ("s", "L1/2")]).unwrap();
+    assert_eq!(m.parameters.value("s"), Some(1.25));
+}
+
+#[test]
+fn set_errors_name_the_problem() {
+    let e = with(&[("k", "3 mm")]).unwrap_err().to_string();
+    assert!(e.contains("N/m") && e.contains("help"), "{e}");
+    let e = with(&[("nope", "1")]).unwrap_err().to_string();
+    assert!(e.contains("no parameter `nope`"), "{e}");
+    let e = with(&[("k", "5 furlongs")]).unwrap_err().to_string();
+    assert!(e.contains("furlongs"), "{e}");
+    let e = with(&[("k", "2*kk")]).unwrap_err().to_string();
+    assert!(e.contains("kk"), "{e}");
+    let e = with(&[("k", "k")]).unwrap_err().to_string();
+    assert!(e.contains("cycle"), "{e}");
+}
+
+#[test]
+fn coordinates_constraints_and_rank() {
+    let m = model();
+    let sys = System::new(&m).unwrap();
+    assert_eq!(
+        sys.coordinates,
+        [
+            "bar1.x",
+            "bar1.y",
+            "bar1.theta",
+            "bar2.x",
+            "bar2.y",
+            "bar2.theta"
+        ]
+    );
+    assert_eq!(sys.constraint_names, ["A.x", "A.y", "J.x", "J.y", "B.slot"]);
+    let s = assemble(&sys).unwrap();
+    assert_eq!(detune::dynamics::constraint_rank(&sys, &s.q, 0.0), 5);
+    // A loses rank where the bars fold back at θ1 = ±90° (B on top of A... of J's vertical)
+    let mut q = s.q.clone();
+    let l = m.parameters.value("L1").unwrap();
+    q[2] = PI / 2.0;
+    q[0] = 0.0;
+    q[1] = l / 2.0;
+    q[5] = PI / 2.0;
+    q[3] = 0.0;
+    q[4] = l / 2.0;
+    assert!(detune::dynamics::residual_norm(&sys, &q, 0.0) < 1e-12);
+    assert_eq!(detune::dynamics::constraint_rank(&sys, &q, 0.0), 4);
+}
+
+#[test]
+fn assembly_solves_the_free_coordinates() {
+    let m = with(&[("theta1_0", "0.3"), ("L2", "3.5")]).unwrap();
+    let sys = System::new(&m).unwrap();
+    let s = assemble(&sys).unwrap();
+    let (l1, l2) = (2.0 * 2f64.sqrt(), 3.5);
+    let th1 = 0.3f64;
+    let th2 = PI - (l1 * th1.sin() / l2).asin();
+    assert!((s.q[2] - th1).abs() < 1e-15);
+    assert!((s.q[5] - th2).abs() < 1e-12, "θ2 = {}", s.q[5]);
+    assert!((s.q[3] - (l1 * th1.cos() - l2 / 2.0 * th2.cos())).abs() < 1e-12);
+    assert!(s.v.iter().all(|v| v.abs() < 1e-14));
+}
+
+#[test]
+fn assembly_follows_the_guesses_to_the_other_branch() {
+    // Guess bar 2 folded back onto A: B at the origin, θ2 = θ1 (equal bars).
+    let text = std::fs::read_to_string(format!(
+        "{}/models/overcentre.toml",
+        env!("CARGO_MANIFEST_DIR")
+    ))
+    .unwrap()
+    .replace(
+        "x = \"L1*cos(theta1_0) + L2/2*cos(asin(L1*sin(theta1_0)/L2))\"",
+        "x = \"0.45*L1*cos(theta1_0)\"",
+    )
+    .replace(
+        "theta = \"pi - asin(L1*sin(theta1_0)/L2)\"",
+        "theta = \"theta1_0 + 0.1\"",
+    );
+    let m = Model::from_str("folded.toml", &text).unwrap();
+    let sys = System::new(&m).unwrap();
+    let s = assemble(&sys).unwrap();
+    let b_x = s.q[3] - 2f64.sqrt() * s.q[5].cos();
+    assert!(b_x.abs() < 1e-12, "B at x = {b_x}");
+    assert!((s.q[5] - PI / 4.0).abs() < 1e-12);
+}
+
+#[test]
+fn initial_velocity_is_held_and_the_rest_solved() {
+    let text = std::fs::read_to_string(format!(
+        "{}/models/overcentre.toml",
+        env!("CARGO_MANIFEST_DIR")
+    ))
+    .unwrap()
+    .replace(
+        "fix = [\"theta\"]",
+        "fix = [\"theta\"]\nvelocity = { theta = 0.5 }",
+    );
+    let m = Model::from_str("moving.toml", &text).unwrap();
+    let sys = System::new(&m).unwrap();
+    let s = assemble(&sys).unwrap();
+    assert_eq!(s.v[2], 0.5);
+    // equal bars: θ2 = π − θ1, so θ̇2 = −θ̇1; ẋ1 = −L/2 sinθ1 θ̇1
+    assert!((s.v[5] + 0.5).abs() < 1e-12);
+    assert!((s.v[0] + 2f64.sqrt() * (PI / 4.0).sin() * 0.5).abs() < 1e-12);
+}
