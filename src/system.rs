@@ -147,11 +147,11 @@ fn position<D: Scalar>(q: &[D], pt: &SysPoint) -> [D; 2] {
     }
 }
 
-/// World offset R(θ)·p of a body point from the centre of gravity (f64).
+/// World offset R(θ)·p of a body point from the centre of gravity.
 #[inline]
-fn arm(q: &[f64], pt: &SysPoint) -> [f64; 2] {
+fn arm<D: Scalar>(q: &[D], pt: &SysPoint) -> [D; 2] {
     match pt.body {
-        None => [0.0, 0.0],
+        None => [D::from(0.0), D::from(0.0)],
         Some(o) => {
             let (s, c) = q[o + 2].sin_cos();
             [c * pt.p[0] - s * pt.p[1], s * pt.p[0] + c * pt.p[1]]
@@ -161,9 +161,9 @@ fn arm(q: &[f64], pt: &SysPoint) -> [f64; 2] {
 
 /// World velocity of a body point: ṙ + ω × (R p).
 #[inline]
-fn velocity(q: &[f64], v: &[f64], pt: &SysPoint) -> [f64; 2] {
+fn velocity<D: Scalar>(q: &[D], v: &[D], pt: &SysPoint) -> [D; 2] {
     match pt.body {
-        None => [0.0, 0.0],
+        None => [D::from(0.0), D::from(0.0)],
         Some(o) => {
             let r = arm(q, pt);
             [v[o] - v[o + 2] * r[1], v[o + 1] + v[o + 2] * r[0]]
@@ -173,7 +173,7 @@ fn velocity(q: &[f64], v: &[f64], pt: &SysPoint) -> [f64; 2] {
 
 /// Add a world force F at a body point to the generalized forces: (Fx, Fy, (R p) × F).
 #[inline]
-fn apply(q: &[f64], pt: &SysPoint, f: [f64; 2], out: &mut [f64]) {
+fn apply<D: Scalar>(q: &[D], pt: &SysPoint, f: [D; 2], out: &mut [D]) {
     if let Some(o) = pt.body {
         let r = arm(q, pt);
         out[o] += f[0];
@@ -306,12 +306,13 @@ impl System {
         }
     }
 
-    /// Impressed generalized forces f(q, v, t) (n): gravity, springs, dampers, point forces.
-    pub fn forces(&self, q: &[f64], v: &[f64], t: f64, f: &mut [f64]) {
-        f.fill(0.0);
+    /// Impressed generalized forces f(q, v, t) (n): gravity, springs, dampers, point
+    /// forces. Generic, so that stiffness ∂f/∂q and damping ∂f/∂v come from dual numbers.
+    pub fn forces<D: Scalar>(&self, q: &[D], v: &[D], t: D, f: &mut [D]) {
+        f.fill(D::from(0.0));
         for b in &self.bodies {
-            f[b.offset] += b.mass * self.gravity[0];
-            f[b.offset + 1] += b.mass * self.gravity[1];
+            f[b.offset] += D::from(b.mass * self.gravity[0]);
+            f[b.offset + 1] += D::from(b.mass * self.gravity[1]);
         }
         for force in &self.forces {
             match force {
@@ -319,17 +320,17 @@ impl System {
                     let pa = position(q, a);
                     let pb = position(q, b);
                     let d = [pb[0] - pa[0], pb[1] - pa[1]];
-                    let len = d[0].hypot(d[1]);
-                    if len == 0.0 {
+                    let len = (d[0] * d[0] + d[1] * d[1]).sqrt();
+                    if len.re() == 0.0 {
                         continue;
                     }
                     let u = [d[0] / len, d[1] / len];
                     let va = velocity(q, v, a);
                     let vb = velocity(q, v, b);
                     let rate = u[0] * (vb[0] - va[0]) + u[1] * (vb[1] - va[1]);
-                    let tension = k * (len - l0) + c * rate;
+                    let tension = (len - *l0) * *k + rate * *c;
                     apply(q, a, [tension * u[0], tension * u[1]], f);
-                    apply(q, b, [-tension * u[0], -tension * u[1]], f);
+                    apply(q, b, [-(tension * u[0]), -(tension * u[1])], f);
                 }
                 SysForce::Point { at, f: comp } => {
                     let fx = comp[0].eval(q, t);
@@ -338,6 +339,14 @@ impl System {
                 }
             }
         }
+    }
+
+    /// Whether any impressed force depends on time explicitly.
+    pub fn forces_depend_on_time(&self) -> bool {
+        self.forces.iter().any(|f| match f {
+            SysForce::Point { f, .. } => f.iter().any(|c| c.depends_on_time()),
+            SysForce::Spring { .. } => false,
+        })
     }
 
     /// Potential energy of gravity and springs, J (for energy checks).
