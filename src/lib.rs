@@ -16,9 +16,11 @@
 
 pub mod diag;
 pub mod dynamics;
+pub mod linear;
 pub mod model;
 pub mod output;
 pub mod scalar;
+pub mod statics;
 pub mod system;
 
 pub use diag::{Error, Result};

@@ -108,6 +108,8 @@ pub struct System {
     pub initial: InitialGuess,
     /// Whether any constraint depends on time explicitly.
     pub rheonomic: bool,
+    /// Angular frequency of the harmonic forcing, rad/s (`[model] forcing_frequency`).
+    pub forcing_frequency: Option<f64>,
 }
 
 /// Scratch buffers for one thread of evaluation.
@@ -748,6 +750,10 @@ impl Compiler<'_> {
             mass_inv_sqrt,
             initial,
             rheonomic,
+            forcing_frequency: model
+                .forcing_frequency
+                .as_ref()
+                .and_then(|f| model.parameters.value(f)),
         })
     }
 }

@@ -168,3 +168,13 @@ fn initial_velocity_is_held_and_the_rest_solved() {
     assert!((s.v[5] + 0.5).abs() < 1e-12);
     assert!((s.v[0] + 2f64.sqrt() * (PI / 4.0).sin() * 0.5).abs() < 1e-12);
 }
+
+#[test]
+fn overrides_accumulate() {
+    let m = with(&[("L1", "2.5")]).unwrap();
+    let m = m.with_overrides(&[("Fs".into(), "1".into())]).unwrap();
+    assert_eq!(m.parameters.value("L1"), Some(2.5));
+    assert_eq!(m.parameters.value("s"), Some(2.5));
+    assert_eq!(m.parameters.value("Fs"), Some(1.0));
+    assert_eq!(m.overrides.len(), 2);
+}

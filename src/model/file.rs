@@ -126,6 +126,10 @@ impl<'de> Deserialize<'de> for RawParam {
 pub struct RawHeader {
     pub name: Option<String>,
     pub description: Option<String>,
+    /// Name of the parameter that is the angular frequency (rad/s) of the model's
+    /// harmonic forcing, e.g. `"omega"`: statics average time-dependent loads over its
+    /// period, frequency responses sweep it.
+    pub forcing_frequency: Option<SString>,
 }
 
 /// `[[bodies]]`: a rigid body. `type = "planar"` (the default) has coordinates `x`, `y`

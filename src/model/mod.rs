@@ -250,6 +250,8 @@ pub struct Model {
     pub forces: Arc<Vec<ForceDef>>,
     /// The `--set` overrides applied, as given (`NAME=VALUE`).
     pub overrides: Vec<(String, String)>,
+    /// The parameter that is the forcing's angular frequency (`[model] forcing_frequency`).
+    pub forcing_frequency: Option<String>,
 }
 
 impl Model {
@@ -342,7 +344,22 @@ impl Model {
             constraints: Arc::new(constraints),
             forces: Arc::new(forces),
             overrides: Vec::new(),
+            forcing_frequency: raw
+                .model
+                .forcing_frequency
+                .as_ref()
+                .map(|f| f.get_ref().clone()),
         };
+        if let Some(f) = &raw.model.forcing_frequency {
+            if model.parameters.index(f.get_ref()).is_none() {
+                diags.push(
+                    Diagnostic::new(format!("`forcing_frequency` names `{}`, which is not a parameter", f.get_ref()))
+                        .at(f.span())
+                        .label("not a parameter")
+                        .help(suggest(f.get_ref(), model.parameters.names()).unwrap_or_else(|| "name the parameter that holds the forcing's angular frequency (rad/s)".into())),
+                );
+            }
+        }
         if diags.is_empty() {
             // Names, dimensions and signs are checked by compiling once.
             if let Err(e) = crate::system::System::check(&model) {

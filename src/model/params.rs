@@ -135,7 +135,12 @@ impl Parameters {
         source: &SourceFile,
         overrides: &[(String, String)],
     ) -> Result<Parameters> {
-        let mut exprs: Vec<Option<Expr>> = vec![None; self.list.len()];
+        // Earlier overrides stay in force (they parsed before, so they parse again).
+        let mut exprs: Vec<Option<Expr>> = self
+            .overridden
+            .iter()
+            .map(|t| t.as_ref().and_then(|t| expr::parse(t).ok()))
+            .collect();
         let mut texts = self.overridden.clone();
         for (name, value) in overrides {
             let Some(i) = self.index(name) else {

@@ -1,0 +1,237 @@
+//! Linearization about an equilibrium on the constraint manifold, modes, and the linear
+//! frequency response.
+//!
+//! With N an orthonormal basis of the null space of A at the equilibrium q* (n × k) and
+//! independent coordinates ξ, q ≈ q* + N ξ:
+//!
+//! ```text
+//! M_r = Nᵀ M N,   C_r = Nᵀ C N,   K_r = Nᵀ K N
+//! C = −∂f̄/∂v,     K = −(∂f̄/∂q + Σ λ_i ∇²Φ_i)      (f̄: forces averaged over a period)
+//! ```
+//!
+//! The λ term is the stiffness of the constraint reactions. The second-order terms of the
+//! manifold's parametrization multiply the total generalized force f̄ + Aᵀλ, which is zero
+//! at equilibrium, so nothing else enters.
+//!
+//! Modes: eigenvalues of the state matrix [0 I; −M_r⁻¹K_r −M_r⁻¹C_r] (nalgebra, Schur);
+//! each shape is the null vector of the complex matrix λ²M_r + λC_r + K_r (complex SVD),
+//! mapped back to the model's coordinates by N. Undamped: eig(M_r⁻¹ K_r).
+
+use crate::diag::{Error, Result};
+use crate::statics::{Equilibrium, Statics, generalized_eigenvalues};
+use crate::system::System;
+use nalgebra::{Complex, DMatrix, DVector};
+use num_dual::Dual64;
+
+/// The reduced linear system about an equilibrium.
+#[derive(Debug, Clone)]
+pub struct Linearization {
+    /// Equilibrium coordinates (n).
+    pub q: Vec<f64>,
+    /// Null-space basis (n × k).
+    pub basis: DMatrix<f64>,
+    /// Reduced mass, damping, stiffness (k × k).
+    pub mass: DMatrix<f64>,
+    pub damping: DMatrix<f64>,
+    pub stiffness: DMatrix<f64>,
+}
+
+/// One mode.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct Mode {
+    /// |λ|, rad/s.
+    pub omega_n_rad_s: f64,
+    /// Im λ ≥ 0, rad/s (0 for a real eigenvalue).
+    pub omega_d_rad_s: f64,
+    /// ω_n / 2π.
+    pub freq_hz: f64,
+    /// −Re λ / |λ|.
+    pub damping_ratio: f64,
+    pub eigenvalue: C64,
+    /// Shape in the model's coordinates (n), normalized to the reference coordinate.
+    pub shape: Vec<C64>,
+}
+
+/// A complex number as `{re, im}`.
+#[derive(Debug, Clone, Copy, serde::Serialize, PartialEq)]
+pub struct C64 {
+    pub re: f64,
+    pub im: f64,
+}
+
+impl From<Complex<f64>> for C64 {
+    fn from(c: Complex<f64>) -> Self {
+        C64 { re: c.re, im: c.im }
+    }
+}
+
+/// ∂f̄/∂v at rest (n × n), by dual numbers.
+fn velocity_jacobian(st: &Statics, q: &[f64]) -> DMatrix<f64> {
+    let sys = st.sys;
+    let n = sys.n();
+    let times = st.times();
+    let qd: Vec<Dual64> = q.iter().map(|&x| Dual64::from(x)).collect();
+    let mut vd = vec![Dual64::from(0.0); n];
+    let mut f = vec![Dual64::from(0.0); n];
+    let mut c = DMatrix::zeros(n, n);
+    for j in 0..n {
+        vd[j].eps = 1.0;
+        for &t in times {
+            sys.forces(&qd, &vd, Dual64::from(t), &mut f);
+            for i in 0..n {
+                c[(i, j)] += f[i].eps / times.len() as f64;
+            }
+        }
+        vd[j].eps = 0.0;
+    }
+    c
+}
+
+impl Linearization {
+    /// Linearize about an equilibrium.
+    pub fn new(st: &Statics, eq: &Equilibrium) -> Linearization {
+        let basis = st.null_space(&eq.q);
+        let stiffness = st.reduced_stiffness(&eq.q, &eq.lambda, &basis);
+        let damping = basis.transpose() * (-velocity_jacobian(st, &eq.q)) * &basis;
+        let mass = basis.transpose() * &st.sys.mass_matrix * &basis;
+        Linearization {
+            q: eq.q.clone(),
+            basis,
+            mass,
+            damping,
+            stiffness,
+        }
+    }
+
+    /// Degrees of freedom k.
+    pub fn dof(&self) -> usize {
+        self.basis.ncols()
+    }
+
+    /// Undamped ω² = eig(M_r⁻¹ K_r), rad²/s², ascending (negative where unstable).
+    pub fn undamped_omega2(&self) -> Vec<f64> {
+        generalized_eigenvalues(&self.stiffness, &self.mass)
+    }
+
+    /// Damped modes sorted by ω_n; one per complex pair, every real eigenvalue. Shapes are
+    /// normalized so that coordinate `reference` is 1 (if it moves in that mode).
+    pub fn modes(&self, reference: usize) -> Vec<Mode> {
+        let k = self.dof();
+        if k == 0 {
+            return Vec::new();
+        }
+        let minv = self
+            .mass
+            .clone()
+            .try_inverse()
+            .expect("reduced mass is invertible");
+        let mut s = DMatrix::zeros(2 * k, 2 * k);
+        s.view_mut((0, k), (k, k))
+            .copy_from(&DMatrix::identity(k, k));
+        s.view_mut((k, 0), (k, k))
+            .copy_from(&(-&minv * &self.stiffness));
+        s.view_mut((k, k), (k, k))
+            .copy_from(&(-&minv * &self.damping));
+        let eig = s.complex_eigenvalues();
+        let mut modes: Vec<Mode> = Vec::new();
+        for lam in eig.iter() {
+            let scale = lam.norm().max(1e-300);
+            if lam.im < -1e-12 * scale {
+                continue; // the conjugate of a listed mode
+            }
+            let lam = if lam.im.abs() <= 1e-12 * scale {
+                Complex::new(lam.re, 0.0)
+            } else {
+                *lam
+            };
+            let x = self.shape(lam);
+            let full = self.basis.map(|v| Complex::new(v, 0.0)) * x;
+            let r = full[reference];
+            let imax = (0..full.len())
+                .max_by(|&i, &j| full[i].norm().total_cmp(&full[j].norm()))
+                .unwrap_or(0);
+            // normalize to the largest entry when the reference does not move
+            let norm = if r.norm() > 1e-9 * full[imax].norm() {
+                r
+            } else {
+                full[imax]
+            };
+            let shape: Vec<C64> = full.iter().map(|c| (c / norm).into()).collect();
+            let wn = lam.norm();
+            modes.push(Mode {
+                omega_n_rad_s: wn,
+                omega_d_rad_s: lam.im.abs(),
+                freq_hz: wn / (2.0 * std::f64::consts::PI),
+                damping_ratio: if wn > 0.0 { -lam.re / wn } else { 0.0 },
+                eigenvalue: lam.into(),
+                shape,
+            });
+        }
+        modes.sort_by(|a, b| {
+            a.omega_n_rad_s
+                .total_cmp(&b.omega_n_rad_s)
+                .then(a.eigenvalue.re.total_cmp(&b.eigenvalue.re))
+        });
+        modes
+    }
+
+    /// Null vector of λ²M_r + λC_r + K_r (right singular vector of the smallest
+    /// singular value).
+    fn shape(&self, lam: Complex<f64>) -> DVector<Complex<f64>> {
+        let c = |m: &DMatrix<f64>| m.map(|v| Complex::new(v, 0.0));
+        let p = c(&self.mass) * (lam * lam) + c(&self.damping) * lam + c(&self.stiffness);
+        let k = p.ncols();
+        let svd = p.svd(false, true);
+        let v_t = svd.v_t.expect("requested");
+        let imin = (0..k)
+            .min_by(|&i, &j| svd.singular_values[i].total_cmp(&svd.singular_values[j]))
+            .unwrap_or(0);
+        v_t.row(imin).transpose().map(|z| z.conj())
+    }
+
+    /// Steady response amplitudes of all coordinates to a harmonic generalized force
+    /// Im[F e^{iωt}] (n): returns the complex amplitudes Y (n), q(t) − q* = Im[Y e^{iωt}].
+    pub fn response(
+        &self,
+        omega: f64,
+        force: &DVector<Complex<f64>>,
+    ) -> Result<DVector<Complex<f64>>> {
+        let c = |m: &DMatrix<f64>| m.map(|v| Complex::new(v, 0.0));
+        let nb = c(&self.basis);
+        let dynamic = c(&self.stiffness) - c(&self.mass) * Complex::new(omega * omega, 0.0)
+            + c(&self.damping) * Complex::new(0.0, omega);
+        let rhs = nb.transpose() * force;
+        let x = dynamic.lu().solve(&rhs).ok_or_else(|| {
+            Error::numerical(
+                format!(
+                    "the linear system is singular at ω = {omega} rad/s (an undamped resonance)"
+                ),
+                "add damping or step around that frequency",
+            )
+        })?;
+        Ok(nb * x)
+    }
+}
+
+/// First harmonic of the generalized force at rest at q over one period of ω:
+/// f(t) ≈ f̄ + a sin ωt + b cos ωt, returned as F = a + i b (so f − f̄ = Im[F e^{iωt}]).
+pub fn first_harmonic(sys: &System, q: &[f64], omega: f64) -> DVector<Complex<f64>> {
+    const SAMPLES: usize = 64;
+    let n = sys.n();
+    let zero = vec![0.0; n];
+    let mut f = vec![0.0; n];
+    let mut out = DVector::from_element(n, Complex::new(0.0, 0.0));
+    if omega == 0.0 {
+        return out;
+    }
+    let period = 2.0 * std::f64::consts::PI / omega.abs();
+    for k in 0..SAMPLES {
+        let t = k as f64 * period / SAMPLES as f64;
+        sys.forces(q, &zero, t, &mut f);
+        let (s, c) = (omega * t).sin_cos();
+        for i in 0..n {
+            out[i] += Complex::new(f[i] * s, f[i] * c) * (2.0 / SAMPLES as f64);
+        }
+    }
+    out
+}

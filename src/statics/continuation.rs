@@ -1,0 +1,402 @@
+//! Pseudo-arclength continuation of equilibria in any parameter, through limit points
+//! (folds), with stability along the branch, folds located accurately, and branch points
+//! (the stiffness becomes singular without a fold) detected.
+//!
+//! Written by hand: no maintained Rust crate does numerical continuation.
+//!
+//! Unknowns y = (x, p), x = (q, λ). Predictor y + Δs·τ along the unit tangent τ
+//! (null vector of [J_x  H_p]); corrector: Newton on [H(y); τ̂ᵀ (y − y_pred)] = 0, where
+//! τ̂ is τ with its λ entries zeroed (arclength is measured in coordinates and the
+//! parameter only, so large multipliers do not shrink the steps). ∂H/∂p by central
+//! differences of the compiled system at p ± δ (parameters are folded into constants when
+//! a model is compiled). A fold is where τ_p changes sign, a branch point where
+//! det J_x does and τ_p does not; both are located by secant iteration along the
+//! arclength between the two points that bracket them.
+
+use super::{Statics, solve_least_squares};
+use crate::diag::{Error, Result};
+use crate::model::Model;
+use crate::system::System;
+use nalgebra::{DMatrix, DVector};
+
+/// Settings of a continuation run.
+#[derive(Debug, Clone)]
+pub struct ContinuationOptions {
+    /// Parameter name.
+    pub param: String,
+    /// Range of the parameter: start and end (the branch is followed while p stays in it).
+    pub from: f64,
+    pub to: f64,
+    /// Largest arclength step (in the units of the coordinates and the parameter).
+    pub step: f64,
+    /// Give up after this many points.
+    pub max_steps: usize,
+}
+
+/// One point of a branch.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct BranchPoint {
+    /// Parameter value.
+    pub value: f64,
+    /// Coordinates (n).
+    pub q: Vec<f64>,
+    pub stable: bool,
+}
+
+/// A followed branch.
+#[derive(Debug, Clone)]
+pub struct Branch {
+    pub param: String,
+    pub coordinates: Vec<String>,
+    pub points: Vec<BranchPoint>,
+    pub folds: Vec<BranchPoint>,
+    pub branch_points: Vec<BranchPoint>,
+    /// The run ended because it reached `max_steps` before leaving the range.
+    pub truncated: bool,
+}
+
+/// The equilibrium equations as a function of (x, p).
+struct Family<'m> {
+    model: &'m Model,
+    param: String,
+    rows: Vec<usize>,
+    n: usize,
+}
+
+/// A corrected point: y = (x, p), with the data needed at it.
+#[derive(Clone)]
+struct Pt {
+    y: DVector<f64>,
+    /// Unit tangent (weighted norm), oriented along the run.
+    tau: DVector<f64>,
+    /// det J_x.
+    det: f64,
+}
+
+impl Family<'_> {
+    fn system(&self, p: f64) -> Result<System> {
+        let m = self
+            .model
+            .with_overrides(&[(self.param.clone(), format!("{p:?}"))])?;
+        System::new(&m)
+    }
+
+    /// H, [J_x H_p], det J_x.
+    fn linearize(&self, y: &DVector<f64>) -> Result<(DVector<f64>, DMatrix<f64>, f64)> {
+        let d = y.len() - 1;
+        let p = y[d];
+        let x = &y.as_slice()[..d];
+        let sys = self.system(p)?;
+        let st = Statics::with_rows(&sys, self.rows.clone())?;
+        let h = st.residual(x);
+        let jx = st.kkt_jacobian(x);
+        let delta = 1e-6 * p.abs().max(1.0);
+        let plus = {
+            let s = self.system(p + delta)?;
+            Statics::with_rows(&s, self.rows.clone())?.residual(x)
+        };
+        let minus = {
+            let s = self.system(p - delta)?;
+            Statics::with_rows(&s, self.rows.clone())?.residual(x)
+        };
+        let hp = (plus - minus) / (2.0 * delta);
+        let det = jx.determinant();
+        let mut j = DMatrix::zeros(d, d + 1);
+        j.view_mut((0, 0), (d, d)).copy_from(&jx);
+        j.set_column(d, &hp);
+        Ok((h, j, det))
+    }
+
+    /// Weight vector: 1 for q and p, 0 for λ.
+    fn weights(&self, len: usize) -> DVector<f64> {
+        DVector::from_fn(
+            len,
+            |i, _| if i < self.n || i == len - 1 { 1.0 } else { 0.0 },
+        )
+    }
+
+    /// Unit tangent at y, oriented along `prev` (or toward increasing p·dir).
+    fn tangent(&self, j: &DMatrix<f64>, prev: Option<&DVector<f64>>, dir: f64) -> DVector<f64> {
+        let d = j.nrows();
+        let mut b = DMatrix::zeros(d + 1, d + 1);
+        b.view_mut((0, 0), (d, d + 1)).copy_from(j);
+        let border = match prev {
+            Some(t) => t.component_mul(&self.weights(d + 1)),
+            None => {
+                let mut e = DVector::zeros(d + 1);
+                e[d] = dir;
+                e
+            }
+        };
+        b.set_row(d, &border.transpose());
+        let mut rhs = DVector::zeros(d + 1);
+        rhs[d] = 1.0;
+        let mut t = solve_least_squares(b, &rhs);
+        let w = self.weights(d + 1);
+        let norm = t.component_mul(&w).norm();
+        t /= norm;
+        if let Some(p) = prev {
+            if t.dot(&p.component_mul(&w)) < 0.0 {
+                t.neg_mut();
+            }
+        }
+        t
+    }
+
+    fn converged(&self, h: &DVector<f64>, scale: f64) -> bool {
+        let fr = h.rows(0, self.n).amax();
+        let cr = h.rows(self.n, h.len() - self.n).amax();
+        fr <= 1e-10 * scale && cr <= 1e-12
+    }
+
+    /// Corrector from the prediction `base + s·tau`, constrained to the hyperplane
+    /// τ̂ᵀ (y − y_pred) = 0. Returns the corrected point and the iterations used.
+    fn correct(&self, base: &Pt, s: f64, scale: f64) -> Result<Option<(Pt, usize)>> {
+        let w = self.weights(base.y.len());
+        let tw = base.tau.component_mul(&w);
+        let pred = &base.y + &base.tau * s;
+        let mut y = pred.clone();
+        for it in 0..10 {
+            let (h, j, _) = self.linearize(&y)?;
+            if !h.iter().all(|v| v.is_finite()) {
+                return Ok(None);
+            }
+            let g = tw.dot(&(&y - &pred));
+            if self.converged(&h, scale) && g.abs() < 1e-12 {
+                let (_, j, det) = self.linearize(&y)?;
+                let tau = self.tangent(&j, Some(&base.tau), 1.0);
+                return Ok(Some((Pt { y, tau, det }, it)));
+            }
+            let d = j.nrows();
+            let mut b = DMatrix::zeros(d + 1, d + 1);
+            b.view_mut((0, 0), (d, d + 1)).copy_from(&j);
+            b.set_row(d, &tw.transpose());
+            let mut r = DVector::zeros(d + 1);
+            r.rows_mut(0, d).copy_from(&h);
+            r[d] = g;
+            let dy = solve_least_squares(b, &r);
+            y -= dy;
+        }
+        Ok(None)
+    }
+
+    /// Secant (Illinois) along the arclength from `base` for a zero of `f(point)` between
+    /// s = 0 (value f0) and s = s1 (value f1).
+    fn locate(
+        &self,
+        base: &Pt,
+        s1: f64,
+        f0: f64,
+        f1: f64,
+        scale: f64,
+        f: &dyn Fn(&Pt) -> f64,
+    ) -> Result<Option<Pt>> {
+        let (mut a, mut fa, mut b, mut fb) = (0.0, f0, s1, f1);
+        let mut best: Option<Pt> = None;
+        let mut side = 0;
+        for _ in 0..60 {
+            let mut s = (a * fb - b * fa) / (fb - fa);
+            if !s.is_finite() || s <= a.min(b) || s >= a.max(b) {
+                s = 0.5 * (a + b);
+            }
+            let Some((pt, _)) = self.correct(base, s, scale)? else {
+                return Ok(best);
+            };
+            let fs = f(&pt);
+            best = Some(pt);
+            if fs == 0.0 || (b - a).abs() < 1e-14 * (1.0 + s.abs()) {
+                break;
+            }
+            if fs.signum() == fa.signum() {
+                a = s;
+                fa = fs;
+                if side == -1 {
+                    fb *= 0.5;
+                }
+                side = -1;
+            } else {
+                b = s;
+                fb = fs;
+                if side == 1 {
+                    fa *= 0.5;
+                }
+                side = 1;
+            }
+            if fs.abs() < 1e-14 {
+                break;
+            }
+        }
+        Ok(best)
+    }
+}
+
+impl Statics<'_> {
+    /// A static problem with given independent rows.
+    pub fn with_rows(sys: &System, rows: Vec<usize>) -> Result<Statics<'_>> {
+        let mut st = Statics::new(sys, &sys.initial.q)?;
+        st.rows = rows;
+        Ok(st)
+    }
+}
+
+/// Follow the equilibrium branch through the equilibrium nearest the model's initial pose
+/// at p = `from`, until p leaves [from, to] or `max_steps` points were computed.
+pub fn continue_equilibria(model: &Model, opts: &ContinuationOptions) -> Result<Branch> {
+    check(model, opts)?;
+    let dir = (opts.to - opts.from).signum();
+    let m0 = model.with_overrides(&[(opts.param.clone(), format!("{:?}", opts.from))])?;
+    let sys0 = System::new(&m0)?;
+    let start = crate::dynamics::assemble(&sys0)?;
+    let st0 = Statics::new(&sys0, &start.q)?;
+    let eq = st0.nearest(&start)?;
+    let n = sys0.n();
+    let fam = Family {
+        model,
+        param: opts.param.clone(),
+        rows: st0.rows.clone(),
+        n,
+    };
+    let scale = {
+        let mut f = vec![0.0; n];
+        st0.static_force(&eq.q, &mut f);
+        1.0 + f.iter().fold(0.0f64, |a, v| a.max(v.abs()))
+    };
+    let mut y0: Vec<f64> = eq.q.clone();
+    y0.extend(&eq.lambda);
+    y0.push(opts.from);
+    let y0 = DVector::from_vec(y0);
+    let d = y0.len() - 1;
+    let (_, j0, det0) = fam.linearize(&y0)?;
+    let tau0 = fam.tangent(&j0, None, dir);
+    let mut cur = Pt {
+        y: y0,
+        tau: tau0,
+        det: det0,
+    };
+    let stability = |y: &DVector<f64>| -> Result<bool> {
+        let sys = fam.system(y[d])?;
+        let st = Statics::with_rows(&sys, fam.rows.clone())?;
+        Ok(st.stability(&y.as_slice()[..n], &y.as_slice()[n..d]).0)
+    };
+    let point = |pt: &Pt| -> Result<BranchPoint> {
+        Ok(BranchPoint {
+            value: pt.y[d],
+            q: pt.y.as_slice()[..n].to_vec(),
+            stable: stability(&pt.y)?,
+        })
+    };
+    let mut branch = Branch {
+        param: opts.param.clone(),
+        coordinates: sys0.coordinates.clone(),
+        points: vec![point(&cur)?],
+        folds: Vec::new(),
+        branch_points: Vec::new(),
+        truncated: false,
+    };
+    let (lo, hi) = (opts.from.min(opts.to), opts.from.max(opts.to));
+    let mut ds = opts.step;
+    let min_ds = opts.step * 1e-6;
+    let mut steps = 0;
+    loop {
+        if steps >= opts.max_steps {
+            branch.truncated = true;
+            break;
+        }
+        let Some((next, iters)) = fam.correct(&cur, ds, scale)? else {
+            ds *= 0.5;
+            if ds < min_ds {
+                return Err(Error::numerical(
+                    format!(
+                        "continuation stopped at {} = {}: the corrector does not converge even with tiny steps",
+                        opts.param, cur.y[d]
+                    ),
+                    "the branch may end here (a singular pose or no equilibrium); try a smaller --step",
+                ));
+            }
+            continue;
+        };
+        // Reject a corrector that left the branch: too far from the prediction, or a
+        // tangent turned by more than about 25°; retry with half the step.
+        let w = fam.weights(next.y.len());
+        let dist = (&next.y - &cur.y).component_mul(&w).norm();
+        if dist > 1.5 * ds || next.tau.component_mul(&w).dot(&cur.tau) < 0.9 {
+            ds *= 0.5;
+            if ds < min_ds {
+                return Err(Error::numerical(
+                    format!(
+                        "continuation stopped at {} = {}: the branch turns too sharply to follow",
+                        opts.param, cur.y[d]
+                    ),
+                    "the branch may end here (a singular pose); try a smaller --step",
+                ));
+            }
+            continue;
+        }
+        steps += 1;
+        // Fold: τ_p changes sign. Branch point: det J_x changes sign, τ_p does not.
+        let fold = cur.tau[d].signum() != next.tau[d].signum();
+        let bp = !fold && cur.det.signum() != next.det.signum();
+        if fold {
+            if let Some(f) = fam.locate(&cur, ds, cur.tau[d], next.tau[d], scale, &|p| p.tau[d])? {
+                branch.folds.push(point(&f)?);
+            }
+        } else if bp {
+            if let Some(b) = fam.locate(&cur, ds, cur.det, next.det, scale, &|p| p.det)? {
+                branch.branch_points.push(point(&b)?);
+            }
+        }
+        let p = next.y[d];
+        if p < lo || p > hi {
+            // last point exactly on the boundary
+            let bound = if p > hi { hi } else { lo };
+            let f0 = cur.y[d] - bound;
+            let f1 = p - bound;
+            if let Some(e) = fam.locate(&cur, ds, f0, f1, scale, &|q| q.y[d] - bound)? {
+                branch.points.push(point(&e)?);
+            }
+            break;
+        }
+        branch.points.push(point(&next)?);
+        cur = next;
+        if iters <= 3 {
+            ds = (ds * 1.5).min(opts.step);
+        }
+    }
+    Ok(branch)
+}
+
+fn check(model: &Model, opts: &ContinuationOptions) -> Result<()> {
+    if model.parameters.index(&opts.param).is_none() {
+        return Err(Error::request(
+            format!(
+                "--param {}: the model has no parameter `{}`",
+                opts.param, opts.param
+            ),
+            crate::model::suggest(&opts.param, model.parameters.names()).unwrap_or_else(|| {
+                format!(
+                    "parameters: {}",
+                    model.parameters.names().collect::<Vec<_>>().join(", ")
+                )
+            }),
+        ));
+    }
+    if !(opts.from.is_finite() && opts.to.is_finite()) || opts.from == opts.to {
+        return Err(Error::request(
+            format!("empty range: --from {} --to {}", opts.from, opts.to),
+            "give two different finite values",
+        ));
+    }
+    if !(opts.step > 0.0) || !opts.step.is_finite() {
+        return Err(Error::request(
+            format!("--step {} is not valid", opts.step),
+            "give a positive arclength step",
+        ));
+    }
+    if opts.max_steps == 0 {
+        return Err(Error::request(
+            "--max-steps 0 computes nothing",
+            "give at least 1",
+        ));
+    }
+    Ok(())
+}

@@ -1,0 +1,562 @@
+//! Static equilibrium on the constraint manifold, its stability, and every equilibrium of
+//! an assembly branch.
+//!
+//! The equilibrium equations are the KKT system in x = (q, λ):
+//!
+//! ```text
+//! R(x) = [ f̄(q) + A_rᵀ λ ]  = 0      (n)     f̄ = impressed forces at rest, averaged over
+//!        [ Φ_r(q)        ]           (r)         one period of the forcing
+//! J(x) = [ ∂f̄/∂q + Σ λ_i ∇²Φ_i   A_rᵀ ]
+//!        [ A_r                    0   ]
+//! ```
+//!
+//! where `_r` keeps the r independent constraint rows (redundant rows are dropped once, at
+//! the start pose). ∂f̄/∂q comes from `Dual64` passes, the constraint curvature
+//! Σ λ_i ∇²Φ_i from `HyperDual64` passes. The tangent stiffness on the manifold is
+//! `K_r = Nᵀ K N` with `K = −(∂f̄/∂q + Σ λ_i ∇²Φ_i)` and N an orthonormal basis of the null
+//! space of A: the λ term is the stiffness of the constraint reactions (a gravity-loaded
+//! mechanism has it), easy to omit and easy to count twice.
+//!
+//! The damped Newton method here is hand-written (about 40 lines): the Levenberg–Marquardt
+//! crates do not support nalgebra 0.35 (see docs/performance.md and CRATES notes).
+
+pub mod continuation;
+
+use crate::diag::{Error, Result};
+use crate::dynamics::{DynWorkspace, RANK_TOL, State};
+use crate::system::System;
+use nalgebra::{DMatrix, DVector};
+use num_dual::{Dual64, HyperDual64};
+
+/// Samples per period for averaging time-dependent loads (exact for harmonics below 64).
+const PERIOD_SAMPLES: usize = 64;
+
+/// The static problem of one compiled system.
+#[derive(Debug, Clone)]
+pub struct Statics<'a> {
+    pub sys: &'a System,
+    /// Independent constraint rows.
+    pub rows: Vec<usize>,
+    /// Times at which loads are averaged (one period of the forcing, or just t = 0).
+    times: Vec<f64>,
+}
+
+/// A solved equilibrium.
+#[derive(Debug, Clone)]
+pub struct Equilibrium {
+    /// Coordinates (n).
+    pub q: Vec<f64>,
+    /// Constraint multipliers of the independent rows (r): A_rᵀ λ is the constraint force.
+    pub lambda: Vec<f64>,
+    /// |R|∞ at the solution (N and m mixed: force rows and constraint rows).
+    pub residual: f64,
+    pub iterations: usize,
+    /// All eigenvalues of M_r⁻¹ K_r positive.
+    pub stable: bool,
+    /// Eigenvalues ω² of M_r⁻¹ K_r (rad²/s²), ascending; negative where unstable.
+    pub omega2: Vec<f64>,
+}
+
+impl<'a> Statics<'a> {
+    /// Set up the static problem; independent rows are chosen at `q_ref`.
+    pub fn new(sys: &'a System, q_ref: &[f64]) -> Result<Statics<'a>> {
+        let times = if sys.forces_depend_on_time() {
+            match sys.forcing_frequency {
+                Some(w) if w != 0.0 => {
+                    let period = 2.0 * std::f64::consts::PI / w.abs();
+                    (0..PERIOD_SAMPLES)
+                        .map(|k| k as f64 * period / PERIOD_SAMPLES as f64)
+                        .collect()
+                }
+                Some(_) => vec![0.0],
+                None => {
+                    return Err(Error::request(
+                        "the loads depend on time, but the model does not say over which period to average them for statics",
+                        "add `forcing_frequency = \"omega\"` (the parameter holding the forcing's angular frequency, rad/s) to [model]",
+                    ));
+                }
+            }
+        } else {
+            vec![0.0]
+        };
+        let rows = independent_rows(sys, q_ref);
+        Ok(Statics { sys, rows, times })
+    }
+
+    /// Times at which time-dependent loads are averaged.
+    pub fn times(&self) -> &[f64] {
+        &self.times
+    }
+
+    /// Size of x = (q, λ).
+    pub fn dim(&self) -> usize {
+        self.sys.n() + self.rows.len()
+    }
+
+    /// Mean impressed force at rest over one period, generic for derivatives.
+    pub fn static_force<D: crate::scalar::Scalar>(&self, q: &[D], out: &mut [D]) {
+        let n = self.sys.n();
+        let zero = vec![D::from(0.0); n];
+        let mut f = vec![D::from(0.0); n];
+        out.fill(D::from(0.0));
+        let w = 1.0 / self.times.len() as f64;
+        for &t in &self.times {
+            self.sys.forces(q, &zero, D::from(t), &mut f);
+            for i in 0..n {
+                out[i] += f[i] * w;
+            }
+        }
+    }
+
+    /// ∂f̄/∂q (n × n).
+    pub fn force_jacobian(&self, q: &[f64]) -> DMatrix<f64> {
+        let n = self.sys.n();
+        let mut k = DMatrix::zeros(n, n);
+        let mut qd: Vec<Dual64> = q.iter().map(|&x| Dual64::from(x)).collect();
+        let mut out = vec![Dual64::from(0.0); n];
+        for j in 0..n {
+            qd[j].eps = 1.0;
+            self.static_force(&qd, &mut out);
+            qd[j].eps = 0.0;
+            for i in 0..n {
+                k[(i, j)] = out[i].eps;
+            }
+        }
+        k
+    }
+
+    /// Σ λ_i ∇²Φ_i over the independent rows (n × n), by hyper-dual passes.
+    pub fn constraint_curvature(&self, q: &[f64], lambda: &[f64]) -> DMatrix<f64> {
+        let n = self.sys.n();
+        let mut h = DMatrix::zeros(n, n);
+        let mut qh: Vec<HyperDual64> = q.iter().map(|&x| HyperDual64::from(x)).collect();
+        let mut phi = vec![HyperDual64::from(0.0); self.sys.m()];
+        for j in 0..n {
+            for k in j..n {
+                qh[j].eps1 = 1.0;
+                qh[k].eps2 = 1.0;
+                self.sys.phi(&qh, HyperDual64::from(0.0), &mut phi);
+                qh[j].eps1 = 0.0;
+                qh[k].eps2 = 0.0;
+                let v: f64 = self
+                    .rows
+                    .iter()
+                    .zip(lambda)
+                    .map(|(&r, l)| l * phi[r].eps1eps2)
+                    .sum();
+                h[(j, k)] = v;
+                h[(k, j)] = v;
+            }
+        }
+        h
+    }
+
+    /// A_r (r × n).
+    pub fn jacobian_rows(&self, q: &[f64]) -> DMatrix<f64> {
+        let mut ws = DynWorkspace::new(self.sys);
+        self.sys.jacobian(&mut ws.sys, q, 0.0, &mut ws.a);
+        ws.a.select_rows(self.rows.iter())
+    }
+
+    /// R(x) = (f̄ + A_rᵀ λ, Φ_r).
+    pub fn residual(&self, x: &[f64]) -> DVector<f64> {
+        let n = self.sys.n();
+        let (q, lambda) = x.split_at(n);
+        let mut f = vec![0.0; n];
+        self.static_force(q, &mut f);
+        let ar = self.jacobian_rows(q);
+        let cf = ar.transpose() * DVector::from_column_slice(lambda);
+        let phi = self.sys.residual(q, 0.0);
+        let mut r = DVector::zeros(self.dim());
+        for i in 0..n {
+            r[i] = f[i] + cf[i];
+        }
+        for (k, &row) in self.rows.iter().enumerate() {
+            r[n + k] = phi[row];
+        }
+        r
+    }
+
+    /// J(x) = ∂R/∂x.
+    pub fn kkt_jacobian(&self, x: &[f64]) -> DMatrix<f64> {
+        let n = self.sys.n();
+        let (q, lambda) = x.split_at(n);
+        let kq = self.force_jacobian(q) + self.constraint_curvature(q, lambda);
+        let ar = self.jacobian_rows(q);
+        let d = self.dim();
+        let mut j = DMatrix::zeros(d, d);
+        j.view_mut((0, 0), (n, n)).copy_from(&kq);
+        j.view_mut((0, n), (n, ar.nrows()))
+            .copy_from(&ar.transpose());
+        j.view_mut((n, 0), (ar.nrows(), n)).copy_from(&ar);
+        j
+    }
+
+    /// Least-squares multipliers at q: A_rᵀ λ ≈ −f̄.
+    pub fn multipliers(&self, q: &[f64]) -> Vec<f64> {
+        let n = self.sys.n();
+        let mut f = vec![0.0; n];
+        self.static_force(q, &mut f);
+        let ar = self.jacobian_rows(q);
+        if ar.nrows() == 0 {
+            return Vec::new();
+        }
+        let svd = ar.transpose().svd(true, true);
+        let eps = RANK_TOL * svd.singular_values.max();
+        let l = svd
+            .solve(&(-DVector::from_column_slice(&f)), eps)
+            .unwrap_or_else(|_| DVector::zeros(self.rows.len()));
+        l.iter().copied().collect()
+    }
+
+    /// Orthonormal basis of the null space of A at q (n × (n − rank)).
+    pub fn null_space(&self, q: &[f64]) -> DMatrix<f64> {
+        null_space(self.sys, q, 0.0)
+    }
+
+    /// Tangent stiffness on the manifold K_r = Nᵀ K N, K = −(∂f̄/∂q + Σ λ_i ∇²Φ_i).
+    pub fn reduced_stiffness(&self, q: &[f64], lambda: &[f64], nb: &DMatrix<f64>) -> DMatrix<f64> {
+        let k = -(self.force_jacobian(q) + self.constraint_curvature(q, lambda));
+        nb.transpose() * k * nb
+    }
+
+    /// Stability and ω² = eig(M_r⁻¹ K_r) at an equilibrium.
+    pub fn stability(&self, q: &[f64], lambda: &[f64]) -> (bool, Vec<f64>) {
+        let nb = self.null_space(q);
+        if nb.ncols() == 0 {
+            return (true, Vec::new());
+        }
+        let kr = self.reduced_stiffness(q, lambda, &nb);
+        let mr = nb.transpose() * &self.sys.mass_matrix * &nb;
+        let omega2 = generalized_eigenvalues(&kr, &mr);
+        let stable = omega2.iter().all(|&w| w > 0.0);
+        (stable, omega2)
+    }
+
+    /// Damped Newton on R(x) = 0 from the pose q0 (which should satisfy the constraints).
+    pub fn solve(&self, q0: &[f64]) -> Result<Equilibrium> {
+        let n = self.sys.n();
+        let mut x: Vec<f64> = q0.to_vec();
+        x.extend(self.multipliers(q0));
+        let (x, iterations, residual) = self.newton(x, 60)?;
+        let (q, lambda) = x.split_at(n);
+        let (stable, omega2) = self.stability(q, lambda);
+        Ok(Equilibrium {
+            q: q.to_vec(),
+            lambda: lambda.to_vec(),
+            residual,
+            iterations,
+            stable,
+            omega2,
+        })
+    }
+
+    /// The equilibrium nearest a start state: Newton from its pose; if that fails, Newton
+    /// from every seed of the assembly branch ([`Statics::all`]) and the solution nearest
+    /// the start pose.
+    pub fn nearest(&self, start: &State) -> Result<Equilibrium> {
+        match self.solve(&start.q) {
+            Ok(e) => Ok(e),
+            Err(first) => {
+                let Ok(all) = self.all(start) else {
+                    return Err(first);
+                };
+                let dist = |e: &Equilibrium| {
+                    e.q.iter()
+                        .zip(&start.q)
+                        .map(|(a, b)| (a - b).powi(2))
+                        .sum::<f64>()
+                };
+                Ok(all
+                    .into_iter()
+                    .min_by(|a, b| dist(a).total_cmp(&dist(b)))
+                    .expect("all() returns at least one"))
+            }
+        }
+    }
+
+    /// Convergence thresholds: force rows relative to the load scale, constraint rows
+    /// relative to the coordinates.
+    fn converged(&self, r: &DVector<f64>, x: &[f64], force_scale: f64) -> bool {
+        let n = self.sys.n();
+        let qs = 1.0 + x[..n].iter().fold(0.0f64, |a, v| a.max(v.abs()));
+        let fr = r.rows(0, n).amax();
+        let cr = r.rows(n, self.rows.len()).amax();
+        fr <= 1e-11 * force_scale && cr <= 1e-13 * qs
+    }
+
+    fn force_scale(&self, q: &[f64]) -> f64 {
+        let mut f = vec![0.0; self.sys.n()];
+        self.static_force(q, &mut f);
+        let g: f64 = self.sys.bodies.iter().map(|b| b.mass).sum::<f64>()
+            * self.sys.gravity[0].hypot(self.sys.gravity[1]);
+        1.0 + f.iter().fold(g, |a, v| a.max(v.abs()))
+    }
+
+    /// Newton with backtracking on |R|₂; returns (x, iterations, |R|∞).
+    pub fn newton(&self, mut x: Vec<f64>, max_iter: usize) -> Result<(Vec<f64>, usize, f64)> {
+        let n = self.sys.n();
+        let scale = self.force_scale(&x[..n]);
+        let mut r = self.residual(&x);
+        let mut it = 0;
+        while !self.converged(&r, &x, scale) {
+            if it == max_iter || !r.iter().all(|v| v.is_finite()) {
+                let pose: Vec<String> = self
+                    .sys
+                    .coordinates
+                    .iter()
+                    .zip(&x)
+                    .map(|(c, v)| format!("{c} = {v:.6}"))
+                    .collect();
+                return Err(Error::numerical(
+                    format!(
+                        "no equilibrium found: residual {:.3e} after {it} iterations; last pose {}",
+                        r.amax(),
+                        pose.join(", ")
+                    ),
+                    "start closer to an equilibrium (e.g. --set the initial angle), or check that one exists for these loads",
+                ));
+            }
+            it += 1;
+            let j = self.kkt_jacobian(&x);
+            let dx = solve_least_squares(j, &r);
+            let norm0 = r.norm();
+            // trust region: no coordinate moves more than 0.2 (rad, or m scaled by the
+            // model's size) in one iteration, so Newton does not leap to a far equilibrium
+            let size = 1.0 + x[..n].iter().fold(0.0f64, |a, v| a.max(v.abs()));
+            let biggest = dx.rows(0, n).amax();
+            let mut step = if biggest > 0.2 * size.min(10.0) {
+                0.2 * size.min(10.0) / biggest
+            } else {
+                1.0
+            };
+            loop {
+                let trial: Vec<f64> = x.iter().zip(dx.iter()).map(|(a, d)| a - step * d).collect();
+                let rt = self.residual(&trial);
+                if rt.norm() < norm0 || step < 1e-6 {
+                    x = trial;
+                    r = rt;
+                    break;
+                }
+                step *= 0.5;
+            }
+        }
+        Ok((x, it, r.amax()))
+    }
+
+    /// Every equilibrium on the assembly branch of `start`: the driving coordinates (those
+    /// the model fixes for assembly) are swept in 2° (or 2 %) steps in both directions,
+    /// re-assembling from the previous pose, until the constraints lose rank or stop
+    /// closing; Newton runs from every seed; solutions inside the swept range are kept,
+    /// duplicates removed, sorted by the first driving coordinate.
+    pub fn all(&self, start: &State) -> Result<Vec<Equilibrium>> {
+        let sys = self.sys;
+        let drivers: Vec<usize> = (0..sys.n()).filter(|&i| sys.initial.fixed[i]).collect();
+        if drivers.is_empty() {
+            return Ok(vec![self.solve(&start.q)?]);
+        }
+        let mut seeds = vec![start.q.clone()];
+        let mut ranges = Vec::new();
+        for &d in &drivers {
+            let (lo, hi) = (
+                self.sweep(start, d, -1.0, &mut seeds),
+                self.sweep(start, d, 1.0, &mut seeds),
+            );
+            ranges.push((d, lo, hi));
+        }
+        let mut found: Vec<Equilibrium> = Vec::new();
+        for seed in &seeds {
+            let Ok(e) = self.solve(seed) else { continue };
+            let inside = ranges
+                .iter()
+                .all(|&(d, lo, hi)| e.q[d] >= lo - 1e-9 && e.q[d] <= hi + 1e-9);
+            let dup = found.iter().any(|f| {
+                f.q.iter()
+                    .zip(&e.q)
+                    .map(|(a, b)| (a - b).abs())
+                    .fold(0.0, f64::max)
+                    < 1e-7
+            });
+            if inside && !dup {
+                found.push(e);
+            }
+        }
+        if found.is_empty() {
+            return Err(Error::numerical(
+                "no equilibrium found on the assembly branch of the initial pose",
+                "check the loads: the mechanism may have no static equilibrium (e.g. a force larger than any spring can hold)",
+            ));
+        }
+        let d0 = drivers[0];
+        found.sort_by(|a, b| a.q[d0].total_cmp(&b.q[d0]));
+        Ok(found)
+    }
+
+    /// Sweep driver `d` from the start pose in direction `dir`; push seeds; return the last
+    /// value reached.
+    fn sweep(&self, start: &State, d: usize, dir: f64, seeds: &mut Vec<Vec<f64>>) -> f64 {
+        let sys = self.sys;
+        let angle = sys.coordinates[d].ends_with("theta") || sys.coordinates[d].ends_with("phi");
+        let step = if angle {
+            2f64.to_radians()
+        } else {
+            0.02 * start.q[d].abs().max(1e-3)
+        };
+        let limit = if angle { 180 } else { 50 };
+        let mut ws = DynWorkspace::new(sys);
+        let mut q = start.q.clone();
+        let mut last = start.q[d];
+        // σ_min/σ_max of ∂Φ_r/∂q_free along the sweep: a V-shaped dip toward zero marks a
+        // singular pose (where the assembly can switch branches): stop before it.
+        let sigma0 = free_jacobian_conditioning(sys, &q, &self.rows);
+        let mut history: Vec<(f64, Vec<f64>, f64)> = vec![(sigma0, q.clone(), last)];
+        let mut kept = 0;
+        for k in 1..=limit {
+            let target = start.q[d] + dir * step * k as f64;
+            let mut trial = q.clone();
+            trial[d] = target;
+            // re-assemble the free coordinates from the previous pose
+            if !assemble_at(sys, &mut ws, &mut trial) {
+                break;
+            }
+            let sigma = free_jacobian_conditioning(sys, &trial, &self.rows);
+            let n = history.len();
+            if sigma < 1e-9 {
+                break;
+            }
+            if n >= 2 {
+                let (s1, s2) = (history[n - 1].0, history[n - 2].0);
+                if s1 < s2 && s1 < sigma && s1 < 0.25 * sigma0 {
+                    // dip at the previous sample: the singular pose lies next to it
+                    kept = kept.min(n - 2);
+                    break;
+                }
+            }
+            history.push((sigma, trial.clone(), target));
+            kept = history.len() - 1;
+            q = trial;
+        }
+        for (_, pose, value) in history.iter().take(kept + 1).skip(1) {
+            seeds.push(pose.clone());
+            last = *value;
+        }
+        last
+    }
+}
+
+/// σ_min/σ_max of ∂Φ_r/∂q_free (1 when nothing is free or nothing constrains).
+fn free_jacobian_conditioning(sys: &System, q: &[f64], rows: &[usize]) -> f64 {
+    let free: Vec<usize> = (0..sys.n()).filter(|&i| !sys.initial.fixed[i]).collect();
+    if free.is_empty() || rows.is_empty() {
+        return 1.0;
+    }
+    let mut ws = DynWorkspace::new(sys);
+    sys.jacobian(&mut ws.sys, q, 0.0, &mut ws.a);
+    let af = ws.a.select_rows(rows.iter()).select_columns(free.iter());
+    let sv = af.svd(false, false).singular_values;
+    sv.min() / sv.max()
+}
+
+/// Gauss–Newton assembly of the non-fixed coordinates at fixed drivers.
+fn assemble_at(sys: &System, ws: &mut DynWorkspace, q: &mut [f64]) -> bool {
+    let free: Vec<usize> = (0..sys.n()).filter(|&i| !sys.initial.fixed[i]).collect();
+    for _ in 0..30 {
+        let phi = sys.residual(q, 0.0);
+        if phi.amax() < 1e-13 {
+            return true;
+        }
+        sys.jacobian(&mut ws.sys, q, 0.0, &mut ws.a);
+        let af = ws.a.select_columns(free.iter());
+        let dx = solve_least_squares(af, &phi);
+        for (k, &i) in free.iter().enumerate() {
+            q[i] -= dx[k];
+        }
+        if !q.iter().all(|v| v.is_finite()) {
+            return false;
+        }
+    }
+    sys.residual(q, 0.0).amax() < 1e-11
+}
+
+/// Minimum-norm least-squares solution of J x = r (SVD, relative rank tolerance).
+pub fn solve_least_squares(j: DMatrix<f64>, r: &DVector<f64>) -> DVector<f64> {
+    let cols = j.ncols();
+    let svd = j.svd(true, true);
+    let eps = RANK_TOL * svd.singular_values.max().max(f64::MIN_POSITIVE);
+    svd.solve(r, eps).unwrap_or_else(|_| DVector::zeros(cols))
+}
+
+/// Rows of A that are independent at q (greedy, in model order).
+pub fn independent_rows(sys: &System, q: &[f64]) -> Vec<usize> {
+    let mut ws = DynWorkspace::new(sys);
+    sys.jacobian(&mut ws.sys, q, 0.0, &mut ws.a);
+    let mut rows: Vec<usize> = Vec::new();
+    let mut rank = 0;
+    for i in 0..sys.m() {
+        let mut trial = rows.clone();
+        trial.push(i);
+        let sub = ws.a.select_rows(trial.iter());
+        let sv = sub.svd(false, false).singular_values;
+        let r = sv.iter().filter(|&&s| s > RANK_TOL * sv.max()).count();
+        if r > rank {
+            rows = trial;
+            rank = r;
+        }
+    }
+    rows
+}
+
+/// Orthonormal basis of the null space of A(q, t) (n × (n − rank)), from the SVD.
+pub fn null_space(sys: &System, q: &[f64], t: f64) -> DMatrix<f64> {
+    let n = sys.n();
+    if sys.m() == 0 {
+        return DMatrix::identity(n, n);
+    }
+    let mut ws = DynWorkspace::new(sys);
+    sys.jacobian(&mut ws.sys, q, t, &mut ws.a);
+    // SVD of Aᵀ A (n × n) gives the full right singular basis even when m < n.
+    let ata = ws.a.transpose() * &ws.a;
+    let eig = nalgebra::SymmetricEigen::new(ata);
+    let max = eig.eigenvalues.iter().fold(0.0f64, |a, v| a.max(v.abs()));
+    let cols: Vec<usize> = (0..n)
+        .filter(|&i| eig.eigenvalues[i].abs() <= RANK_TOL * max.max(f64::MIN_POSITIVE))
+        .collect();
+    let mut nb = eig.eigenvectors.select_columns(cols.iter());
+    // a deterministic sign: largest entry of each column positive
+    for mut c in nb.column_iter_mut() {
+        let imax = c.iamax();
+        if c[imax] < 0.0 {
+            c.neg_mut();
+        }
+    }
+    nb
+}
+
+/// Eigenvalues of M⁻¹ K for symmetric positive definite M (ascending). K is symmetrized;
+/// a nonsymmetric K (follower loads) gives the real parts of the general eigenvalues.
+pub fn generalized_eigenvalues(k: &DMatrix<f64>, m: &DMatrix<f64>) -> Vec<f64> {
+    let asym = (k - k.transpose()).amax();
+    let mut w: Vec<f64> = if asym <= 1e-9 * k.amax().max(f64::MIN_POSITIVE) {
+        let l = m
+            .clone()
+            .cholesky()
+            .expect("mass matrix is positive definite")
+            .l();
+        let linv = l.clone().try_inverse().expect("invertible");
+        let s = &linv * (k + k.transpose()) * 0.5 * linv.transpose();
+        nalgebra::SymmetricEigen::new(s)
+            .eigenvalues
+            .iter()
+            .copied()
+            .collect()
+    } else {
+        let minv = m.clone().try_inverse().expect("invertible");
+        (minv * k)
+            .complex_eigenvalues()
+            .iter()
+            .map(|c| c.re)
+            .collect()
+    };
+    w.sort_by(f64::total_cmp);
+    w
+}

@@ -1,0 +1,43 @@
+//! Helpers shared by the integration tests.
+#![allow(dead_code)]
+
+pub mod reduced;
+
+use std::path::Path;
+
+/// Reads a numeric CSV file with one header line: returns the column names and the rows.
+/// Panics on a missing file, a ragged row or a non-numeric field (this is test code).
+pub fn read_csv(path: impl AsRef<Path>) -> (Vec<String>, Vec<Vec<f64>>) {
+    let path = path.as_ref();
+    let text = std::fs::read_to_string(path)
+        .unwrap_or_else(|e| panic!("cannot read {}: {e}", path.display()));
+    let mut lines = text.lines().filter(|l| !l.trim().is_empty());
+    let header: Vec<String> = lines
+        .next()
+        .unwrap_or_else(|| panic!("{} is empty", path.display()))
+        .split(',')
+        .map(|h| h.trim().to_string())
+        .collect();
+    let rows = lines
+        .enumerate()
+        .map(|(i, line)| {
+            let row: Vec<f64> = line
+                .split(',')
+                .map(|f| {
+                    f.trim().parse().unwrap_or_else(|e| {
+                        panic!("{} line {}: bad number {f:?}: {e}", path.display(), i + 2)
+                    })
+                })
+                .collect();
+            assert_eq!(
+                row.len(),
+                header.len(),
+                "{} line {}: wrong field count",
+                path.display(),
+                i + 2
+            );
+            row
+        })
+        .collect();
+    (header, rows)
+}
