@@ -4,7 +4,7 @@ use clap::{Args, Parser, Subcommand};
 use detune::diag::{Error, Result};
 use detune::dynamics::simulate::{SimOptions, Trajectory, simulate};
 use detune::dynamics::{assemble, constraint_rank};
-use detune::output::plot::{LinePlot, Series, write_line_plot};
+use detune::output::plot::{LinePlot, Series, Style, write_line_plot};
 use detune::output::{Provenance, write_json, write_trajectory_csv};
 use detune::{Model, System};
 use std::io::IsTerminal;
@@ -265,7 +265,7 @@ fn trajectory_plot(model: &Model, traj: &Trajectory) -> LinePlot {
                 label: traj.coordinates[i].clone(),
                 x: traj.t.clone(),
                 y: traj.q.iter().map(|q| q[i]).collect(),
-                dashed: false,
+                style: Style::Solid,
             })
             .collect(),
     }

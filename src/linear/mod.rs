@@ -235,3 +235,159 @@ pub fn first_harmonic(sys: &System, q: &[f64], omega: f64) -> DVector<Complex<f6
     }
     out
 }
+
+/// Modes about the equilibrium nearest a model's initial pose.
+#[derive(Debug, Clone)]
+pub struct ModalAnalysis {
+    pub coordinates: Vec<String>,
+    pub equilibrium: Equilibrium,
+    pub linearization: Linearization,
+    /// Damped modes sorted by ω_n.
+    pub modes: Vec<Mode>,
+    /// Undamped ω², rad²/s², ascending.
+    pub undamped_omega2: Vec<f64>,
+    /// Index of the coordinate the shapes are normalized to.
+    pub reference: usize,
+}
+
+/// Index of a coordinate by name, with a helpful error.
+pub fn coordinate(sys: &System, name: &str, flag: &str) -> Result<usize> {
+    sys.coordinate_index(name).ok_or_else(|| {
+        Error::request(
+            format!("{flag} {name}: the model has no coordinate `{name}`"),
+            crate::model::suggest(name, sys.coordinates.iter().map(|s| s.as_str()))
+                .unwrap_or_else(|| format!("coordinates: {}", sys.coordinates.join(", "))),
+        )
+    })
+}
+
+/// The first angle coordinate (a name ending in `theta` or `phi`), else the first.
+pub fn default_reference(sys: &System) -> usize {
+    sys.coordinates
+        .iter()
+        .position(|c| c.ends_with(".theta") || c.ends_with(".phi"))
+        .unwrap_or(0)
+}
+
+/// Equilibrium nearest the initial pose, linearization, modes.
+pub fn modal_analysis(model: &crate::Model, normalize: Option<&str>) -> Result<ModalAnalysis> {
+    let sys = System::new(model)?;
+    let reference = match normalize {
+        Some(name) => coordinate(&sys, name, "--normalize")?,
+        None => default_reference(&sys),
+    };
+    let start = crate::dynamics::assemble(&sys)?;
+    let st = Statics::new(&sys, &start.q)?;
+    let equilibrium = st.nearest(&start)?;
+    let linearization = Linearization::new(&st, &equilibrium);
+    let modes = linearization.modes(reference);
+    let undamped_omega2 = linearization.undamped_omega2();
+    Ok(ModalAnalysis {
+        coordinates: sys.coordinates.clone(),
+        equilibrium,
+        linearization,
+        modes,
+        undamped_omega2,
+        reference,
+    })
+}
+
+/// Linear frequency response of some coordinates over values of the forcing frequency.
+#[derive(Debug, Clone)]
+pub struct FrequencyResponse {
+    pub param: String,
+    pub responses: Vec<String>,
+    /// Frequencies, rad/s.
+    pub omega: Vec<f64>,
+    /// Per frequency, per response: (amplitude in SI, phase in degrees), q = q* + A sin(ωt + φ).
+    pub values: Vec<Vec<(f64, f64)>>,
+    pub equilibrium: Equilibrium,
+    pub coordinates: Vec<String>,
+}
+
+/// The steady harmonic response of the linearized system about the equilibrium nearest
+/// the initial pose, to the model's forcing at each value of `param` (the forcing's
+/// angular frequency, rad/s). Exact for the linear system.
+pub fn frequency_response(
+    model: &crate::Model,
+    param: &str,
+    values: &[f64],
+    responses: &[String],
+) -> Result<FrequencyResponse> {
+    if model.parameters.index(param).is_none() {
+        return Err(Error::request(
+            format!("--param {param}: the model has no parameter `{param}`"),
+            crate::model::suggest(param, model.parameters.names())
+                .unwrap_or_else(|| "give the parameter that is the forcing frequency".into()),
+        ));
+    }
+    if let Some(f) = &model.forcing_frequency {
+        if f != param {
+            return Err(Error::request(
+                format!("--param {param}: the forcing of this model turns at `{f}`, not `{param}`"),
+                format!("use --param {f}"),
+            ));
+        }
+    }
+    let modal = modal_analysis(model, None)?;
+    let sys = System::new(model)?;
+    let idx: Vec<usize> = responses
+        .iter()
+        .map(|r| coordinate(&sys, r, "--response"))
+        .collect::<Result<_>>()?;
+    let mut out = Vec::with_capacity(values.len());
+    for &w in values {
+        let m = model.with_overrides(&[(param.to_string(), format!("{w:?}"))])?;
+        let sw = System::new(&m)?;
+        let force = first_harmonic(&sw, &modal.equilibrium.q, w);
+        // rounding of the constant loads leaves ~1e-16 of them in the harmonic sums
+        let mut mean = vec![0.0; sw.n()];
+        let zero = vec![0.0; sw.n()];
+        sw.forces(&modal.equilibrium.q, &zero, 0.0, &mut mean);
+        let load = mean.iter().fold(1.0f64, |a, v| a.max(v.abs()));
+        if force.iter().all(|c| c.norm() <= 1e-12 * load) {
+            return Err(Error::request(
+                format!("zero forcing: the model's loads have no harmonic part at {param} = {w}"),
+                "give the forcing an amplitude (for the overcentre, --set F0=1), or check that the forcing depends on this parameter",
+            ));
+        }
+        let y = modal.linearization.response(w, &force)?;
+        out.push(
+            idx.iter()
+                .map(|&i| (y[i].norm(), y[i].arg().to_degrees()))
+                .collect(),
+        );
+    }
+    Ok(FrequencyResponse {
+        param: param.to_string(),
+        responses: responses.to_vec(),
+        omega: values.to_vec(),
+        values: out,
+        equilibrium: modal.equilibrium,
+        coordinates: modal.coordinates,
+    })
+}
+
+/// `from, from + step, ..., to` (to included when it falls on the grid within rounding).
+pub fn grid(from: f64, to: f64, step: f64) -> Result<Vec<f64>> {
+    if !(from.is_finite() && to.is_finite()) || to <= from {
+        return Err(Error::request(
+            format!("empty range: --from {from} --to {to}"),
+            "give --from below --to",
+        ));
+    }
+    if !(step > 0.0) || !step.is_finite() {
+        return Err(Error::request(
+            format!("--step {step} is not valid"),
+            "give a positive step",
+        ));
+    }
+    let n = ((to - from) / step + 1e-9).floor() as usize;
+    if n > 10_000_000 {
+        return Err(Error::request(
+            format!("--step {step} gives {n} points"),
+            "give a larger step",
+        ));
+    }
+    Ok((0..=n).map(|k| from + k as f64 * step).collect())
+}

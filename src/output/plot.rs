@@ -10,8 +10,18 @@ pub struct Series {
     pub label: String,
     pub x: Vec<f64>,
     pub y: Vec<f64>,
-    /// Dashed (e.g. an unstable branch).
-    pub dashed: bool,
+    /// How the series is drawn.
+    pub style: Style,
+}
+
+/// Line style of a series.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Style {
+    Solid,
+    /// e.g. an unstable branch
+    Dashed,
+    /// Marked points only (e.g. folds)
+    Markers,
 }
 
 /// A simple line plot.
@@ -72,10 +82,14 @@ pub fn line_plot_svg(plot: &LinePlot) -> std::result::Result<String, String> {
             let color = COLORS[i % COLORS.len()];
             let pts: Vec<(f64, f64)> = s.x.iter().copied().zip(s.y.iter().copied()).collect();
             let style = color.stroke_width(2);
-            let drawn = if s.dashed {
-                chart.draw_series(DashedLineSeries::new(pts, 6, 4, style))
-            } else {
-                chart.draw_series(LineSeries::new(pts, style))
+            let drawn = match s.style {
+                Style::Dashed => chart.draw_series(DashedLineSeries::new(pts, 6, 4, style)),
+                Style::Solid => chart.draw_series(LineSeries::new(pts, style)),
+                Style::Markers => chart.draw_series(
+                    pts.into_iter()
+                        .map(|p| Circle::new(p, 5, color.filled()))
+                        .collect::<Vec<_>>(),
+                ),
             }
             .map_err(|e| e.to_string())?;
             drawn.label(s.label.clone()).legend(move |(x, y)| {
