@@ -4,8 +4,16 @@ use clap::{Args, Parser, Subcommand};
 use detune::diag::{Error, Result};
 use detune::dynamics::simulate::{SimOptions, Trajectory, simulate};
 use detune::dynamics::{assemble, constraint_rank};
+use detune::linear::{frequency_response, modal_analysis};
 use detune::output::plot::{LinePlot, Series, Style, write_line_plot};
+use detune::output::results::{
+    branch_json, equilibrium_json, frf_json, modes_json, write_branch_csv, write_frf_csv,
+};
 use detune::output::{Provenance, write_json, write_trajectory_csv};
+use detune::statics::Statics;
+use detune::statics::continuation::{
+    Branch, BranchPoint, ContinuationOptions, continue_equilibria,
+};
 use detune::{Model, System};
 use std::io::IsTerminal;
 
@@ -28,6 +36,102 @@ enum Command {
     /// Simulate the motion from the model's initial state and write CSV (and an SVG plot).
     #[command(allow_negative_numbers = true)]
     Simulate(SimulateArgs),
+    /// Static equilibrium nearest the initial pose (loads at their mean over a period), or
+    /// every equilibrium of its assembly branch with --all.
+    #[command(allow_negative_numbers = true)]
+    Equilibrium(EquilibriumArgs),
+    /// Follow equilibria through limit points while a parameter changes (pseudo-arclength).
+    #[command(allow_negative_numbers = true)]
+    Continue(ContinueArgs),
+    /// Modes of the linearized constrained dynamics about the equilibrium nearest the
+    /// initial pose.
+    #[command(allow_negative_numbers = true)]
+    Modes(ModesArgs),
+    /// Linear frequency response about the equilibrium nearest the initial pose.
+    #[command(allow_negative_numbers = true)]
+    Frf(FrfArgs),
+}
+
+#[derive(Args)]
+struct EquilibriumArgs {
+    #[command(flatten)]
+    model: ModelArgs,
+    /// Every equilibrium on the assembly branch of the initial pose, with stability.
+    #[arg(long)]
+    all: bool,
+    /// Print JSON instead of a table.
+    #[arg(long)]
+    json: bool,
+}
+
+#[derive(Args)]
+struct ContinueArgs {
+    #[command(flatten)]
+    model: ModelArgs,
+    /// Parameter to vary.
+    #[arg(long, value_name = "NAME")]
+    param: String,
+    /// Start value (SI).
+    #[arg(long, value_name = "A")]
+    from: f64,
+    /// End value (SI).
+    #[arg(long, value_name = "B")]
+    to: f64,
+    /// Largest arclength step, in the units of the coordinates and the parameter
+    /// [default: (B − A)/50].
+    #[arg(long, value_name = "S")]
+    step: Option<f64>,
+    /// Most points computed.
+    #[arg(long, default_value_t = 5000, value_name = "N")]
+    max_steps: usize,
+    /// Print the JSON summary (folds, branch points) instead of a table.
+    #[arg(long)]
+    json: bool,
+    /// CSV of the branch: `<param>,<coordinates>...,stable`.
+    #[arg(short = 'o', long = "output", value_name = "OUT.csv")]
+    output: Option<String>,
+    /// SVG of the branch (stable solid, unstable dashed, folds marked).
+    #[arg(long, value_name = "OUT.svg")]
+    plot: Option<String>,
+    /// Coordinate drawn against the parameter [default: the first angle].
+    #[arg(long, value_name = "NAME")]
+    plot_coordinate: Option<String>,
+}
+
+#[derive(Args)]
+struct ModesArgs {
+    #[command(flatten)]
+    model: ModelArgs,
+    /// Coordinate whose shape entry is 1 [default: the first angle coordinate].
+    #[arg(long, value_name = "NAME")]
+    normalize: Option<String>,
+    /// Print JSON instead of a table.
+    #[arg(long)]
+    json: bool,
+}
+
+#[derive(Args)]
+struct FrfArgs {
+    #[command(flatten)]
+    model: ModelArgs,
+    /// The forcing's frequency parameter (rad/s).
+    #[arg(long, value_name = "NAME")]
+    param: String,
+    #[arg(long, value_name = "A")]
+    from: f64,
+    #[arg(long, value_name = "B")]
+    to: f64,
+    #[arg(long, value_name = "S")]
+    step: f64,
+    /// Coordinate to report (repeatable) [default: every coordinate].
+    #[arg(long, value_name = "NAME")]
+    response: Vec<String>,
+    /// Print JSON.
+    #[arg(long)]
+    json: bool,
+    /// CSV: `<param>,<name>_amplitude,<name>_phase_deg,...`.
+    #[arg(short = 'o', long = "output", value_name = "OUT.csv")]
+    output: Option<String>,
 }
 
 #[derive(Args)]
@@ -104,6 +208,10 @@ fn main() {
     let result = match cli.command {
         Command::Check(a) => check(a),
         Command::Simulate(a) => simulate_cmd(a),
+        Command::Equilibrium(a) => equilibrium_cmd(a),
+        Command::Continue(a) => continue_cmd(a),
+        Command::Modes(a) => modes_cmd(a),
+        Command::Frf(a) => frf_cmd(a),
     };
     if let Err(e) = result {
         eprint!("{}", e.render(std::io::stderr().is_terminal()));
@@ -269,4 +377,272 @@ fn trajectory_plot(model: &Model, traj: &Trajectory) -> LinePlot {
             })
             .collect(),
     }
+}
+
+fn print_json(v: &serde_json::Value) {
+    println!("{}", serde_json::to_string_pretty(v).unwrap_or_default());
+}
+
+fn equilibrium_cmd(a: EquilibriumArgs) -> Result<()> {
+    let model = a.model.load()?;
+    let sys = System::new(&model)?;
+    let start = assemble(&sys)?;
+    let st = Statics::new(&sys, &start.q)?;
+    let list = if a.all {
+        st.all(&start)?
+    } else {
+        vec![st.nearest(&start)?]
+    };
+    if a.json {
+        let prov = Provenance::of(&model);
+        let v = if a.all {
+            serde_json::json!({
+                "equilibria": list.iter().map(|e| equilibrium_json(&sys.coordinates, e)).collect::<Vec<_>>(),
+                "provenance": prov,
+            })
+        } else {
+            let mut v = equilibrium_json(&sys.coordinates, &list[0]);
+            v["provenance"] = serde_json::json!(prov);
+            v
+        };
+        print_json(&v);
+        return Ok(());
+    }
+    for (k, e) in list.iter().enumerate() {
+        if a.all {
+            println!("equilibrium {} of {}:", k + 1, list.len());
+        }
+        for (c, v) in sys.coordinates.iter().zip(&e.q) {
+            println!("  {c:<16} {v:>22.12}");
+        }
+        let w2: Vec<String> = e.omega2.iter().map(|w| format!("{w:.6}")).collect();
+        println!(
+            "  {} (ω² = {} rad²/s²), residual {:.2e} after {} iterations",
+            if e.stable { "stable" } else { "UNSTABLE" },
+            w2.join(", "),
+            e.residual,
+            e.iterations
+        );
+    }
+    Ok(())
+}
+
+fn continue_cmd(a: ContinueArgs) -> Result<()> {
+    let model = a.model.load()?;
+    let opts = ContinuationOptions {
+        param: a.param.clone(),
+        from: a.from,
+        to: a.to,
+        step: a.step.unwrap_or((a.to - a.from).abs() / 50.0),
+        max_steps: a.max_steps,
+    };
+    let branch = continue_equilibria(&model, &opts)?;
+    let sys = System::new(&model)?;
+    if let Some(o) = &a.output {
+        write_branch_csv(o, &branch)?;
+    }
+    if let Some(p) = &a.plot {
+        let idx = match &a.plot_coordinate {
+            Some(name) => detune::linear::coordinate(&sys, name, "--plot-coordinate")?,
+            None => detune::linear::default_reference(&sys),
+        };
+        write_line_plot(p, &branch_plot(&model, &branch, idx))?;
+    }
+    if a.json {
+        print_json(&branch_json(&branch, &Provenance::of(&model)));
+    } else {
+        println!(
+            "{} points from {} = {} to {}{}",
+            branch.points.len(),
+            branch.param,
+            a.from,
+            branch.points.last().map_or(a.from, |p| p.value),
+            if branch.truncated {
+                " (stopped at --max-steps)"
+            } else {
+                ""
+            }
+        );
+        for f in &branch.folds {
+            println!(
+                "fold at {} = {:.10}: {}",
+                branch.param,
+                f.value,
+                pose(&sys, &f.q)
+            );
+        }
+        for b in &branch.branch_points {
+            println!(
+                "branch point at {} = {:.10}: {}",
+                branch.param,
+                b.value,
+                pose(&sys, &b.q)
+            );
+        }
+    }
+    for f in [&a.output, &a.plot].into_iter().flatten() {
+        eprintln!("wrote {f}");
+    }
+    Ok(())
+}
+
+fn pose(sys: &System, q: &[f64]) -> String {
+    sys.coordinates
+        .iter()
+        .zip(q)
+        .map(|(c, v)| format!("{c} = {v:.8}"))
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+/// The paper's Figure 6: the branch in (parameter, coordinate), stable solid, unstable
+/// dashed, folds marked.
+fn branch_plot(model: &Model, b: &Branch, idx: usize) -> LinePlot {
+    let mut series = Vec::new();
+    let mut seg: Vec<&BranchPoint> = Vec::new();
+    let flush = |seg: &mut Vec<&BranchPoint>, series: &mut Vec<Series>| {
+        if seg.len() > 1 {
+            let stable = seg[1].stable;
+            series.push(Series {
+                label: if stable {
+                    "stable".into()
+                } else {
+                    "unstable".into()
+                },
+                x: seg.iter().map(|p| p.value).collect(),
+                y: seg.iter().map(|p| p.q[idx]).collect(),
+                style: if stable { Style::Solid } else { Style::Dashed },
+            });
+        }
+        seg.clear();
+    };
+    for p in &b.points {
+        if let Some(last) = seg.last() {
+            if last.stable != p.stable {
+                seg.push(p);
+                flush(&mut seg, &mut series);
+            }
+        }
+        seg.push(p);
+    }
+    flush(&mut seg, &mut series);
+    if !b.folds.is_empty() {
+        series.push(Series {
+            label: "folds".into(),
+            x: b.folds.iter().map(|p| p.value).collect(),
+            y: b.folds.iter().map(|p| p.q[idx]).collect(),
+            style: Style::Markers,
+        });
+    }
+    if !b.branch_points.is_empty() {
+        series.push(Series {
+            label: "branch points".into(),
+            x: b.branch_points.iter().map(|p| p.value).collect(),
+            y: b.branch_points.iter().map(|p| p.q[idx]).collect(),
+            style: Style::Markers,
+        });
+    }
+    LinePlot {
+        title: format!("{}: equilibria against {}", model.name, b.param),
+        x_label: b.param.clone(),
+        y_label: format!("{} [{}]", b.coordinates[idx], unit_of(&b.coordinates[idx])),
+        series,
+    }
+}
+
+/// SI unit of a coordinate by its name.
+fn unit_of(coordinate: &str) -> &'static str {
+    if coordinate.ends_with(".theta") || coordinate.ends_with(".phi") {
+        "rad"
+    } else {
+        "m"
+    }
+}
+
+fn modes_cmd(a: ModesArgs) -> Result<()> {
+    let model = a.model.load()?;
+    let m = modal_analysis(&model, a.normalize.as_deref())?;
+    if a.json {
+        print_json(&modes_json(&m, &Provenance::of(&model)));
+        return Ok(());
+    }
+    println!(
+        "equilibrium ({}):",
+        if m.equilibrium.stable {
+            "stable"
+        } else {
+            "UNSTABLE"
+        }
+    );
+    for (c, v) in m.coordinates.iter().zip(&m.equilibrium.q) {
+        println!("  {c:<16} {v:>22.12}");
+    }
+    println!("\nundamped: ω² = {:?} rad²/s²", m.undamped_omega2);
+    for w2 in &m.undamped_omega2 {
+        if *w2 > 0.0 {
+            println!(
+                "  ω = {:.10} rad/s = {:.6} Hz",
+                w2.sqrt(),
+                w2.sqrt() / (2.0 * std::f64::consts::PI)
+            );
+        } else {
+            println!("  unstable direction: ω² = {w2:.6} rad²/s²");
+        }
+    }
+    println!(
+        "\n{:>4} {:>14} {:>14} {:>12} {:>10} {:>28}",
+        "mode", "ω_n [rad/s]", "ω_d [rad/s]", "f [Hz]", "ζ", "eigenvalue"
+    );
+    for (k, md) in m.modes.iter().enumerate() {
+        println!(
+            "{:>4} {:>14.8} {:>14.8} {:>12.6} {:>10.6} {:>13.8} {:+13.8}i",
+            k + 1,
+            md.omega_n_rad_s,
+            md.omega_d_rad_s,
+            md.freq_hz,
+            md.damping_ratio,
+            md.eigenvalue.re,
+            md.eigenvalue.im
+        );
+    }
+    println!(
+        "\nshapes (normalized to {} = 1):",
+        m.coordinates[m.reference]
+    );
+    for (i, c) in m.coordinates.iter().enumerate() {
+        let row: Vec<String> = m
+            .modes
+            .iter()
+            .map(|md| format!("{:>10.6}{:+10.6}i", md.shape[i].re, md.shape[i].im))
+            .collect();
+        println!("  {c:<16} {}", row.join("  "));
+    }
+    Ok(())
+}
+
+fn frf_cmd(a: FrfArgs) -> Result<()> {
+    let model = a.model.load()?;
+    let values = detune::linear::grid(a.from, a.to, a.step)?;
+    let responses = if a.response.is_empty() {
+        model.coordinate_names()
+    } else {
+        a.response.clone()
+    };
+    let fr = frequency_response(&model, &a.param, &values, &responses)?;
+    if let Some(o) = &a.output {
+        write_frf_csv(o, &fr)?;
+        eprintln!("wrote {o}");
+    }
+    if a.json {
+        print_json(&frf_json(&fr, &Provenance::of(&model)));
+    } else if a.output.is_none() {
+        for (k, w) in fr.omega.iter().enumerate() {
+            let cols: Vec<String> = fr.values[k]
+                .iter()
+                .map(|(amp, ph)| format!("{amp:.6e} {ph:8.3}°"))
+                .collect();
+            println!("{w:10.5}  {}", cols.join("  "));
+        }
+    }
+    Ok(())
 }

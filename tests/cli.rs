@@ -95,3 +95,259 @@ fn bad_option_values_are_refused() {
         assert!(!csv.exists());
     }
 }
+
+#[test]
+fn equilibrium_json_contract() {
+    let (code, out, err) = detune(&[
+        "equilibrium",
+        "models/overcentre.toml",
+        "--set",
+        "theta1_0=-0.85",
+        "--json",
+    ]);
+    assert_eq!(code, 0, "{err}");
+    let j: serde_json::Value = serde_json::from_str(&out).unwrap();
+    assert!(
+        (j["coordinates"]["bar1.theta"].as_f64().unwrap() - (-0.865739159594518)).abs() < 1e-12
+    );
+    assert_eq!(j["stable"], true);
+    assert!(j["residual"].as_f64().unwrap() < 1e-10);
+    let (code, out, _) = detune(&["equilibrium", "models/overcentre.toml", "--all", "--json"]);
+    assert_eq!(code, 0);
+    let j: serde_json::Value = serde_json::from_str(&out).unwrap();
+    let stable: Vec<bool> = j["equilibria"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|e| e["stable"].as_bool().unwrap())
+        .collect();
+    assert_eq!(stable, [true, false, true]);
+}
+
+#[test]
+fn continue_json_and_csv_contract() {
+    let dir = tempfile::tempdir().unwrap();
+    let csv = dir.path().join("s.csv");
+    let svg = dir.path().join("s.svg");
+    let (code, out, err) = detune(&[
+        "continue",
+        "models/overcentre.toml",
+        "--param",
+        "Fs",
+        "--from",
+        "-10",
+        "--to",
+        "30",
+        "--step",
+        "0.5",
+        "--json",
+        "-o",
+        csv.to_str().unwrap(),
+        "--plot",
+        svg.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 0, "{err}");
+    let j: serde_json::Value = serde_json::from_str(&out).unwrap();
+    assert_eq!(j["param"], "Fs");
+    let folds = j["folds"].as_array().unwrap();
+    assert_eq!(folds.len(), 2);
+    assert!((folds[0]["value"].as_f64().unwrap() - 23.0614126719).abs() < 1e-8);
+    assert!(j["branch_points"].as_array().unwrap().is_empty());
+    let text = std::fs::read_to_string(&csv).unwrap();
+    let lines: Vec<&str> = text.lines().collect();
+    assert_eq!(
+        lines[0],
+        "Fs,bar1.x,bar1.y,bar1.theta,bar2.x,bar2.y,bar2.theta,stable"
+    );
+    assert_eq!(lines.len() - 1, j["points"].as_u64().unwrap() as usize);
+    assert!(lines[1].starts_with("-10,") && lines[1].ends_with(",1"));
+    let svg = std::fs::read_to_string(&svg).unwrap();
+    assert!(svg.contains("stroke-dasharray") || svg.contains("unstable"));
+}
+
+#[test]
+fn modes_json_contract_stable_and_unstable() {
+    let (code, out, err) = detune(&[
+        "modes",
+        "models/overcentre.toml",
+        "--set",
+        "theta1_0=-0.85",
+        "--set",
+        "c=1",
+        "--json",
+    ]);
+    assert_eq!(code, 0, "{err}");
+    let j: serde_json::Value = serde_json::from_str(&out).unwrap();
+    let m = &j["modes"][0];
+    assert!((m["omega_n_rad_s"].as_f64().unwrap() - 4.285913414135145).abs() < 1e-7);
+    assert!((m["omega_d_rad_s"].as_f64().unwrap() - 4.282972036981866).abs() < 1e-7);
+    assert!(
+        (m["freq_hz"].as_f64().unwrap() - 4.285913414135145 / (2.0 * std::f64::consts::PI)).abs()
+            < 1e-8
+    );
+    assert_eq!(m["shape"]["bar1.theta"]["re"], 1.0);
+    assert!(j["undamped_omega2"][0].as_f64().unwrap() > 0.0);
+    // starting at 15°: the unstable middle equilibrium, real eigenvalues, ω² < 0
+    let (code, out, _) = detune(&[
+        "modes",
+        "models/overcentre.toml",
+        "--set",
+        "theta1_0=15 deg",
+        "--set",
+        "c=1",
+        "--json",
+    ]);
+    assert_eq!(code, 0);
+    let j: serde_json::Value = serde_json::from_str(&out).unwrap();
+    assert_eq!(j["stable"], false);
+    assert!(j["undamped_omega2"][0].as_f64().unwrap() < 0.0);
+    for m in j["modes"].as_array().unwrap() {
+        assert_eq!(m["eigenvalue"]["im"], 0.0);
+        assert_eq!(m["omega_d_rad_s"], 0.0);
+    }
+}
+
+#[test]
+fn frf_csv_contract() {
+    let dir = tempfile::tempdir().unwrap();
+    let csv = dir.path().join("f.csv");
+    let (code, _, err) = detune(&[
+        "frf",
+        "models/overcentre.toml",
+        "--set",
+        "theta1_0=-0.85",
+        "--set",
+        "F0=0.01",
+        "--set",
+        "c=1",
+        "--param",
+        "omega",
+        "--from",
+        "0.5",
+        "--to",
+        "8",
+        "--step",
+        "0.5",
+        "--response",
+        "bar1.theta",
+        "-o",
+        csv.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 0, "{err}");
+    let text = std::fs::read_to_string(&csv).unwrap();
+    let lines: Vec<&str> = text.lines().collect();
+    assert_eq!(lines[0], "omega,bar1.theta_amplitude,bar1.theta_phase_deg");
+    assert_eq!(lines.len(), 1 + 16);
+}
+
+#[test]
+fn bad_analysis_requests_are_refused() {
+    let cases: &[(&[&str], &str)] = &[
+        (
+            &[
+                "continue",
+                "models/overcentre.toml",
+                "--param",
+                "Fz",
+                "--from",
+                "0",
+                "--to",
+                "1",
+            ],
+            "`Fs`",
+        ),
+        (
+            &[
+                "continue",
+                "models/overcentre.toml",
+                "--param",
+                "Fs",
+                "--from",
+                "1",
+                "--to",
+                "1",
+            ],
+            "empty range",
+        ),
+        (
+            &[
+                "continue",
+                "models/overcentre.toml",
+                "--param",
+                "Fs",
+                "--from",
+                "0",
+                "--to",
+                "1",
+                "--step",
+                "0",
+            ],
+            "--step",
+        ),
+        (
+            &[
+                "frf",
+                "models/overcentre.toml",
+                "--param",
+                "omega",
+                "--from",
+                "1",
+                "--to",
+                "2",
+                "--step",
+                "0.5",
+            ],
+            "zero forcing",
+        ),
+        (
+            &[
+                "frf",
+                "models/overcentre.toml",
+                "--set",
+                "F0=1",
+                "--param",
+                "omega",
+                "--from",
+                "2",
+                "--to",
+                "1",
+                "--step",
+                "0.5",
+            ],
+            "empty range",
+        ),
+        (
+            &[
+                "frf",
+                "models/overcentre.toml",
+                "--set",
+                "F0=1",
+                "--param",
+                "omega",
+                "--from",
+                "1",
+                "--to",
+                "2",
+                "--step",
+                "-1",
+            ],
+            "--step",
+        ),
+        (
+            &["modes", "models/overcentre.toml", "--normalize", "bar1.phi"],
+            "bar1.phi",
+        ),
+        (
+            &["equilibrium", "models/overcentre.toml", "--set", "Fs=1e6"],
+            "no equilibrium",
+        ),
+    ];
+    for (args, want) in cases {
+        let (code, out, err) = detune(args);
+        assert_eq!(code, 1, "{args:?}: {out} {err}");
+        assert!(
+            err.contains(want) && err.contains("help"),
+            "{args:?}: {err}"
+        );
+    }
+}

@@ -114,18 +114,30 @@ pub fn expr_diag(e: &ExprError, offset: usize) -> Diagnostic {
 
 /// `did you mean ...?` from a list of candidates.
 pub fn suggest<'a>(name: &str, candidates: impl IntoIterator<Item = &'a str>) -> Option<String> {
-    let mut best: Option<(f64, &str)> = None;
-    for c in candidates {
-        let score = if name.eq_ignore_ascii_case(c) {
-            1.0
-        } else {
-            strsim::jaro_winkler(&name.to_lowercase(), &c.to_lowercase())
-        };
-        if score > 0.8 && best.is_none_or(|(s, _)| score > s) {
-            best = Some((score, c));
-        }
-    }
-    best.map(|(_, c)| format!("did you mean `{c}`?"))
+    let mut scored: Vec<(f64, &str)> = candidates
+        .into_iter()
+        .map(|c| {
+            let (a, b) = (name.to_lowercase(), c.to_lowercase());
+            let score = if a == b {
+                1.0
+            } else if strsim::levenshtein(&a, &b) == 1 {
+                // one typo, also in short names (`Fz` for `Fs`)
+                0.95
+            } else {
+                strsim::jaro_winkler(&a, &b)
+            };
+            (score, c)
+        })
+        .filter(|(s, _)| *s > 0.8)
+        .collect();
+    scored.sort_by(|a, b| b.0.total_cmp(&a.0));
+    let best = scored.first()?.0;
+    let ties: Vec<String> = scored
+        .iter()
+        .take_while(|(s, _)| *s == best)
+        .map(|(_, c)| format!("`{c}`"))
+        .collect();
+    Some(format!("did you mean {}?", ties.join(" or ")))
 }
 
 /// A planar rigid body: coordinates `x`, `y` (centre of gravity, m), `theta` (rad).

@@ -4,6 +4,7 @@
 //! place when complete, so an error or an interrupt never leaves a half-written output.
 
 pub mod plot;
+pub mod results;
 
 use crate::diag::{Error, Result};
 use crate::dynamics::simulate::Trajectory;

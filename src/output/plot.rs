@@ -78,7 +78,14 @@ pub fn line_plot_svg(plot: &LinePlot) -> std::result::Result<String, String> {
             .y_desc(&plot.y_label)
             .draw()
             .map_err(|e| e.to_string())?;
-        for (i, s) in plot.series.iter().enumerate() {
+        // one color and one legend entry per distinct label
+        let mut labels: Vec<&str> = Vec::new();
+        for s in &plot.series {
+            let first = !labels.contains(&s.label.as_str());
+            if first {
+                labels.push(&s.label);
+            }
+            let i = labels.iter().position(|l| *l == s.label).unwrap_or(0);
             let color = COLORS[i % COLORS.len()];
             let pts: Vec<(f64, f64)> = s.x.iter().copied().zip(s.y.iter().copied()).collect();
             let style = color.stroke_width(2);
@@ -92,9 +99,11 @@ pub fn line_plot_svg(plot: &LinePlot) -> std::result::Result<String, String> {
                 ),
             }
             .map_err(|e| e.to_string())?;
-            drawn.label(s.label.clone()).legend(move |(x, y)| {
-                PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(2))
-            });
+            if first && !s.label.is_empty() {
+                drawn.label(s.label.clone()).legend(move |(x, y)| {
+                    PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(2))
+                });
+            }
         }
         if plot.series.len() > 1 || !plot.series.is_empty() {
             chart
