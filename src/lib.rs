@@ -16,6 +16,7 @@
 
 pub mod diag;
 pub mod dynamics;
+pub mod frequency;
 pub mod linear;
 pub mod model;
 pub mod output;

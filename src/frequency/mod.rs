@@ -1,0 +1,707 @@
+//! Stepped-sine frequency response: steady states detected on the Poincaré section,
+//! measured by Fourier projection, swept independently (in parallel) or sequentially
+//! (up / down, to reveal jumps), with every resonance located by refinement.
+//!
+//! Per frequency ω (period T = 2π/ω) the motion is integrated one period at a time from
+//! t = 0 to T (the forcing is T-periodic). The state at the end of each period is a point
+//! of the Poincaré map; the response has settled when successive points agree to the
+//! settling tolerance relative to the response amplitude, or, for a period-k response
+//! (k = 2..4), when points k periods apart agree. Convergence of the lightly damped
+//! transients is accelerated by minimal polynomial extrapolation (MPE) of the Poincaré
+//! sequence, projected back onto the constraint manifold; an extrapolation that does not
+//! reduce the next period's change is discarded and plain iteration continues. Settling
+//! is always verified by integrated periods, never assumed.
+//!
+//! Written by hand: no crate does stepped-sine analysis of constrained mechanisms.
+
+pub mod measure;
+
+use crate::diag::{Error, Result};
+use crate::dynamics::simulate::{SimOptions, simulate};
+use crate::dynamics::{DynWorkspace, State, project_position, project_velocity};
+use crate::model::Model;
+use crate::statics::Statics;
+use crate::system::System;
+use measure::Measures;
+use nalgebra::{DMatrix, DVector};
+use rayon::prelude::*;
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+
+/// Settings of one steady-state computation.
+#[derive(Debug, Clone)]
+pub struct SteadyOptions {
+    pub rtol: f64,
+    pub atol: f64,
+    /// Poincaré points agree to this fraction of the response amplitude.
+    pub settle_tol: f64,
+    /// Give up (report `settled = false`) after this many periods.
+    pub max_periods: usize,
+    /// Samples per period for the measures.
+    pub samples: usize,
+    /// Accelerate settling by extrapolating the Poincaré sequence.
+    pub extrapolate: bool,
+}
+
+impl Default for SteadyOptions {
+    fn default() -> Self {
+        SteadyOptions {
+            rtol: 1e-10,
+            atol: 1e-12,
+            settle_tol: 1e-8,
+            max_periods: 600,
+            samples: 128,
+            extrapolate: true,
+        }
+    }
+}
+
+/// The settled response at one frequency.
+#[derive(Debug, Clone)]
+pub struct SteadyState {
+    /// Forcing frequency, rad/s.
+    pub omega: f64,
+    pub settled: bool,
+    /// Periods integrated.
+    pub periods: usize,
+    /// 1 for a response with the forcing's period, k for a period-k (subharmonic) one.
+    pub period_multiple: usize,
+    /// One per requested response coordinate.
+    pub measures: Vec<Measures>,
+    /// State at the end (forcing phase 0), to start the next frequency of a sequential sweep.
+    pub end: State,
+}
+
+/// Steady response at ω from `start` (t = 0 at forcing phase 0).
+pub fn steady_state(
+    sys: &System,
+    start: &State,
+    omega: f64,
+    responses: &[usize],
+    opts: &SteadyOptions,
+    cancel: &AtomicBool,
+) -> Result<SteadyState> {
+    let n = sys.n();
+    let period = 2.0 * std::f64::consts::PI / omega;
+    let sim = SimOptions {
+        t_end: period,
+        dt_out: period / opts.samples as f64,
+        rtol: opts.rtol,
+        atol: opts.atol,
+        ..SimOptions::default()
+    };
+    let dof = n.saturating_sub(crate::dynamics::constraint_rank(sys, &start.q, 0.0));
+    let order = (2 * dof).clamp(1, 8);
+    let mut ws = DynWorkspace::new(sys);
+    let mut state = State {
+        t: 0.0,
+        q: start.q.clone(),
+        v: start.v.clone(),
+    };
+    // Poincaré points since the last extrapolation, and the sampled last 4 periods.
+    let mut points: Vec<DVector<f64>> = vec![pack(&state)];
+    let mut recent: Vec<Vec<Vec<f64>>> = Vec::new();
+    let mut extrapolate = opts.extrapolate;
+    let mut pending_check: Option<(f64, State)> = None;
+    let mut last_change = f64::INFINITY;
+    for p in 1..=opts.max_periods {
+        if cancel.load(Ordering::Relaxed) {
+            return Err(Error::numerical("interrupted", "the sweep was interrupted"));
+        }
+        let traj = simulate(sys, &state, &sim, &mut |_| {})?;
+        let k_last = traj.t.len() - 1;
+        // samples of this period (without the endpoint, which is the next period's start)
+        let period_samples: Vec<Vec<f64>> = responses
+            .iter()
+            .map(|&i| traj.q[..k_last].iter().map(|q| q[i]).collect())
+            .collect();
+        recent.push(period_samples);
+        if recent.len() > 4 {
+            recent.remove(0);
+        }
+        let end = State {
+            t: 0.0,
+            q: traj.q[k_last].clone(),
+            v: traj.v[k_last].clone(),
+        };
+        let y = pack(&end);
+        let scale = amplitude_scale(&traj.q, &traj.v);
+        let change = relative_change(&y, points.last().expect("non-empty"), &scale);
+        // An extrapolation that made things worse is undone.
+        if let Some((before, fallback)) = pending_check.take() {
+            if change > before {
+                extrapolate = false;
+                state = fallback;
+                points = vec![pack(&state)];
+                continue;
+            }
+        }
+        points.push(y.clone());
+        // Settled with the forcing's period, or with k periods.
+        for k in 1..=4 {
+            if points.len() > k && recent.len() >= k {
+                let c = relative_change(&y, &points[points.len() - 1 - k], &scale);
+                let shorter = (1..k).any(|j| {
+                    points.len() > j
+                        && relative_change(&y, &points[points.len() - 1 - j], &scale)
+                            <= opts.settle_tol
+                });
+                if c <= opts.settle_tol && !shorter {
+                    let window = &recent[recent.len() - k..];
+                    let measures = (0..responses.len())
+                        .map(|r| {
+                            let samples: Vec<f64> =
+                                window.iter().flat_map(|w| w[r].iter().copied()).collect();
+                            Measures::of(&samples, k)
+                        })
+                        .collect();
+                    return Ok(SteadyState {
+                        omega,
+                        settled: true,
+                        periods: p,
+                        period_multiple: k,
+                        measures,
+                        end,
+                    });
+                }
+            }
+        }
+        state = end;
+        // Extrapolate the Poincaré sequence once enough points are in.
+        if extrapolate && points.len() >= order + 2 && change < last_change {
+            if let Some(s) = mpe(&points[points.len() - order - 2..]) {
+                let mut guess = unpack(&s, n);
+                project_position(sys, &mut ws, &mut guess.q, 0.0, 1e-14, 10);
+                project_velocity(sys, &mut ws, &guess.q, &mut guess.v, 0.0);
+                if guess.q.iter().chain(&guess.v).all(|x| x.is_finite()) {
+                    pending_check = Some((change, state.clone()));
+                    points = vec![pack(&guess)];
+                    state = guess;
+                }
+            }
+        }
+        last_change = change;
+    }
+    // Not settled: report the last period's measures, flagged.
+    let measures = (0..responses.len())
+        .map(|r| Measures::of(&recent.last().expect("one period")[r], 1))
+        .collect();
+    Ok(SteadyState {
+        omega,
+        settled: false,
+        periods: opts.max_periods,
+        period_multiple: 1,
+        measures,
+        end: state,
+    })
+}
+
+fn pack(s: &State) -> DVector<f64> {
+    DVector::from_iterator(s.q.len() * 2, s.q.iter().chain(&s.v).copied())
+}
+
+fn unpack(y: &DVector<f64>, n: usize) -> State {
+    State {
+        t: 0.0,
+        q: y.as_slice()[..n].to_vec(),
+        v: y.as_slice()[n..].to_vec(),
+    }
+}
+
+/// Half peak-to-peak of every state component over a period (positions and velocities).
+fn amplitude_scale(q: &[Vec<f64>], v: &[Vec<f64>]) -> DVector<f64> {
+    let n = q[0].len();
+    DVector::from_fn(2 * n, |i, _| {
+        let series = |k: usize| if i < n { q[k][i] } else { v[k][i - n] };
+        let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+        for k in 0..q.len() {
+            lo = lo.min(series(k));
+            hi = hi.max(series(k));
+        }
+        0.5 * (hi - lo)
+    })
+}
+
+/// max_i |a_i − b_i| / (scale_i + floor): change relative to each component's amplitude.
+/// The floor (1e-9 of the largest amplitude of the same kind, and 1e-14) keeps components
+/// that hardly move from dominating.
+fn relative_change(a: &DVector<f64>, b: &DVector<f64>, scale: &DVector<f64>) -> f64 {
+    let n = a.len() / 2;
+    let qmax = scale.rows(0, n).max();
+    let vmax = scale.rows(n, n).max();
+    (0..a.len())
+        .map(|i| {
+            let floor = 1e-9 * if i < n { qmax } else { vmax } + 1e-14;
+            (a[i] - b[i]).abs() / (scale[i] + floor)
+        })
+        .fold(0.0, f64::max)
+}
+
+/// Minimal polynomial extrapolation of a vector sequence x_0..x_{k+1} to its limit.
+fn mpe(x: &[DVector<f64>]) -> Option<DVector<f64>> {
+    let k = x.len() - 2;
+    let d = x[0].len();
+    // differences u_j = x_{j+1} − x_j
+    let u = DMatrix::from_fn(d, k + 1, |i, j| x[j + 1][i] - x[j][i]);
+    let a = u.columns(0, k).into_owned();
+    let b = -u.column(k).into_owned();
+    let svd = a.svd(true, true);
+    let eps = 1e-12 * svd.singular_values.max();
+    let c = svd.solve(&b, eps).ok()?;
+    let mut coef: Vec<f64> = c.iter().copied().collect();
+    coef.push(1.0);
+    let sum: f64 = coef.iter().sum();
+    if sum.abs() < 1e-12 {
+        return None;
+    }
+    let mut s = DVector::zeros(d);
+    for (j, cj) in coef.iter().enumerate() {
+        s += &x[j] * (cj / sum);
+    }
+    Some(s)
+}
+
+/// How a sweep moves through its frequencies.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Direction {
+    /// Every frequency from the equilibrium at rest.
+    Independent,
+    /// Increasing frequency, each from the previous steady state.
+    Up,
+    /// Decreasing frequency, each from the previous steady state.
+    Down,
+}
+
+impl Direction {
+    pub fn name(self) -> &'static str {
+        match self {
+            Direction::Independent => "independent",
+            Direction::Up => "up",
+            Direction::Down => "down",
+        }
+    }
+}
+
+/// Sweep modes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SweepMode {
+    Independent,
+    Up,
+    Down,
+    Both,
+}
+
+/// Settings of a sweep.
+#[derive(Debug, Clone)]
+pub struct SweepOptions {
+    /// The forcing's frequency parameter.
+    pub param: String,
+    /// Coarse grid, rad/s, ascending.
+    pub values: Vec<f64>,
+    pub mode: SweepMode,
+    /// Response coordinates (names).
+    pub responses: Vec<String>,
+    /// Final resolution of the located peaks, rad/s (None: no refinement).
+    pub refine: Option<f64>,
+    pub steady: SteadyOptions,
+}
+
+/// One computed frequency.
+#[derive(Debug, Clone)]
+pub struct SweepPoint {
+    pub direction: Direction,
+    pub steady: SteadyState,
+    /// Added by peak refinement (not on the coarse grid).
+    pub refined: bool,
+}
+
+/// A located resonance.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct Peak {
+    pub response: String,
+    pub direction: Direction,
+    /// Frequency of the amplitude maximum, rad/s.
+    pub omega: f64,
+    /// Half peak-to-peak amplitude there (SI).
+    pub amplitude: f64,
+    /// Half-width of the final bracket that holds the maximum, rad/s.
+    pub uncertainty: f64,
+}
+
+/// A frequency interval where the up and down sweeps settle on different responses.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct Hysteresis {
+    pub from: f64,
+    pub to: f64,
+}
+
+/// The result of a sweep.
+#[derive(Debug, Clone)]
+pub struct Sweep {
+    pub param: String,
+    pub responses: Vec<String>,
+    pub coordinates: Vec<String>,
+    /// Equilibrium the sweep starts from.
+    pub equilibrium: Vec<f64>,
+    /// Sorted by direction, then frequency.
+    pub points: Vec<SweepPoint>,
+    pub peaks: Vec<Peak>,
+    /// Where up and down differ by more than 1 % (mode `both`).
+    pub hysteresis: Vec<Hysteresis>,
+    /// False when interrupted: `points` holds what was computed.
+    pub complete: bool,
+}
+
+/// The compiled system at one value of the frequency parameter.
+fn system_at(model: &Model, param: &str, omega: f64) -> Result<System> {
+    let m = model.with_overrides(&[(param.to_string(), format!("{omega:?}"))])?;
+    System::new(&m)
+}
+
+fn check_request(model: &Model, opts: &SweepOptions) -> Result<()> {
+    if model.parameters.index(&opts.param).is_none() {
+        return Err(Error::request(
+            format!("--param {}: the model has no parameter `{}`", opts.param, opts.param),
+            crate::model::suggest(&opts.param, model.parameters.names())
+                .unwrap_or_else(|| "give the parameter that is the forcing frequency".into()),
+        ));
+    }
+    match &model.forcing_frequency {
+        Some(f) if *f != opts.param => {
+            return Err(Error::request(
+                format!(
+                    "--param {}: the forcing of this model does not depend on `{}`; it turns at `{f}`",
+                    opts.param, opts.param
+                ),
+                format!("use --param {f}"),
+            ));
+        }
+        None => {
+            return Err(Error::request(
+                format!("the model does not say which parameter is its forcing frequency"),
+                "add `forcing_frequency = \"omega\"` to [model]",
+            ));
+        }
+        _ => {}
+    }
+    if opts.values.is_empty() || opts.values.iter().any(|w| !(*w > 0.0) || !w.is_finite()) {
+        return Err(Error::request(
+            "the sweep needs positive, finite frequencies",
+            "give --from > 0",
+        ));
+    }
+    if let Some(r) = opts.refine {
+        if !(r > 0.0) || !r.is_finite() {
+            return Err(Error::request(format!("--refine {r} is not valid"), "give a positive resolution, e.g. 1e-3"));
+        }
+    }
+    Ok(())
+}
+
+/// Run a sweep. `progress` is called with the number of frequencies done (coarse grid
+/// and refinement); `cancel` stops it between periods, returning what was computed with
+/// `complete = false`.
+pub fn sweep(
+    model: &Model,
+    opts: &SweepOptions,
+    progress: &(dyn Fn(usize) + Sync),
+    cancel: &AtomicBool,
+) -> Result<Sweep> {
+    check_request(model, opts)?;
+    let sys0 = System::new(model)?;
+    let responses: Vec<usize> = opts
+        .responses
+        .iter()
+        .map(|r| crate::linear::coordinate(&sys0, r, "--response"))
+        .collect::<Result<_>>()?;
+    let start = crate::dynamics::assemble(&sys0)?;
+    let st = Statics::new(&sys0, &start.q)?;
+    let eq = st.nearest(&start)?;
+    let rest = State {
+        t: 0.0,
+        q: eq.q.clone(),
+        v: vec![0.0; sys0.n()],
+    };
+    // zero forcing is an error, not a curve of zeros
+    {
+        let s = system_at(model, &opts.param, opts.values[0])?;
+        let f1 = crate::linear::first_harmonic(&s, &eq.q, opts.values[0]);
+        let mut mean = vec![0.0; s.n()];
+        s.forces(&eq.q, &vec![0.0; s.n()], 0.0, &mut mean);
+        let load = mean.iter().fold(1.0f64, |a, v| a.max(v.abs()));
+        if f1.iter().all(|c| c.norm() <= 1e-12 * load) {
+            return Err(Error::request(
+                format!("zero forcing: the model's loads have no harmonic part at {} = {}", opts.param, opts.values[0]),
+                "give the forcing an amplitude (for the overcentre, --set F0=1)",
+            ));
+        }
+    }
+    let done = AtomicUsize::new(0);
+    let tick = || progress(done.fetch_add(1, Ordering::Relaxed) + 1);
+    let eval = |omega: f64, from: &State| -> Result<SteadyState> {
+        let s = system_at(model, &opts.param, omega)?;
+        let r = steady_state(&s, from, omega, &responses, &opts.steady, cancel);
+        tick();
+        r
+    };
+    let mut points: Vec<SweepPoint> = Vec::new();
+    let mut complete = true;
+    let directions: Vec<Direction> = match opts.mode {
+        SweepMode::Independent => vec![Direction::Independent],
+        SweepMode::Up => vec![Direction::Up],
+        SweepMode::Down => vec![Direction::Down],
+        SweepMode::Both => vec![Direction::Up, Direction::Down],
+    };
+    for &dir in &directions {
+        let (pts, ok) = match dir {
+            Direction::Independent => {
+                let results: Vec<Result<SteadyState>> =
+                    opts.values.par_iter().map(|&w| eval(w, &rest)).collect();
+                collect(results, dir)
+            }
+            Direction::Up | Direction::Down => {
+                let mut order: Vec<f64> = opts.values.clone();
+                if dir == Direction::Down {
+                    order.reverse();
+                }
+                let mut from = rest.clone();
+                let mut results = Vec::new();
+                for w in order {
+                    let r = eval(w, &from);
+                    if let Ok(s) = &r {
+                        from = s.end.clone();
+                    }
+                    let stop = r.is_err();
+                    results.push(r);
+                    if stop {
+                        break;
+                    }
+                }
+                collect(results, dir)
+            }
+        };
+        if let Err(e) = ok {
+            if !cancel.load(Ordering::Relaxed) {
+                return Err(e);
+            }
+            complete = false;
+        }
+        points.extend(pts);
+        if !complete {
+            break;
+        }
+    }
+    // Refinement around every local maximum, per response and direction.
+    let mut peaks = Vec::new();
+    if complete {
+        let mut jobs = Vec::new();
+        for &dir in &directions {
+            let mut line: Vec<&SweepPoint> = points.iter().filter(|p| p.direction == dir).collect();
+            line.sort_by(|a, b| a.steady.omega.total_cmp(&b.steady.omega));
+            for r in 0..responses.len() {
+                for i in 1..line.len().saturating_sub(1) {
+                    let a = |k: usize| line[k].steady.measures[r].amplitude;
+                    if a(i) > a(i - 1) && a(i) >= a(i + 1) {
+                        // start state on the branch: the neighbour before it in the sweep
+                        let from = match dir {
+                            Direction::Independent => rest.clone(),
+                            Direction::Up => line[i - 1].steady.end.clone(),
+                            Direction::Down => line[i + 1].steady.end.clone(),
+                        };
+                        jobs.push((dir, r, line[i - 1].steady.omega, line[i].steady.omega, line[i + 1].steady.omega, a(i), from));
+                    }
+                }
+            }
+        }
+        let refined: Vec<Result<(Peak, Vec<SweepPoint>)>> = jobs
+            .into_par_iter()
+            .map(|(dir, r, lo, mid, hi, amp, from)| {
+                refine_peak(&eval, &from, dir, r, &opts.responses[r], (lo, mid, hi), amp, opts.refine)
+            })
+            .collect();
+        for res in refined {
+            match res {
+                Ok((peak, extra)) => {
+                    peaks.push(peak);
+                    points.extend(extra);
+                }
+                Err(e) => {
+                    if !cancel.load(Ordering::Relaxed) {
+                        return Err(e);
+                    }
+                    complete = false;
+                }
+            }
+        }
+    }
+    points.sort_by(|a, b| {
+        (a.direction as u8)
+            .cmp(&(b.direction as u8))
+            .then(a.steady.omega.total_cmp(&b.steady.omega))
+    });
+    points.dedup_by(|a, b| a.direction == b.direction && a.steady.omega == b.steady.omega);
+    peaks.sort_by(|a, b| a.omega.total_cmp(&b.omega));
+    let hysteresis = if opts.mode == SweepMode::Both && complete {
+        hysteresis(&points, &opts.values)
+    } else {
+        Vec::new()
+    };
+    Ok(Sweep {
+        param: opts.param.clone(),
+        responses: opts.responses.clone(),
+        coordinates: sys0.coordinates.clone(),
+        equilibrium: eq.q,
+        points,
+        peaks,
+        hysteresis,
+        complete,
+    })
+}
+
+fn collect(results: Vec<Result<SteadyState>>, dir: Direction) -> (Vec<SweepPoint>, Result<()>) {
+    let mut pts = Vec::new();
+    let mut status = Ok(());
+    for r in results {
+        match r {
+            Ok(s) => pts.push(SweepPoint {
+                direction: dir,
+                steady: s,
+                refined: false,
+            }),
+            Err(e) => {
+                if status.is_ok() {
+                    status = Err(e);
+                }
+            }
+        }
+    }
+    (pts, status)
+}
+
+/// Golden-section search for the amplitude maximum in (lo, hi) around `mid`, down to
+/// `resolution`; the estimate is the vertex of the parabola through the best three
+/// evaluated points, the uncertainty half the final bracket.
+#[allow(clippy::too_many_arguments)]
+fn refine_peak(
+    eval: &(dyn Fn(f64, &State) -> Result<SteadyState> + Sync),
+    from: &State,
+    dir: Direction,
+    r: usize,
+    name: &str,
+    (lo, mid, hi): (f64, f64, f64),
+    amp: f64,
+    resolution: Option<f64>,
+) -> Result<(Peak, Vec<SweepPoint>)> {
+    let mut evaluated: Vec<(f64, f64)> = vec![(mid, amp)];
+    let mut extra = Vec::new();
+    let Some(res) = resolution else {
+        return Ok((
+            Peak {
+                response: name.to_string(),
+                direction: dir,
+                omega: mid,
+                amplitude: amp,
+                uncertainty: 0.5 * (hi - lo),
+            },
+            extra,
+        ));
+    };
+    let mut f = |w: f64| -> Result<f64> {
+        let s = eval(w, from)?;
+        let a = s.measures[r].amplitude;
+        evaluated.push((w, a));
+        extra.push(SweepPoint {
+            direction: dir,
+            steady: s,
+            refined: true,
+        });
+        Ok(a)
+    };
+    let g = 0.5 * (5f64.sqrt() - 1.0);
+    let (mut a, mut b) = (lo, hi);
+    let mut x1 = b - g * (b - a);
+    let mut x2 = a + g * (b - a);
+    let mut f1 = f(x1)?;
+    let mut f2 = f(x2)?;
+    while b - a > res {
+        if f1 >= f2 {
+            b = x2;
+            x2 = x1;
+            f2 = f1;
+            x1 = b - g * (b - a);
+            f1 = f(x1)?;
+        } else {
+            a = x1;
+            x1 = x2;
+            f1 = f2;
+            x2 = a + g * (b - a);
+            f2 = f(x2)?;
+        }
+    }
+    let mut pts = evaluated.clone();
+    pts.sort_by(|p, q| q.1.total_cmp(&p.1));
+    let best = pts[0];
+    let mut three: Vec<(f64, f64)> = pts.iter().take(3).copied().collect();
+    three.sort_by(|p, q| p.0.total_cmp(&q.0));
+    let vertex = parabola_vertex(&three).filter(|v| *v >= a && *v <= b);
+    let omega = vertex.unwrap_or(best.0);
+    Ok((
+        Peak {
+            response: name.to_string(),
+            direction: dir,
+            omega,
+            amplitude: best.1,
+            uncertainty: 0.5 * (b - a),
+        },
+        extra,
+    ))
+}
+
+fn parabola_vertex(p: &[(f64, f64)]) -> Option<f64> {
+    if p.len() < 3 {
+        return None;
+    }
+    let ((x0, y0), (x1, y1), (x2, y2)) = (p[0], p[1], p[2]);
+    let d = (x0 - x1) * (x0 - x2) * (x1 - x2);
+    if d == 0.0 {
+        return None;
+    }
+    let a = (x2 * (y1 - y0) + x1 * (y0 - y2) + x0 * (y2 - y1)) / d;
+    let b = (x2 * x2 * (y0 - y1) + x1 * x1 * (y2 - y0) + x0 * x0 * (y1 - y2)) / d;
+    if a >= 0.0 {
+        return None;
+    }
+    Some(-b / (2.0 * a))
+}
+
+/// Coarse-grid intervals where up and down amplitudes (first response) differ by > 1 %.
+fn hysteresis(points: &[SweepPoint], grid: &[f64]) -> Vec<Hysteresis> {
+    let amp = |dir: Direction, w: f64| {
+        points
+            .iter()
+            .find(|p| p.direction == dir && p.steady.omega == w && !p.refined)
+            .map(|p| p.steady.measures[0].amplitude)
+    };
+    let mut out: Vec<Hysteresis> = Vec::new();
+    let mut open: Option<f64> = None;
+    let mut last = grid[0];
+    for &w in grid {
+        let differ = match (amp(Direction::Up, w), amp(Direction::Down, w)) {
+            (Some(u), Some(d)) => (u - d).abs() > 0.01 * u.abs().max(d.abs()),
+            _ => false,
+        };
+        match (differ, open) {
+            (true, None) => open = Some(w),
+            (false, Some(s)) => {
+                out.push(Hysteresis { from: s, to: last });
+                open = None;
+            }
+            _ => {}
+        }
+        last = w;
+    }
+    if let Some(s) = open {
+        out.push(Hysteresis { from: s, to: last });
+    }
+    out
+}
