@@ -50,6 +50,68 @@ enum Command {
     /// Linear frequency response about the equilibrium nearest the initial pose.
     #[command(allow_negative_numbers = true)]
     Frf(FrfArgs),
+    /// Stepped-sine frequency response of the nonlinear model: steady states by time
+    /// simulation, resonances located by refinement.
+    #[command(allow_negative_numbers = true)]
+    Sweep(SweepArgs),
+}
+
+#[derive(Clone, Copy, clap::ValueEnum)]
+enum ModeArg {
+    /// every frequency from the equilibrium at rest, in parallel
+    Independent,
+    /// increasing frequency, each from the previous steady state
+    Up,
+    /// decreasing frequency, each from the previous steady state
+    Down,
+    /// up, then down; reports where they differ (hysteresis)
+    Both,
+}
+
+#[derive(Args)]
+struct SweepArgs {
+    #[command(flatten)]
+    model: ModelArgs,
+    /// The forcing's frequency parameter (rad/s).
+    #[arg(long, value_name = "NAME")]
+    param: String,
+    #[arg(long, value_name = "A")]
+    from: f64,
+    #[arg(long, value_name = "B")]
+    to: f64,
+    #[arg(long, value_name = "S")]
+    step: f64,
+    /// Locate every resonance (local maximum of the amplitude) to this resolution, rad/s.
+    #[arg(long, value_name = "R")]
+    refine: Option<f64>,
+    #[arg(long, value_enum, default_value = "independent")]
+    mode: ModeArg,
+    /// Coordinate to report (repeatable) [default: every coordinate].
+    #[arg(long, value_name = "NAME")]
+    response: Vec<String>,
+    /// Repeat the sweep for each value of a parameter: PARAM=v1,v2,... (e.g. F0=0.1,1,2).
+    #[arg(long, value_name = "PARAM=V1,V2,...", allow_hyphen_values = true)]
+    values: Option<String>,
+    /// Settling tolerance: Poincaré points agree to this fraction of the amplitude.
+    #[arg(long, default_value_t = 1e-8, value_name = "TOL")]
+    settle_tol: f64,
+    /// Most periods per frequency.
+    #[arg(long, default_value_t = 600, value_name = "N")]
+    max_periods: usize,
+    #[arg(long, default_value_t = 1e-10, value_name = "R")]
+    rtol: f64,
+    #[arg(long, default_value_t = 1e-12, value_name = "A")]
+    atol: f64,
+    /// CSV: one row per frequency (and direction and --values entry).
+    #[arg(short = 'o', long = "output", value_name = "OUT.csv")]
+    output: Option<String>,
+    /// Print the JSON result.
+    #[arg(long)]
+    json: bool,
+    /// SVG: amplitude of the first response against frequency (with --values, also
+    /// normalized by the value), the linear natural frequencies marked.
+    #[arg(long, value_name = "OUT.svg")]
+    plot: Option<String>,
 }
 
 #[derive(Args)]
@@ -212,6 +274,7 @@ fn main() {
         Command::Continue(a) => continue_cmd(a),
         Command::Modes(a) => modes_cmd(a),
         Command::Frf(a) => frf_cmd(a),
+        Command::Sweep(a) => sweep_cmd(a),
     };
     if let Err(e) = result {
         eprint!("{}", e.render(std::io::stderr().is_terminal()));
@@ -376,6 +439,7 @@ fn trajectory_plot(model: &Model, traj: &Trajectory) -> LinePlot {
                 style: Style::Solid,
             })
             .collect(),
+        vertical: Vec::new(),
     }
 }
 
@@ -547,6 +611,7 @@ fn branch_plot(model: &Model, b: &Branch, idx: usize) -> LinePlot {
         x_label: b.param.clone(),
         y_label: format!("{} [{}]", b.coordinates[idx], unit_of(&b.coordinates[idx])),
         series,
+        vertical: Vec::new(),
     }
 }
 
@@ -645,4 +710,261 @@ fn frf_cmd(a: FrfArgs) -> Result<()> {
         }
     }
     Ok(())
+}
+
+static INTERRUPTED: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
+fn sweep_cmd(a: SweepArgs) -> Result<()> {
+    use detune::frequency::{SteadyOptions, SweepMode, SweepOptions, sweep};
+    use detune::output::results::{SweepRun, sweep_json, write_sweep_csv};
+    let model = a.model.load()?;
+    let values = detune::linear::grid(a.from, a.to, a.step)?;
+    let responses = if a.response.is_empty() {
+        model.coordinate_names()
+    } else {
+        a.response.clone()
+    };
+    let family: Vec<(Option<(String, f64)>, Model)> = match &a.values {
+        None => vec![(None, model.clone())],
+        Some(spec) => {
+            let (name, list) = spec.split_once('=').ok_or_else(|| {
+                Error::request(
+                    format!("--values {spec}: expected PARAM=v1,v2,..."),
+                    "for example --values F0=0.1,1,2,3,4",
+                )
+            })?;
+            let mut out = Vec::new();
+            for v in list.split(',') {
+                let m = model.with_overrides(&[(name.trim().to_string(), v.trim().to_string())])?;
+                let value = m.parameters.value(name.trim()).unwrap_or(f64::NAN);
+                out.push((Some((name.trim().to_string(), value)), m));
+            }
+            out
+        }
+    };
+    let opts = SweepOptions {
+        param: a.param.clone(),
+        values: values.clone(),
+        mode: match a.mode {
+            ModeArg::Independent => SweepMode::Independent,
+            ModeArg::Up => SweepMode::Up,
+            ModeArg::Down => SweepMode::Down,
+            ModeArg::Both => SweepMode::Both,
+        },
+        responses: responses.clone(),
+        refine: a.refine,
+        steady: SteadyOptions {
+            rtol: a.rtol,
+            atol: a.atol,
+            settle_tol: a.settle_tol,
+            max_periods: a.max_periods,
+            ..SteadyOptions::default()
+        },
+    };
+    if !(a.settle_tol > 0.0 && a.settle_tol < 1.0) {
+        return Err(Error::request(
+            format!("--settle-tol {} is not valid", a.settle_tol),
+            "give a fraction such as 1e-8",
+        ));
+    }
+    let _ = ctrlc::set_handler(|| INTERRUPTED.store(true, std::sync::atomic::Ordering::SeqCst));
+    let per_run = values.len()
+        * if matches!(a.mode, ModeArg::Both) {
+            2
+        } else {
+            1
+        };
+    let bar = indicatif::ProgressBar::new((per_run * family.len()) as u64);
+    bar.set_style(
+        indicatif::ProgressStyle::with_template(
+            "sweeping {bar:40} {pos}/{len} frequencies {elapsed} (eta {eta})",
+        )
+        .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+    );
+    let began = std::time::Instant::now();
+    let mut sweeps = Vec::new();
+    let mut offset = 0u64;
+    for (value, m) in &family {
+        let b = bar.clone();
+        let base = offset;
+        let s = sweep(
+            m,
+            &opts,
+            &move |done| {
+                let pos = base + done as u64;
+                if pos > b.length().unwrap_or(0) {
+                    b.set_length(pos);
+                }
+                b.set_position(pos);
+            },
+            &INTERRUPTED,
+        );
+        let s = match s {
+            Ok(s) => s,
+            Err(e) => {
+                bar.finish_and_clear();
+                return Err(e);
+            }
+        };
+        offset = bar.position();
+        let complete = s.complete;
+        sweeps.push((value.clone(), s));
+        if !complete {
+            break;
+        }
+    }
+    bar.finish_and_clear();
+    let runs: Vec<SweepRun> = sweeps
+        .iter()
+        .map(|(v, s)| SweepRun {
+            value: v.as_ref().map(|(n, x)| (n.as_str(), *x)),
+            sweep: s,
+        })
+        .collect();
+    let complete = runs.iter().all(|r| r.sweep.complete);
+    if let Some(o) = &a.output {
+        write_sweep_csv(o, &runs)?;
+        eprintln!("wrote {o}{}", if complete { "" } else { " (incomplete)" });
+    }
+    if let Some(p) = &a.plot {
+        let omega_n: Vec<f64> = modal_analysis(&family[0].1, None)
+            .map(|m| {
+                m.undamped_omega2
+                    .iter()
+                    .filter(|w| **w > 0.0)
+                    .map(|w| w.sqrt())
+                    .collect()
+            })
+            .unwrap_or_default();
+        detune::output::plot::write_panels(p, &sweep_plots(&runs, &omega_n))?;
+        eprintln!("wrote {p}");
+    }
+    if a.json {
+        print_json(&sweep_json(&runs, &Provenance::of(&model)));
+    } else {
+        let points: usize = runs.iter().map(|r| r.sweep.points.len()).sum();
+        let periods: usize = runs
+            .iter()
+            .flat_map(|r| &r.sweep.points)
+            .map(|p| p.steady.periods)
+            .sum();
+        let unsettled = runs
+            .iter()
+            .flat_map(|r| &r.sweep.points)
+            .filter(|p| !p.steady.settled)
+            .count();
+        println!(
+            "{points} frequencies in {:.2} s, {:.1} periods per frequency{}",
+            began.elapsed().as_secs_f64(),
+            periods as f64 / points.max(1) as f64,
+            if unsettled > 0 {
+                format!(", {unsettled} NOT settled (raise --max-periods)")
+            } else {
+                String::new()
+            }
+        );
+        for run in &runs {
+            let tag = run
+                .value
+                .map(|(n, v)| format!(" [{n} = {v}]"))
+                .unwrap_or_default();
+            for pk in &run.sweep.peaks {
+                println!(
+                    "peak{tag} {} ({}): {} = {:.6} ± {:.1e} rad/s, amplitude {:.6e}",
+                    pk.response,
+                    pk.direction.name(),
+                    a.param,
+                    pk.omega,
+                    pk.uncertainty,
+                    pk.amplitude
+                );
+            }
+            for h in &run.sweep.hysteresis {
+                println!(
+                    "hysteresis{tag}: up and down differ from {} to {} rad/s",
+                    h.from, h.to
+                );
+            }
+        }
+    }
+    if !complete {
+        return Err(Error::numerical(
+            "the sweep was interrupted",
+            "the frequencies completed were written and marked incomplete",
+        ));
+    }
+    Ok(())
+}
+
+/// Amplitude of the first response against frequency, one curve per --values entry and
+/// direction; with --values, the same normalized by the value (the paper's Figures 8–9).
+fn sweep_plots(runs: &[detune::output::results::SweepRun], omega_n: &[f64]) -> Vec<LinePlot> {
+    let first = runs[0].sweep;
+    let name = &first.responses[0];
+    let vertical: Vec<(f64, String)> = omega_n
+        .iter()
+        .map(|w| (*w, format!("linear ω_n = {w:.4} rad/s")))
+        .collect();
+    let curves = |normalized: bool| -> Vec<Series> {
+        let mut out = Vec::new();
+        for run in runs {
+            for dir in [
+                detune::frequency::Direction::Independent,
+                detune::frequency::Direction::Up,
+                detune::frequency::Direction::Down,
+            ] {
+                let pts: Vec<_> = run
+                    .sweep
+                    .points
+                    .iter()
+                    .filter(|p| p.direction == dir)
+                    .collect();
+                if pts.is_empty() {
+                    continue;
+                }
+                let scale = match (normalized, run.value) {
+                    (true, Some((_, v))) if v != 0.0 => 1.0 / v,
+                    _ => 1.0,
+                };
+                let mut label = run
+                    .value
+                    .map(|(n, v)| format!("{n} = {v}"))
+                    .unwrap_or_else(|| name.clone());
+                if dir != detune::frequency::Direction::Independent {
+                    label.push_str(&format!(" ({})", dir.name()));
+                }
+                out.push(Series {
+                    label,
+                    x: pts.iter().map(|p| p.steady.omega).collect(),
+                    y: pts
+                        .iter()
+                        .map(|p| p.steady.measures[0].amplitude * scale)
+                        .collect(),
+                    style: if dir == detune::frequency::Direction::Down {
+                        Style::Dashed
+                    } else {
+                        Style::Solid
+                    },
+                });
+            }
+        }
+        out
+    };
+    let mut plots = vec![LinePlot {
+        title: format!("{name}: stepped-sine amplitude"),
+        x_label: format!("{} [rad/s]", first.param),
+        y_label: format!("{name} amplitude [{}]", unit_of(name)),
+        series: curves(false),
+        vertical: vertical.clone(),
+    }];
+    if let Some((vname, _)) = runs[0].value {
+        plots.push(LinePlot {
+            title: format!("{name}: amplitude / {vname}"),
+            x_label: format!("{} [rad/s]", first.param),
+            y_label: format!("{name} amplitude / {vname}"),
+            series: curves(true),
+            vertical,
+        });
+    }
+    plots
 }

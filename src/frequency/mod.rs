@@ -138,8 +138,17 @@ pub fn steady_state(
         points.push(y.clone());
         // Settled with the forcing's period, or with k periods.
         for k in 1..=4 {
-            if points.len() > k && recent.len() >= k {
-                let c = relative_change(&y, &points[points.len() - 1 - k], &scale);
+            // a period-k response repeats its whole cycle: the last k Poincaré points all
+            // agree with the points k periods before them (a slowly decaying transient
+            // that alternates can match once, not k times in a row)
+            let need = if k == 1 { 2 } else { 2 * k };
+            if points.len() >= need && recent.len() >= k {
+                let len = points.len();
+                let c = (0..if k == 1 { 1 } else { k })
+                    .map(|j| {
+                        relative_change(&points[len - 1 - j], &points[len - 1 - j - k], &scale)
+                    })
+                    .fold(0.0, f64::max);
                 let shorter = (1..k).any(|j| {
                     points.len() > j
                         && relative_change(&y, &points[points.len() - 1 - j], &scale)
@@ -361,7 +370,10 @@ fn system_at(model: &Model, param: &str, omega: f64) -> Result<System> {
 fn check_request(model: &Model, opts: &SweepOptions) -> Result<()> {
     if model.parameters.index(&opts.param).is_none() {
         return Err(Error::request(
-            format!("--param {}: the model has no parameter `{}`", opts.param, opts.param),
+            format!(
+                "--param {}: the model has no parameter `{}`",
+                opts.param, opts.param
+            ),
             crate::model::suggest(&opts.param, model.parameters.names())
                 .unwrap_or_else(|| "give the parameter that is the forcing frequency".into()),
         ));
@@ -392,7 +404,10 @@ fn check_request(model: &Model, opts: &SweepOptions) -> Result<()> {
     }
     if let Some(r) = opts.refine {
         if !(r > 0.0) || !r.is_finite() {
-            return Err(Error::request(format!("--refine {r} is not valid"), "give a positive resolution, e.g. 1e-3"));
+            return Err(Error::request(
+                format!("--refine {r} is not valid"),
+                "give a positive resolution, e.g. 1e-3",
+            ));
         }
     }
     Ok(())
@@ -431,7 +446,10 @@ pub fn sweep(
         let load = mean.iter().fold(1.0f64, |a, v| a.max(v.abs()));
         if f1.iter().all(|c| c.norm() <= 1e-12 * load) {
             return Err(Error::request(
-                format!("zero forcing: the model's loads have no harmonic part at {} = {}", opts.param, opts.values[0]),
+                format!(
+                    "zero forcing: the model's loads have no harmonic part at {} = {}",
+                    opts.param, opts.values[0]
+                ),
                 "give the forcing an amplitude (for the overcentre, --set F0=1)",
             ));
         }
@@ -508,7 +526,15 @@ pub fn sweep(
                             Direction::Up => line[i - 1].steady.end.clone(),
                             Direction::Down => line[i + 1].steady.end.clone(),
                         };
-                        jobs.push((dir, r, line[i - 1].steady.omega, line[i].steady.omega, line[i + 1].steady.omega, a(i), from));
+                        jobs.push((
+                            dir,
+                            r,
+                            line[i - 1].steady.omega,
+                            line[i].steady.omega,
+                            line[i + 1].steady.omega,
+                            a(i),
+                            from,
+                        ));
                     }
                 }
             }
@@ -516,7 +542,16 @@ pub fn sweep(
         let refined: Vec<Result<(Peak, Vec<SweepPoint>)>> = jobs
             .into_par_iter()
             .map(|(dir, r, lo, mid, hi, amp, from)| {
-                refine_peak(&eval, &from, dir, r, &opts.responses[r], (lo, mid, hi), amp, opts.refine)
+                refine_peak(
+                    &eval,
+                    &from,
+                    dir,
+                    r,
+                    &opts.responses[r],
+                    (lo, mid, hi),
+                    amp,
+                    opts.refine,
+                )
             })
             .collect();
         for res in refined {

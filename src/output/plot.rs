@@ -30,6 +30,8 @@ pub struct LinePlot {
     pub x_label: String,
     pub y_label: String,
     pub series: Vec<Series>,
+    /// Vertical reference lines (x, label), e.g. a linear natural frequency.
+    pub vertical: Vec<(f64, String)>,
 }
 
 const COLORS: [RGBColor; 6] = [
@@ -59,67 +61,97 @@ fn range(values: impl Iterator<Item = f64>) -> (f64, f64) {
 
 /// Render a line plot to an SVG string.
 pub fn line_plot_svg(plot: &LinePlot) -> std::result::Result<String, String> {
+    panels_svg(std::slice::from_ref(plot))
+}
+
+/// Render plots stacked vertically in one SVG.
+pub fn panels_svg(plots: &[LinePlot]) -> std::result::Result<String, String> {
     let mut svg = String::new();
     {
-        let root = SVGBackend::with_string(&mut svg, (900, 540)).into_drawing_area();
+        let height = 540 * plots.len().max(1) as u32;
+        let root = SVGBackend::with_string(&mut svg, (900, height)).into_drawing_area();
         root.fill(&WHITE).map_err(|e| e.to_string())?;
-        let (x0, x1) = range(plot.series.iter().flat_map(|s| s.x.iter().copied()));
-        let (y0, y1) = range(plot.series.iter().flat_map(|s| s.y.iter().copied()));
-        let mut chart = ChartBuilder::on(&root)
-            .caption(&plot.title, ("sans-serif", 22))
-            .margin(15)
-            .x_label_area_size(45)
-            .y_label_area_size(70)
-            .build_cartesian_2d(x0..x1, y0..y1)
-            .map_err(|e| e.to_string())?;
-        chart
-            .configure_mesh()
-            .x_desc(&plot.x_label)
-            .y_desc(&plot.y_label)
-            .draw()
-            .map_err(|e| e.to_string())?;
-        // one color and one legend entry per distinct label
-        let mut labels: Vec<&str> = Vec::new();
-        for s in &plot.series {
-            let first = !labels.contains(&s.label.as_str());
-            if first {
-                labels.push(&s.label);
-            }
-            let i = labels.iter().position(|l| *l == s.label).unwrap_or(0);
-            let color = COLORS[i % COLORS.len()];
-            let pts: Vec<(f64, f64)> = s.x.iter().copied().zip(s.y.iter().copied()).collect();
-            let style = color.stroke_width(2);
-            let drawn = match s.style {
-                Style::Dashed => chart.draw_series(DashedLineSeries::new(pts, 6, 4, style)),
-                Style::Solid => chart.draw_series(LineSeries::new(pts, style)),
-                Style::Markers => chart.draw_series(
-                    pts.into_iter()
-                        .map(|p| Circle::new(p, 5, color.filled()))
-                        .collect::<Vec<_>>(),
-                ),
-            }
-            .map_err(|e| e.to_string())?;
-            if first && !s.label.is_empty() {
-                drawn.label(s.label.clone()).legend(move |(x, y)| {
-                    PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(2))
-                });
-            }
-        }
-        if plot.series.len() > 1 || !plot.series.is_empty() {
-            chart
-                .configure_series_labels()
-                .background_style(WHITE.mix(0.8))
-                .border_style(BLACK)
-                .draw()
-                .map_err(|e| e.to_string())?;
+        let areas = root.split_evenly((plots.len().max(1), 1));
+        for (plot, area) in plots.iter().zip(areas.iter()) {
+            draw_panel(plot, area)?;
         }
         root.present().map_err(|e| e.to_string())?;
     }
     Ok(svg)
 }
 
+fn draw_panel(
+    plot: &LinePlot,
+    area: &DrawingArea<SVGBackend, plotters::coord::Shift>,
+) -> std::result::Result<(), String> {
+    let (x0, x1) = range(plot.series.iter().flat_map(|s| s.x.iter().copied()));
+    let (y0, y1) = range(plot.series.iter().flat_map(|s| s.y.iter().copied()));
+    let mut chart = ChartBuilder::on(area)
+        .caption(&plot.title, ("sans-serif", 22))
+        .margin(15)
+        .x_label_area_size(45)
+        .y_label_area_size(70)
+        .build_cartesian_2d(x0..x1, y0..y1)
+        .map_err(|e| e.to_string())?;
+    chart
+        .configure_mesh()
+        .x_desc(&plot.x_label)
+        .y_desc(&plot.y_label)
+        .draw()
+        .map_err(|e| e.to_string())?;
+    // one color and one legend entry per distinct label
+    let mut labels: Vec<&str> = Vec::new();
+    for s in &plot.series {
+        let first = !labels.contains(&s.label.as_str());
+        if first {
+            labels.push(&s.label);
+        }
+        let i = labels.iter().position(|l| *l == s.label).unwrap_or(0);
+        let color = COLORS[i % COLORS.len()];
+        let pts: Vec<(f64, f64)> = s.x.iter().copied().zip(s.y.iter().copied()).collect();
+        let style = color.stroke_width(2);
+        let drawn = match s.style {
+            Style::Dashed => chart.draw_series(DashedLineSeries::new(pts, 6, 4, style)),
+            Style::Solid => chart.draw_series(LineSeries::new(pts, style)),
+            Style::Markers => chart.draw_series(
+                pts.into_iter()
+                    .map(|p| Circle::new(p, 5, color.filled()))
+                    .collect::<Vec<_>>(),
+            ),
+        }
+        .map_err(|e| e.to_string())?;
+        if first && !s.label.is_empty() {
+            drawn.label(s.label.clone()).legend(move |(x, y)| {
+                PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(2))
+            });
+        }
+    }
+    for (x, label) in &plot.vertical {
+        let line = vec![(*x, y0), (*x, y1)];
+        chart
+            .draw_series(DashedLineSeries::new(line, 4, 4, BLACK.stroke_width(1)))
+            .map_err(|e| e.to_string())?
+            .label(label.clone())
+            .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], BLACK.stroke_width(1)));
+    }
+    if !plot.series.is_empty() {
+        chart
+            .configure_series_labels()
+            .background_style(WHITE.mix(0.8))
+            .border_style(BLACK)
+            .draw()
+            .map_err(|e| e.to_string())?;
+    }
+    Ok(())
+}
+
 /// Write a line plot to an SVG file (atomically).
 pub fn write_line_plot(path: &str, plot: &LinePlot) -> Result<()> {
-    let svg = line_plot_svg(plot).map_err(|e| Error::io(path, format!("plot failed: {e}")))?;
+    write_panels(path, std::slice::from_ref(plot))
+}
+
+/// Write stacked plots to one SVG file (atomically).
+pub fn write_panels(path: &str, plots: &[LinePlot]) -> Result<()> {
+    let svg = panels_svg(plots).map_err(|e| Error::io(path, format!("plot failed: {e}")))?;
     super::write_atomic(path, |w| w.write_all(svg.as_bytes()))
 }

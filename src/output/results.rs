@@ -134,3 +134,143 @@ pub fn frf_json(fr: &FrequencyResponse, provenance: &Provenance) -> Value {
         "provenance": provenance,
     })
 }
+
+/// One sweep of a `--values` family (or the only one).
+pub struct SweepRun<'a> {
+    /// The `--values` parameter and its value for this sweep.
+    pub value: Option<(&'a str, f64)>,
+    pub sweep: &'a crate::frequency::Sweep,
+}
+
+const MEASURES: [&str; 8] = [
+    "amplitude",
+    "max",
+    "min",
+    "mean",
+    "h1",
+    "phase_deg",
+    "h2",
+    "thd",
+];
+
+fn measure_values(m: &crate::frequency::measure::Measures) -> [f64; 8] {
+    [
+        m.amplitude,
+        m.max,
+        m.min,
+        m.mean,
+        m.h1,
+        m.phase_deg,
+        m.h2,
+        m.thd,
+    ]
+}
+
+/// Header of the sweep CSV.
+fn sweep_header(runs: &[SweepRun]) -> Vec<String> {
+    let first = runs[0].sweep;
+    let mut h = vec![first.param.clone(), "direction".to_string()];
+    if let Some((name, _)) = runs[0].value {
+        h.push(name.to_string());
+    }
+    for r in &first.responses {
+        for m in MEASURES {
+            h.push(format!("{r}_{m}"));
+        }
+    }
+    h.extend(["settled", "periods", "period_multiple", "refined"].map(String::from));
+    h
+}
+
+/// Sweep CSV: one row per frequency, direction and `--values` entry. An incomplete
+/// (interrupted) sweep ends with a comment line `# incomplete: ...`.
+pub fn write_sweep_csv(path: &str, runs: &[SweepRun]) -> Result<()> {
+    write_atomic(path, |w| {
+        writeln!(w, "{}", sweep_header(runs).join(","))?;
+        for run in runs {
+            for p in &run.sweep.points {
+                write!(w, "{},{}", num(p.steady.omega), p.direction.name())?;
+                if let Some((_, v)) = run.value {
+                    write!(w, ",{}", num(v))?;
+                }
+                for m in &p.steady.measures {
+                    for x in measure_values(m) {
+                        write!(w, ",{}", num(x))?;
+                    }
+                }
+                writeln!(
+                    w,
+                    ",{},{},{},{}",
+                    u8::from(p.steady.settled),
+                    p.steady.periods,
+                    p.steady.period_multiple,
+                    u8::from(p.refined)
+                )?;
+            }
+        }
+        if runs.iter().any(|r| !r.sweep.complete) {
+            writeln!(
+                w,
+                "# incomplete: interrupted; the rows above are the frequencies completed"
+            )?;
+        }
+        Ok(())
+    })
+}
+
+/// Sweep JSON: equilibrium, points (the CSV rows as objects), peaks, hysteresis.
+pub fn sweep_json(runs: &[SweepRun], provenance: &Provenance) -> Value {
+    let header = sweep_header(runs);
+    let mut points = Vec::new();
+    let mut peaks = Vec::new();
+    let mut hysteresis = Vec::new();
+    for run in runs {
+        let s = run.sweep;
+        for p in &s.points {
+            let mut o = Map::new();
+            let mut k = 0;
+            let mut put = |o: &mut Map<String, Value>, v: Value| {
+                o.insert(header[k].clone(), v);
+                k += 1;
+            };
+            put(&mut o, json!(p.steady.omega));
+            put(&mut o, json!(p.direction.name()));
+            if let Some((_, v)) = run.value {
+                put(&mut o, json!(v));
+            }
+            for m in &p.steady.measures {
+                for x in measure_values(m) {
+                    put(&mut o, json!(x));
+                }
+            }
+            put(&mut o, json!(p.steady.settled));
+            put(&mut o, json!(p.steady.periods));
+            put(&mut o, json!(p.steady.period_multiple));
+            put(&mut o, json!(p.refined));
+            points.push(Value::Object(o));
+        }
+        for pk in &s.peaks {
+            let mut v = json!(pk);
+            if let Some((name, val)) = run.value {
+                v[name] = json!(val);
+            }
+            peaks.push(v);
+        }
+        for h in &s.hysteresis {
+            let mut v = json!(h);
+            if let Some((name, val)) = run.value {
+                v[name] = json!(val);
+            }
+            hysteresis.push(v);
+        }
+    }
+    let first = runs[0].sweep;
+    json!({
+        "equilibrium": coordinates_json(&first.coordinates, &first.equilibrium),
+        "points": points,
+        "peaks": peaks,
+        "hysteresis": hysteresis,
+        "complete": runs.iter().all(|r| r.sweep.complete),
+        "provenance": provenance,
+    })
+}
