@@ -351,3 +351,122 @@ fn bad_analysis_requests_are_refused() {
         );
     }
 }
+
+#[test]
+fn sweep_csv_and_json_contract() {
+    let dir = tempfile::tempdir().unwrap();
+    let csv = dir.path().join("fr.csv");
+    let svg = dir.path().join("fr.svg");
+    let (code, out, err) = detune(&[
+        "sweep",
+        "models/overcentre.toml",
+        "--set",
+        "theta1_0=-0.85",
+        "--set",
+        "c=1",
+        "--param",
+        "omega",
+        "--from",
+        "3.8",
+        "--to",
+        "4.6",
+        "--step",
+        "0.2",
+        "--refine",
+        "0.05",
+        "--response",
+        "bar1.theta",
+        "--values",
+        "F0=0.5,1",
+        "--json",
+        "-o",
+        csv.to_str().unwrap(),
+        "--plot",
+        svg.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 0, "{err}");
+    let text = std::fs::read_to_string(&csv).unwrap();
+    let header = text.lines().next().unwrap();
+    assert_eq!(
+        header,
+        "omega,direction,F0,bar1.theta_amplitude,bar1.theta_max,bar1.theta_min,bar1.theta_mean,bar1.theta_h1,bar1.theta_phase_deg,bar1.theta_h2,bar1.theta_thd,settled,periods,period_multiple,refined"
+    );
+    let j: serde_json::Value = serde_json::from_str(&out).unwrap();
+    assert_eq!(j["complete"], true);
+    let points = j["points"].as_array().unwrap();
+    assert_eq!(points.len(), text.lines().count() - 1);
+    assert_eq!(points[0]["direction"], "independent");
+    assert!(points[0]["bar1.theta_amplitude"].as_f64().unwrap() > 0.0);
+    let peaks = j["peaks"].as_array().unwrap();
+    assert_eq!(peaks.len(), 2, "one per F0");
+    assert!(
+        peaks
+            .iter()
+            .all(|p| (p["omega"].as_f64().unwrap() - 4.27).abs() < 0.05
+                && p["uncertainty"].as_f64().unwrap() <= 0.025)
+    );
+    assert!((j["equilibrium"]["bar1.theta"].as_f64().unwrap() + 0.8657391595945).abs() < 1e-9);
+    assert!(
+        std::fs::read_to_string(&svg)
+            .unwrap()
+            .contains("amplitude / F0")
+    );
+}
+
+#[test]
+fn interrupted_sweep_writes_a_complete_file_marked_incomplete() {
+    let dir = tempfile::tempdir().unwrap();
+    let csv = dir.path().join("fr.csv");
+    let mut child = Command::new(env!("CARGO_BIN_EXE_detune"))
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .args([
+            "sweep",
+            "models/overcentre.toml",
+            "--set",
+            "theta1_0=-0.85",
+            "--set",
+            "F0=4",
+            "--set",
+            "c=0.2",
+            "--param",
+            "omega",
+            "--from",
+            "0.5",
+            "--to",
+            "8",
+            "--step",
+            "0.002",
+            "--mode",
+            "up",
+            "--response",
+            "bar1.theta",
+            "-o",
+            csv.to_str().unwrap(),
+        ])
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    std::thread::sleep(std::time::Duration::from_millis(1500));
+    let killed = Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(killed.success());
+    let out = child.wait_with_output().unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(err.contains("interrupted"), "{err}");
+    let text = std::fs::read_to_string(&csv).unwrap();
+    let lines: Vec<&str> = text.lines().collect();
+    assert!(lines[0].starts_with("omega,direction,bar1.theta_amplitude"));
+    assert!(lines.last().unwrap().starts_with("# incomplete"));
+    assert!(
+        lines.len() > 2 && lines.len() < 3000,
+        "{} rows",
+        lines.len()
+    );
+    for row in &lines[1..lines.len() - 1] {
+        assert_eq!(row.split(',').count(), lines[0].split(',').count());
+    }
+}

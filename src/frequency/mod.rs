@@ -40,6 +40,9 @@ pub struct SteadyOptions {
     pub samples: usize,
     /// Accelerate settling by extrapolating the Poincaré sequence.
     pub extrapolate: bool,
+    /// The classical protocol instead of detection: integrate exactly this many periods
+    /// and measure the last one (`settled` is then false: nothing was checked).
+    pub fixed_periods: Option<usize>,
 }
 
 impl Default for SteadyOptions {
@@ -51,6 +54,7 @@ impl Default for SteadyOptions {
             max_periods: 600,
             samples: 128,
             extrapolate: true,
+            fixed_periods: None,
         }
     }
 }
@@ -103,6 +107,37 @@ pub fn steady_state(
     let mut extrapolate = opts.extrapolate;
     let mut pending_check: Option<(f64, State)> = None;
     let mut last_change = f64::INFINITY;
+    if let Some(count) = opts.fixed_periods {
+        for _ in 0..count {
+            if cancel.load(Ordering::Relaxed) {
+                return Err(Error::numerical("interrupted", "the sweep was interrupted"));
+            }
+            let traj = simulate(sys, &state, &sim, &mut |_| {})?;
+            let k_last = traj.t.len() - 1;
+            recent = vec![
+                responses
+                    .iter()
+                    .map(|&i| traj.q[..k_last].iter().map(|q| q[i]).collect())
+                    .collect(),
+            ];
+            state = State {
+                t: 0.0,
+                q: traj.q[k_last].clone(),
+                v: traj.v[k_last].clone(),
+            };
+        }
+        let measures = (0..responses.len())
+            .map(|r| Measures::of(&recent[0][r], 1))
+            .collect();
+        return Ok(SteadyState {
+            omega,
+            settled: false,
+            periods: count,
+            period_multiple: 1,
+            measures,
+            end: state,
+        });
+    }
     for p in 1..=opts.max_periods {
         if cancel.load(Ordering::Relaxed) {
             return Err(Error::numerical("interrupted", "the sweep was interrupted"));
