@@ -58,3 +58,13 @@ fn detected_refined_2_threads() -> Sweep {
 fn paper_protocol_100_periods_2_threads() -> Sweep {
     run(2, &options(Some(100), None))
 }
+
+#[divan::bench(sample_count = 5)]
+fn detected_coarse_only_1_thread() -> Sweep {
+    run(1, &options(None, None))
+}
+
+#[divan::bench(sample_count = 5)]
+fn detected_coarse_only_2_threads() -> Sweep {
+    run(2, &options(None, None))
+}
