@@ -450,9 +450,12 @@ impl Compiler<'_> {
     }
 
     fn compile_field(&mut self, f: &Field, coords: bool, time: bool) -> Option<Compiled> {
-        let r = f
-            .expr
-            .compile(&mut |name, span| self.lookup(name, span, coords, time));
+        let params = &self.model.parameters;
+        let var_dim = |n: &str| params.index(n).and_then(|i| params.dims[i]);
+        let r = f.expr.check_dims(&var_dim).and_then(|_| {
+            f.expr
+                .compile(&mut |name, span| self.lookup(name, span, coords, time))
+        });
         match r {
             Ok(c) => Some(c),
             Err(e) => {

@@ -76,8 +76,11 @@ fn set_errors_name_the_problem() {
     assert!(e.contains("furlongs"), "{e}");
     let e = with(&[("k", "2*kk")]).unwrap_err().to_string();
     assert!(e.contains("kk"), "{e}");
-    let e = with(&[("k", "k")]).unwrap_err().to_string();
-    assert!(e.contains("cycle"), "{e}");
+    // a parameter's own name in its --set means its value before: not a cycle
+    assert_eq!(
+        with(&[("k", "k/2")]).unwrap().parameters.value("k"),
+        Some(25.0)
+    );
 }
 
 #[test]
@@ -177,4 +180,50 @@ fn overrides_accumulate() {
     assert_eq!(m.parameters.value("s"), Some(2.5));
     assert_eq!(m.parameters.value("Fs"), Some(1.0));
     assert_eq!(m.overrides.len(), 2);
+}
+
+#[test]
+fn a_set_may_refer_to_the_parameters_own_value() {
+    let m = with(&[("L1", "2*L1")]).unwrap();
+    assert!((m.parameters.value("L1").unwrap() - 4.0 * 2f64.sqrt()).abs() < 1e-14);
+    assert_eq!(m.parameters.value("s"), m.parameters.value("L1"));
+}
+
+#[test]
+fn silent_wrong_answers_are_refused() {
+    let text = std::fs::read_to_string(format!(
+        "{}/models/overcentre.toml",
+        env!("CARGO_MANIFEST_DIR")
+    ))
+    .unwrap();
+    let load = |from: &str, to: &str| {
+        assert!(text.contains(from), "{from}");
+        Model::from_str("t.toml", &text.replacen(from, to, 1))
+            .map(|_| ())
+            .unwrap_err()
+            .to_string()
+    };
+    // a plain number with a non-SI declared unit
+    let e = load(
+        "L0 = { value = 2, unit = \"m\"",
+        "L0 = { value = 2000, unit = \"mm\"",
+    );
+    assert!(e.contains("plain number") && e.contains("2000 mm"), "{e}");
+    // sums of unlike quantities, functions of dimensioned quantities
+    let e = load("free_length = \"L0\"", "free_length = \"2 m + 3 s\"");
+    assert!(e.contains("adding or subtracting"), "{e}");
+    let e = load("free_length = \"L0\"", "free_length = \"L0*cos(2 m)\"");
+    assert!(e.contains("cos of a quantity in m"), "{e}");
+    // a field that the type does not use
+    let e = load(
+        "type = \"revolute\"\nbody1 = \"bar1\"\npoint1 = [\"-L1/2\", 0]",
+        "type = \"revolute\"\naxis = [1, 0]\nbody1 = \"bar1\"\npoint1 = [\"-L1/2\", 0]",
+    );
+    assert!(e.contains("`axis` is not a field of a `revolute`"), "{e}");
+    // a point force on the ground
+    let e = load(
+        "body = \"bar1\"\npoint = [\"s - L1/2\", 0]",
+        "body = \"ground\"\npoint = [\"s - L1/2\", 0]",
+    );
+    assert!(e.contains("acts on the ground"), "{e}");
 }

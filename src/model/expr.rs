@@ -395,6 +395,66 @@ impl Expr {
         }
     }
 
+    /// Dimensional consistency where decidable: a sum of two quantities of different
+    /// dimensions (`2 m + 3 s`), or a quantity with a dimension as the argument of a
+    /// function that needs a pure number (`sin(2 m)`, `exp`, `ln`, `asin`, ...), is an error.
+    pub fn check_dims(&self, var_dim: &dyn Fn(&str) -> Option<Dim>) -> Result<(), ExprError> {
+        match self {
+            Expr::Number { .. } | Expr::Pi { .. } | Expr::Quantity { .. } | Expr::Var { .. } => {
+                Ok(())
+            }
+            Expr::Neg { arg, .. } => arg.check_dims(var_dim),
+            Expr::Binary { op, lhs, rhs, span } => {
+                lhs.check_dims(var_dim)?;
+                rhs.check_dims(var_dim)?;
+                if matches!(op, BinOp::Add | BinOp::Sub) {
+                    if let (DimInfo::Known(a), DimInfo::Known(b)) =
+                        (lhs.dim_info(var_dim), rhs.dim_info(var_dim))
+                    {
+                        if a != b {
+                            return Err(ExprError::new(
+                                span.clone(),
+                                format!("adding or subtracting quantities in {a} and {b}"),
+                            )
+                            .with_help("both sides of + and − need the same dimension"));
+                        }
+                    }
+                }
+                Ok(())
+            }
+            Expr::Call { func, args, span } => {
+                for a in args {
+                    a.check_dims(var_dim)?;
+                }
+                let pure = matches!(
+                    func,
+                    Func::Sin
+                        | Func::Cos
+                        | Func::Tan
+                        | Func::Asin
+                        | Func::Acos
+                        | Func::Atan
+                        | Func::Exp
+                        | Func::Ln
+                );
+                if pure {
+                    if let DimInfo::Known(d) = args[0].dim_info(var_dim) {
+                        if !d.is_dimensionless() {
+                            return Err(ExprError::new(
+                                span.clone(),
+                                format!("{} of a quantity in {d}", func.name()),
+                            )
+                            .with_help(
+                                "this function needs a pure number (angles are in rad or deg)",
+                            ));
+                        }
+                    }
+                }
+                Ok(())
+            }
+        }
+    }
+
     /// The value of a subexpression made only of plain numbers, `pi` and functions of them.
     fn plain_constant(&self) -> Option<f64> {
         if self.has_units() || !self.variables().is_empty() {

@@ -148,8 +148,8 @@ pub struct RawBody {
     pub theta: Option<SValue>,
     #[serde(default)]
     pub fix: Vec<SString>,
-    /// Initial velocities by coordinate name (`{ theta = 0.5 }`); those of fixed
-    /// coordinates are held, the rest solved from the velocity constraints.
+    /// Initial velocities by coordinate name (`{ theta = 0.5 }`): every velocity given
+    /// is held; the others are solved from the velocity constraints (minimum norm).
     #[serde(default)]
     pub velocity: std::collections::BTreeMap<String, SValue>,
 }
@@ -172,8 +172,7 @@ pub struct RawJoint {
     pub point2: Option<SVector>,
     /// Slot direction in body 2's frame (pin_in_slot, prismatic).
     pub axis: Option<SVector>,
-    /// Relative angle θ1 − θ2 held by prismatic and fixed joints, rad (default: the
-    /// assembled initial value is not used; 0 unless given).
+    /// Relative angle θ1 − θ2 held by prismatic and fixed joints, rad (default 0).
     pub angle: Option<SValue>,
 }
 

@@ -473,6 +473,23 @@ impl Builder<'_> {
         }
     }
 
+    /// Fields given that this `type` does not use: an error, not silently ignored.
+    fn unexpected(&mut self, kind: &str, fields: &[(&str, Option<Range<usize>>)]) -> bool {
+        let mut ok = true;
+        for (name, span) in fields {
+            if let Some(span) = span {
+                self.diags.push(
+                    Diagnostic::new(format!("`{name}` is not a field of a `{kind}`"))
+                        .at(span.clone())
+                        .label("not used by this type")
+                        .help(format!("remove `{name}`, or change `type`")),
+                );
+                ok = false;
+            }
+        }
+        ok
+    }
+
     fn vector2(&mut self, v: &SVector, what: &str) -> Option<[Field; 2]> {
         let items = v.get_ref();
         if items.len() != 2 {
@@ -674,6 +691,17 @@ impl Builder<'_> {
             Some(a) => b.field(a),
             None => Some(Field::default_value(0.0, span.clone())),
         };
+        let axis_span = raw.axis.as_ref().map(|a| a.span());
+        let angle_span = raw.angle.as_ref().map(|a| a.span());
+        let fine = match kind_name {
+            "revolute" => self.unexpected(kind_name, &[("axis", axis_span), ("angle", angle_span)]),
+            "pin_in_slot" => self.unexpected(kind_name, &[("angle", angle_span)]),
+            "fixed" => self.unexpected(kind_name, &[("axis", axis_span)]),
+            _ => true,
+        };
+        if !fine {
+            return None;
+        }
         let kind = match kind_name {
             "revolute" => JointKind::Revolute,
             "pin_in_slot" => JointKind::PinInSlot { axis: axis(self)? },
@@ -715,6 +743,46 @@ impl Builder<'_> {
             .clone()
             .unwrap_or_else(|| format!("force{}", i + 1));
         let owner = format!("force `{name}` ({kind_name})");
+        let sp = |v: &Option<SValue>| v.as_ref().map(|x| x.span());
+        let vp = |v: &Option<SVector>| v.as_ref().map(|x| x.span());
+        let bp = |v: &Option<SString>| v.as_ref().map(|x| x.span());
+        let fine = match kind_name {
+            "gravity" => self.unexpected(
+                kind_name,
+                &[
+                    ("body1", bp(&raw.body1)),
+                    ("point1", vp(&raw.point1)),
+                    ("body2", bp(&raw.body2)),
+                    ("point2", vp(&raw.point2)),
+                    ("stiffness", sp(&raw.stiffness)),
+                    ("damping", sp(&raw.damping)),
+                    ("free_length", sp(&raw.free_length)),
+                    ("force", vp(&raw.force)),
+                ],
+            ),
+            "spring_damper" => self.unexpected(
+                kind_name,
+                &[
+                    ("acceleration", vp(&raw.acceleration)),
+                    ("force", vp(&raw.force)),
+                ],
+            ),
+            "point_force" => self.unexpected(
+                kind_name,
+                &[
+                    ("acceleration", vp(&raw.acceleration)),
+                    ("body2", bp(&raw.body2)),
+                    ("point2", vp(&raw.point2)),
+                    ("stiffness", sp(&raw.stiffness)),
+                    ("damping", sp(&raw.damping)),
+                    ("free_length", sp(&raw.free_length)),
+                ],
+            ),
+            _ => true,
+        };
+        if !fine {
+            return None;
+        }
         let kind = match kind_name {
             "gravity" => {
                 let acceleration = match &raw.acceleration {
@@ -760,10 +828,16 @@ impl Builder<'_> {
                         None
                     }
                 };
-                ForceKind::PointForce {
-                    at: at?,
-                    force: force?,
+                let at = at?;
+                if at.body == BodyRef::Ground {
+                    self.diags.push(
+                        Diagnostic::new(format!("{owner} acts on the ground, so it does nothing"))
+                            .at(span.clone())
+                            .help("name the body it acts on in `body`"),
+                    );
+                    return None;
                 }
+                ForceKind::PointForce { at, force: force? }
             }
             other => {
                 let help = suggest(other, ["gravity", "spring_damper", "point_force"])

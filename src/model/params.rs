@@ -83,7 +83,28 @@ impl Parameters {
             let unit = match &p.unit {
                 None => None,
                 Some(u) => match units::parse_unit(u.get_ref()) {
-                    Ok((_, dim)) => Some((u.get_ref().clone(), dim)),
+                    Ok((factor, dim)) => {
+                        // A plain number is SI: with a non-SI declared unit it would be
+                        // silently wrong (`value = 7, unit = "mm"` is not 7 mm).
+                        let plain = !field.expr.has_units() && field.expr.variables().is_empty();
+                        if plain && (factor - 1.0).abs() > 1e-12 {
+                            diags.push(
+                                Diagnostic::new(format!(
+                                    "`{name}` is declared in {} but its value is a plain number, which detune reads as SI ({dim})",
+                                    u.get_ref()
+                                ))
+                                .at(field.span.clone())
+                                .label("a plain number: SI")
+                                .help(format!(
+                                    "write the unit with the value, e.g. value = \"{} {}\"",
+                                    match value.get_ref() { RawValue::Number(x) => format!("{x}"), RawValue::Text(t) => t.clone() },
+                                    u.get_ref()
+                                )),
+                            );
+                            continue;
+                        }
+                        Some((u.get_ref().clone(), dim))
+                    }
                     Err(e) => {
                         let start = u.span().start + 1 + e.offset;
                         let mut d = Diagnostic::new(e.message)
@@ -97,7 +118,6 @@ impl Parameters {
                     }
                 },
             };
-            if let RawValue::Text(_) = value.get_ref() {}
             list.push(Parameter {
                 name: name.clone(),
                 field,
@@ -170,6 +190,18 @@ impl Parameters {
                     ));
                 }
             }
+            // `--set L1=2*L1`: the parameter's own name means its value before this
+            // override, so the expression is evaluated now, from the current values.
+            let expr = if expr.variables().iter().any(|(v, _)| *v == name.as_str()) {
+                let v = expr::eval_const(&expr, &mut |n, span| {
+                    self.value(n)
+                        .ok_or_else(|| unknown_name(n, span, &self.list))
+                })
+                .map_err(|e| set_error(name, value, &e))?;
+                expr::parse(&format!("{v:?}")).map_err(|e| set_error(name, value, &e))?
+            } else {
+                expr
+            };
             exprs[i] = Some(expr);
             texts[i] = Some(value.clone());
         }
@@ -330,6 +362,16 @@ impl<'a> Evaluator<'a> {
                         .position(|p| p.name == n)
                         .and_then(|j| self.dims[j])
                 };
+                if let Err(e) = expr.check_dims(&var_dim) {
+                    self.state[i] = State::Failed;
+                    if from_set {
+                        self.problems.push(Problem::Set { index: i, error: e });
+                    } else {
+                        self.problems
+                            .push(Problem::File(expr_diag(&e, list[i].field.offset)));
+                    }
+                    return None;
+                }
                 let found = expr.dim(&var_dim);
                 let p = &list[i];
                 if let (Some((unit, declared)), Some(found), false) = (&p.unit, found, from_set) {
