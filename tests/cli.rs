@@ -417,7 +417,7 @@ fn sweep_csv_and_json_contract() {
 fn interrupted_sweep_writes_a_complete_file_marked_incomplete() {
     let dir = tempfile::tempdir().unwrap();
     let csv = dir.path().join("fr.csv");
-    let mut child = Command::new(env!("CARGO_BIN_EXE_detune"))
+    let child = Command::new(env!("CARGO_BIN_EXE_detune"))
         .current_dir(env!("CARGO_MANIFEST_DIR"))
         .args([
             "sweep",

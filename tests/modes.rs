@@ -4,32 +4,12 @@
 
 mod common;
 
+use common::{overcentre as model, reference};
+
 use common::reduced::Overcentre;
 use detune::linear::{frequency_response, modal_analysis};
 use detune::statics::Statics;
-use detune::{Model, SimOptions, System, assemble, simulate};
-
-fn model(sets: &[(&str, &str)]) -> Model {
-    let m = Model::load(&format!(
-        "{}/models/overcentre.toml",
-        env!("CARGO_MANIFEST_DIR")
-    ))
-    .unwrap();
-    let sets: Vec<(String, String)> = sets
-        .iter()
-        .map(|(a, b)| (a.to_string(), b.to_string()))
-        .collect();
-    m.with_overrides(&sets).unwrap()
-}
-
-fn reference() -> serde_json::Value {
-    let text = std::fs::read_to_string(format!(
-        "{}/tests/data/reference.json",
-        env!("CARGO_MANIFEST_DIR")
-    ))
-    .unwrap();
-    serde_json::from_str(&text).unwrap()
-}
+use detune::{SimOptions, System, assemble, simulate};
 
 fn rel(a: f64, b: f64) -> f64 {
     (a - b).abs() / b.abs()

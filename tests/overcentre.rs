@@ -185,24 +185,13 @@ fn asymmetric_variants_match_reduced_lagrange_model() {
         let sets: Vec<(&str, String)> = v.iter().map(|(n, x)| (*n, format!("{x:?}"))).collect();
         let sets_ref: Vec<(&str, &str)> = sets.iter().map(|(n, x)| (*n, x.as_str())).collect();
         let (model, sys, state) = load(&sets_ref);
-        let p = |n: &str| model.parameters.value(n).unwrap();
-        let oracle = Overcentre {
-            l1: p("L1"),
-            l2: p("L2"),
-            m1: p("m1"),
-            m2: p("m2"),
-            m: p("m"),
-            n: p("n"),
-            k: p("k"),
-            c: p("c"),
-            l0: p("L0"),
-            g: p("g"),
-            s: p("s"),
-            fs: p("Fs"),
-            f0: p("F0"),
-            omega: p("omega"),
-        };
-        let expected = oracle.simulate(p("theta1_0"), &times, 1e-12, 1e-12);
+        let oracle = Overcentre::from_model(&model);
+        let expected = oracle.simulate(
+            model.parameters.value("theta1_0").unwrap(),
+            &times,
+            1e-12,
+            1e-12,
+        );
         let traj = run(&sys, &state, &SimOptions::default());
         let theta = traj.coordinate("bar1.theta").unwrap();
         let err = theta
@@ -265,23 +254,7 @@ fn energy_is_conserved_without_damping() {
     assert!(drift <= 1e-8, "energy drift {drift:e} J");
     assert!(traj.stats.max_constraint_residual <= 1e-10);
     // the same check with the reduced model's energy of (θ1, θ̇1): an independent formula
-    let p = |n: &str| model.parameters.value(n).unwrap();
-    let oracle = Overcentre {
-        l1: p("L1"),
-        l2: p("L2"),
-        m1: p("m1"),
-        m2: p("m2"),
-        m: p("m"),
-        n: p("n"),
-        k: p("k"),
-        c: p("c"),
-        l0: p("L0"),
-        g: p("g"),
-        s: p("s"),
-        fs: 0.0,
-        f0: 0.0,
-        omega: 0.0,
-    };
+    let oracle = Overcentre::from_model(&model);
     let i = sys.coordinate_index("bar1.theta").unwrap();
     let e_ref = oracle.energy(traj.q[0][i], traj.v[0][i]);
     for k in 0..traj.t.len() {

@@ -3,31 +3,11 @@
 
 mod common;
 
+use common::{overcentre as model, reference};
+
 use detune::statics::Statics;
 use detune::statics::continuation::{ContinuationOptions, continue_equilibria};
-use detune::{Model, System, assemble};
-
-fn model(sets: &[(&str, &str)]) -> Model {
-    let m = Model::load(&format!(
-        "{}/models/overcentre.toml",
-        env!("CARGO_MANIFEST_DIR")
-    ))
-    .unwrap();
-    let sets: Vec<(String, String)> = sets
-        .iter()
-        .map(|(a, b)| (a.to_string(), b.to_string()))
-        .collect();
-    m.with_overrides(&sets).unwrap()
-}
-
-fn reference() -> serde_json::Value {
-    let text = std::fs::read_to_string(format!(
-        "{}/tests/data/reference.json",
-        env!("CARGO_MANIFEST_DIR")
-    ))
-    .unwrap();
-    serde_json::from_str(&text).unwrap()
-}
+use detune::{System, assemble};
 
 const THETA1: usize = 2;
 

@@ -41,3 +41,27 @@ pub fn read_csv(path: impl AsRef<Path>) -> (Vec<String>, Vec<Vec<f64>>) {
         .collect();
     (header, rows)
 }
+
+/// Path of a file in `tests/data`.
+pub fn data(name: &str) -> String {
+    format!("{}/tests/data/{name}", env!("CARGO_MANIFEST_DIR"))
+}
+
+/// The shipped overcentre model with `--set`-style overrides.
+pub fn overcentre(sets: &[(&str, &str)]) -> detune::Model {
+    let m = detune::Model::load(&format!(
+        "{}/models/overcentre.toml",
+        env!("CARGO_MANIFEST_DIR")
+    ))
+    .unwrap();
+    let sets: Vec<(String, String)> = sets
+        .iter()
+        .map(|(a, b)| (a.to_string(), b.to_string()))
+        .collect();
+    m.with_overrides(&sets).unwrap()
+}
+
+/// The shared reference values (`reference.json`).
+pub fn reference() -> serde_json::Value {
+    serde_json::from_str(&std::fs::read_to_string(data("reference.json")).unwrap()).unwrap()
+}

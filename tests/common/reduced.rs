@@ -386,3 +386,26 @@ impl Overcentre {
         out
     }
 }
+
+impl Overcentre {
+    /// The oracle with the parameters of a loaded overcentre model.
+    pub fn from_model(model: &detune::Model) -> Self {
+        let p = |n: &str| model.parameters.value(n).unwrap();
+        Overcentre {
+            l1: p("L1"),
+            l2: p("L2"),
+            m1: p("m1"),
+            m2: p("m2"),
+            m: p("m"),
+            n: p("n"),
+            k: p("k"),
+            c: p("c"),
+            l0: p("L0"),
+            g: p("g"),
+            s: p("s"),
+            fs: p("Fs"),
+            f0: p("F0"),
+            omega: p("omega"),
+        }
+    }
+}
