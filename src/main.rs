@@ -581,11 +581,11 @@ fn branch_plot(model: &Model, b: &Branch, idx: usize) -> LinePlot {
         seg.clear();
     };
     for p in &b.points {
-        if let Some(last) = seg.last() {
-            if last.stable != p.stable {
-                seg.push(p);
-                flush(&mut seg, &mut series);
-            }
+        if let Some(last) = seg.last()
+            && last.stable != p.stable
+        {
+            seg.push(p);
+            flush(&mut seg, &mut series);
         }
         seg.push(p);
     }

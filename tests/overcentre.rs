@@ -30,7 +30,7 @@ fn run(sys: &System, state: &State, opts: &SimOptions) -> Trajectory {
 }
 
 fn reference(name: &str) -> Vec<(f64, f64)> {
-    let (_, rows) = common::read_csv(&format!("{}/tests/data/{name}", env!("CARGO_MANIFEST_DIR")));
+    let (_, rows) = common::read_csv(format!("{}/tests/data/{name}", env!("CARGO_MANIFEST_DIR")));
     rows.iter().map(|r| (r[0], r[1])).collect()
 }
 

@@ -80,7 +80,7 @@ fn continuation_in_fs_traces_the_s_curve_and_finds_both_folds() {
     let b = continue_equilibria(&m, &opts).unwrap();
     assert!(!b.truncated);
     // every point satisfies the closed-form balance and the tabulated curve
-    let (_, table) = common::read_csv(&format!(
+    let (_, table) = common::read_csv(format!(
         "{}/tests/data/static_curve.csv",
         env!("CARGO_MANIFEST_DIR")
     ));

@@ -162,13 +162,13 @@ pub fn steady_state(
         let scale = amplitude_scale(&traj.q, &traj.v);
         let change = relative_change(&y, points.last().expect("non-empty"), &scale);
         // An extrapolation that made things worse is undone.
-        if let Some((before, fallback)) = pending_check.take() {
-            if change > before {
-                extrapolate = false;
-                state = fallback;
-                points = vec![pack(&state)];
-                continue;
-            }
+        if let Some((before, fallback)) = pending_check.take()
+            && change > before
+        {
+            extrapolate = false;
+            state = fallback;
+            points = vec![pack(&state)];
+            continue;
         }
         points.push(y.clone());
         // Settled with the forcing's period, or with k periods.
@@ -211,16 +211,18 @@ pub fn steady_state(
         }
         state = end;
         // Extrapolate the Poincaré sequence once enough points are in.
-        if extrapolate && points.len() >= order + 2 && change < last_change {
-            if let Some(s) = mpe(&points[points.len() - order - 2..]) {
-                let mut guess = unpack(&s, n);
-                project_position(sys, &mut ws, &mut guess.q, 0.0, 1e-14, 10);
-                project_velocity(sys, &mut ws, &guess.q, &mut guess.v, 0.0);
-                if guess.q.iter().chain(&guess.v).all(|x| x.is_finite()) {
-                    pending_check = Some((change, state.clone()));
-                    points = vec![pack(&guess)];
-                    state = guess;
-                }
+        if extrapolate
+            && points.len() >= order + 2
+            && change < last_change
+            && let Some(s) = mpe(&points[points.len() - order - 2..])
+        {
+            let mut guess = unpack(&s, n);
+            project_position(sys, &mut ws, &mut guess.q, 0.0, 1e-14, 10);
+            project_velocity(sys, &mut ws, &guess.q, &mut guess.v, 0.0);
+            if guess.q.iter().chain(&guess.v).all(|x| x.is_finite()) {
+                pending_check = Some((change, state.clone()));
+                points = vec![pack(&guess)];
+                state = guess;
             }
         }
         last_change = change;
@@ -425,7 +427,7 @@ fn check_request(model: &Model, opts: &SweepOptions) -> Result<()> {
         }
         None => {
             return Err(Error::request(
-                format!("the model does not say which parameter is its forcing frequency"),
+                "the model does not say which parameter is its forcing frequency".to_string(),
                 "add `forcing_frequency = \"omega\"` to [model]",
             ));
         }
@@ -437,13 +439,13 @@ fn check_request(model: &Model, opts: &SweepOptions) -> Result<()> {
             "give --from > 0",
         ));
     }
-    if let Some(r) = opts.refine {
-        if !(r > 0.0) || !r.is_finite() {
-            return Err(Error::request(
-                format!("--refine {r} is not valid"),
-                "give a positive resolution, e.g. 1e-3",
-            ));
-        }
+    if let Some(r) = opts.refine
+        && (!(r > 0.0) || !r.is_finite())
+    {
+        return Err(Error::request(
+            format!("--refine {r} is not valid"),
+            "give a positive resolution, e.g. 1e-3",
+        ));
     }
     Ok(())
 }

@@ -321,13 +321,13 @@ pub fn frequency_response(
                 .unwrap_or_else(|| "give the parameter that is the forcing frequency".into()),
         ));
     }
-    if let Some(f) = &model.forcing_frequency {
-        if f != param {
-            return Err(Error::request(
-                format!("--param {param}: the forcing of this model turns at `{f}`, not `{param}`"),
-                format!("use --param {f}"),
-            ));
-        }
+    if let Some(f) = &model.forcing_frequency
+        && f != param
+    {
+        return Err(Error::request(
+            format!("--param {param}: the forcing of this model turns at `{f}`, not `{param}`"),
+            format!("use --param {f}"),
+        ));
     }
     let modal = modal_analysis(model, None)?;
     let sys = System::new(model)?;

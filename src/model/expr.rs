@@ -407,18 +407,16 @@ impl Expr {
             Expr::Binary { op, lhs, rhs, span } => {
                 lhs.check_dims(var_dim)?;
                 rhs.check_dims(var_dim)?;
-                if matches!(op, BinOp::Add | BinOp::Sub) {
-                    if let (DimInfo::Known(a), DimInfo::Known(b)) =
+                if matches!(op, BinOp::Add | BinOp::Sub)
+                    && let (DimInfo::Known(a), DimInfo::Known(b)) =
                         (lhs.dim_info(var_dim), rhs.dim_info(var_dim))
-                    {
-                        if a != b {
-                            return Err(ExprError::new(
-                                span.clone(),
-                                format!("adding or subtracting quantities in {a} and {b}"),
-                            )
-                            .with_help("both sides of + and − need the same dimension"));
-                        }
-                    }
+                    && a != b
+                {
+                    return Err(ExprError::new(
+                        span.clone(),
+                        format!("adding or subtracting quantities in {a} and {b}"),
+                    )
+                    .with_help("both sides of + and − need the same dimension"));
                 }
                 Ok(())
             }
@@ -437,18 +435,15 @@ impl Expr {
                         | Func::Exp
                         | Func::Ln
                 );
-                if pure {
-                    if let DimInfo::Known(d) = args[0].dim_info(var_dim) {
-                        if !d.is_dimensionless() {
-                            return Err(ExprError::new(
-                                span.clone(),
-                                format!("{} of a quantity in {d}", func.name()),
-                            )
-                            .with_help(
-                                "this function needs a pure number (angles are in rad or deg)",
-                            ));
-                        }
-                    }
+                if pure
+                    && let DimInfo::Known(d) = args[0].dim_info(var_dim)
+                    && !d.is_dimensionless()
+                {
+                    return Err(ExprError::new(
+                        span.clone(),
+                        format!("{} of a quantity in {d}", func.name()),
+                    )
+                    .with_help("this function needs a pure number (angles are in rad or deg)"));
                 }
                 Ok(())
             }

@@ -362,21 +362,27 @@ impl Model {
                 .as_ref()
                 .map(|f| f.get_ref().clone()),
         };
-        if let Some(f) = &raw.model.forcing_frequency {
-            if model.parameters.index(f.get_ref()).is_none() {
-                diags.push(
-                    Diagnostic::new(format!("`forcing_frequency` names `{}`, which is not a parameter", f.get_ref()))
-                        .at(f.span())
-                        .label("not a parameter")
-                        .help(suggest(f.get_ref(), model.parameters.names()).unwrap_or_else(|| "name the parameter that holds the forcing's angular frequency (rad/s)".into())),
-                );
-            }
+        if let Some(f) = &raw.model.forcing_frequency
+            && model.parameters.index(f.get_ref()).is_none()
+        {
+            diags.push(
+                Diagnostic::new(format!(
+                    "`forcing_frequency` names `{}`, which is not a parameter",
+                    f.get_ref()
+                ))
+                .at(f.span())
+                .label("not a parameter")
+                .help(
+                    suggest(f.get_ref(), model.parameters.names()).unwrap_or_else(|| {
+                        "name the parameter that holds the forcing's angular frequency (rad/s)"
+                            .into()
+                    }),
+                ),
+            );
         }
         if diags.is_empty() {
             // Names, dimensions and signs are checked by compiling once.
-            if let Err(e) = crate::system::System::check(&model) {
-                return Err(e);
-            }
+            crate::system::System::check(&model)?;
             Ok(model)
         } else {
             Err(Error::Model {
@@ -452,9 +458,9 @@ impl Builder<'_> {
         }
     }
 
-    fn required<'v>(
+    fn required(
         &mut self,
-        v: &'v Option<SValue>,
+        v: &Option<SValue>,
         what: &str,
         owner: &str,
         span: &Range<usize>,

@@ -180,15 +180,15 @@ impl Parameters {
             // dimension of the value in the file.
             let var_dim = |n: &str| self.index(n).and_then(|j| self.dims[j]);
             let expected = self.list[i].unit.as_ref().map(|u| u.1).or(self.dims[i]);
-            if let (Some(exp), Some(got)) = (expected, expr.dim(&var_dim)) {
-                if exp != got {
-                    return Err(Error::request(
-                        format!(
-                            "--set {name}={value}: `{name}` is a quantity in {exp}, the value given is in {got}"
-                        ),
-                        format!("give `{name}` in {exp} (or a plain number, read as SI)"),
-                    ));
-                }
+            if let (Some(exp), Some(got)) = (expected, expr.dim(&var_dim))
+                && exp != got
+            {
+                return Err(Error::request(
+                    format!(
+                        "--set {name}={value}: `{name}` is a quantity in {exp}, the value given is in {got}"
+                    ),
+                    format!("give `{name}` in {exp} (or a plain number, read as SI)"),
+                ));
             }
             // `--set L1=2*L1`: the parameter's own name means its value before this
             // override, so the expression is evaluated now, from the current values.
@@ -374,19 +374,19 @@ impl<'a> Evaluator<'a> {
                 }
                 let found = expr.dim(&var_dim);
                 let p = &list[i];
-                if let (Some((unit, declared)), Some(found), false) = (&p.unit, found, from_set) {
-                    if *declared != found {
-                        self.problems.push(Problem::File(
-                            Diagnostic::new(format!(
-                                "`{}` is declared in {unit} ({declared}) but its value is in {found}",
-                                p.name
-                            ))
-                            .at(p.field.span.clone())
-                            .help(format!("give the value in {declared}, or change `unit`")),
-                        ));
-                        self.state[i] = State::Failed;
-                        return None;
-                    }
+                if let (Some((unit, declared)), Some(found), false) = (&p.unit, found, from_set)
+                    && *declared != found
+                {
+                    self.problems.push(Problem::File(
+                        Diagnostic::new(format!(
+                            "`{}` is declared in {unit} ({declared}) but its value is in {found}",
+                            p.name
+                        ))
+                        .at(p.field.span.clone())
+                        .help(format!("give the value in {declared}, or change `unit`")),
+                    ));
+                    self.state[i] = State::Failed;
+                    return None;
                 }
                 self.dims[i] = p.unit.as_ref().map(|u| u.1).or(found);
                 self.values[i] = v;

@@ -135,10 +135,10 @@ impl Family<'_> {
         let w = self.weights(d + 1);
         let norm = t.component_mul(&w).norm();
         t /= norm;
-        if let Some(p) = prev {
-            if t.dot(&p.component_mul(&w)) < 0.0 {
-                t.neg_mut();
-            }
+        if let Some(p) = prev
+            && t.dot(&p.component_mul(&w)) < 0.0
+        {
+            t.neg_mut();
         }
         t
     }
@@ -340,10 +340,8 @@ pub fn continue_equilibria(model: &Model, opts: &ContinuationOptions) -> Result<
             if let Some(f) = fam.locate(&cur, ds, cur.tau[d], next.tau[d], scale, &|p| p.tau[d])? {
                 branch.folds.push(point(&f)?);
             }
-        } else if bp {
-            if let Some(b) = fam.locate(&cur, ds, cur.det, next.det, scale, &|p| p.det)? {
-                branch.branch_points.push(point(&b)?);
-            }
+        } else if bp && let Some(b) = fam.locate(&cur, ds, cur.det, next.det, scale, &|p| p.det)? {
+            branch.branch_points.push(point(&b)?);
         }
         let p = next.y[d];
         if p < lo || p > hi {
