@@ -393,14 +393,15 @@ fn simulate_cmd(a: SimulateArgs) -> Result<()> {
         )?;
     }
     println!(
-        "simulated {} s in {:.3} s: {} steps ({} rejected), {} right-hand sides, {} projections; largest constraint residual {:.2e}",
+        "simulated {} s in {:.3} s: {} steps ({} rejected), {} right-hand sides, {} projections; largest constraint residual {:.2e} (drift before projection {:.2e})",
         opts.t_end,
         began.elapsed().as_secs_f64(),
         st.accepted_steps,
         st.rejected_steps,
         st.rhs_evaluations,
         st.projections,
-        st.max_constraint_residual
+        st.max_constraint_residual,
+        st.max_drift
     );
     println!("wrote {}", a.output);
     if let Some(p) = &a.plot {
