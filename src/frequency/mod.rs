@@ -650,9 +650,13 @@ fn collect(results: Vec<Result<SteadyState>>, dir: Direction) -> (Vec<SweepPoint
     (pts, status)
 }
 
-/// Golden-section search for the amplitude maximum in (lo, hi) around `mid`, down to
-/// `resolution`; the estimate is the vertex of the parabola through the best three
-/// evaluated points, the uncertainty half the final bracket.
+/// Bracket search for the amplitude maximum in (lo, hi) around `mid`, down to
+/// `resolution`: each round evaluates the midpoints on both sides of the best point so far
+/// (two frequencies at once, in parallel), and the bracket shrinks to the neighbours of the
+/// new best point, halving it per round (golden section would gain 0.618 per evaluation, but
+/// one at a time). The estimate is the vertex of the parabola through the best point and
+/// its neighbours; the uncertainty is half the final bracket. Deterministic: the same
+/// frequencies for any number of threads.
 #[allow(clippy::too_many_arguments)]
 fn refine_peak(
     eval: &(dyn Fn(f64, &State) -> Result<SteadyState> + Sync),
@@ -664,7 +668,6 @@ fn refine_peak(
     amp: f64,
     resolution: Option<f64>,
 ) -> Result<(Peak, Vec<SweepPoint>)> {
-    let mut evaluated: Vec<(f64, f64)> = vec![(mid, amp)];
     let mut extra = Vec::new();
     let Some(res) = resolution else {
         return Ok((
@@ -678,51 +681,44 @@ fn refine_peak(
             extra,
         ));
     };
-    let mut f = |w: f64| -> Result<f64> {
-        let s = eval(w, from)?;
-        let a = s.measures[r].amplitude;
-        evaluated.push((w, a));
-        extra.push(SweepPoint {
-            direction: dir,
-            steady: s,
-            refined: true,
-        });
-        Ok(a)
-    };
-    let g = 0.5 * (5f64.sqrt() - 1.0);
+    // (a, fa), (best, fb), (b, fbr): the best point and its bracketing neighbours
     let (mut a, mut b) = (lo, hi);
-    let mut x1 = b - g * (b - a);
-    let mut x2 = a + g * (b - a);
-    let mut f1 = f(x1)?;
-    let mut f2 = f(x2)?;
+    let (mut xb, mut fb) = (mid, amp);
+    let (mut fa, mut fbr) = (f64::NEG_INFINITY, f64::NEG_INFINITY);
     while b - a > res {
-        if f1 >= f2 {
-            b = x2;
-            x2 = x1;
-            f2 = f1;
-            x1 = b - g * (b - a);
-            f1 = f(x1)?;
+        let (xl, xr) = (0.5 * (a + xb), 0.5 * (xb + b));
+        let (left, right) = rayon::join(|| eval(xl, from), || eval(xr, from));
+        let (left, right) = (left?, right?);
+        let (fl, fr) = (left.measures[r].amplitude, right.measures[r].amplitude);
+        for s in [left, right] {
+            extra.push(SweepPoint {
+                direction: dir,
+                steady: s,
+                refined: true,
+            });
+        }
+        if fl > fb && fl >= fr {
+            (b, fbr) = (xb, fb);
+            (xb, fb) = (xl, fl);
+        } else if fr > fb {
+            (a, fa) = (xb, fb);
+            (xb, fb) = (xr, fr);
         } else {
-            a = x1;
-            x1 = x2;
-            f1 = f2;
-            x2 = a + g * (b - a);
-            f2 = f(x2)?;
+            (a, fa) = (xl, fl);
+            (b, fbr) = (xr, fr);
         }
     }
-    let mut pts = evaluated.clone();
-    pts.sort_by(|p, q| q.1.total_cmp(&p.1));
-    let best = pts[0];
-    let mut three: Vec<(f64, f64)> = pts.iter().take(3).copied().collect();
-    three.sort_by(|p, q| p.0.total_cmp(&q.0));
-    let vertex = parabola_vertex(&three).filter(|v| *v >= a && *v <= b);
-    let omega = vertex.unwrap_or(best.0);
+    let vertex = if fa.is_finite() && fbr.is_finite() {
+        parabola_vertex(&[(a, fa), (xb, fb), (b, fbr)]).filter(|v| *v >= a && *v <= b)
+    } else {
+        None
+    };
     Ok((
         Peak {
             response: name.to_string(),
             direction: dir,
-            omega,
-            amplitude: best.1,
+            omega: vertex.unwrap_or(xb),
+            amplitude: fb,
             uncertainty: 0.5 * (b - a),
         },
         extra,
