@@ -227,3 +227,28 @@ fn silent_wrong_answers_are_refused() {
     );
     assert!(e.contains("acts on the ground"), "{e}");
 }
+
+#[test]
+fn names_that_would_be_ambiguous_are_refused() {
+    let text = std::fs::read_to_string(format!(
+        "{}/models/overcentre.toml",
+        env!("CARGO_MANIFEST_DIR")
+    ))
+    .unwrap();
+    let load = |from: &str, to: &str| {
+        assert!(text.contains(from), "{from}");
+        Model::from_str("t.toml", &text.replacen(from, to, 1))
+            .map(|_| ())
+            .unwrap_err()
+            .to_string()
+    };
+    let e = load("name = \"J\"", "name = \"A\"");
+    assert!(e.contains("two joints or constraints are named `A`"), "{e}");
+    let e = load("name = \"bar2\"", "name = \"bar 2\"");
+    assert!(e.contains("cannot name a body"), "{e}");
+    let e = load(
+        "g = { value = 9.81",
+        "sin = { value = 1 }\ng = { value = 9.81",
+    );
+    assert!(e.contains("`sin` cannot name a parameter"), "{e}");
+}

@@ -328,6 +328,29 @@ impl Model {
                 })
             })
             .collect();
+        // Constraint rows are named after joints and constraints: names must be unique.
+        {
+            let mut seen: Vec<&str> = Vec::new();
+            let named = joints
+                .iter()
+                .map(|j| (j.name.as_str(), j.span.clone()))
+                .chain(
+                    constraints
+                        .iter()
+                        .map(|c| (c.name.as_str(), c.expr.span.clone())),
+                );
+            for (name, span) in named {
+                if seen.contains(&name) {
+                    b.diags.push(
+                        Diagnostic::new(format!("two joints or constraints are named `{name}`"))
+                            .at(span)
+                            .help("give each joint and constraint its own `name` (they name the constraint rows)"),
+                    );
+                } else {
+                    seen.push(name);
+                }
+            }
+        }
         let forces: Vec<ForceDef> = raw
             .forces
             .iter()
@@ -581,11 +604,11 @@ impl Builder<'_> {
         let span = r.span();
         let name = raw.name.get_ref().clone();
         let mut ok = true;
-        if name == "ground" || name.is_empty() || name.contains('.') {
+        if name == "ground" || !params::is_identifier(&name) {
             self.diags.push(
                 Diagnostic::new(format!("`{name}` cannot name a body"))
                     .at(raw.name.span())
-                    .help("use a name without dots, other than `ground`"),
+                    .help("body names are letters, digits and `_`, start with a letter (they prefix coordinate names such as `bar1.theta`), and are not `ground`"),
             );
             ok = false;
         } else if self.body_names.iter().filter(|n| **n == name).count() > 1 {

@@ -62,13 +62,14 @@ impl Parameters {
             } else {
                 p.value.clone()
             };
-            if !is_identifier(name) || RESERVED.contains(&name.as_str()) {
+            let function = expr::Func::ALL.iter().any(|f| f.name() == name.as_str());
+            if !is_identifier(name) || RESERVED.contains(&name.as_str()) || function {
                 diags.push(
                     Diagnostic::new(format!("`{name}` cannot name a parameter"))
                         .at(outer.clone())
                         .help(
                             "parameter names are letters, digits and `_`, start with a letter, \
-                             and are not `t` (time) or `pi`",
+                             and are not `t` (time), `pi` or a function name (`sin`, `sqrt`, ...)",
                         ),
                 );
                 continue;
