@@ -220,6 +220,30 @@ pub fn project_velocity(
     before
 }
 
+/// The correction of the coordinates `cols` that solves A_cols Δ = r with the least
+/// kinetic-energy norm Δᵀ M Δ (M's diagonal), so the result does not depend on units.
+fn weighted_min_norm(
+    sys: &System,
+    a: &DMatrix<f64>,
+    cols: &[usize],
+    r: &DVector<f64>,
+) -> DVector<f64> {
+    let w: Vec<f64> = cols
+        .iter()
+        .map(|&i| 1.0 / sys.mass_matrix[(i, i)].sqrt())
+        .collect();
+    let mut af = a.select_columns(cols.iter());
+    for (k, wk) in w.iter().enumerate() {
+        af.column_mut(k).scale_mut(*wk);
+    }
+    let svd = af.svd(true, true);
+    let eps = RANK_TOL * svd.singular_values.max().max(f64::MIN_POSITIVE);
+    let y = svd
+        .solve(r, eps)
+        .unwrap_or_else(|_| DVector::zeros(cols.len()));
+    DVector::from_iterator(cols.len(), y.iter().zip(&w).map(|(v, wk)| v * wk))
+}
+
 /// A consistent state: positions on Φ = 0, velocities on A v + Φ_t = 0.
 #[derive(Debug, Clone)]
 pub struct State {
@@ -254,12 +278,7 @@ pub fn assemble(sys: &System) -> Result<State> {
     while norm > tol && iterations < 100 {
         iterations += 1;
         sys.jacobian(&mut ws.sys, &q, t, &mut ws.a);
-        let af = ws.a.select_columns(free.iter());
-        let svd = af.svd(true, true);
-        let eps = RANK_TOL * svd.singular_values.max();
-        let dx = svd
-            .solve(&phi, eps)
-            .unwrap_or_else(|_| DVector::zeros(free.len()));
+        let dx = weighted_min_norm(sys, &ws.a, &free, &phi);
         // damped step: halve until |Φ| decreases
         let mut step = 1.0;
         let mut accepted = false;
@@ -310,12 +329,7 @@ pub fn assemble(sys: &System) -> Result<State> {
     if sys.m() > 0 {
         let vfree: Vec<usize> = (0..n).filter(|&i| !init.v_given[i]).collect();
         let psi = velocity_residual(sys, &mut ws, &q, &v, t);
-        let af = ws.a.select_columns(vfree.iter());
-        let svd = af.svd(true, true);
-        let eps = RANK_TOL * svd.singular_values.max().max(1e-300);
-        let dv = svd
-            .solve(&psi, eps)
-            .unwrap_or_else(|_| DVector::zeros(vfree.len()));
+        let dv = weighted_min_norm(sys, &ws.a, &vfree, &psi);
         for (k, &i) in vfree.iter().enumerate() {
             v[i] -= dv[k];
         }
