@@ -643,6 +643,12 @@ fn modes_cmd(a: ModesArgs) -> Result<()> {
     for (c, v) in m.coordinates.iter().zip(&m.equilibrium.q) {
         println!("  {c:<16} {v:>22.12}");
     }
+    if m.linearization.dof() == 0 {
+        println!(
+            "\nno degrees of freedom: the constraints fix every coordinate, so there are no modes"
+        );
+        return Ok(());
+    }
     println!("\nundamped: ω² = {:?} rad²/s²", m.undamped_omega2);
     for w2 in &m.undamped_omega2 {
         if *w2 > 0.0 {
@@ -736,7 +742,15 @@ fn sweep_cmd(a: SweepArgs) -> Result<()> {
             })?;
             let mut out = Vec::new();
             for v in list.split(',') {
-                let m = model.with_overrides(&[(name.trim().to_string(), v.trim().to_string())])?;
+                let m = model
+                    .with_overrides(&[(name.trim().to_string(), v.trim().to_string())])
+                    .map_err(|e| match e {
+                        Error::Request { message, help } => Error::Request {
+                            message: message.replace("--set ", "--values "),
+                            help,
+                        },
+                        other => other,
+                    })?;
                 let value = m.parameters.value(name.trim()).unwrap_or(f64::NAN);
                 out.push((Some((name.trim().to_string(), value)), m));
             }

@@ -470,3 +470,23 @@ fn interrupted_sweep_writes_a_complete_file_marked_incomplete() {
         assert_eq!(row.split(',').count(), lines[0].split(',').count());
     }
 }
+
+/// Regression: a mechanism with no degree of freedom made `modes` panic in the eigen
+/// solver (an empty matrix).
+#[test]
+fn modes_of_a_mechanism_without_degrees_of_freedom() {
+    let dir = tempfile::tempdir().unwrap();
+    let model = dir.path().join("fixed.toml");
+    std::fs::write(
+        &model,
+        "[[bodies]]\nname = \"a\"\nmass = 1\ninertia = 1\nfix = [\"x\", \"y\", \"theta\"]\n\n[[joints]]\ntype = \"fixed\"\nbody1 = \"a\"\n",
+    )
+    .unwrap();
+    let (code, out, err) = detune(&["modes", model.to_str().unwrap()]);
+    assert_eq!(code, 0, "{err}");
+    assert!(out.contains("no degrees of freedom"), "{out}");
+    let (code, out, _) = detune(&["modes", model.to_str().unwrap(), "--json"]);
+    assert_eq!(code, 0);
+    let j: serde_json::Value = serde_json::from_str(&out).unwrap();
+    assert!(j["modes"].as_array().unwrap().is_empty());
+}

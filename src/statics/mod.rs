@@ -535,6 +535,9 @@ pub fn null_space(sys: &System, q: &[f64], t: f64) -> DMatrix<f64> {
 /// Eigenvalues of M⁻¹ K for symmetric positive definite M (ascending). K is symmetrized;
 /// a nonsymmetric K (follower loads) gives the real parts of the general eigenvalues.
 pub fn generalized_eigenvalues(k: &DMatrix<f64>, m: &DMatrix<f64>) -> Vec<f64> {
+    if k.nrows() == 0 {
+        return Vec::new(); // no degree of freedom
+    }
     let asym = (k - k.transpose()).amax();
     let mut w: Vec<f64> = if asym <= 1e-9 * k.amax().max(f64::MIN_POSITIVE) {
         let l = m
