@@ -200,3 +200,35 @@ fn zero_forcing_is_an_error() {
     .unwrap_err();
     assert!(e.to_string().contains("bar1.phi"), "{e}");
 }
+
+#[test]
+fn undamped_resonance_is_refused_not_infinite() {
+    // c = 0: at ω = ω_n the dynamic stiffness K − ω²M is singular. The response there is
+    // unbounded, so the solver must say so instead of returning inf/NaN or a huge number.
+    let m = model(&[("theta1_0", "-0.85"), ("c", "0"), ("F0", "0.1")]);
+    let ma = modal_analysis(&m, None).unwrap();
+    let wn = ma.modes[0].omega_n_rad_s;
+    let e = frequency_response(&m, "omega", &[wn], &["bar1.theta".to_string()]).unwrap_err();
+    assert!(e.to_string().contains("singular"), "{e}");
+    // 1 % away the amplitude is finite and matches the single-DoF closed form F/(k(1 − r²)).
+    let fr = frequency_response(
+        &m,
+        "omega",
+        &[0.99 * wn, 1.01 * wn],
+        &["bar1.theta".to_string()],
+    )
+    .unwrap();
+    let (below, above) = (fr.values[0][0], fr.values[1][0]);
+    assert!(below.0.is_finite() && above.0.is_finite());
+    // Symmetric detuning of an undamped oscillator: |1 − 0.99²| vs |1 − 1.01²|.
+    let expected = (1.0f64 - 1.01 * 1.01).abs() / (1.0f64 - 0.99 * 0.99).abs();
+    assert!(
+        rel(below.0 / above.0, expected) < 1e-6,
+        "{below:?} {above:?}"
+    );
+    // In phase below resonance, in antiphase above.
+    assert!(
+        below.1.abs() < 1e-6 && (above.1.abs() - 180.0).abs() < 1e-6,
+        "{below:?} {above:?}"
+    );
+}

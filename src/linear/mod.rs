@@ -201,6 +201,19 @@ impl Linearization {
         let dynamic = c(&self.stiffness) - c(&self.mass) * Complex::new(omega * omega, 0.0)
             + c(&self.damping) * Complex::new(0.0, omega);
         let rhs = nb.transpose() * force;
+        // Singular relative to the size of its terms (not to its own largest singular
+        // value, which for one degree of freedom is the smallest one too).
+        let scale =
+            self.stiffness.norm() + omega * omega * self.mass.norm() + omega * self.damping.norm();
+        let sv = dynamic.clone().svd(false, false).singular_values;
+        if sv.min() <= 1e-10 * scale {
+            return Err(Error::numerical(
+                format!(
+                    "the linear system is singular at ω = {omega} rad/s (an undamped resonance: the response is unbounded)"
+                ),
+                "add damping or step around that frequency",
+            ));
+        }
         let x = dynamic.lu().solve(&rhs).ok_or_else(|| {
             Error::numerical(
                 format!(
