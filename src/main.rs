@@ -72,23 +72,13 @@ enum ModeArg {
 struct SweepArgs {
     #[command(flatten)]
     model: ModelArgs,
-    /// The forcing's frequency parameter (rad/s).
-    #[arg(long, value_name = "NAME")]
-    param: String,
-    #[arg(long, value_name = "A")]
-    from: f64,
-    #[arg(long, value_name = "B")]
-    to: f64,
-    #[arg(long, value_name = "S")]
-    step: f64,
+    #[command(flatten)]
+    grid: FrequencyGrid,
     /// Locate every resonance (local maximum of the amplitude) to this resolution, rad/s.
     #[arg(long, value_name = "R")]
     refine: Option<f64>,
     #[arg(long, value_enum, default_value = "independent")]
     mode: ModeArg,
-    /// Coordinate to report (repeatable) [default: every coordinate].
-    #[arg(long, value_name = "NAME")]
-    response: Vec<String>,
     /// Repeat the sweep for each value of a parameter: PARAM=v1,v2,... (e.g. F0=0.1,1,2).
     #[arg(long, value_name = "PARAM=V1,V2,...", allow_hyphen_values = true)]
     values: Option<String>,
@@ -176,24 +166,47 @@ struct ModesArgs {
 struct FrfArgs {
     #[command(flatten)]
     model: ModelArgs,
-    /// The forcing's frequency parameter (rad/s).
-    #[arg(long, value_name = "NAME")]
-    param: String,
-    #[arg(long, value_name = "A")]
-    from: f64,
-    #[arg(long, value_name = "B")]
-    to: f64,
-    #[arg(long, value_name = "S")]
-    step: f64,
-    /// Coordinate to report (repeatable) [default: every coordinate].
-    #[arg(long, value_name = "NAME")]
-    response: Vec<String>,
+    #[command(flatten)]
+    grid: FrequencyGrid,
     /// Print JSON.
     #[arg(long)]
     json: bool,
     /// CSV: `<param>,<name>_amplitude,<name>_phase_deg,...`.
     #[arg(short = 'o', long = "output", value_name = "OUT.csv")]
     output: Option<String>,
+}
+
+/// The frequencies of `frf` and `sweep`, and what they report.
+#[derive(Args)]
+struct FrequencyGrid {
+    /// The forcing's frequency parameter (rad/s).
+    #[arg(long, value_name = "NAME")]
+    param: String,
+    /// First frequency, rad/s.
+    #[arg(long, value_name = "A")]
+    from: f64,
+    /// Last frequency, rad/s (included when the step divides the range).
+    #[arg(long, value_name = "B")]
+    to: f64,
+    /// Frequency step, rad/s.
+    #[arg(long, value_name = "S")]
+    step: f64,
+    /// Coordinate to report (repeatable) [default: every coordinate].
+    #[arg(long, value_name = "NAME")]
+    response: Vec<String>,
+}
+
+impl FrequencyGrid {
+    /// The frequencies and the reported coordinates (every one when none is named).
+    fn resolve(&self, model: &Model) -> Result<(Vec<f64>, Vec<String>)> {
+        let values = detune::linear::grid(self.from, self.to, self.step)?;
+        let responses = if self.response.is_empty() {
+            model.coordinate_names()
+        } else {
+            self.response.clone()
+        };
+        Ok((values, responses))
+    }
 }
 
 #[derive(Args)]
@@ -694,13 +707,8 @@ fn modes_cmd(a: ModesArgs) -> Result<()> {
 
 fn frf_cmd(a: FrfArgs) -> Result<()> {
     let model = a.model.load()?;
-    let values = detune::linear::grid(a.from, a.to, a.step)?;
-    let responses = if a.response.is_empty() {
-        model.coordinate_names()
-    } else {
-        a.response.clone()
-    };
-    let fr = frequency_response(&model, &a.param, &values, &responses)?;
+    let (values, responses) = a.grid.resolve(&model)?;
+    let fr = frequency_response(&model, &a.grid.param, &values, &responses)?;
     if let Some(o) = &a.output {
         write_frf_csv(o, &fr)?;
         eprintln!("wrote {o}");
@@ -725,12 +733,7 @@ fn sweep_cmd(a: SweepArgs) -> Result<()> {
     use detune::frequency::{SteadyOptions, SweepMode, SweepOptions, sweep};
     use detune::output::results::{SweepRun, sweep_json, write_sweep_csv};
     let model = a.model.load()?;
-    let values = detune::linear::grid(a.from, a.to, a.step)?;
-    let responses = if a.response.is_empty() {
-        model.coordinate_names()
-    } else {
-        a.response.clone()
-    };
+    let (values, responses) = a.grid.resolve(&model)?;
     let family: Vec<(Option<(String, f64)>, Model)> = match &a.values {
         None => vec![(None, model.clone())],
         Some(spec) => {
@@ -758,7 +761,7 @@ fn sweep_cmd(a: SweepArgs) -> Result<()> {
         }
     };
     let opts = SweepOptions {
-        param: a.param.clone(),
+        param: a.grid.param.clone(),
         values: values.clone(),
         mode: match a.mode {
             ModeArg::Independent => SweepMode::Independent,
@@ -888,7 +891,7 @@ fn sweep_cmd(a: SweepArgs) -> Result<()> {
                     "peak{tag} {} ({}): {} = {:.6} ± {:.1e} rad/s, amplitude {:.6e}",
                     pk.response,
                     pk.direction.name(),
-                    a.param,
+                    a.grid.param,
                     pk.omega,
                     pk.uncertainty,
                     pk.amplitude
