@@ -133,7 +133,7 @@ struct ContinueArgs {
     /// [default: (B − A)/50].
     #[arg(long, value_name = "S")]
     step: Option<f64>,
-    /// Most points computed.
+    /// Most continuation steps (points after the start point).
     #[arg(long, default_value_t = 5000, value_name = "N")]
     max_steps: usize,
     /// Print the JSON summary (folds, branch points) instead of a table.

@@ -110,7 +110,7 @@ fn continuation_in_fs_traces_the_s_curve_and_finds_both_folds() {
         assert_eq!(p.stable, th.abs() > fold, "stability at θ1 = {deg}°");
     }
     assert_eq!(b.points.first().unwrap().value, -10.0);
-    assert!((b.points.last().unwrap().value - 30.0).abs() < 1e-9);
+    assert_eq!(b.points.last().unwrap().value, 30.0);
     let r = reference();
     let folds = r["folds"].as_array().unwrap();
     assert_eq!(b.folds.len(), 2);
@@ -125,7 +125,7 @@ fn continuation_in_fs_traces_the_s_curve_and_finds_both_folds() {
             f.value
         );
         assert!(
-            (f.q[THETA1] - tw).abs() <= 1e-6 * tw.abs(),
+            (f.q[THETA1] - tw).abs() <= 1e-8 * tw.abs(),
             "fold θ {} vs {tw}",
             f.q[THETA1]
         );
@@ -155,5 +155,57 @@ fn pitchfork_in_free_length_without_gravity() {
     for p in &b.points {
         assert!(p.q[THETA1].abs() < 1e-10);
         assert_eq!(p.stable, p.value > 2.0 * 2f64.sqrt(), "at L0 = {}", p.value);
+    }
+}
+
+#[test]
+fn pitchfork_side_branches_at_acos_of_free_length_over_diagonal() {
+    // g = 0, Fs = 0: the balance k (L cos θ1 − L0) tan θ1 = 0 has θ1 = 0 and, for L0 < L,
+    // θ1 = ±acos(L0/L) (L = 2√2), both stable, the middle one unstable.
+    let l = 2.0 * 2f64.sqrt();
+    for l0 in [2.0, 2.6] {
+        let st_model = model(&[("g", "0"), ("L0", &l0.to_string())]);
+        let sys = System::new(&st_model).unwrap();
+        let s = assemble(&sys).unwrap();
+        let all = Statics::new(&sys, &s.q).unwrap().all(&s).unwrap();
+        let mut thetas: Vec<(f64, bool)> = all.iter().map(|e| (e.q[THETA1], e.stable)).collect();
+        thetas.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let side = (l0 / l).acos();
+        assert_eq!(thetas.len(), 3, "{thetas:?}");
+        assert!((thetas[0].0 + side).abs() < 1e-10 && thetas[0].1, "{thetas:?}");
+        assert!(thetas[1].0.abs() < 1e-10 && !thetas[1].1, "{thetas:?}");
+        assert!((thetas[2].0 - side).abs() < 1e-10 && thetas[2].1, "{thetas:?}");
+    }
+}
+
+#[test]
+fn continuation_ends_exactly_on_the_range_and_never_leaves_it() {
+    // A parameter that does not move the equilibrium (c): steps land on the end exactly.
+    for (from, to) in [(1.0, 2.0), (2.0, 1.0)] {
+        let opts = ContinuationOptions {
+            param: "c".into(),
+            from,
+            to,
+            step: 0.25,
+            max_steps: 100,
+        };
+        let b = continue_equilibria(&model(&[]), &opts).unwrap();
+        let values: Vec<f64> = b.points.iter().map(|p| p.value).collect();
+        assert_eq!(values.len(), 5, "{values:?}");
+        assert_eq!(*values.last().unwrap(), to);
+    }
+    // A mass down to 0.01 kg: the model is invalid at m1 ≤ 0, just past the range, and
+    // nothing (predictor, corrector, difference quotient) may evaluate it there.
+    for (from, to) in [(1.0, 0.01), (1e-7, 1.0)] {
+        let opts = ContinuationOptions {
+            param: "m1".into(),
+            from,
+            to,
+            step: (to - from as f64).abs() / 50.0,
+            max_steps: 1000,
+        };
+        let b = continue_equilibria(&model(&[]), &opts).unwrap();
+        assert!(b.points.iter().all(|p| p.value >= 1e-7 && p.value <= 1.0));
+        assert_eq!(b.points.last().unwrap().value, to);
     }
 }

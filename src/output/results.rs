@@ -29,8 +29,10 @@ pub fn equilibrium_json(names: &[String], e: &Equilibrium) -> Value {
     })
 }
 
+/// A fold or branch point: no `stable` flag, since the stiffness is singular there (the
+/// point is marginal; stability changes across it).
 fn branch_point_json(names: &[String], p: &BranchPoint) -> Value {
-    json!({"value": p.value, "coordinates": coordinates_json(names, &p.q), "stable": p.stable})
+    json!({"value": p.value, "coordinates": coordinates_json(names, &p.q)})
 }
 
 /// `{"param", "folds": [...], "branch_points": [...], "points": n, "truncated"}`.

@@ -61,6 +61,9 @@ struct Family<'m> {
     param: String,
     rows: Vec<usize>,
     n: usize,
+    /// The requested range of the parameter.
+    lo: f64,
+    hi: f64,
 }
 
 /// A corrected point: y = (x, p), with the data needed at it.
@@ -90,16 +93,21 @@ impl Family<'_> {
         let st = Statics::with_rows(&sys, self.rows.clone())?;
         let h = st.residual(x);
         let jx = st.kkt_jacobian(x);
+        // ∂H/∂p by second-order differences that stay inside [lo, hi], so a parameter
+        // with a validity limit just outside the range (a mass → 0) is never evaluated
+        // beyond it: central inside, one-sided (three points) at the ends.
         let delta = 1e-6 * p.abs().max(1.0);
-        let plus = {
-            let s = self.system(p + delta)?;
-            Statics::with_rows(&s, self.rows.clone())?.residual(x)
+        let at = |p: f64| -> Result<DVector<f64>> {
+            let s = self.system(p)?;
+            Ok(Statics::with_rows(&s, self.rows.clone())?.residual(x))
         };
-        let minus = {
-            let s = self.system(p - delta)?;
-            Statics::with_rows(&s, self.rows.clone())?.residual(x)
+        let hp = if p - delta < self.lo {
+            (at(p + delta)? * 4.0 - &h * 3.0 - at(p + 2.0 * delta)?) / (2.0 * delta)
+        } else if p + delta > self.hi {
+            (&h * 3.0 - at(p - delta)? * 4.0 + at(p - 2.0 * delta)?) / (2.0 * delta)
+        } else {
+            (at(p + delta)? - at(p - delta)?) / (2.0 * delta)
         };
-        let hp = (plus - minus) / (2.0 * delta);
         let det = jx.determinant();
         let mut j = DMatrix::zeros(d, d + 1);
         j.view_mut((0, 0), (d, d)).copy_from(&jx);
@@ -150,10 +158,30 @@ impl Family<'_> {
     }
 
     /// Corrector from the prediction `base + s·tau`, constrained to the hyperplane
-    /// τ̂ᵀ (y − y_pred) = 0. Returns the corrected point and the iterations used.
+    /// τ̂ᵀ (y − y_pred) = 0 (pseudo-arclength). Returns the corrected point and the
+    /// iterations used.
     fn correct(&self, base: &Pt, s: f64, scale: f64) -> Result<Option<(Pt, usize)>> {
         let w = self.weights(base.y.len());
         let tw = base.tau.component_mul(&w);
+        self.correct_on(base, s, scale, tw)
+    }
+
+    /// Corrector from the prediction `base + s·tau` at the parameter value it predicts
+    /// (natural-parameter Newton): lands exactly on a range boundary.
+    fn correct_at_parameter(&self, base: &Pt, s: f64, scale: f64) -> Result<Option<(Pt, usize)>> {
+        let mut e = DVector::zeros(base.y.len());
+        e[base.y.len() - 1] = 1.0;
+        self.correct_on(base, s, scale, e)
+    }
+
+    /// Newton from `base + s·tau` on [H(y); rowᵀ (y − y_pred)] = 0.
+    fn correct_on(
+        &self,
+        base: &Pt,
+        s: f64,
+        scale: f64,
+        tw: DVector<f64>,
+    ) -> Result<Option<(Pt, usize)>> {
         let pred = &base.y + &base.tau * s;
         let mut y = pred.clone();
         for it in 0..10 {
@@ -250,11 +278,14 @@ pub fn continue_equilibria(model: &Model, opts: &ContinuationOptions) -> Result<
     let st0 = Statics::new(&sys0, &start.q)?;
     let eq = st0.nearest(&start)?;
     let n = sys0.n();
+    let (lo, hi) = (opts.from.min(opts.to), opts.from.max(opts.to));
     let fam = Family {
         model,
         param: opts.param.clone(),
         rows: st0.rows.clone(),
         n,
+        lo,
+        hi,
     };
     let scale = {
         let mut f = vec![0.0; n];
@@ -293,7 +324,6 @@ pub fn continue_equilibria(model: &Model, opts: &ContinuationOptions) -> Result<
         branch_points: Vec::new(),
         truncated: false,
     };
-    let (lo, hi) = (opts.from.min(opts.to), opts.from.max(opts.to));
     let mut ds = opts.step;
     let min_ds = opts.step * 1e-6;
     let mut steps = 0;
@@ -302,8 +332,28 @@ pub fn continue_equilibria(model: &Model, opts: &ContinuationOptions) -> Result<
             branch.truncated = true;
             break;
         }
-        let Some((next, iters)) = fam.correct(&cur, ds, scale)? else {
-            ds *= 0.5;
+        // A step whose prediction would leave the range is shortened to end on the
+        // boundary, and corrected at that parameter value: the branch ends exactly on
+        // `from`/`to` and the model is never evaluated outside the requested range.
+        let tp = cur.tau[d];
+        let bound = if tp > 0.0 { hi } else { lo };
+        let to_bound = if tp == 0.0 {
+            f64::INFINITY
+        } else {
+            (bound - cur.y[d]) / tp
+        };
+        let at_bound = to_bound <= ds;
+        if at_bound && to_bound <= 1e-12 * ds {
+            break; // already on the boundary, heading out
+        }
+        let s = if at_bound { to_bound } else { ds };
+        let corrected = if at_bound {
+            fam.correct_at_parameter(&cur, s, scale)?
+        } else {
+            fam.correct(&cur, s, scale)?
+        };
+        let Some((mut next, iters)) = corrected else {
+            ds = s * 0.5;
             if ds < min_ds {
                 return Err(Error::numerical(
                     format!(
@@ -319,8 +369,8 @@ pub fn continue_equilibria(model: &Model, opts: &ContinuationOptions) -> Result<
         // tangent turned by more than about 25°; retry with half the step.
         let w = fam.weights(next.y.len());
         let dist = (&next.y - &cur.y).component_mul(&w).norm();
-        if dist > 1.5 * ds || next.tau.component_mul(&w).dot(&cur.tau) < 0.9 {
-            ds *= 0.5;
+        if dist > 1.5 * s.max(1e-3 * ds) || next.tau.component_mul(&w).dot(&cur.tau) < 0.9 {
+            ds = s * 0.5;
             if ds < min_ds {
                 return Err(Error::numerical(
                     format!(
@@ -337,19 +387,25 @@ pub fn continue_equilibria(model: &Model, opts: &ContinuationOptions) -> Result<
         let fold = cur.tau[d].signum() != next.tau[d].signum();
         let bp = !fold && cur.det.signum() != next.det.signum();
         if fold {
-            if let Some(f) = fam.locate(&cur, ds, cur.tau[d], next.tau[d], scale, &|p| p.tau[d])? {
+            if let Some(f) = fam.locate(&cur, s, cur.tau[d], next.tau[d], scale, &|p| p.tau[d])? {
                 branch.folds.push(point(&f)?);
             }
-        } else if bp && let Some(b) = fam.locate(&cur, ds, cur.det, next.det, scale, &|p| p.det)? {
+        } else if bp && let Some(b) = fam.locate(&cur, s, cur.det, next.det, scale, &|p| p.det)? {
             branch.branch_points.push(point(&b)?);
+        }
+        if at_bound {
+            next.y[d] = bound; // exact already, up to the last Newton update
+            branch.points.push(point(&next)?);
+            break;
         }
         let p = next.y[d];
         if p < lo || p > hi {
-            // last point exactly on the boundary
+            // The corrector crossed the boundary: the last point exactly on it.
             let bound = if p > hi { hi } else { lo };
             let f0 = cur.y[d] - bound;
             let f1 = p - bound;
-            if let Some(e) = fam.locate(&cur, ds, f0, f1, scale, &|q| q.y[d] - bound)? {
+            if let Some(mut e) = fam.locate(&cur, s, f0, f1, scale, &|q| q.y[d] - bound)? {
+                e.y[d] = bound;
                 branch.points.push(point(&e)?);
             }
             break;
