@@ -514,16 +514,17 @@ fn continue_cmd(a: ContinueArgs) -> Result<()> {
         step: a.step.unwrap_or((a.to - a.from).abs() / 50.0),
         max_steps: a.max_steps,
     };
-    let branch = continue_equilibria(&model, &opts)?;
+    // Every request is checked before the work, so a bad one leaves no file behind.
     let sys = System::new(&model)?;
+    let idx = match &a.plot_coordinate {
+        Some(name) => detune::linear::coordinate(&sys, name, "--plot-coordinate")?,
+        None => detune::linear::default_reference(&sys),
+    };
+    let branch = continue_equilibria(&model, &opts)?;
     if let Some(o) = &a.output {
         write_branch_csv(o, &branch)?;
     }
     if let Some(p) = &a.plot {
-        let idx = match &a.plot_coordinate {
-            Some(name) => detune::linear::coordinate(&sys, name, "--plot-coordinate")?,
-            None => detune::linear::default_reference(&sys),
-        };
         write_line_plot(p, &branch_plot(&model, &branch, idx))?;
     }
     if a.json {
@@ -701,6 +702,16 @@ fn modes_cmd(a: ModesArgs) -> Result<()> {
             .map(|md| format!("{:>10.6}{:+10.6}i", md.shape[i].re, md.shape[i].im))
             .collect();
         println!("  {c:<16} {}", row.join("  "));
+    }
+    for (k, md) in m.modes.iter().enumerate() {
+        if md.normalized_to != m.reference {
+            println!(
+                "  mode {}: {} does not move; normalized to {} = 1 instead",
+                k + 1,
+                m.coordinates[m.reference],
+                m.coordinates[md.normalized_to]
+            );
+        }
     }
     Ok(())
 }

@@ -172,9 +172,15 @@ fn pitchfork_side_branches_at_acos_of_free_length_over_diagonal() {
         thetas.sort_by(|a, b| a.0.total_cmp(&b.0));
         let side = (l0 / l).acos();
         assert_eq!(thetas.len(), 3, "{thetas:?}");
-        assert!((thetas[0].0 + side).abs() < 1e-10 && thetas[0].1, "{thetas:?}");
+        assert!(
+            (thetas[0].0 + side).abs() < 1e-10 && thetas[0].1,
+            "{thetas:?}"
+        );
         assert!(thetas[1].0.abs() < 1e-10 && !thetas[1].1, "{thetas:?}");
-        assert!((thetas[2].0 - side).abs() < 1e-10 && thetas[2].1, "{thetas:?}");
+        assert!(
+            (thetas[2].0 - side).abs() < 1e-10 && thetas[2].1,
+            "{thetas:?}"
+        );
     }
 }
 

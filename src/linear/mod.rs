@@ -50,6 +50,9 @@ pub struct Mode {
     pub eigenvalue: C64,
     /// Shape in the model's coordinates (n), normalized to the reference coordinate.
     pub shape: Vec<C64>,
+    /// The coordinate (index) whose entry is 1: the requested reference, or the largest
+    /// entry when the reference does not move in this mode.
+    pub normalized_to: usize,
 }
 
 /// A complex number as `{re, im}`.
@@ -151,10 +154,10 @@ impl Linearization {
                 .max_by(|&i, &j| full[i].norm().total_cmp(&full[j].norm()))
                 .unwrap_or(0);
             // normalize to the largest entry when the reference does not move
-            let norm = if r.norm() > 1e-9 * full[imax].norm() {
-                r
+            let (norm, normalized_to) = if r.norm() > 1e-9 * full[imax].norm() {
+                (r, reference)
             } else {
-                full[imax]
+                (full[imax], imax)
             };
             let shape: Vec<C64> = full.iter().map(|c| (c / norm).into()).collect();
             let wn = lam.norm();
@@ -165,6 +168,7 @@ impl Linearization {
                 damping_ratio: if wn > 0.0 { -lam.re / wn } else { 0.0 },
                 eigenvalue: lam.into(),
                 shape,
+                normalized_to,
             });
         }
         modes.sort_by(|a, b| {

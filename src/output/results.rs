@@ -81,6 +81,7 @@ pub fn modes_json(a: &ModalAnalysis, provenance: &Provenance) -> Value {
                 "damping_ratio": m.damping_ratio,
                 "eigenvalue": {"re": m.eigenvalue.re, "im": m.eigenvalue.im},
                 "shape": shape,
+                "normalized_to": a.coordinates[m.normalized_to],
             })
         })
         .collect();
