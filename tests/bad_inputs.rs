@@ -231,3 +231,21 @@ fn missing_model_file() {
     assert!(String::from_utf8_lossy(&o.stderr).contains("nope.toml"));
     assert!(!Path::new(&dir.path().join("out.csv")).exists());
 }
+
+#[test]
+fn parameter_that_is_not_a_finite_number() {
+    // In the file: located at the expression.
+    let text = replaced("L0 = { value = 2,", "L0 = { value = \"2/(k - 50)\",");
+    let o = simulate(&text, &[]);
+    assert_clean_failure(&o, "`L0` evaluates to inf");
+    assert!(
+        o.stderr.contains(&location(&text, "2/(k - 50)", 0)),
+        "{}",
+        o.stderr
+    );
+    // From --set: named, with the expression underlined.
+    for (set, what) in [("Fs=0/0", "NaN"), ("Fs=sqrt(-1)", "NaN"), ("Fs=1/0", "inf")] {
+        let o = simulate(&shipped(), &["--set", set]);
+        assert_clean_failure(&o, &format!("`Fs` evaluates to {what}"));
+    }
+}
