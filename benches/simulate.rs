@@ -38,7 +38,7 @@ fn detune_free_case(bencher: divan::Bencher) {
         atol: TOL,
         ..SimOptions::default()
     };
-    bencher.bench_local(|| simulate(&sys, &state, &opts, &mut |_| {}).unwrap());
+    bencher.bench_local(|| simulate(&sys, &state, &opts, &mut |_| true).unwrap());
 }
 
 /// Baseline overcentre in θ1 alone (L1 = L2 = L, m = n = 0, force at J):
@@ -99,7 +99,7 @@ fn minimal_free_case(bencher: divan::Bencher) {
             &opts,
             &mut |_, y| out.push(y[0]),
             &mut |_, _| false,
-            &mut |_| {},
+            &mut |_| true,
         )
         .unwrap();
         out
@@ -116,7 +116,7 @@ fn mid_state() -> (System, DynWorkspace, Vec<f64>, Vec<f64>) {
             t_end: 0.37,
             ..SimOptions::default()
         },
-        &mut |_| {},
+        &mut |_| true,
     )
     .unwrap();
     let ws = DynWorkspace::new(&sys);

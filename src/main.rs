@@ -378,6 +378,7 @@ fn simulate_cmd(a: SimulateArgs) -> Result<()> {
         if began.elapsed().as_millis() > 300 {
             bar.set_position((f * 1000.0) as u64);
         }
+        true
     });
     bar.finish_and_clear();
     let traj = traj?;

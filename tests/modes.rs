@@ -125,7 +125,7 @@ fn free_oscillation_frequency_agrees_with_omega_n() {
             dt_out: 0.001,
             ..SimOptions::default()
         },
-        &mut |_| {},
+        &mut |_| true,
     )
     .unwrap();
     let th = traj.coordinate("bar1.theta").unwrap();

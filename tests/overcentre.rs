@@ -26,7 +26,7 @@ fn load(sets: &[(&str, &str)]) -> (Model, System, State) {
 }
 
 fn run(sys: &System, state: &State, opts: &SimOptions) -> Trajectory {
-    simulate(sys, state, opts, &mut |_| {}).expect("simulates")
+    simulate(sys, state, opts, &mut |_| true).expect("simulates")
 }
 
 fn reference(name: &str) -> Vec<(f64, f64)> {

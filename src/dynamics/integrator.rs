@@ -60,14 +60,15 @@ impl<F: ODE<f64, Vec<f64>>> ODE<f64, Vec<f64>> for Guarded<'_, F> {
 /// * `sample(t, y)` receives every output sample in order.
 /// * `after_step(t, y)` runs after each accepted step that is not the last; it returns
 ///   `true` if it changed `y` (the integrator then restarts from it).
-/// * `progress(fraction)` after each accepted step.
+/// * `progress(fraction)` after each accepted step; it returns `false` to stop the
+///   integration there (a cancelled run: the call fails with an "interrupted" error).
 pub fn integrate<F: ODE<f64, Vec<f64>>>(
     ode: &F,
     y0: &[f64],
     opts: &IntegratorOptions,
     sample: &mut dyn FnMut(f64, &[f64]),
     after_step: &mut dyn FnMut(f64, &mut Vec<f64>) -> bool,
-    progress: &mut dyn FnMut(f64),
+    progress: &mut dyn FnMut(f64) -> bool,
 ) -> Result<IntegratorStats> {
     let (t0, t_end) = (opts.t0, opts.t_end);
     let span = t_end - t0;
@@ -149,7 +150,12 @@ pub fn integrate<F: ODE<f64, Vec<f64>>>(
         if let Some((_, f1)) = ends {
             deriv_cache = Some((t_new, f1));
         }
-        progress((t_new - t0) / span);
+        if !progress((t_new - t0) / span) {
+            return Err(Error::numerical(
+                format!("interrupted at t = {t_new:.6} s"),
+                "the run was cancelled",
+            ));
+        }
         if next_k > last_k {
             break;
         }

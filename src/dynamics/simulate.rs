@@ -105,12 +105,13 @@ impl ODE<f64, Vec<f64>> for ConstrainedOde<'_> {
     }
 }
 
-/// Integrate from a consistent state. `progress` receives the fraction done.
+/// Integrate from a consistent state. `progress` receives the fraction done after each
+/// step and returns `false` to cancel the run (which then fails as interrupted).
 pub fn simulate(
     sys: &System,
     start: &State,
     opts: &SimOptions,
-    progress: &mut dyn FnMut(f64),
+    progress: &mut dyn FnMut(f64) -> bool,
 ) -> Result<Trajectory> {
     check_options(opts)?;
     let n = sys.n();

@@ -112,7 +112,7 @@ pub fn steady_state(
             if cancel.load(Ordering::Relaxed) {
                 return Err(Error::numerical("interrupted", "the sweep was interrupted"));
             }
-            let traj = simulate(sys, &state, &sim, &mut |_| {})?;
+            let traj = simulate(sys, &state, &sim, &mut |_| !cancel.load(Ordering::Relaxed))?;
             let k_last = traj.t.len() - 1;
             recent = vec![
                 responses
@@ -142,7 +142,7 @@ pub fn steady_state(
         if cancel.load(Ordering::Relaxed) {
             return Err(Error::numerical("interrupted", "the sweep was interrupted"));
         }
-        let traj = simulate(sys, &state, &sim, &mut |_| {})?;
+        let traj = simulate(sys, &state, &sim, &mut |_| !cancel.load(Ordering::Relaxed))?;
         let k_last = traj.t.len() - 1;
         // samples of this period (without the endpoint, which is the next period's start)
         let period_samples: Vec<Vec<f64>> = responses
