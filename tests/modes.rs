@@ -232,3 +232,42 @@ fn undamped_resonance_is_refused_not_infinite() {
         "{below:?} {above:?}"
     );
 }
+
+#[test]
+fn frf_linearizes_about_the_mean_load_of_the_forcing_period() {
+    // F0·cos(ωt): its mean over a period is 0, but at the model's own ω = 0 it would be a
+    // constant F0. The linear response must be about the equilibrium under Fs alone.
+    let text = std::fs::read_to_string(format!(
+        "{}/models/overcentre.toml",
+        env!("CARGO_MANIFEST_DIR")
+    ))
+    .unwrap()
+    .replace("Fs + F0*sin(omega*t)", "Fs + F0*cos(omega*t)");
+    let cos = detune::Model::from_str("cos.toml", &text)
+        .unwrap()
+        .with_overrides(&[
+            ("theta1_0".into(), "-0.85".into()),
+            ("F0".into(), "3".into()),
+        ])
+        .unwrap();
+    let fr = frequency_response(&cos, "omega", &[1.0, 2.0], &["bar1.theta".to_string()]).unwrap();
+    let lower = reference()["baseline (gravity, L0 = 2)"]["equilibria"][0]["theta_rad"]
+        .as_f64()
+        .unwrap();
+    assert!(
+        rel(fr.equilibrium.q[2], lower) < 1e-9,
+        "{} vs {lower}",
+        fr.equilibrium.q[2]
+    );
+    // Same amplitude as the sine forcing (a phase shift of 90° is all that differs).
+    let sin = model(&[("theta1_0", "-0.85"), ("F0", "3")]);
+    let fs = frequency_response(&sin, "omega", &[1.0, 2.0], &["bar1.theta".to_string()]).unwrap();
+    for k in 0..2 {
+        assert!(rel(fr.values[k][0].0, fs.values[k][0].0) < 1e-9);
+        let shift = (fr.values[k][0].1 - fs.values[k][0].1).rem_euclid(360.0);
+        assert!((shift - 90.0).abs() < 1e-6, "phase shift {shift}");
+    }
+    // Frequencies must be positive.
+    let e = frequency_response(&sin, "omega", &[-1.0], &["bar1.theta".to_string()]).unwrap_err();
+    assert!(e.to_string().contains("positive"), "{e}");
+}

@@ -400,8 +400,7 @@ pub struct Sweep {
 
 /// The compiled system at one value of the frequency parameter.
 fn system_at(model: &Model, param: &str, omega: f64) -> Result<System> {
-    let m = model.with_overrides(&[(param.to_string(), format!("{omega:?}"))])?;
-    System::new(&m)
+    System::new(&crate::linear::at_frequency(model, param, omega)?)
 }
 
 fn check_request(model: &Model, opts: &SweepOptions) -> Result<()> {
@@ -460,7 +459,8 @@ pub fn sweep(
     cancel: &AtomicBool,
 ) -> Result<Sweep> {
     check_request(model, opts)?;
-    let sys0 = System::new(model)?;
+    // The equilibrium under the loads' mean over a forcing period (see `at_frequency`).
+    let sys0 = system_at(model, &opts.param, opts.values[0])?;
     let responses: Vec<usize> = opts
         .responses
         .iter()
@@ -474,23 +474,7 @@ pub fn sweep(
         q: eq.q.clone(),
         v: vec![0.0; sys0.n()],
     };
-    // zero forcing is an error, not a curve of zeros
-    {
-        let s = system_at(model, &opts.param, opts.values[0])?;
-        let f1 = crate::linear::first_harmonic(&s, &eq.q, opts.values[0]);
-        let mut mean = vec![0.0; s.n()];
-        s.forces(&eq.q, &vec![0.0; s.n()], 0.0, &mut mean);
-        let load = mean.iter().fold(1.0f64, |a, v| a.max(v.abs()));
-        if f1.iter().all(|c| c.norm() <= 1e-12 * load) {
-            return Err(Error::request(
-                format!(
-                    "zero forcing: the model's loads have no harmonic part at {} = {}",
-                    opts.param, opts.values[0]
-                ),
-                "give the forcing an amplitude (for the overcentre, --set F0=1)",
-            ));
-        }
-    }
+    crate::linear::harmonic_forcing(&sys0, &eq.q, &opts.param, opts.values[0])?;
     let done = AtomicUsize::new(0);
     let tick = || progress(done.fetch_add(1, Ordering::Relaxed) + 1);
     let eval = |omega: f64, from: &State| -> Result<SteadyState> {

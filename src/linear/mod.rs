@@ -309,6 +309,36 @@ pub fn modal_analysis(model: &crate::Model, normalize: Option<&str>) -> Result<M
     })
 }
 
+/// The model with its forcing-frequency parameter set to `omega` (> 0): statics then
+/// averages the time-dependent loads over the forcing's period. (A load that depends on
+/// time through ωt has the same mean at every ω ≠ 0; at a model's own ω = 0 a
+/// `cos(omega*t)` load would be taken at its value at t = 0.)
+pub fn at_frequency(model: &crate::Model, param: &str, omega: f64) -> Result<crate::Model> {
+    model.with_overrides(&[(param.to_string(), format!("{omega:?}"))])
+}
+
+/// The first harmonic of the generalized force at rest at `q` (see [`first_harmonic`]),
+/// or an error when it is zero: zero forcing gives no response curve, not a curve of zeros.
+pub fn harmonic_forcing(
+    sys: &System,
+    q: &[f64],
+    param: &str,
+    omega: f64,
+) -> Result<DVector<Complex<f64>>> {
+    let force = first_harmonic(sys, q, omega);
+    // rounding of the constant loads leaves ~1e-16 of them in the harmonic sums
+    let mut mean = vec![0.0; sys.n()];
+    sys.forces(q, &vec![0.0; sys.n()], 0.0, &mut mean);
+    let load = mean.iter().fold(1.0f64, |a, v| a.max(v.abs()));
+    if force.iter().all(|c| c.norm() <= 1e-12 * load) {
+        return Err(Error::request(
+            format!("zero forcing: the model's loads have no harmonic part at {param} = {omega}"),
+            "give the forcing an amplitude (for the overcentre, --set F0=1), or check that the forcing depends on this parameter",
+        ));
+    }
+    Ok(force)
+}
+
 /// Linear frequency response of some coordinates over values of the forcing frequency.
 #[derive(Debug, Clone)]
 pub struct FrequencyResponse {
@@ -346,6 +376,19 @@ pub fn frequency_response(
             format!("use --param {f}"),
         ));
     }
+    if values.iter().any(|w| !(*w > 0.0) || !w.is_finite()) {
+        return Err(Error::request(
+            format!("--param {param}: the frequencies must be positive and finite (rad/s)"),
+            "give --from > 0",
+        ));
+    }
+    let Some(&first) = values.first() else {
+        return Err(Error::request(
+            "no frequencies requested",
+            "give --from < --to",
+        ));
+    };
+    let model = &at_frequency(model, param, first)?;
     let modal = modal_analysis(model, None)?;
     let sys = System::new(model)?;
     let idx: Vec<usize> = responses
@@ -356,18 +399,7 @@ pub fn frequency_response(
     for &w in values {
         let m = model.with_overrides(&[(param.to_string(), format!("{w:?}"))])?;
         let sw = System::new(&m)?;
-        let force = first_harmonic(&sw, &modal.equilibrium.q, w);
-        // rounding of the constant loads leaves ~1e-16 of them in the harmonic sums
-        let mut mean = vec![0.0; sw.n()];
-        let zero = vec![0.0; sw.n()];
-        sw.forces(&modal.equilibrium.q, &zero, 0.0, &mut mean);
-        let load = mean.iter().fold(1.0f64, |a, v| a.max(v.abs()));
-        if force.iter().all(|c| c.norm() <= 1e-12 * load) {
-            return Err(Error::request(
-                format!("zero forcing: the model's loads have no harmonic part at {param} = {w}"),
-                "give the forcing an amplitude (for the overcentre, --set F0=1), or check that the forcing depends on this parameter",
-            ));
-        }
+        let force = harmonic_forcing(&sw, &modal.equilibrium.q, param, w)?;
         let y = modal.linearization.response(w, &force)?;
         out.push(
             idx.iter()
