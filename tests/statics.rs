@@ -215,3 +215,20 @@ fn continuation_ends_exactly_on_the_range_and_never_leaves_it() {
         assert_eq!(b.points.last().unwrap().value, to);
     }
 }
+
+#[test]
+fn a_start_at_the_singular_pose_is_refused_not_answered_absurdly() {
+    // θ1 = 90°: bar 2 folds onto bar 1 and A loses rank. Newton from there once returned
+    // a pose with an angle of −1337 rad; it must say why it cannot start there instead.
+    let m = model(&[("theta1_0", "1.5707963")]);
+    let sys = System::new(&m).unwrap();
+    let s = assemble(&sys).unwrap();
+    let e = Statics::new(&sys, &s.q).unwrap().nearest(&s).unwrap_err();
+    assert!(e.to_string().contains("singular pose"), "{e}");
+    // A little away from it, the upper well.
+    let m = model(&[("theta1_0", "1.5")]);
+    let sys = System::new(&m).unwrap();
+    let s = assemble(&sys).unwrap();
+    let e = Statics::new(&sys, &s.q).unwrap().nearest(&s).unwrap();
+    assert!((e.q[THETA1] - 36.9265879665f64.to_radians()).abs() < 1e-9);
+}

@@ -259,6 +259,12 @@ impl<'a> Statics<'a> {
             Ok(e) => Ok(e),
             Err(first) => {
                 let Ok(all) = self.all(start) else {
+                    if free_jacobian_conditioning(self.sys, &start.q, &self.rows) < 1e-6 {
+                        return Err(Error::numerical(
+                            "no equilibrium found: the initial pose is (next to) a singular pose of the constraints, where their Jacobian loses rank and the assembly is ambiguous",
+                            "start away from it: change the coordinate the model fixes for assembly (for the overcentre, θ1 = ±90° is singular: --set theta1_0=1.4)",
+                        ));
+                    }
                     return Err(first);
                 };
                 let dist = |e: &Equilibrium| {
@@ -297,6 +303,11 @@ impl<'a> Statics<'a> {
     pub fn newton(&self, mut x: Vec<f64>, max_iter: usize) -> Result<(Vec<f64>, usize, f64)> {
         let n = self.sys.n();
         let scale = self.force_scale(&x[..n]);
+        // Trust region: no coordinate moves more than 0.2 (rad, or m scaled by the
+        // model's size at the start, capped at 10) in one iteration, so Newton does not
+        // leap to a far equilibrium. The size is fixed at the start: grown with |q| it
+        // let a run from a near-singular pose run away (an angle reached −1337 rad).
+        let size = (1.0 + x[..n].iter().fold(0.0f64, |a, v| a.max(v.abs()))).min(10.0);
         let mut r = self.residual(&x);
         let mut it = 0;
         while !self.converged(&r, &x, scale) {
@@ -321,12 +332,9 @@ impl<'a> Statics<'a> {
             let j = self.kkt_jacobian(&x);
             let dx = solve_least_squares(j, &r);
             let norm0 = r.norm();
-            // trust region: no coordinate moves more than 0.2 (rad, or m scaled by the
-            // model's size) in one iteration, so Newton does not leap to a far equilibrium
-            let size = 1.0 + x[..n].iter().fold(0.0f64, |a, v| a.max(v.abs()));
             let biggest = dx.rows(0, n).amax();
-            let mut step = if biggest > 0.2 * size.min(10.0) {
-                0.2 * size.min(10.0) / biggest
+            let mut step = if biggest > 0.2 * size {
+                0.2 * size / biggest
             } else {
                 1.0
             };
@@ -417,6 +425,17 @@ impl<'a> Statics<'a> {
             trial[d] = target;
             // re-assemble the free coordinates from the previous pose
             if !assemble_at(sys, &mut ws, &mut trial) {
+                break;
+            }
+            // A small driver step that moves another coordinate a lot has crossed a
+            // singular pose onto another assembly (from a start at the singular pose an
+            // angle was seen to spin by hundreds of turns): stop there.
+            let size = 1.0 + q.iter().fold(0.0f64, |a, v| a.max(v.abs())).min(10.0);
+            let jump = (0..sys.n())
+                .filter(|&i| i != d)
+                .map(|i| (trial[i] - q[i]).abs())
+                .fold(0.0, f64::max);
+            if jump > 0.5 * size {
                 break;
             }
             let sigma = free_jacobian_conditioning(sys, &trial, &self.rows);
