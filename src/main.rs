@@ -279,6 +279,13 @@ fn parse_sets(sets: &[String]) -> Result<Vec<(String, String)>> {
 }
 
 fn main() {
+    // `detune modes ... | head`: a closed pipe ends the process quietly, as it does for
+    // other command-line tools, instead of making `println!` panic.
+    #[cfg(unix)]
+    // SAFETY: restoring the default action of a signal before any thread is started.
+    unsafe {
+        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
+    }
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Check(a) => check(a),
@@ -728,6 +735,12 @@ fn frf_cmd(a: FrfArgs) -> Result<()> {
     if a.json {
         print_json(&frf_json(&fr, &Provenance::of(&model)));
     } else if a.output.is_none() {
+        let head: Vec<String> = fr
+            .responses
+            .iter()
+            .map(|r| format!("{:>12} {:>9}", format!("{r} amp"), "phase"))
+            .collect();
+        println!("{:>10}  {}", fr.param, head.join("  "));
         for (k, w) in fr.omega.iter().enumerate() {
             let cols: Vec<String> = fr.values[k]
                 .iter()
