@@ -98,6 +98,22 @@ impl Error {
             help: Some(help.into()),
         }
     }
+    /// The same error with `what: ` before its message (a request or numerical error;
+    /// model and I/O errors already say where they are).
+    pub fn context(self, what: &str) -> Self {
+        match self {
+            Error::Request { message, help } => Error::Request {
+                message: format!("{what}: {message}"),
+                help,
+            },
+            Error::Numerical { message, help } => Error::Numerical {
+                message: format!("{what}: {message}"),
+                help,
+            },
+            other => other,
+        }
+    }
+
     pub fn numerical(message: impl Into<String>, help: impl Into<String>) -> Self {
         Error::Numerical {
             message: message.into(),

@@ -768,10 +768,29 @@ fn sweep_cmd(a: SweepArgs) -> Result<()> {
                     "for example --values F0=0.1,1,2,3,4",
                 )
             })?;
+            let name = name.trim();
+            if name.is_empty() {
+                return Err(Error::request(
+                    format!("--values {spec}: no parameter named before `=`"),
+                    "for example --values F0=0.1,1,2,3,4",
+                ));
+            }
+            if name == a.grid.param {
+                return Err(Error::request(
+                    format!("--values {spec}: `{name}` is the swept parameter (--param)"),
+                    "give --values a different parameter, e.g. the forcing amplitude F0",
+                ));
+            }
             let mut out = Vec::new();
             for v in list.split(',') {
+                if v.trim().is_empty() {
+                    return Err(Error::request(
+                        format!("--values {spec}: an empty entry"),
+                        "separate the values by single commas: --values F0=0.1,1,2",
+                    ));
+                }
                 let m = model
-                    .with_overrides(&[(name.trim().to_string(), v.trim().to_string())])
+                    .with_overrides(&[(name.to_string(), v.trim().to_string())])
                     .map_err(|e| match e {
                         Error::Request { message, help } => Error::Request {
                             message: message.replace("--set ", "--values "),
@@ -779,8 +798,8 @@ fn sweep_cmd(a: SweepArgs) -> Result<()> {
                         },
                         other => other,
                     })?;
-                let value = m.parameters.value(name.trim()).unwrap_or(f64::NAN);
-                out.push((Some((name.trim().to_string(), value)), m));
+                let value = m.parameters.value(name).unwrap_or(f64::NAN);
+                out.push((Some((name.to_string(), value)), m));
             }
             out
         }
@@ -809,6 +828,13 @@ fn sweep_cmd(a: SweepArgs) -> Result<()> {
             format!("--settle-tol {} is not valid", a.settle_tol),
             "give a fraction such as 1e-8",
         ));
+    }
+    // Every run is checked before any is simulated: a bad --values entry fails at once.
+    for (value, m) in &family {
+        detune::frequency::prepare(m, &opts).map_err(|e| match value {
+            Some((name, v)) => e.context(&format!("--values {name}={v}")),
+            None => e,
+        })?;
     }
     let _ = ctrlc::set_handler(|| INTERRUPTED.store(true, std::sync::atomic::Ordering::SeqCst));
     let per_run = values.len()
@@ -870,15 +896,32 @@ fn sweep_cmd(a: SweepArgs) -> Result<()> {
         eprintln!("wrote {o}{}", if complete { "" } else { " (incomplete)" });
     }
     if let Some(p) = &a.plot {
-        let omega_n: Vec<f64> = modal_analysis(&family[0].1, None)
-            .map(|m| {
-                m.undamped_omega2
-                    .iter()
-                    .filter(|w| **w > 0.0)
-                    .map(|w| w.sqrt())
-                    .collect()
-            })
-            .unwrap_or_default();
+        // The linear natural frequencies of every run (a static load in --values moves
+        // them; an amplitude does not): each distinct one marked once.
+        let mut omega_n: Vec<(f64, String)> = Vec::new();
+        for (value, m) in family.iter().take(runs.len()) {
+            let at = detune::linear::at_frequency(m, &a.grid.param, values[0])?;
+            let Ok(ma) = modal_analysis(&at, None) else {
+                continue;
+            };
+            for w in ma
+                .undamped_omega2
+                .iter()
+                .filter(|w| **w > 0.0)
+                .map(|w| w.sqrt())
+            {
+                if !omega_n.iter().any(|(x, _)| (x - w).abs() <= 1e-6 * w) {
+                    let tag = value
+                        .as_ref()
+                        .map(|(n, v)| format!(" ({n} = {v})"))
+                        .unwrap_or_default();
+                    omega_n.push((w, tag));
+                }
+            }
+        }
+        if omega_n.len() == 1 {
+            omega_n[0].1.clear(); // the same for every run: no tag needed
+        }
         detune::output::plot::write_panels(p, &sweep_plots(&runs, &omega_n))?;
         eprintln!("wrote {p}");
     }
@@ -941,12 +984,15 @@ fn sweep_cmd(a: SweepArgs) -> Result<()> {
 
 /// Amplitude of the first response against frequency, one curve per --values entry and
 /// direction; with --values, the same normalized by the value (the paper's Figures 8–9).
-fn sweep_plots(runs: &[detune::output::results::SweepRun], omega_n: &[f64]) -> Vec<LinePlot> {
+fn sweep_plots(
+    runs: &[detune::output::results::SweepRun],
+    omega_n: &[(f64, String)],
+) -> Vec<LinePlot> {
     let first = runs[0].sweep;
     let name = &first.responses[0];
     let vertical: Vec<(f64, String)> = omega_n
         .iter()
-        .map(|w| (*w, format!("linear ω_n = {w:.4} rad/s")))
+        .map(|(w, tag)| (*w, format!("linear ω_n = {w:.4} rad/s{tag}")))
         .collect();
     let curves = |normalized: bool| -> Vec<Series> {
         let mut out = Vec::new();
@@ -966,7 +1012,8 @@ fn sweep_plots(runs: &[detune::output::results::SweepRun], omega_n: &[f64]) -> V
                     continue;
                 }
                 let scale = match (normalized, run.value) {
-                    (true, Some((_, v))) if v != 0.0 => 1.0 / v,
+                    (true, Some((_, v))) if v != 0.0 => 1.0 / v.abs(),
+                    (true, Some(_)) => continue, // nothing to normalize by
                     _ => 1.0,
                 };
                 let mut label = run

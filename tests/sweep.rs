@@ -223,4 +223,12 @@ fn bad_sweep_requests_are_refused() {
     o.responses = vec!["bar3.theta".into()];
     let e = sweep(&m, &o, &|_| {}, &no).unwrap_err().to_string();
     assert!(e.contains("bar3.theta"), "{e}");
+    let mut o = opts("omega", vec![3.0, 3.5, 4.0]);
+    o.steady.max_periods = 0;
+    let e = sweep(&m, &o, &|_| {}, &no).unwrap_err().to_string();
+    assert!(e.contains("--max-periods 0"), "{e}");
+    let mut o = opts("omega", vec![3.0, 3.5, 4.0]);
+    o.refine = Some(0.5);
+    let e = sweep(&m, &o, &|_| {}, &no).unwrap_err().to_string();
+    assert!(e.contains("not finer than the grid"), "{e}");
 }

@@ -20,7 +20,7 @@ use crate::diag::{Error, Result};
 use crate::dynamics::simulate::{SimOptions, simulate};
 use crate::dynamics::{DynWorkspace, State, project_position, project_velocity};
 use crate::model::Model;
-use crate::statics::Statics;
+use crate::statics::{Equilibrium, Statics};
 use crate::system::System;
 use measure::Measures;
 use nalgebra::{DMatrix, DVector};
@@ -446,7 +446,43 @@ fn check_request(model: &Model, opts: &SweepOptions) -> Result<()> {
             "give a positive resolution, e.g. 1e-3",
         ));
     }
+    if let (Some(r), [w0, w1, ..]) = (opts.refine, opts.values.as_slice())
+        && r >= (w1 - w0).abs()
+    {
+        return Err(Error::request(
+            format!(
+                "--refine {r} is not finer than the grid's step {}: nothing would be refined",
+                (w1 - w0).abs()
+            ),
+            "give --refine below --step (e.g. --step / 100), or leave it out",
+        ));
+    }
+    if opts.steady.max_periods == 0 || opts.steady.fixed_periods == Some(0) {
+        return Err(Error::request(
+            "--max-periods 0: no period would be simulated",
+            "give at least 1 (the default is 600)",
+        ));
+    }
     Ok(())
+}
+
+/// Everything a sweep checks before it simulates: the request, the response
+/// coordinates, the equilibrium it starts from (under the loads' mean over a forcing
+/// period, see [`crate::linear::at_frequency`]) and a non-zero forcing. Cheap (no
+/// simulation): call it on every model of a family before sweeping any of them.
+pub fn prepare(model: &Model, opts: &SweepOptions) -> Result<(System, Vec<usize>, Equilibrium)> {
+    check_request(model, opts)?;
+    let sys0 = system_at(model, &opts.param, opts.values[0])?;
+    let responses: Vec<usize> = opts
+        .responses
+        .iter()
+        .map(|r| crate::linear::coordinate(&sys0, r, "--response"))
+        .collect::<Result<_>>()?;
+    let start = crate::dynamics::assemble(&sys0)?;
+    let st = Statics::new(&sys0, &start.q)?;
+    let eq = st.nearest(&start)?;
+    crate::linear::harmonic_forcing(&sys0, &eq.q, &opts.param, opts.values[0])?;
+    Ok((sys0, responses, eq))
 }
 
 /// Run a sweep. `progress` is called with the number of frequencies done (coarse grid
@@ -458,23 +494,12 @@ pub fn sweep(
     progress: &(dyn Fn(usize) + Sync),
     cancel: &AtomicBool,
 ) -> Result<Sweep> {
-    check_request(model, opts)?;
-    // The equilibrium under the loads' mean over a forcing period (see `at_frequency`).
-    let sys0 = system_at(model, &opts.param, opts.values[0])?;
-    let responses: Vec<usize> = opts
-        .responses
-        .iter()
-        .map(|r| crate::linear::coordinate(&sys0, r, "--response"))
-        .collect::<Result<_>>()?;
-    let start = crate::dynamics::assemble(&sys0)?;
-    let st = Statics::new(&sys0, &start.q)?;
-    let eq = st.nearest(&start)?;
+    let (sys0, responses, eq) = prepare(model, opts)?;
     let rest = State {
         t: 0.0,
         q: eq.q.clone(),
         v: vec![0.0; sys0.n()],
     };
-    crate::linear::harmonic_forcing(&sys0, &eq.q, &opts.param, opts.values[0])?;
     let done = AtomicUsize::new(0);
     let tick = || progress(done.fetch_add(1, Ordering::Relaxed) + 1);
     let eval = |omega: f64, from: &State| -> Result<SteadyState> {
@@ -572,6 +597,7 @@ pub fn sweep(
                     (lo, mid, hi),
                     amp,
                     opts.refine,
+                    opts.steady.settle_tol,
                 )
             })
             .collect();
@@ -639,8 +665,12 @@ fn collect(results: Vec<Result<SteadyState>>, dir: Direction) -> (Vec<SweepPoint
 /// (two frequencies at once, in parallel), and the bracket shrinks to the neighbours of the
 /// new best point, halving it per round (golden section would gain 0.618 per evaluation, but
 /// one at a time). The estimate is the vertex of the parabola through the best point and
-/// its neighbours; the uncertainty is half the final bracket. Deterministic: the same
-/// frequencies for any number of threads.
+/// its neighbours. The uncertainty is the larger of half the final bracket and the shift
+/// that amplitude errors of the settling tolerance can cause: for a peak
+/// A ≈ A_p − c (ω − ω_p)², an error δA = tol·A_p in the amplitudes moves the located
+/// maximum by up to √(δA/c), with c from the parabola of the first round. (Asking for a
+/// finer --refine than that floor refines the noise; --settle-tol lowers the floor.)
+/// Deterministic: the same frequencies for any number of threads.
 #[allow(clippy::too_many_arguments)]
 fn refine_peak(
     eval: &(dyn Fn(f64, &State) -> Result<SteadyState> + Sync),
@@ -651,6 +681,7 @@ fn refine_peak(
     (lo, mid, hi): (f64, f64, f64),
     amp: f64,
     resolution: Option<f64>,
+    settle_tol: f64,
 ) -> Result<(Peak, Vec<SweepPoint>)> {
     let mut extra = Vec::new();
     let Some(res) = resolution else {
@@ -669,11 +700,15 @@ fn refine_peak(
     let (mut a, mut b) = (lo, hi);
     let (mut xb, mut fb) = (mid, amp);
     let (mut fa, mut fbr) = (f64::NEG_INFINITY, f64::NEG_INFINITY);
+    let mut curvature: Option<f64> = None;
     while b - a > res {
         let (xl, xr) = (0.5 * (a + xb), 0.5 * (xb + b));
         let (left, right) = rayon::join(|| eval(xl, from), || eval(xr, from));
         let (left, right) = (left?, right?);
         let (fl, fr) = (left.measures[r].amplitude, right.measures[r].amplitude);
+        if curvature.is_none() {
+            curvature = parabola(&[(xl, fl), (xb, fb), (xr, fr)]).map(|(c, _)| -c);
+        }
         for s in [left, right] {
             extra.push(SweepPoint {
                 direction: dir,
@@ -693,23 +728,28 @@ fn refine_peak(
         }
     }
     let vertex = if fa.is_finite() && fbr.is_finite() {
-        parabola_vertex(&[(a, fa), (xb, fb), (b, fbr)]).filter(|v| *v >= a && *v <= b)
+        parabola(&[(a, fa), (xb, fb), (b, fbr)])
+            .map(|(_, v)| v)
+            .filter(|v| *v >= a && *v <= b)
     } else {
         None
     };
+    let noise = curvature.map_or(0.0, |c| (settle_tol * fb / c).sqrt());
     Ok((
         Peak {
             response: name.to_string(),
             direction: dir,
             omega: vertex.unwrap_or(xb),
             amplitude: fb,
-            uncertainty: 0.5 * (b - a),
+            uncertainty: (0.5 * (b - a)).max(noise),
         },
         extra,
     ))
 }
 
-fn parabola_vertex(p: &[(f64, f64)]) -> Option<f64> {
+/// The parabola y = a x² + b x + c through three points, when it opens downward:
+/// (a, vertex).
+fn parabola(p: &[(f64, f64)]) -> Option<(f64, f64)> {
     if p.len() < 3 {
         return None;
     }
@@ -723,7 +763,7 @@ fn parabola_vertex(p: &[(f64, f64)]) -> Option<f64> {
     if a >= 0.0 {
         return None;
     }
-    Some(-b / (2.0 * a))
+    Some((a, -b / (2.0 * a)))
 }
 
 /// Coarse-grid intervals where up and down amplitudes (first response) differ by > 1 %.

@@ -268,12 +268,28 @@ pub fn sweep_json(runs: &[SweepRun], provenance: &Provenance) -> Value {
         }
     }
     let first = runs[0].sweep;
-    json!({
+    let mut out = json!({
         "equilibrium": coordinates_json(&first.coordinates, &first.equilibrium),
         "points": points,
         "peaks": peaks,
         "hysteresis": hysteresis,
         "complete": runs.iter().all(|r| r.sweep.complete),
         "provenance": provenance,
-    })
+    });
+    // With --values each run has its own equilibrium (a static load moves it).
+    if runs.iter().any(|r| r.value.is_some()) {
+        out["equilibria"] = runs
+            .iter()
+            .map(|r| {
+                let mut e = json!({
+                    "coordinates": coordinates_json(&r.sweep.coordinates, &r.sweep.equilibrium)
+                });
+                if let Some((name, v)) = r.value {
+                    e[name] = json!(v);
+                }
+                e
+            })
+            .collect();
+    }
+    out
 }
