@@ -19,7 +19,8 @@ struct Outcome {
     dir: tempfile::TempDir,
 }
 
-/// Run `detune simulate` on `text` written to `bad.toml`, with extra arguments.
+/// Run `detune simulate` on `text` written to `bad.toml`, with extra arguments (and
+/// `--t-end 3` unless they give one).
 fn simulate(text: &str, extra: &[&str]) -> Outcome {
     let dir = tempfile::tempdir().unwrap();
     let model = dir.path().join("bad.toml");
@@ -27,9 +28,12 @@ fn simulate(text: &str, extra: &[&str]) -> Outcome {
     let out: PathBuf = dir.path().join("out.csv");
     let o = Command::new(env!("CARGO_BIN_EXE_detune"))
         .current_dir(dir.path())
-        .args([
-            "simulate", "bad.toml", "-o", "out.csv", "--t-end", "3", "--plot", "out.svg",
-        ])
+        .args(["simulate", "bad.toml", "-o", "out.csv", "--plot", "out.svg"])
+        .args(if extra.contains(&"--t-end") {
+            &[][..]
+        } else {
+            &["--t-end", "3"][..]
+        })
         .args(extra)
         .output()
         .unwrap();
@@ -248,4 +252,21 @@ fn parameter_that_is_not_a_finite_number() {
         let o = simulate(&shipped(), &["--set", set]);
         assert_clean_failure(&o, &format!("`Fs` evaluates to {what}"));
     }
+}
+
+#[test]
+fn nan_from_the_first_evaluation_is_reported_not_hung_on() {
+    // Undefined already at t = 0: the first right-hand side (the integrator's initial
+    // step-size estimate) meets it. nalgebra's SVD never returns on NaN, so this once hung.
+    let text = replaced("\"Fs + F0*sin(omega*t)\"", "\"sqrt(-1 - t)\"");
+    let o = simulate(&text, &[]);
+    assert_clean_failure(&o, "non-finite");
+    assert!(o.stderr.contains("t = 0.000000"), "{}", o.stderr);
+}
+
+#[test]
+fn a_run_that_cannot_keep_the_constraints_is_refused() {
+    // --atol 1: steps so large that the projection cannot bring the state back.
+    let o = simulate(&shipped(), &["--atol", "1", "--t-end", "20"]);
+    assert_clean_failure(&o, "constraints could not be kept");
 }

@@ -62,6 +62,10 @@ impl DynWorkspace {
     }
 }
 
+fn all_finite(x: &[f64]) -> bool {
+    x.iter().all(|v| v.is_finite())
+}
+
 /// `x = B⁺ r` (minimum-norm least squares); returns the numerical rank of B.
 pub fn pinv_solve(
     bm: &DMatrix<f64>,
@@ -72,6 +76,11 @@ pub fn pinv_solve(
     let m = bm.nrows();
     if m == 0 {
         return (DVector::zeros(bm.ncols()), 0);
+    }
+    // NaN or inf (a force like sqrt(-1 - t), a diverging run): nalgebra's SVD never
+    // returns on them. Pass the NaN on; the integrator's guard reports it with its time.
+    if !all_finite(bm.as_slice()) || !all_finite(r.as_slice()) {
+        return (DVector::from_element(bm.ncols(), f64::NAN), 0);
     }
     bm.mul_to(&bm.transpose(), gram);
     let scale = gram.diagonal().max();
@@ -104,6 +113,9 @@ pub fn constraint_rank(sys: &System, q: &[f64], t: f64) -> usize {
         return 0;
     }
     let bm = &ws.a * &sys.mass_inv_sqrt;
+    if !all_finite(bm.as_slice()) {
+        return 0;
+    }
     let svd = bm.svd(false, false);
     let smax = svd.singular_values.max();
     svd.singular_values
@@ -235,6 +247,9 @@ fn weighted_min_norm(
     let mut af = a.select_columns(cols.iter());
     for (k, wk) in w.iter().enumerate() {
         af.column_mut(k).scale_mut(*wk);
+    }
+    if !all_finite(af.as_slice()) || !all_finite(r.as_slice()) {
+        return DVector::from_element(cols.len(), f64::NAN);
     }
     let svd = af.svd(true, true);
     let eps = RANK_TOL * svd.singular_values.max().max(f64::MIN_POSITIVE);

@@ -175,6 +175,18 @@ pub fn simulate(
         },
         progress,
     )?;
+    // The projection keeps written states on the constraints to `projection_tol`; a
+    // residual far above it means it failed (a run far too loose, or a singular pose),
+    // and the trajectory is not a motion of the mechanism: refuse it rather than write it.
+    if max_residual.get() > 1e-6 {
+        return Err(Error::numerical(
+            format!(
+                "the constraints could not be kept: the largest constraint residual reached {:.3e}",
+                max_residual.get()
+            ),
+            "tighten --rtol/--atol (the defaults are 1e-10 and 1e-12); if that does not help, the mechanism may pass a singular pose",
+        ));
+    }
     traj.stats = SimStats {
         accepted_steps: istats.accepted_steps,
         rejected_steps: istats.rejected_steps,
