@@ -9,7 +9,7 @@ use detune::output::plot::{LinePlot, Series, Style, write_line_plot};
 use detune::output::results::{
     branch_json, equilibrium_json, frf_json, modes_json, write_branch_csv, write_frf_csv,
 };
-use detune::output::{Provenance, write_json, write_trajectory_csv};
+use detune::output::{Provenance, check_outputs, write_json, write_trajectory_csv};
 use detune::statics::Statics;
 use detune::statics::continuation::{
     Branch, BranchPoint, ContinuationOptions, continue_equilibria,
@@ -364,6 +364,10 @@ fn check(a: CheckArgs) -> Result<()> {
 
 fn simulate_cmd(a: SimulateArgs) -> Result<()> {
     let model = a.model.load()?;
+    check_outputs(
+        &model.source.path,
+        &[Some(&a.output), a.plot.as_deref(), a.json.as_deref()],
+    )?;
     let sys = System::new(&model)?;
     let start = assemble(&sys)?;
     let opts = SimOptions {
@@ -515,6 +519,10 @@ fn equilibrium_cmd(a: EquilibriumArgs) -> Result<()> {
 
 fn continue_cmd(a: ContinueArgs) -> Result<()> {
     let model = a.model.load()?;
+    check_outputs(
+        &model.source.path,
+        &[a.output.as_deref(), a.plot.as_deref()],
+    )?;
     let opts = ContinuationOptions {
         param: a.param.clone(),
         from: a.from,
@@ -726,6 +734,7 @@ fn modes_cmd(a: ModesArgs) -> Result<()> {
 
 fn frf_cmd(a: FrfArgs) -> Result<()> {
     let model = a.model.load()?;
+    check_outputs(&model.source.path, &[a.output.as_deref()])?;
     let (values, responses) = a.grid.resolve(&model)?;
     let fr = frequency_response(&model, &a.grid.param, &values, &responses)?;
     if let Some(o) = &a.output {
@@ -758,6 +767,10 @@ fn sweep_cmd(a: SweepArgs) -> Result<()> {
     use detune::frequency::{SteadyOptions, SweepMode, SweepOptions, sweep};
     use detune::output::results::{SweepRun, sweep_json, write_sweep_csv};
     let model = a.model.load()?;
+    check_outputs(
+        &model.source.path,
+        &[a.output.as_deref(), a.plot.as_deref()],
+    )?;
     let (values, responses) = a.grid.resolve(&model)?;
     let family: Vec<(Option<(String, f64)>, Model)> = match &a.values {
         None => vec![(None, model.clone())],

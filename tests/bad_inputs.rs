@@ -270,3 +270,15 @@ fn a_run_that_cannot_keep_the_constraints_is_refused() {
     let o = simulate(&shipped(), &["--atol", "1", "--t-end", "20"]);
     assert_clean_failure(&o, "constraints could not be kept");
 }
+
+#[test]
+fn outputs_that_cannot_be_written_are_refused_before_the_run() {
+    // A missing directory for the last of three outputs: nothing at all is written.
+    let o = simulate(&shipped(), &["--json", "nodir/out.json"]);
+    assert_clean_failure(&o, "the directory nodir does not exist");
+    // An output over the model file, or two outputs on one path.
+    let o = simulate(&shipped(), &["--json", "bad.toml"]);
+    assert_clean_failure(&o, "would overwrite the model file");
+    let o = simulate(&shipped(), &["--json", "./out.csv"]);
+    assert_clean_failure(&o, "the same file as the output out.csv");
+}

@@ -47,6 +47,58 @@ pub fn write_atomic(
     Ok(())
 }
 
+/// Check, before any work, that every output can be written where asked: its directory
+/// exists, it is not a directory, no two outputs share a path, and none overwrites the
+/// model file. A run then does not fail after minutes of work, or after writing one of
+/// its files but not another.
+pub fn check_outputs(model_path: &str, outputs: &[Option<&str>]) -> Result<()> {
+    let key = |p: &str| -> std::path::PathBuf {
+        let p = Path::new(p);
+        let dir = match p.parent() {
+            Some(d) if !d.as_os_str().is_empty() => d,
+            _ => Path::new("."),
+        };
+        let dir = dir.canonicalize().unwrap_or_else(|_| dir.to_path_buf());
+        dir.join(p.file_name().unwrap_or_default())
+    };
+    let model = key(model_path);
+    let mut seen: Vec<(std::path::PathBuf, &str)> = Vec::new();
+    for path in outputs.iter().flatten() {
+        let p = Path::new(path);
+        let dir = match p.parent() {
+            Some(d) if !d.as_os_str().is_empty() => d,
+            _ => Path::new("."),
+        };
+        if !dir.is_dir() {
+            return Err(Error::request(
+                format!("{path}: the directory {} does not exist", dir.display()),
+                "create it first, or write the output elsewhere",
+            ));
+        }
+        if p.is_dir() || p.file_name().is_none() {
+            return Err(Error::request(
+                format!("{path}: is a directory, not a file name"),
+                "give a file name, e.g. out.csv",
+            ));
+        }
+        let k = key(path);
+        if k == model {
+            return Err(Error::request(
+                format!("{path}: this would overwrite the model file"),
+                "give the output another name",
+            ));
+        }
+        if let Some((_, other)) = seen.iter().find(|(s, _)| *s == k) {
+            return Err(Error::request(
+                format!("{path}: the same file as the output {other}"),
+                "give each output its own name",
+            ));
+        }
+        seen.push((k, path));
+    }
+    Ok(())
+}
+
 /// Where a result came from: detune version, model file and hash, overrides.
 #[derive(Debug, Clone, serde::Serialize)]
 pub struct Provenance {
