@@ -75,7 +75,7 @@ struct SweepArgs {
     #[command(flatten)]
     grid: FrequencyGrid,
     /// Locate every resonance (local maximum of the amplitude) to this resolution, rad/s.
-    #[arg(long, value_name = "R")]
+    #[arg(long, value_name = "R", allow_hyphen_values = true)]
     refine: Option<f64>,
     #[arg(long, value_enum, default_value = "independent")]
     mode: ModeArg,
@@ -83,14 +83,29 @@ struct SweepArgs {
     #[arg(long, value_name = "PARAM=V1,V2,...", allow_hyphen_values = true)]
     values: Option<String>,
     /// Settling tolerance: Poincaré points agree to this fraction of the amplitude.
-    #[arg(long, default_value_t = 1e-8, value_name = "TOL")]
+    #[arg(
+        long,
+        default_value_t = 1e-8,
+        value_name = "TOL",
+        allow_hyphen_values = true
+    )]
     settle_tol: f64,
     /// Most periods per frequency.
     #[arg(long, default_value_t = 600, value_name = "N")]
     max_periods: usize,
-    #[arg(long, default_value_t = 1e-10, value_name = "R")]
+    #[arg(
+        long,
+        default_value_t = 1e-10,
+        value_name = "R",
+        allow_hyphen_values = true
+    )]
     rtol: f64,
-    #[arg(long, default_value_t = 1e-12, value_name = "A")]
+    #[arg(
+        long,
+        default_value_t = 1e-12,
+        value_name = "A",
+        allow_hyphen_values = true
+    )]
     atol: f64,
     /// CSV: one row per frequency (and direction and --values entry).
     #[arg(short = 'o', long = "output", value_name = "OUT.csv")]
@@ -124,14 +139,14 @@ struct ContinueArgs {
     #[arg(long, value_name = "NAME")]
     param: String,
     /// Start value (SI).
-    #[arg(long, value_name = "A")]
+    #[arg(long, value_name = "A", allow_hyphen_values = true)]
     from: f64,
     /// End value (SI).
-    #[arg(long, value_name = "B")]
+    #[arg(long, value_name = "B", allow_hyphen_values = true)]
     to: f64,
     /// Largest arclength step, in the units of the coordinates and the parameter
     /// [default: (B − A)/50].
-    #[arg(long, value_name = "S")]
+    #[arg(long, value_name = "S", allow_hyphen_values = true)]
     step: Option<f64>,
     /// Most continuation steps (points after the start point).
     #[arg(long, default_value_t = 5000, value_name = "N")]
@@ -183,13 +198,13 @@ struct FrequencyGrid {
     #[arg(long, value_name = "NAME")]
     param: String,
     /// First frequency, rad/s.
-    #[arg(long, value_name = "A")]
+    #[arg(long, value_name = "A", allow_hyphen_values = true)]
     from: f64,
     /// Last frequency, rad/s (included when the step divides the range).
-    #[arg(long, value_name = "B")]
+    #[arg(long, value_name = "B", allow_hyphen_values = true)]
     to: f64,
     /// Frequency step, rad/s.
-    #[arg(long, value_name = "S")]
+    #[arg(long, value_name = "S", allow_hyphen_values = true)]
     step: f64,
     /// Coordinate to report (repeatable) [default: every coordinate].
     #[arg(long, value_name = "NAME")]
@@ -239,16 +254,36 @@ struct SimulateArgs {
     #[command(flatten)]
     model: ModelArgs,
     /// End time, s.
-    #[arg(long, default_value_t = 20.0, value_name = "S")]
+    #[arg(
+        long,
+        default_value_t = 20.0,
+        value_name = "S",
+        allow_hyphen_values = true
+    )]
     t_end: f64,
     /// Output interval, s.
-    #[arg(long, default_value_t = 0.01, value_name = "S")]
+    #[arg(
+        long,
+        default_value_t = 0.01,
+        value_name = "S",
+        allow_hyphen_values = true
+    )]
     dt_out: f64,
     /// Relative error tolerance per step.
-    #[arg(long, default_value_t = 1e-10, value_name = "R")]
+    #[arg(
+        long,
+        default_value_t = 1e-10,
+        value_name = "R",
+        allow_hyphen_values = true
+    )]
     rtol: f64,
     /// Absolute error tolerance per step (SI units of each coordinate and velocity).
-    #[arg(long, default_value_t = 1e-12, value_name = "A")]
+    #[arg(
+        long,
+        default_value_t = 1e-12,
+        value_name = "A",
+        allow_hyphen_values = true
+    )]
     atol: f64,
     /// Add velocity columns `<name>_dot`.
     #[arg(long)]

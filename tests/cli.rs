@@ -81,7 +81,15 @@ fn simulate_writes_csv_svg_and_json_with_provenance() {
 fn bad_option_values_are_refused() {
     let dir = tempfile::tempdir().unwrap();
     let csv = dir.path().join("o.csv");
-    for (flag, value) in [("--dt-out", "0"), ("--t-end", "-1"), ("--rtol", "0")] {
+    // Negative values in exponent notation reach detune's own checks (clap once took
+    // `-1e-3` for a flag).
+    for (flag, value) in [
+        ("--dt-out", "0"),
+        ("--t-end", "-1"),
+        ("--rtol", "0"),
+        ("--rtol", "-1e-3"),
+        ("--atol", "-1e-3"),
+    ] {
         let (code, _, err) = detune(&[
             "simulate",
             "models/overcentre.toml",
