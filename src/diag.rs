@@ -198,7 +198,8 @@ fn render_diagnostic(source: &SourceFile, d: &Diagnostic, color: bool) -> String
         .finish()
         .write((id, Source::from(source.text.as_ref())), &mut buf);
     match written {
-        Ok(()) => String::from_utf8_lossy(&buf).into_owned(),
+        // "error:" as in every other message of detune (ariadne writes "Error:").
+        Ok(()) => String::from_utf8_lossy(&buf).replacen("Error:", "error:", 1),
         Err(_) => format!("error: {header}\n"),
     }
 }

@@ -509,9 +509,19 @@ impl Compiler<'_> {
     }
 
     fn positive(&mut self, f: &Field, expected: Dim, what: &str) -> Option<f64> {
+        self.at_least_zero(f, expected, what, true)
+    }
+
+    /// A constant > 0 (`strict`) or ≥ 0.
+    fn at_least_zero(&mut self, f: &Field, expected: Dim, what: &str, strict: bool) -> Option<f64> {
         let v = self.constant(f, expected, what)?;
-        if v <= 0.0 {
-            let mut msg = format!("{what} must be positive, it is {v} {expected}");
+        if v < 0.0 || (strict && v == 0.0) {
+            let kind = if strict {
+                "positive"
+            } else {
+                "zero or positive"
+            };
+            let mut msg = format!("{what} must be {kind}, it is {v} {expected}");
             let set: Vec<String> = self
                 .model
                 .overrides
@@ -524,8 +534,11 @@ impl Compiler<'_> {
             self.diags.push(
                 Diagnostic::new(msg)
                     .at(f.span.clone())
-                    .label("not positive")
-                    .help(format!("give {what} a value > 0")),
+                    .label(if strict { "not positive" } else { "negative" })
+                    .help(format!(
+                        "give {what} a value {} 0",
+                        if strict { ">" } else { "≥" }
+                    )),
             );
             return None;
         }
@@ -711,7 +724,7 @@ impl Compiler<'_> {
                     let b = self.point(p2, &format!("point2 of `{}`", f.name));
                     let k = self.constant(stiffness, Dim::STIFFNESS, "the stiffness");
                     let c = self.constant(damping, Dim::DAMPING, "the damping");
-                    let l0 = self.constant(free_length, Dim::LENGTH, "the free length");
+                    let l0 = self.at_least_zero(free_length, Dim::LENGTH, "the free length", false);
                     if let (Some(a), Some(b), Some(k), Some(c), Some(l0)) = (a, b, k, c, l0) {
                         forces.push(SysForce::Spring { a, b, k, c, l0 });
                     }

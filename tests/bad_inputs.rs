@@ -86,8 +86,8 @@ fn replaced(from: &str, to: &str) -> String {
 fn toml_syntax_error() {
     let text = replaced("[parameters]", "[parameters");
     let o = simulate(&text, &[]);
-    assert_clean_failure(&o, &location(&text, "[parameters", 11)[..10]);
-    assert!(o.stderr.contains("bad.toml:"), "{}", o.stderr);
+    // the unclosed header: reported where the `]` is missing
+    assert_clean_failure(&o, &location(&text, "[parameters", 11));
 }
 
 #[test]
@@ -182,6 +182,13 @@ fn negative_or_zero_mass() {
 }
 
 #[test]
+fn negative_free_length() {
+    let o = simulate(&shipped(), &["--set", "L0=-2"]);
+    assert_clean_failure(&o, "the free length must be zero or positive, it is -2 m");
+    assert!(o.stderr.contains("bad.toml:"), "{}", o.stderr);
+}
+
+#[test]
 fn parameter_cycle() {
     let text = replaced("L0 = { value = 2,", "L0 = { value = \"s\",").replacen(
         "value = \"L1\"",
@@ -189,12 +196,10 @@ fn parameter_cycle() {
         1,
     );
     let o = simulate(&text, &[]);
-    assert_clean_failure(&o, "parameter cycle");
-    assert!(
-        o.stderr.contains("L0") && o.stderr.contains("→"),
-        "{}",
-        o.stderr
-    );
+    assert_clean_failure(&o, "parameter cycle: L0 → s → L0");
+    // located at the value of the first parameter of the cycle
+    let at = location(&text, "L0 = { value = \"s\"", 15);
+    assert!(o.stderr.contains(&at), "{at} in {}", o.stderr);
 }
 
 #[test]

@@ -170,7 +170,20 @@ fn continue_json_and_csv_contract() {
     assert_eq!(lines.len() - 1, j["points"].as_u64().unwrap() as usize);
     assert!(lines[1].starts_with("-10,") && lines[1].ends_with(",1"));
     let svg = std::fs::read_to_string(&svg).unwrap();
-    assert!(svg.contains("stroke-dasharray") || svg.contains("unstable"));
+    // Figure 6: legend entries for both kinds of branch and the folds, one marker per
+    // fold, and the unstable branch drawn dashed (plotters draws each dash as its own
+    // polyline, so there are many more than the two solid branches and the legend need).
+    let texts: Vec<&str> = svg
+        .split("<text")
+        .skip(1)
+        .filter_map(|t| t.split_once('>').and_then(|(_, r)| r.split_once("</text>")))
+        .map(|(inner, _)| inner.trim())
+        .collect();
+    for label in ["stable", "unstable", "folds"] {
+        assert!(texts.contains(&label), "no legend entry {label}: {texts:?}");
+    }
+    assert_eq!(svg.matches("<circle").count(), 2);
+    assert!(svg.matches("<polyline").count() > 20);
 }
 
 #[test]

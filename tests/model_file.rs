@@ -35,7 +35,9 @@ fn frequencies_convert_with_two_pi() {
     assert!((hz.parameters.value("omega").unwrap() - want).abs() < 1e-12);
     let rpm = with(&[("omega", "258 rpm")]).unwrap();
     assert!((rpm.parameters.value("omega").unwrap() - want).abs() < 1e-12);
-    assert!((want - 27.0177).abs() < 1e-4);
+    // and a plain number is SI (rad/s): no conversion
+    let si = with(&[("omega", "27.0177")]).unwrap();
+    assert_eq!(si.parameters.value("omega"), Some(27.0177));
 }
 
 #[test]
