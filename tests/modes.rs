@@ -271,3 +271,13 @@ fn frf_linearizes_about_the_mean_load_of_the_forcing_period() {
     let e = frequency_response(&sin, "omega", &[-1.0], &["bar1.theta".to_string()]).unwrap_err();
     assert!(e.to_string().contains("positive"), "{e}");
 }
+
+#[test]
+fn frequency_grid_is_written_as_decimals_and_may_be_one_point() {
+    let g = detune::linear::grid(0.5, 8.0, 0.1).unwrap();
+    assert_eq!(g.len(), 76);
+    assert_eq!(g[7], 1.2); // 0.5 + 7·0.1 = 1.2000000000000002 unrounded
+    assert_eq!(*g.last().unwrap(), 8.0);
+    assert_eq!(detune::linear::grid(3.0, 3.0, 0.1).unwrap(), vec![3.0]);
+    assert!(detune::linear::grid(3.0, 2.0, 0.1).is_err());
+}

@@ -419,10 +419,10 @@ pub fn frequency_response(
 
 /// `from, from + step, ..., to` (to included when it falls on the grid within rounding).
 pub fn grid(from: f64, to: f64, step: f64) -> Result<Vec<f64>> {
-    if !(from.is_finite() && to.is_finite()) || to <= from {
+    if !(from.is_finite() && to.is_finite()) || to < from {
         return Err(Error::request(
             format!("empty range: --from {from} --to {to}"),
-            "give --from below --to",
+            "give --from below --to (or equal to it for one frequency)",
         ));
     }
     if !(step > 0.0) || !step.is_finite() {
@@ -438,5 +438,15 @@ pub fn grid(from: f64, to: f64, step: f64) -> Result<Vec<f64>> {
             "give a larger step",
         ));
     }
-    Ok((0..=n).map(|k| from + k as f64 * step).collect())
+    // from + k·step rounded to the step's decimals (plus 9), so 0.5 + 7·0.1 is written
+    // 1.2, not 1.2000000000000002.
+    let digits = (9.0 - step.log10().floor()).clamp(0.0, 15.0) as i32;
+    let scale = 10f64.powi(digits);
+    Ok((0..=n)
+        .map(|k| {
+            let v = from + k as f64 * step;
+            let r = (v * scale).round() / scale;
+            if r.is_finite() { r } else { v }
+        })
+        .collect())
 }
