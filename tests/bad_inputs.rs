@@ -287,3 +287,15 @@ fn outputs_that_cannot_be_written_are_refused_before_the_run() {
     let o = simulate(&shipped(), &["--json", "./out.csv"]);
     assert_clean_failure(&o, "the same file as the output out.csv");
 }
+
+#[test]
+fn one_mistake_gives_one_message() {
+    // L1 fails to parse; `s = L1` and the bodies that use L1 must not add "unknown
+    // parameter `L1`" messages after the real one.
+    let text = replaced("\"2*sqrt(2)\"", "\"2*sqrtt(2)\"");
+    let o = simulate(&text, &[]);
+    assert_clean_failure(&o, "unknown function `sqrtt`");
+    assert!(o.stderr.contains("did you mean `sqrt`"), "{}", o.stderr);
+    assert!(!o.stderr.contains("unknown parameter"), "{}", o.stderr);
+    assert_eq!(o.stderr.matches("error:").count(), 1, "{}", o.stderr);
+}

@@ -54,6 +54,9 @@ impl Parameters {
         diags: &mut Vec<Diagnostic>,
     ) -> Parameters {
         let mut list = Vec::new();
+        // Parameters whose definition is already reported: uses of them elsewhere are not
+        // reported again as unknown.
+        let mut broken: Vec<String> = Vec::new();
         for (name, rp) in raw {
             let outer = rp.span();
             let p = rp.get_ref();
@@ -78,6 +81,7 @@ impl Parameters {
                 Ok(f) => f,
                 Err(d) => {
                     diags.push(d);
+                    broken.push(name.clone());
                     continue;
                 }
             };
@@ -102,6 +106,7 @@ impl Parameters {
                                     u.get_ref()
                                 )),
                             );
+                            broken.push(name.clone());
                             continue;
                         }
                         Some((u.get_ref().clone(), dim))
@@ -115,6 +120,7 @@ impl Parameters {
                             d = d.help(h);
                         }
                         diags.push(d);
+                        broken.push(name.clone());
                         continue;
                     }
                 },
@@ -134,7 +140,7 @@ impl Parameters {
             overridden: vec![None; n],
         };
         let overrides = vec![None; n];
-        match evaluate(&params.list, &overrides) {
+        match evaluate(&params.list, &overrides, &broken) {
             Ok((values, dims)) => {
                 params.values = values;
                 params.dims = dims;
@@ -206,7 +212,7 @@ impl Parameters {
             exprs[i] = Some(expr);
             texts[i] = Some(value.clone());
         }
-        match evaluate(&self.list, &exprs) {
+        match evaluate(&self.list, &exprs, &[]) {
             Ok((values, dims)) => Ok(Parameters {
                 list: self.list.clone(),
                 values,
@@ -269,10 +275,12 @@ enum State {
 fn evaluate(
     list: &[Parameter],
     overrides: &[Option<Expr>],
+    broken: &[String],
 ) -> std::result::Result<(Vec<f64>, Vec<Option<Dim>>), Vec<Problem>> {
     let mut ev = Evaluator {
         list,
         overrides,
+        broken,
         state: vec![State::Todo; list.len()],
         values: vec![f64::NAN; list.len()],
         dims: vec![None; list.len()],
@@ -292,6 +300,8 @@ fn evaluate(
 struct Evaluator<'a> {
     list: &'a [Parameter],
     overrides: &'a [Option<Expr>],
+    /// Names whose definitions failed to parse (already reported).
+    broken: &'a [String],
     state: Vec<State>,
     values: Vec<f64>,
     dims: Vec<Option<Dim>>,
@@ -350,6 +360,14 @@ impl<'a> Evaluator<'a> {
                     })
                 }
             },
+            None if self.broken.iter().any(|b| b == name) => {
+                failed_dep = true;
+                Err(ExprError {
+                    span: span.clone(),
+                    message: String::new(),
+                    help: None,
+                })
+            }
             None => Err(unknown_name(name, span, list)),
         });
         self.stack.pop();
