@@ -316,6 +316,15 @@ pub fn assemble(sys: &System) -> Result<State> {
             break;
         }
     }
+    if let Some(i) = (0..sys.m()).find(|&i| !phi[i].is_finite()) {
+        return Err(Error::numerical(
+            format!(
+                "the initial pose cannot be assembled: the constraint `{}` is undefined ({}) at the pose reached after {iterations} iterations",
+                sys.constraint_names[i], phi[i]
+            ),
+            "check its expression: sqrt or ln of a negative number, or a division by zero, at the guessed pose",
+        ));
+    }
     if norm > 1e-9 || !norm.is_finite() {
         let worst = (0..sys.m())
             .max_by(|&i, &j| phi[i].abs().total_cmp(&phi[j].abs()))
