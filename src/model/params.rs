@@ -386,13 +386,7 @@ impl<'a> Evaluator<'a> {
                             .into(),
                     ),
                 };
-                self.state[i] = State::Failed;
-                if from_set {
-                    self.problems.push(Problem::Set { index: i, error: e });
-                } else {
-                    self.problems
-                        .push(Problem::File(expr_diag(&e, list[i].field.offset)));
-                }
+                self.fail(i, from_set, e);
                 None
             }
             Ok(v) => {
@@ -402,13 +396,7 @@ impl<'a> Evaluator<'a> {
                         .and_then(|j| self.dims[j])
                 };
                 if let Err(e) = expr.check_dims(&var_dim) {
-                    self.state[i] = State::Failed;
-                    if from_set {
-                        self.problems.push(Problem::Set { index: i, error: e });
-                    } else {
-                        self.problems
-                            .push(Problem::File(expr_diag(&e, list[i].field.offset)));
-                    }
+                    self.fail(i, from_set, e);
                     return None;
                 }
                 let found = expr.dim(&var_dim);
@@ -433,17 +421,24 @@ impl<'a> Evaluator<'a> {
                 Some(v)
             }
             Err(e) => {
-                self.state[i] = State::Failed;
-                if !failed_dep {
-                    if from_set {
-                        self.problems.push(Problem::Set { index: i, error: e });
-                    } else {
-                        self.problems
-                            .push(Problem::File(expr_diag(&e, list[i].field.offset)));
-                    }
+                if failed_dep {
+                    self.state[i] = State::Failed; // reported where it failed
+                } else {
+                    self.fail(i, from_set, e);
                 }
                 None
             }
+        }
+    }
+
+    /// Parameter `i` failed with `e`: reported against `--set` or the file.
+    fn fail(&mut self, i: usize, from_set: bool, e: ExprError) {
+        self.state[i] = State::Failed;
+        if from_set {
+            self.problems.push(Problem::Set { index: i, error: e });
+        } else {
+            let offset = self.list[i].field.offset;
+            self.problems.push(Problem::File(expr_diag(&e, offset)));
         }
     }
 }
