@@ -702,7 +702,11 @@ fn refine_peak(
     let (mut fa, mut fbr) = (f64::NEG_INFINITY, f64::NEG_INFINITY);
     let mut curvature: Option<f64> = None;
     while b - a > res {
-        let (xl, xr) = (0.5 * (a + xb), 0.5 * (xb + b));
+        // midpoints rounded to the resolution's decimals (no 4.024609375000001 in outputs)
+        let (xl, xr) = (
+            crate::linear::round_to_step(0.5 * (a + xb), res),
+            crate::linear::round_to_step(0.5 * (xb + b), res),
+        );
         let (left, right) = rayon::join(|| eval(xl, from), || eval(xr, from));
         let (left, right) = (left?, right?);
         let (fl, fr) = (left.measures[r].amplitude, right.measures[r].amplitude);

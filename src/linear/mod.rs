@@ -438,15 +438,18 @@ pub fn grid(from: f64, to: f64, step: f64) -> Result<Vec<f64>> {
             "give a larger step",
         ));
     }
-    // from + k·step rounded to the step's decimals (plus 9), so 0.5 + 7·0.1 is written
-    // 1.2, not 1.2000000000000002.
-    let digits = (9.0 - step.log10().floor()).clamp(0.0, 15.0) as i32;
-    let scale = 10f64.powi(digits);
+    // from + k·step rounded to the step's decimals, so 0.5 + 7·0.1 is written 1.2, not
+    // 1.2000000000000002.
     Ok((0..=n)
-        .map(|k| {
-            let v = from + k as f64 * step;
-            let r = (v * scale).round() / scale;
-            if r.is_finite() { r } else { v }
-        })
+        .map(|k| round_to_step(from + k as f64 * step, step))
         .collect())
+}
+
+/// `v` rounded to the decimals of `step` plus 9 (at most 15): removes the binary noise of
+/// sums of decimal steps without moving a value by more than 1e-9 of the step.
+pub fn round_to_step(v: f64, step: f64) -> f64 {
+    let digits = (9.0 - step.abs().log10().floor()).clamp(0.0, 15.0) as i32;
+    let scale = 10f64.powi(digits);
+    let r = (v * scale).round() / scale;
+    if r.is_finite() { r } else { v }
 }
