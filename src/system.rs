@@ -392,6 +392,26 @@ impl Compiler<'_> {
     ) -> std::result::Result<Slot, ExprError> {
         let params = &self.model.parameters;
         if let Some(v) = params.value(name) {
+            if !v.is_finite() {
+                // 0/0, 1/0, sqrt(-1)...: refused where the model uses it (an unused
+                // parameter such as T = 2*pi/omega at omega = 0 may stay undefined).
+                let i = params.index(name).expect("has a value");
+                let def = match &params.overridden[i] {
+                    Some(text) => format!("--set {name}={text}"),
+                    None => {
+                        let sp = &params.list[i].field.span;
+                        let text = self.model.source.text.get(sp.clone()).unwrap_or("");
+                        format!("{name} = {text}")
+                    }
+                };
+                return Err(ExprError {
+                    span: span.clone(),
+                    message: format!("`{name}` evaluates to {v} ({def})"),
+                    help: Some(
+                        "a parameter used by the model must be a finite number: check for a division by zero, the root or logarithm of a negative number, or asin/acos beyond ±1".into(),
+                    ),
+                });
+            }
             return Ok(Slot::Const(v));
         }
         if let Some(i) = self.coordinates.iter().position(|c| c == name) {

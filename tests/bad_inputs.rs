@@ -243,20 +243,32 @@ fn missing_model_file() {
 
 #[test]
 fn parameter_that_is_not_a_finite_number() {
-    // In the file: located at the expression.
-    let text = replaced("L0 = { value = 2,", "L0 = { value = \"2/(k - 50)\",");
+    // Used by the model (the spring's free length): refused where it is used, quoting its
+    // definition.
+    let text = replaced(
+        "L0 = { value = 2,",
+        "L0 = { value = \"L1/(k/(50 N/m) - 1)\",",
+    );
     let o = simulate(&text, &[]);
-    assert_clean_failure(&o, "`L0` evaluates to inf");
+    assert_clean_failure(&o, "`L0` evaluates to inf (L0 = \"L1/(k/(50 N/m) - 1)\")");
     assert!(
-        o.stderr.contains(&location(&text, "2/(k - 50)", 0)),
+        o.stderr
+            .contains(&location(&text, "free_length = \"L0\"", 15)),
         "{}",
         o.stderr
     );
-    // From --set: named, with the expression underlined.
+    // From --set: named with the value given.
     for (set, what) in [("Fs=0/0", "NaN"), ("Fs=sqrt(-1)", "NaN"), ("Fs=1/0", "inf")] {
         let o = simulate(&shipped(), &["--set", set]);
-        assert_clean_failure(&o, &format!("`Fs` evaluates to {what}"));
+        assert_clean_failure(&o, &format!("`Fs` evaluates to {what} (--set {set})"));
     }
+    // Not used by the model: may stay undefined (a period 2π/ω at the model's ω = 0).
+    let text = replaced(
+        "L0 = { value = 2,",
+        "T = { value = \"2*pi/omega\", unit = \"s\" }\nL0 = { value = 2,",
+    );
+    let o = simulate(&text, &[]);
+    assert_eq!(o.code, Some(0), "{}", o.stderr);
 }
 
 #[test]

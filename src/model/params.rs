@@ -375,20 +375,6 @@ impl<'a> Evaluator<'a> {
             return None;
         }
         match result {
-            Ok(v) if !v.is_finite() => {
-                // 0/0, 1/0, sqrt(-1), ln(0)...: refuse here rather than let a NaN reach
-                // a solver that would report a confusing failure far from the cause.
-                let e = ExprError {
-                    span: expr.span(),
-                    message: format!("`{}` evaluates to {v}", list[i].name),
-                    help: Some(
-                        "a parameter must be a finite number: check for a division by zero, the root or logarithm of a negative number, or asin/acos beyond ±1"
-                            .into(),
-                    ),
-                };
-                self.fail(i, from_set, e);
-                None
-            }
             Ok(v) => {
                 let var_dim = |n: &str| {
                     list.iter()
