@@ -7,9 +7,12 @@
 //! Unknowns y = (x, p), x = (q, λ). Predictor y + Δs·τ along the unit tangent τ
 //! (null vector of [J_x  H_p]); corrector: Newton on [H(y); τ̂ᵀ (y − y_pred)] = 0, where
 //! τ̂ is τ with its λ entries zeroed (arclength is measured in coordinates and the
-//! parameter only, so large multipliers do not shrink the steps). ∂H/∂p by central
-//! differences of the compiled system at p ± δ (parameters are folded into constants when
-//! a model is compiled). A fold is where τ_p changes sign, a branch point where
+//! parameter only, so large multipliers do not shrink the steps). ∂H/∂p by second-order
+//! differences of the compiled system (parameters are folded into constants when a model
+//! is compiled): central at p ± δ inside the range, one-sided at its ends, so the model is
+//! not evaluated outside [from, to] for derivatives. A step whose prediction would leave
+//! the range ends on its boundary (natural-parameter corrector there); a Newton iterate
+//! that strays outside and finds the model invalid counts as a failed step. A fold is where τ_p changes sign, a branch point where
 //! det J_x does and τ_p does not; both are located by secant iteration along the
 //! arclength between the two points that bracket them.
 
@@ -96,7 +99,8 @@ impl Family<'_> {
         // ∂H/∂p by second-order differences that stay inside [lo, hi], so a parameter
         // with a validity limit just outside the range (a mass → 0) is never evaluated
         // beyond it: central inside, one-sided (three points) at the ends.
-        let delta = 1e-6 * p.abs().max(1.0);
+        // (never wider than a quarter of the range, so p ± 2δ stays inside it)
+        let delta = (1e-6 * p.abs().max(1.0)).min(0.25 * (self.hi - self.lo));
         let at = |p: f64| -> Result<DVector<f64>> {
             let s = self.system(p)?;
             Ok(Statics::with_rows(&s, self.rows.clone())?.residual(x))
@@ -184,18 +188,26 @@ impl Family<'_> {
     ) -> Result<Option<(Pt, usize)>> {
         let pred = &base.y + &base.tau * s;
         let mut y = pred.clone();
+        let d = y.len() - 1;
         for it in 0..10 {
-            let (h, j, _) = self.linearize(&y)?;
+            // A Newton iterate may stray past the range; where the model is invalid there
+            // (a mass ≤ 0), that is a failed corrector (the step is halved), not the end.
+            let (h, j, _) = match self.linearize(&y) {
+                Ok(l) => l,
+                Err(_) if y[d] < self.lo || y[d] > self.hi => return Ok(None),
+                Err(e) => return Err(e),
+            };
             if !h.iter().all(|v| v.is_finite()) {
                 return Ok(None);
             }
             let g = tw.dot(&(&y - &pred));
             if self.converged(&h, scale) && g.abs() < 1e-12 {
-                let (_, j, det) = self.linearize(&y)?;
+                let Ok((_, j, det)) = self.linearize(&y) else {
+                    return Ok(None);
+                };
                 let tau = self.tangent(&j, Some(&base.tau), 1.0);
                 return Ok(Some((Pt { y, tau, det }, it)));
             }
-            let d = j.nrows();
             let mut b = DMatrix::zeros(d + 1, d + 1);
             b.view_mut((0, 0), (d, d + 1)).copy_from(&j);
             b.set_row(d, &tw.transpose());

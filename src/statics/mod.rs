@@ -303,11 +303,6 @@ impl<'a> Statics<'a> {
     pub fn newton(&self, mut x: Vec<f64>, max_iter: usize) -> Result<(Vec<f64>, usize, f64)> {
         let n = self.sys.n();
         let scale = self.force_scale(&x[..n]);
-        // Trust region: no coordinate moves more than 0.2 (rad, or m scaled by the
-        // model's size at the start, capped at 10) in one iteration, so Newton does not
-        // leap to a far equilibrium. The size is fixed at the start: grown with |q| it
-        // let a run from a near-singular pose run away (an angle reached −1337 rad).
-        let size = (1.0 + x[..n].iter().fold(0.0f64, |a, v| a.max(v.abs()))).min(10.0);
         let mut r = self.residual(&x);
         let mut it = 0;
         while !self.converged(&r, &x, scale) {
@@ -332,6 +327,10 @@ impl<'a> Statics<'a> {
             let j = self.kkt_jacobian(&x);
             let dx = solve_least_squares(j, &r);
             let norm0 = r.norm();
+            // Trust region: no coordinate moves more than 0.2 (rad, or m scaled by the
+            // model's size, at most 10) in one iteration, so Newton does not leap to a far
+            // equilibrium, yet can travel far when the equilibrium is far.
+            let size = (1.0 + x[..n].iter().fold(0.0f64, |a, v| a.max(v.abs()))).min(10.0);
             let biggest = dx.rows(0, n).amax();
             let mut step = if biggest > 0.2 * size {
                 0.2 * size / biggest
@@ -430,7 +429,7 @@ impl<'a> Statics<'a> {
             // A small driver step that moves another coordinate a lot has crossed a
             // singular pose onto another assembly (from a start at the singular pose an
             // angle was seen to spin by hundreds of turns): stop there.
-            let size = 1.0 + q.iter().fold(0.0f64, |a, v| a.max(v.abs())).min(10.0);
+            let size = 1.0 + q.iter().fold(0.0f64, |a, v| a.max(v.abs()));
             let jump = (0..sys.n())
                 .filter(|&i| i != d)
                 .map(|i| (trial[i] - q[i]).abs())
