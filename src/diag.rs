@@ -98,8 +98,8 @@ impl Error {
             help: Some(help.into()),
         }
     }
-    /// The same error with `what: ` before its message (a request or numerical error;
-    /// model and I/O errors already say where they are).
+    /// The same error with `what: ` before its message(s) (an I/O error already says
+    /// which file).
     pub fn context(self, what: &str) -> Self {
         match self {
             Error::Request { message, help } => Error::Request {
@@ -110,6 +110,18 @@ impl Error {
                 message: format!("{what}: {message}"),
                 help,
             },
+            Error::Model {
+                source,
+                mut diagnostics,
+            } => {
+                for d in &mut diagnostics {
+                    d.message = format!("{what}: {}", d.message);
+                }
+                Error::Model {
+                    source,
+                    diagnostics,
+                }
+            }
             other => other,
         }
     }

@@ -844,7 +844,7 @@ fn sweep_cmd(a: SweepArgs) -> Result<()> {
                             message: message.replace("--set ", "--values "),
                             help,
                         },
-                        other => other,
+                        other => other.context(&format!("--values {name}={}", v.trim())),
                     })?;
                 let value = m.parameters.value(name).unwrap_or(f64::NAN);
                 out.push((Some((name.to_string(), value)), m));
@@ -945,30 +945,43 @@ fn sweep_cmd(a: SweepArgs) -> Result<()> {
     }
     if let Some(p) = &a.plot {
         // The linear natural frequencies of every run (a static load in --values moves
-        // them; an amplitude does not): each distinct one marked once.
-        let mut omega_n: Vec<(f64, String)> = Vec::new();
+        // them; an amplitude does not): one unlabelled set when every run has the same,
+        // else each distinct one tagged with its run.
+        let mut per_run: Vec<(Vec<f64>, String)> = Vec::new();
         for (value, m) in family.iter().take(runs.len()) {
             let at = detune::linear::at_frequency(m, &a.grid.param, values[0])?;
             let Ok(ma) = modal_analysis(&at, None) else {
                 continue;
             };
-            for w in ma
+            let w: Vec<f64> = ma
                 .undamped_omega2
                 .iter()
                 .filter(|w| **w > 0.0)
                 .map(|w| w.sqrt())
-            {
-                if !omega_n.iter().any(|(x, _)| (x - w).abs() <= 1e-6 * w) {
-                    let tag = value
-                        .as_ref()
-                        .map(|(n, v)| format!(" ({n} = {v})"))
-                        .unwrap_or_default();
-                    omega_n.push((w, tag));
+                .collect();
+            let tag = value
+                .as_ref()
+                .map(|(n, v)| format!(" ({n} = {v})"))
+                .unwrap_or_default();
+            per_run.push((w, tag));
+        }
+        let close = |x: f64, y: f64| (x - y).abs() <= 1e-6 * x.abs().max(y.abs());
+        let same = |a: &[f64], b: &[f64]| {
+            a.len() == b.len() && a.iter().zip(b).all(|(x, y)| close(*x, *y))
+        };
+        let mut omega_n: Vec<(f64, String)> = Vec::new();
+        if per_run.iter().all(|(w, _)| same(w, &per_run[0].0)) {
+            if let Some((w, _)) = per_run.first() {
+                omega_n = w.iter().map(|x| (*x, String::new())).collect();
+            }
+        } else {
+            for (w, tag) in &per_run {
+                for x in w {
+                    if !omega_n.iter().any(|(y, _)| close(*x, *y)) {
+                        omega_n.push((*x, tag.clone()));
+                    }
                 }
             }
-        }
-        if omega_n.len() == 1 {
-            omega_n[0].1.clear(); // the same for every run: no tag needed
         }
         detune::output::plot::write_panels(p, &sweep_plots(&runs, &omega_n))?;
         eprintln!("wrote {p}");

@@ -279,5 +279,11 @@ fn frequency_grid_is_written_as_decimals_and_may_be_one_point() {
     assert_eq!(g[7], 1.2); // 0.5 + 7·0.1 = 1.2000000000000002 unrounded
     assert_eq!(*g.last().unwrap(), 8.0);
     assert_eq!(detune::linear::grid(3.0, 3.0, 0.1).unwrap(), vec![3.0]);
+    // the rounding never moves a requested value noticeably, whatever the step
+    assert_eq!(detune::linear::grid(4.3, 4.3, 1e10).unwrap(), vec![4.3]);
+    assert_eq!(
+        detune::linear::grid(0.0123456789, 2.0, 1.0).unwrap(),
+        vec![0.0123456789, 1.0123456789]
+    );
     assert!(detune::linear::grid(3.0, 2.0, 0.1).is_err());
 }

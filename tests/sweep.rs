@@ -228,7 +228,7 @@ fn bad_sweep_requests_are_refused() {
     let e = sweep(&m, &o, &|_| {}, &no).unwrap_err().to_string();
     assert!(e.contains("--max-periods 0"), "{e}");
     let mut o = opts("omega", vec![3.0, 3.5, 4.0]);
-    o.refine = Some(0.5);
+    o.refine = Some(1.0);
     let e = sweep(&m, &o, &|_| {}, &no).unwrap_err().to_string();
-    assert!(e.contains("not finer than the grid"), "{e}");
+    assert!(e.contains("not finer than a peak's bracket"), "{e}");
 }

@@ -158,7 +158,14 @@ pub fn simulate(
                 project_position(sys, &mut ws, &mut q, t, opts.projection_tol * 1e-2, 5);
                 project_velocity(sys, &mut ws, &q, &mut v, t);
             }
-            max_residual.set(max_residual.get().max(residual_norm(sys, &q, t)));
+            let r = residual_norm(sys, &q, t);
+            // a NaN residual must not vanish in f64::max
+            let m = max_residual.get();
+            max_residual.set(if r.is_nan() || m.is_nan() {
+                f64::NAN
+            } else {
+                m.max(r)
+            });
             traj.t.push(t);
             traj.q.push(q);
             traj.v.push(v);
@@ -184,7 +191,8 @@ pub fn simulate(
     // The projection keeps written states on the constraints to `projection_tol`; a
     // residual far above it means it failed (a run far too loose, or a singular pose),
     // and the trajectory is not a motion of the mechanism: refuse it rather than write it.
-    if max_residual.get() > 1e-6 {
+    let limit = 1e-6f64.max(100.0 * SAMPLE_TOL_FACTOR * opts.projection_tol);
+    if !(max_residual.get() <= limit) {
         return Err(Error::numerical(
             format!(
                 "the constraints could not be kept: the largest constraint residual reached {:.3e}",

@@ -370,7 +370,8 @@ pub struct Peak {
     pub omega: f64,
     /// Half peak-to-peak amplitude there (SI).
     pub amplitude: f64,
-    /// Half-width of the final bracket that holds the maximum, rad/s.
+    /// rad/s: the larger of the final bracket's half-width and the shift of the maximum
+    /// that amplitude errors at the settling tolerance can cause (see `refine_peak`).
     pub uncertainty: f64,
 }
 
@@ -446,21 +447,28 @@ fn check_request(model: &Model, opts: &SweepOptions) -> Result<()> {
             "give a positive resolution, e.g. 1e-3",
         ));
     }
+    // A peak's bracket is its two neighbours, 2 steps wide.
     if let (Some(r), [w0, w1, ..]) = (opts.refine, opts.values.as_slice())
-        && r >= (w1 - w0).abs()
+        && r >= 2.0 * (w1 - w0).abs()
     {
         return Err(Error::request(
             format!(
-                "--refine {r} is not finer than the grid's step {}: nothing would be refined",
+                "--refine {r} is not finer than a peak's bracket (2 × the step {}): nothing would be refined",
                 (w1 - w0).abs()
             ),
             "give --refine below --step (e.g. --step / 100), or leave it out",
         ));
     }
-    if opts.steady.max_periods == 0 || opts.steady.fixed_periods == Some(0) {
+    if opts.steady.max_periods == 0 {
         return Err(Error::request(
             "--max-periods 0: no period would be simulated",
             "give at least 1 (the default is 600)",
+        ));
+    }
+    if opts.steady.fixed_periods == Some(0) {
+        return Err(Error::request(
+            "fixed_periods = 0: no period would be simulated",
+            "give at least 1, or None to detect the steady state",
         ));
     }
     Ok(())
@@ -486,7 +494,7 @@ pub fn prepare(model: &Model, opts: &SweepOptions) -> Result<(System, Vec<usize>
 }
 
 /// Run a sweep. `progress` is called with the number of frequencies done (coarse grid
-/// and refinement); `cancel` stops it between periods, returning what was computed with
+/// and refinement); `cancel` stops it within one integration step, returning what was computed with
 /// `complete = false`.
 pub fn sweep(
     model: &Model,

@@ -210,7 +210,7 @@ impl Linearization {
         let scale =
             self.stiffness.norm() + omega * omega * self.mass.norm() + omega * self.damping.norm();
         let sv = dynamic.clone().svd(false, false).singular_values;
-        if sv.min() <= 1e-10 * scale {
+        if !sv.is_empty() && sv.min() <= 1e-10 * scale {
             return Err(Error::numerical(
                 format!(
                     "the linear system is singular at ω = {omega} rad/s (an undamped resonance: the response is unbounded)"
@@ -314,7 +314,7 @@ pub fn modal_analysis(model: &crate::Model, normalize: Option<&str>) -> Result<M
 /// time through ωt has the same mean at every ω ≠ 0; at a model's own ω = 0 a
 /// `cos(omega*t)` load would be taken at its value at t = 0.)
 pub fn at_frequency(model: &crate::Model, param: &str, omega: f64) -> Result<crate::Model> {
-    model.with_overrides(&[(param.to_string(), format!("{omega:?}"))])
+    model.at_parameter(param, omega)
 }
 
 /// The first harmonic of the generalized force at rest at `q` (see [`first_harmonic`]),
@@ -385,7 +385,7 @@ pub fn frequency_response(
     let Some(&first) = values.first() else {
         return Err(Error::request(
             "no frequencies requested",
-            "give --from < --to",
+            "give --from and --to",
         ));
     };
     let model = &at_frequency(model, param, first)?;
@@ -397,7 +397,7 @@ pub fn frequency_response(
         .collect::<Result<_>>()?;
     let mut out = Vec::with_capacity(values.len());
     for &w in values {
-        let m = model.with_overrides(&[(param.to_string(), format!("{w:?}"))])?;
+        let m = model.at_parameter(param, w)?;
         let sw = System::new(&m)?;
         let force = harmonic_forcing(&sw, &modal.equilibrium.q, param, w)?;
         let y = modal.linearization.response(w, &force)?;
@@ -440,15 +440,25 @@ pub fn grid(from: f64, to: f64, step: f64) -> Result<Vec<f64>> {
     }
     // from + k·step rounded to the step's decimals, so 0.5 + 7·0.1 is written 1.2, not
     // 1.2000000000000002.
+    let size = if from == 0.0 {
+        step
+    } else {
+        step.min(from.abs())
+    };
     Ok((0..=n)
-        .map(|k| round_to_step(from + k as f64 * step, step))
+        .map(|k| round_to_step(from + k as f64 * step, size))
         .collect())
 }
 
-/// `v` rounded to the decimals of `step` plus 9 (at most 15): removes the binary noise of
-/// sums of decimal steps without moving a value by more than 1e-9 of the step.
-pub fn round_to_step(v: f64, step: f64) -> f64 {
-    let digits = (9.0 - step.abs().log10().floor()).clamp(0.0, 15.0) as i32;
+/// `v` rounded to 9 more decimals than `size` has (at most 15), where `size` is the
+/// finest magnitude that matters (a step, and the start of a grid): removes the binary
+/// noise of sums of decimal steps while moving a value by less than 1e-9 of `size`.
+pub fn round_to_step(v: f64, size: f64) -> f64 {
+    let size = size.abs();
+    if size == 0.0 || !size.is_finite() {
+        return v;
+    }
+    let digits = (9.0 - size.log10().floor()).clamp(0.0, 15.0) as i32;
     let scale = 10f64.powi(digits);
     let r = (v * scale).round() / scale;
     if r.is_finite() { r } else { v }

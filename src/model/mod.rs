@@ -430,6 +430,20 @@ impl Model {
         Ok(m)
     }
 
+    /// The model with parameter `name` at `value` (SI) as an analysis varies it (the
+    /// parameter of a continuation, a sweep's frequency). Unlike [`Model::with_overrides`]
+    /// it is not recorded among the user's `--set`s, so messages ("with --set ...") and
+    /// provenance name only what the user asked for.
+    pub fn at_parameter(&self, name: &str, value: f64) -> Result<Model> {
+        let parameters = self
+            .parameters
+            .with_overrides(&self.source, &[(name.to_string(), format!("{value:?}"))])?;
+        let mut m = self.clone();
+        m.parameters = Arc::new(parameters);
+        crate::system::System::check(&m)?;
+        Ok(m)
+    }
+
     /// Error in this model's file.
     pub fn error(&self, diagnostics: Vec<Diagnostic>) -> Error {
         Error::Model {

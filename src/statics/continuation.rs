@@ -83,7 +83,8 @@ impl Family<'_> {
     fn system(&self, p: f64) -> Result<System> {
         let m = self
             .model
-            .with_overrides(&[(self.param.clone(), format!("{p:?}"))])?;
+            .at_parameter(&self.param, p)
+            .map_err(|e| e.context(&format!("continuation at {} = {p}", self.param)))?;
         System::new(&m)
     }
 
@@ -284,7 +285,9 @@ impl Statics<'_> {
 pub fn continue_equilibria(model: &Model, opts: &ContinuationOptions) -> Result<Branch> {
     check(model, opts)?;
     let dir = (opts.to - opts.from).signum();
-    let m0 = model.with_overrides(&[(opts.param.clone(), format!("{:?}", opts.from))])?;
+    let m0 = model
+        .at_parameter(&opts.param, opts.from)
+        .map_err(|e| e.context(&format!("continuation at {} = {}", opts.param, opts.from)))?;
     let sys0 = System::new(&m0)?;
     let start = crate::dynamics::assemble(&sys0)?;
     let st0 = Statics::new(&sys0, &start.q)?;
