@@ -372,10 +372,10 @@ pub fn continue_equilibria(model: &Model, opts: &ContinuationOptions) -> Result<
             if ds < min_ds {
                 return Err(Error::numerical(
                     format!(
-                        "continuation stopped at {} = {}: the corrector does not converge even with tiny steps",
-                        opts.param, cur.y[d]
+                        "continuation stopped at {} = {}: the corrector does not converge even with steps of {min_ds:.3e} (--step {:.3e} / 1e6)",
+                        opts.param, cur.y[d], opts.step
                     ),
-                    "the branch may end here (a singular pose or no equilibrium); try a smaller --step",
+                    "the branch may end here (a singular pose or no equilibrium), or --step is far too large for this model (the default is the range / 50): try a smaller --step",
                 ));
             }
             continue;
