@@ -153,12 +153,15 @@ pub fn simulate(
             let mut v = y[n..].to_vec();
             let pos = residual_norm(sys, &q, t);
             drift.set(drift.get().max(pos));
-            if pos > SAMPLE_TOL_FACTOR * opts.projection_tol {
+            // the residual of the written sample: `pos` unless it was projected
+            let r = if pos > SAMPLE_TOL_FACTOR * opts.projection_tol {
                 let mut ws = proj_ws.borrow_mut();
-                project_position(sys, &mut ws, &mut q, t, opts.projection_tol * 1e-2, 5);
+                let r = project_position(sys, &mut ws, &mut q, t, opts.projection_tol * 1e-2, 5);
                 project_velocity(sys, &mut ws, &q, &mut v, t);
-            }
-            let r = residual_norm(sys, &q, t);
+                r
+            } else {
+                pos
+            };
             // a NaN residual must not vanish in f64::max
             let m = max_residual.get();
             max_residual.set(if r.is_nan() || m.is_nan() {
