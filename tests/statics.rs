@@ -207,7 +207,7 @@ fn continuation_ends_exactly_on_the_range_and_never_leaves_it() {
             param: "m1".into(),
             from,
             to,
-            step: (to - from as f64).abs() / 50.0,
+            step: (to - from).abs() / 50.0,
             max_steps: 1000,
         };
         let b = continue_equilibria(&model(&[]), &opts).unwrap();

@@ -405,16 +405,9 @@ fn system_at(model: &Model, param: &str, omega: f64) -> Result<System> {
 }
 
 fn check_request(model: &Model, opts: &SweepOptions) -> Result<()> {
-    if model.parameters.index(&opts.param).is_none() {
-        return Err(Error::request(
-            format!(
-                "--param {}: the model has no parameter `{}`",
-                opts.param, opts.param
-            ),
-            crate::model::suggest(&opts.param, model.parameters.names())
-                .unwrap_or_else(|| "give the parameter that is the forcing frequency".into()),
-        ));
-    }
+    model
+        .parameters
+        .require(&opts.param, &format!("--param {}", opts.param))?;
     match &model.forcing_frequency {
         Some(f) if *f != opts.param => {
             return Err(Error::request(

@@ -361,13 +361,9 @@ pub fn frequency_response(
     values: &[f64],
     responses: &[String],
 ) -> Result<FrequencyResponse> {
-    if model.parameters.index(param).is_none() {
-        return Err(Error::request(
-            format!("--param {param}: the model has no parameter `{param}`"),
-            crate::model::suggest(param, model.parameters.names())
-                .unwrap_or_else(|| "give the parameter that is the forcing frequency".into()),
-        ));
-    }
+    model
+        .parameters
+        .require(param, &format!("--param {param}"))?;
     if let Some(f) = &model.forcing_frequency
         && f != param
     {

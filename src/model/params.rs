@@ -156,6 +156,23 @@ impl Parameters {
         params
     }
 
+    /// The index of parameter `name`, or an error saying that `request` (the flag that
+    /// named it, e.g. `--param k`) names no parameter, with a suggestion or the list.
+    pub fn require(&self, name: &str, request: &str) -> Result<usize> {
+        self.index(name).ok_or_else(|| {
+            let help = suggest(name, self.names()).unwrap_or_else(|| {
+                format!(
+                    "parameters of this model: {}",
+                    self.names().collect::<Vec<_>>().join(", ")
+                )
+            });
+            Error::request(
+                format!("{request}: the model has no parameter `{name}`"),
+                help,
+            )
+        })
+    }
+
     /// A copy with `--set` overrides applied (`name`, expression text).
     pub fn with_overrides(
         &self,
@@ -170,18 +187,7 @@ impl Parameters {
             .collect();
         let mut texts = self.overridden.clone();
         for (name, value) in overrides {
-            let Some(i) = self.index(name) else {
-                let help = suggest(name, self.names()).unwrap_or_else(|| {
-                    format!(
-                        "parameters of this model: {}",
-                        self.names().collect::<Vec<_>>().join(", ")
-                    )
-                });
-                return Err(Error::request(
-                    format!("--set {name}={value}: the model has no parameter `{name}`"),
-                    help,
-                ));
-            };
+            let i = self.require(name, &format!("--set {name}={value}"))?;
             let expr = expr::parse(value).map_err(|e| set_error(name, value, &e))?;
             // Dimension check where decidable: against the declared unit, else against the
             // dimension of the value in the file.

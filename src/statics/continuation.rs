@@ -435,20 +435,9 @@ pub fn continue_equilibria(model: &Model, opts: &ContinuationOptions) -> Result<
 }
 
 fn check(model: &Model, opts: &ContinuationOptions) -> Result<()> {
-    if model.parameters.index(&opts.param).is_none() {
-        return Err(Error::request(
-            format!(
-                "--param {}: the model has no parameter `{}`",
-                opts.param, opts.param
-            ),
-            crate::model::suggest(&opts.param, model.parameters.names()).unwrap_or_else(|| {
-                format!(
-                    "parameters: {}",
-                    model.parameters.names().collect::<Vec<_>>().join(", ")
-                )
-            }),
-        ));
-    }
+    model
+        .parameters
+        .require(&opts.param, &format!("--param {}", opts.param))?;
     if !(opts.from.is_finite() && opts.to.is_finite()) || opts.from == opts.to {
         return Err(Error::request(
             format!("empty range: --from {} --to {}", opts.from, opts.to),
