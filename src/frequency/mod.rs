@@ -405,33 +405,7 @@ fn system_at(model: &Model, param: &str, omega: f64) -> Result<System> {
 }
 
 fn check_request(model: &Model, opts: &SweepOptions) -> Result<()> {
-    model
-        .parameters
-        .require(&opts.param, &format!("--param {}", opts.param))?;
-    match &model.forcing_frequency {
-        Some(f) if *f != opts.param => {
-            return Err(Error::request(
-                format!(
-                    "--param {}: the forcing of this model does not depend on `{}`; it turns at `{f}`",
-                    opts.param, opts.param
-                ),
-                format!("use --param {f}"),
-            ));
-        }
-        None => {
-            return Err(Error::request(
-                "the model does not say which parameter is its forcing frequency".to_string(),
-                "add `forcing_frequency = \"omega\"` to [model]",
-            ));
-        }
-        _ => {}
-    }
-    if opts.values.is_empty() || opts.values.iter().any(|w| !(*w > 0.0) || !w.is_finite()) {
-        return Err(Error::request(
-            "the sweep needs positive, finite frequencies",
-            "give --from > 0",
-        ));
-    }
+    crate::linear::check_frequencies(model, &opts.param, &opts.values)?;
     if let Some(r) = opts.refine
         && (!(r > 0.0) || !r.is_finite())
     {

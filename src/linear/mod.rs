@@ -309,6 +309,38 @@ pub fn modal_analysis(model: &crate::Model, normalize: Option<&str>) -> Result<M
     })
 }
 
+/// A request for the response at `values` of `param` (`frf`, `sweep`): `param` must be
+/// the model's forcing frequency, and the frequencies positive and finite (rad/s).
+pub fn check_frequencies(model: &crate::Model, param: &str, values: &[f64]) -> Result<()> {
+    model
+        .parameters
+        .require(param, &format!("--param {param}"))?;
+    match &model.forcing_frequency {
+        Some(f) if f != param => {
+            return Err(Error::request(
+                format!(
+                    "--param {param}: the forcing of this model does not depend on `{param}`; it turns at `{f}`"
+                ),
+                format!("use --param {f}"),
+            ));
+        }
+        None => {
+            return Err(Error::request(
+                "the model does not say which parameter is its forcing frequency",
+                "add `forcing_frequency = \"omega\"` to [model]",
+            ));
+        }
+        _ => {}
+    }
+    if values.is_empty() || values.iter().any(|w| !(*w > 0.0) || !w.is_finite()) {
+        return Err(Error::request(
+            format!("--param {param}: the frequencies must be positive and finite (rad/s)"),
+            "give --from > 0",
+        ));
+    }
+    Ok(())
+}
+
 /// The model with its forcing-frequency parameter set to `omega` (> 0): statics then
 /// averages the time-dependent loads over the forcing's period. (A load that depends on
 /// time through ωt has the same mean at every ω ≠ 0; at a model's own ω = 0 a
@@ -361,29 +393,8 @@ pub fn frequency_response(
     values: &[f64],
     responses: &[String],
 ) -> Result<FrequencyResponse> {
-    model
-        .parameters
-        .require(param, &format!("--param {param}"))?;
-    if let Some(f) = &model.forcing_frequency
-        && f != param
-    {
-        return Err(Error::request(
-            format!("--param {param}: the forcing of this model turns at `{f}`, not `{param}`"),
-            format!("use --param {f}"),
-        ));
-    }
-    if values.iter().any(|w| !(*w > 0.0) || !w.is_finite()) {
-        return Err(Error::request(
-            format!("--param {param}: the frequencies must be positive and finite (rad/s)"),
-            "give --from > 0",
-        ));
-    }
-    let Some(&first) = values.first() else {
-        return Err(Error::request(
-            "no frequencies requested",
-            "give --from and --to",
-        ));
-    };
+    check_frequencies(model, param, values)?;
+    let first = values[0];
     let model = &at_frequency(model, param, first)?;
     let modal = modal_analysis(model, None)?;
     let sys = System::new(model)?;
