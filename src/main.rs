@@ -93,20 +93,8 @@ struct SweepArgs {
     /// Most periods per frequency.
     #[arg(long, default_value_t = 600, value_name = "N")]
     max_periods: usize,
-    #[arg(
-        long,
-        default_value_t = 1e-10,
-        value_name = "R",
-        allow_hyphen_values = true
-    )]
-    rtol: f64,
-    #[arg(
-        long,
-        default_value_t = 1e-12,
-        value_name = "A",
-        allow_hyphen_values = true
-    )]
-    atol: f64,
+    #[command(flatten)]
+    tol: Tolerances,
     /// CSV: one row per frequency (and direction and --values entry).
     #[arg(short = 'o', long = "output", value_name = "OUT.csv")]
     output: Option<String>,
@@ -191,6 +179,27 @@ struct FrfArgs {
     output: Option<String>,
 }
 
+/// The integrator's error tolerances (`simulate`, `sweep`).
+#[derive(Args)]
+struct Tolerances {
+    /// Relative error tolerance per step.
+    #[arg(
+        long,
+        default_value_t = 1e-10,
+        value_name = "R",
+        allow_hyphen_values = true
+    )]
+    rtol: f64,
+    /// Absolute error tolerance per step (SI units of each coordinate and velocity).
+    #[arg(
+        long,
+        default_value_t = 1e-12,
+        value_name = "A",
+        allow_hyphen_values = true
+    )]
+    atol: f64,
+}
+
 /// The frequencies of `frf` and `sweep`, and what they report.
 #[derive(Args)]
 struct FrequencyGrid {
@@ -269,22 +278,8 @@ struct SimulateArgs {
         allow_hyphen_values = true
     )]
     dt_out: f64,
-    /// Relative error tolerance per step.
-    #[arg(
-        long,
-        default_value_t = 1e-10,
-        value_name = "R",
-        allow_hyphen_values = true
-    )]
-    rtol: f64,
-    /// Absolute error tolerance per step (SI units of each coordinate and velocity).
-    #[arg(
-        long,
-        default_value_t = 1e-12,
-        value_name = "A",
-        allow_hyphen_values = true
-    )]
-    atol: f64,
+    #[command(flatten)]
+    tol: Tolerances,
     /// Add velocity columns `<name>_dot`.
     #[arg(long)]
     velocities: bool,
@@ -408,8 +403,8 @@ fn simulate_cmd(a: SimulateArgs) -> Result<()> {
     let opts = SimOptions {
         t_end: a.t_end,
         dt_out: a.dt_out,
-        rtol: a.rtol,
-        atol: a.atol,
+        rtol: a.tol.rtol,
+        atol: a.tol.atol,
         ..SimOptions::default()
     };
     let bar = indicatif::ProgressBar::new(1000);
@@ -864,8 +859,8 @@ fn sweep_cmd(a: SweepArgs) -> Result<()> {
         responses: responses.clone(),
         refine: a.refine,
         steady: SteadyOptions {
-            rtol: a.rtol,
-            atol: a.atol,
+            rtol: a.tol.rtol,
+            atol: a.tol.atol,
             settle_tol: a.settle_tol,
             max_periods: a.max_periods,
             ..SteadyOptions::default()
