@@ -11,6 +11,25 @@ fn model() -> Model {
     .unwrap()
 }
 
+/// The shipped model file's text.
+fn shipped_text() -> String {
+    std::fs::read_to_string(format!(
+        "{}/models/overcentre.toml",
+        env!("CARGO_MANIFEST_DIR")
+    ))
+    .unwrap()
+}
+
+/// The error of loading the shipped model with its first `from` replaced by `to`.
+fn load_error(from: &str, to: &str) -> String {
+    let text = shipped_text();
+    assert!(text.contains(from), "{from}");
+    Model::from_str("t.toml", &text.replacen(from, to, 1))
+        .map(|_| ())
+        .unwrap_err()
+        .to_string()
+}
+
 fn with(sets: &[(&str, &str)]) -> detune::Result<Model> {
     let sets: Vec<(String, String)> = sets
         .iter()
@@ -133,19 +152,15 @@ fn assembly_solves_the_free_coordinates() {
 #[test]
 fn assembly_follows_the_guesses_to_the_other_branch() {
     // Guess bar 2 folded back onto A: B at the origin, θ2 = θ1 (equal bars).
-    let text = std::fs::read_to_string(format!(
-        "{}/models/overcentre.toml",
-        env!("CARGO_MANIFEST_DIR")
-    ))
-    .unwrap()
-    .replace(
-        "x = \"L1*cos(theta1_0) + L2/2*cos(asin(L1*sin(theta1_0)/L2))\"",
-        "x = \"0.45*L1*cos(theta1_0)\"",
-    )
-    .replace(
-        "theta = \"pi - asin(L1*sin(theta1_0)/L2)\"",
-        "theta = \"theta1_0 + 0.1\"",
-    );
+    let text = shipped_text()
+        .replace(
+            "x = \"L1*cos(theta1_0) + L2/2*cos(asin(L1*sin(theta1_0)/L2))\"",
+            "x = \"0.45*L1*cos(theta1_0)\"",
+        )
+        .replace(
+            "theta = \"pi - asin(L1*sin(theta1_0)/L2)\"",
+            "theta = \"theta1_0 + 0.1\"",
+        );
     let m = Model::from_str("folded.toml", &text).unwrap();
     let sys = System::new(&m).unwrap();
     let s = assemble(&sys).unwrap();
@@ -156,12 +171,7 @@ fn assembly_follows_the_guesses_to_the_other_branch() {
 
 #[test]
 fn initial_velocity_is_held_and_the_rest_solved() {
-    let text = std::fs::read_to_string(format!(
-        "{}/models/overcentre.toml",
-        env!("CARGO_MANIFEST_DIR")
-    ))
-    .unwrap()
-    .replace(
+    let text = shipped_text().replace(
         "fix = [\"theta\"]",
         "fix = [\"theta\"]\nvelocity = { theta = 0.5 }",
     );
@@ -193,37 +203,25 @@ fn a_set_may_refer_to_the_parameters_own_value() {
 
 #[test]
 fn silent_wrong_answers_are_refused() {
-    let text = std::fs::read_to_string(format!(
-        "{}/models/overcentre.toml",
-        env!("CARGO_MANIFEST_DIR")
-    ))
-    .unwrap();
-    let load = |from: &str, to: &str| {
-        assert!(text.contains(from), "{from}");
-        Model::from_str("t.toml", &text.replacen(from, to, 1))
-            .map(|_| ())
-            .unwrap_err()
-            .to_string()
-    };
     // a plain number with a non-SI declared unit
-    let e = load(
+    let e = load_error(
         "L0 = { value = 2, unit = \"m\"",
         "L0 = { value = 2000, unit = \"mm\"",
     );
     assert!(e.contains("plain number") && e.contains("2000 mm"), "{e}");
     // sums of unlike quantities, functions of dimensioned quantities
-    let e = load("free_length = \"L0\"", "free_length = \"2 m + 3 s\"");
+    let e = load_error("free_length = \"L0\"", "free_length = \"2 m + 3 s\"");
     assert!(e.contains("adding or subtracting"), "{e}");
-    let e = load("free_length = \"L0\"", "free_length = \"L0*cos(2 m)\"");
+    let e = load_error("free_length = \"L0\"", "free_length = \"L0*cos(2 m)\"");
     assert!(e.contains("cos of a quantity in m"), "{e}");
     // a field that the type does not use
-    let e = load(
+    let e = load_error(
         "type = \"revolute\"\nbody1 = \"bar1\"\npoint1 = [\"-L1/2\", 0]",
         "type = \"revolute\"\naxis = [1, 0]\nbody1 = \"bar1\"\npoint1 = [\"-L1/2\", 0]",
     );
     assert!(e.contains("`axis` is not a field of a `revolute`"), "{e}");
     // a point force on the ground
-    let e = load(
+    let e = load_error(
         "body = \"bar1\"\npoint = [\"s - L1/2\", 0]",
         "body = \"ground\"\npoint = [\"s - L1/2\", 0]",
     );
@@ -232,23 +230,11 @@ fn silent_wrong_answers_are_refused() {
 
 #[test]
 fn names_that_would_be_ambiguous_are_refused() {
-    let text = std::fs::read_to_string(format!(
-        "{}/models/overcentre.toml",
-        env!("CARGO_MANIFEST_DIR")
-    ))
-    .unwrap();
-    let load = |from: &str, to: &str| {
-        assert!(text.contains(from), "{from}");
-        Model::from_str("t.toml", &text.replacen(from, to, 1))
-            .map(|_| ())
-            .unwrap_err()
-            .to_string()
-    };
-    let e = load("name = \"J\"", "name = \"A\"");
+    let e = load_error("name = \"J\"", "name = \"A\"");
     assert!(e.contains("two joints or constraints are named `A`"), "{e}");
-    let e = load("name = \"bar2\"", "name = \"bar 2\"");
+    let e = load_error("name = \"bar2\"", "name = \"bar 2\"");
     assert!(e.contains("cannot name a body"), "{e}");
-    let e = load(
+    let e = load_error(
         "g = { value = 9.81",
         "sin = { value = 1 }\ng = { value = 9.81",
     );

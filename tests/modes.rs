@@ -237,12 +237,7 @@ fn undamped_resonance_is_refused_not_infinite() {
 fn frf_linearizes_about_the_mean_load_of_the_forcing_period() {
     // F0·cos(ωt): its mean over a period is 0, but at the model's own ω = 0 it would be a
     // constant F0. The linear response must be about the equilibrium under Fs alone.
-    let text = std::fs::read_to_string(format!(
-        "{}/models/overcentre.toml",
-        env!("CARGO_MANIFEST_DIR")
-    ))
-    .unwrap()
-    .replace("Fs + F0*sin(omega*t)", "Fs + F0*cos(omega*t)");
+    let text = common::overcentre_text().replace("Fs + F0*sin(omega*t)", "Fs + F0*cos(omega*t)");
     let cos = detune::Model::from_str("cos.toml", &text)
         .unwrap()
         .with_overrides(&[

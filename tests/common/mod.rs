@@ -47,6 +47,15 @@ pub fn data(name: &str) -> String {
     format!("{}/tests/data/{name}", env!("CARGO_MANIFEST_DIR"))
 }
 
+/// The shipped overcentre model file's text (for variants made by replacing a line).
+pub fn overcentre_text() -> String {
+    std::fs::read_to_string(format!(
+        "{}/models/overcentre.toml",
+        env!("CARGO_MANIFEST_DIR")
+    ))
+    .unwrap()
+}
+
 /// The shipped overcentre model with `--set`-style overrides.
 pub fn overcentre(sets: &[(&str, &str)]) -> detune::Model {
     let m = detune::Model::load(&format!(
