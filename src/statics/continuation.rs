@@ -193,7 +193,7 @@ impl Family<'_> {
         for it in 0..10 {
             // A Newton iterate may stray past the range; where the model is invalid there
             // (a mass ≤ 0), that is a failed corrector (the step is halved), not the end.
-            let (h, j, _) = match self.linearize(&y) {
+            let (h, j, det) = match self.linearize(&y) {
                 Ok(l) => l,
                 Err(_) if y[d] < self.lo || y[d] > self.hi => return Ok(None),
                 Err(e) => return Err(e),
@@ -203,9 +203,6 @@ impl Family<'_> {
             }
             let g = tw.dot(&(&y - &pred));
             if self.converged(&h, scale) && g.abs() < 1e-12 {
-                let Ok((_, j, det)) = self.linearize(&y) else {
-                    return Ok(None);
-                };
                 let tau = self.tangent(&j, Some(&base.tau), 1.0);
                 return Ok(Some((Pt { y, tau, det }, it)));
             }
