@@ -4,6 +4,7 @@
 //! run by the same code. Figures in docs/performance.md. Run: `cargo bench --bench sweep`.
 
 use detune::Model;
+use detune::System;
 use detune::frequency::{SteadyOptions, Sweep, SweepMode, SweepOptions, sweep};
 use std::sync::atomic::AtomicBool;
 
@@ -41,7 +42,15 @@ fn run(threads: usize, opts: &SweepOptions) -> Sweep {
         .num_threads(threads)
         .build()
         .unwrap()
-        .install(|| sweep(&m, opts, &|_| {}, &AtomicBool::new(false)).unwrap())
+        .install(|| {
+            sweep(
+                &System::new(&m).unwrap(),
+                opts,
+                &|_| {},
+                &AtomicBool::new(false),
+            )
+            .unwrap()
+        })
 }
 
 #[divan::bench(sample_count = 5)]

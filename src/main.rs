@@ -566,7 +566,7 @@ fn continue_cmd(a: ContinueArgs) -> Result<()> {
         Some(name) => detune::linear::coordinate(&sys, name, "--plot-coordinate")?,
         None => detune::linear::default_reference(&sys),
     };
-    let branch = continue_equilibria(&model, &opts)?;
+    let branch = continue_equilibria(&sys, &opts)?;
     if let Some(o) = &a.output {
         write_branch_csv(o, &branch)?;
     }
@@ -687,7 +687,7 @@ fn unit_of(coordinate: &str) -> &'static str {
 
 fn modes_cmd(a: ModesArgs) -> Result<()> {
     let model = a.model.load()?;
-    let m = modal_analysis(&model, a.normalize.as_deref())?;
+    let m = modal_analysis(&System::new(&model)?, a.normalize.as_deref())?;
     if a.json {
         print_json(&modes_json(&m, &Provenance::of(&model)));
         return Ok(());
@@ -766,7 +766,7 @@ fn frf_cmd(a: FrfArgs) -> Result<()> {
     let model = a.model.load()?;
     check_outputs(&model.source.path, &[a.output.as_deref()])?;
     let (values, responses) = a.grid.resolve(&model)?;
-    let fr = frequency_response(&model, &a.grid.param, &values, &responses)?;
+    let fr = frequency_response(&System::new(&model)?, &a.grid.param, &values, &responses)?;
     if let Some(o) = &a.output {
         write_frf_csv(o, &fr)?;
         eprintln!("wrote {o}");
@@ -872,8 +872,13 @@ fn sweep_cmd(a: SweepArgs) -> Result<()> {
             "give a fraction such as 1e-8",
         ));
     }
+    // One compiled system per run.
+    let systems: Vec<System> = family
+        .iter()
+        .map(|(_, m)| System::new(m))
+        .collect::<Result<_>>()?;
     // Every run is checked before any is simulated: a bad --values entry fails at once.
-    for (value, m) in &family {
+    for ((value, _), m) in family.iter().zip(&systems) {
         detune::frequency::prepare(m, &opts).map_err(|e| match value {
             Some((name, v)) => e.context(&format!("--values {name}={v}")),
             None => e,
@@ -896,7 +901,7 @@ fn sweep_cmd(a: SweepArgs) -> Result<()> {
     let began = std::time::Instant::now();
     let mut sweeps = Vec::new();
     let mut offset = 0u64;
-    for (value, m) in &family {
+    for ((value, _), m) in family.iter().zip(&systems) {
         let b = bar.clone();
         let base = offset;
         let s = sweep(
@@ -943,8 +948,9 @@ fn sweep_cmd(a: SweepArgs) -> Result<()> {
         // them; an amplitude does not): one unlabelled set when every run has the same,
         // else each distinct one tagged with its run.
         let mut per_run: Vec<(Vec<f64>, String)> = Vec::new();
-        for (value, m) in family.iter().take(runs.len()) {
-            let at = detune::linear::at_frequency(m, &a.grid.param, values[0])?;
+        for ((value, _), m) in family.iter().zip(&systems).take(runs.len()) {
+            let index = m.require_param(&a.grid.param, "--param")?;
+            let at = detune::linear::at_frequency(m, index, values[0])?;
             let Ok(ma) = modal_analysis(&at, None) else {
                 continue;
             };

@@ -24,7 +24,7 @@ fn undamped_and_damped_modes_of_both_wells() {
     for (start, want) in [("-0.85", &eqs[0]), ("0.785", &eqs[2])] {
         for (c, key) in [("1", "eig_c1"), ("5", "eig_c5")] {
             let m = model(&[("theta1_0", start), ("c", c)]);
-            let a = modal_analysis(&m, None).unwrap();
+            let a = modal_analysis(&System::new(&m).unwrap(), None).unwrap();
             assert!(a.equilibrium.stable);
             let w = want["omega_rad_s"].as_f64().unwrap();
             assert_eq!(a.undamped_omega2.len(), 1);
@@ -65,7 +65,7 @@ fn gravity_free_variant_gives_the_papers_4_083() {
         ("theta1_0", "-0.9"),
         ("c", "1"),
     ]);
-    let a = modal_analysis(&m, None).unwrap();
+    let a = modal_analysis(&System::new(&m).unwrap(), None).unwrap();
     let w = (50.0f64 / 3.0).sqrt();
     assert!(
         rel(a.undamped_omega2[0].sqrt(), w) <= 1e-8,
@@ -140,7 +140,11 @@ fn free_oscillation_frequency_agrees_with_omega_n() {
     let periods = crossings.len() - 1;
     let period = (crossings[periods] - crossings[0]) / periods as f64;
     let omega = 2.0 * std::f64::consts::PI / period;
-    let a = modal_analysis(&model(&[("c", "0"), ("theta1_0", "-0.85")]), None).unwrap();
+    let a = modal_analysis(
+        &System::new(&model(&[("c", "0"), ("theta1_0", "-0.85")])).unwrap(),
+        None,
+    )
+    .unwrap();
     let wn = a.undamped_omega2[0].sqrt();
     assert!(rel(omega, wn) <= 1e-4, "simulated {omega} vs linear {wn}");
 }
@@ -151,7 +155,13 @@ fn free_oscillation_frequency_agrees_with_omega_n() {
 fn linear_frequency_response_matches_the_reduced_model() {
     let m = model(&[("theta1_0", "-0.85"), ("c", "1"), ("F0", "0.01")]);
     let omegas: Vec<f64> = (0..=75).map(|k| 0.5 + 0.1 * k as f64).collect();
-    let fr = frequency_response(&m, "omega", &omegas, &["bar1.theta".to_string()]).unwrap();
+    let fr = frequency_response(
+        &System::new(&m).unwrap(),
+        "omega",
+        &omegas,
+        &["bar1.theta".to_string()],
+    )
+    .unwrap();
     let th = fr.equilibrium.q[2];
     let o = Overcentre {
         c: 1.0,
@@ -187,12 +197,24 @@ fn linear_frequency_response_matches_the_reduced_model() {
 #[test]
 fn zero_forcing_is_an_error() {
     let m = model(&[("theta1_0", "-0.85")]);
-    let e = frequency_response(&m, "omega", &[1.0, 2.0], &["bar1.theta".to_string()]).unwrap_err();
+    let e = frequency_response(
+        &System::new(&m).unwrap(),
+        "omega",
+        &[1.0, 2.0],
+        &["bar1.theta".to_string()],
+    )
+    .unwrap_err();
     assert!(e.to_string().contains("zero forcing"), "{e}");
-    let e = frequency_response(&m, "k", &[1.0], &["bar1.theta".to_string()]).unwrap_err();
+    let e = frequency_response(
+        &System::new(&m).unwrap(),
+        "k",
+        &[1.0],
+        &["bar1.theta".to_string()],
+    )
+    .unwrap_err();
     assert!(e.to_string().contains("omega"), "{e}");
     let e = frequency_response(
-        &model(&[("F0", "1")]),
+        &System::new(&model(&[("F0", "1")])).unwrap(),
         "omega",
         &[1.0],
         &["bar1.phi".to_string()],
@@ -206,13 +228,19 @@ fn undamped_resonance_is_refused_not_infinite() {
     // c = 0: at ω = ω_n the dynamic stiffness K − ω²M is singular. The response there is
     // unbounded, so the solver must say so instead of returning inf/NaN or a huge number.
     let m = model(&[("theta1_0", "-0.85"), ("c", "0"), ("F0", "0.1")]);
-    let ma = modal_analysis(&m, None).unwrap();
+    let ma = modal_analysis(&System::new(&m).unwrap(), None).unwrap();
     let wn = ma.modes[0].omega_n_rad_s;
-    let e = frequency_response(&m, "omega", &[wn], &["bar1.theta".to_string()]).unwrap_err();
+    let e = frequency_response(
+        &System::new(&m).unwrap(),
+        "omega",
+        &[wn],
+        &["bar1.theta".to_string()],
+    )
+    .unwrap_err();
     assert!(e.to_string().contains("singular"), "{e}");
     // 1 % away the amplitude is finite and matches the single-DoF closed form F/(k(1 − r²)).
     let fr = frequency_response(
-        &m,
+        &System::new(&m).unwrap(),
         "omega",
         &[0.99 * wn, 1.01 * wn],
         &["bar1.theta".to_string()],
@@ -245,7 +273,13 @@ fn frf_linearizes_about_the_mean_load_of_the_forcing_period() {
             ("F0".into(), "3".into()),
         ])
         .unwrap();
-    let fr = frequency_response(&cos, "omega", &[1.0, 2.0], &["bar1.theta".to_string()]).unwrap();
+    let fr = frequency_response(
+        &System::new(&cos).unwrap(),
+        "omega",
+        &[1.0, 2.0],
+        &["bar1.theta".to_string()],
+    )
+    .unwrap();
     let lower = reference()["baseline (gravity, L0 = 2)"]["equilibria"][0]["theta_rad"]
         .as_f64()
         .unwrap();
@@ -256,14 +290,26 @@ fn frf_linearizes_about_the_mean_load_of_the_forcing_period() {
     );
     // Same amplitude as the sine forcing (a phase shift of 90° is all that differs).
     let sin = model(&[("theta1_0", "-0.85"), ("F0", "3")]);
-    let fs = frequency_response(&sin, "omega", &[1.0, 2.0], &["bar1.theta".to_string()]).unwrap();
+    let fs = frequency_response(
+        &System::new(&sin).unwrap(),
+        "omega",
+        &[1.0, 2.0],
+        &["bar1.theta".to_string()],
+    )
+    .unwrap();
     for k in 0..2 {
         assert!(rel(fr.values[k][0].0, fs.values[k][0].0) < 1e-9);
         let shift = (fr.values[k][0].1 - fs.values[k][0].1).rem_euclid(360.0);
         assert!((shift - 90.0).abs() < 1e-6, "phase shift {shift}");
     }
     // Frequencies must be positive.
-    let e = frequency_response(&sin, "omega", &[-1.0], &["bar1.theta".to_string()]).unwrap_err();
+    let e = frequency_response(
+        &System::new(&sin).unwrap(),
+        "omega",
+        &[-1.0],
+        &["bar1.theta".to_string()],
+    )
+    .unwrap_err();
     assert!(e.to_string().contains("positive"), "{e}");
 }
 

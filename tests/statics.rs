@@ -77,7 +77,7 @@ fn continuation_in_fs_traces_the_s_curve_and_finds_both_folds() {
         step: 0.5,
         max_steps: 2000,
     };
-    let b = continue_equilibria(&m, &opts).unwrap();
+    let b = continue_equilibria(&System::new(&m).unwrap(), &opts).unwrap();
     assert!(!b.truncated);
     // every point satisfies the closed-form balance and the tabulated curve
     let (_, table) = common::read_csv(format!(
@@ -143,7 +143,7 @@ fn pitchfork_in_free_length_without_gravity() {
         step: 0.05,
         max_steps: 500,
     };
-    let b = continue_equilibria(&m, &opts).unwrap();
+    let b = continue_equilibria(&System::new(&m).unwrap(), &opts).unwrap();
     assert!(b.folds.is_empty());
     assert_eq!(b.branch_points.len(), 1);
     let bp = &b.branch_points[0];
@@ -195,7 +195,7 @@ fn continuation_ends_exactly_on_the_range_and_never_leaves_it() {
             step: 0.25,
             max_steps: 100,
         };
-        let b = continue_equilibria(&model(&[]), &opts).unwrap();
+        let b = continue_equilibria(&System::new(&model(&[])).unwrap(), &opts).unwrap();
         let values: Vec<f64> = b.points.iter().map(|p| p.value).collect();
         assert_eq!(values.len(), 5, "{values:?}");
         assert_eq!(*values.last().unwrap(), to);
@@ -210,7 +210,7 @@ fn continuation_ends_exactly_on_the_range_and_never_leaves_it() {
             step: (to - from).abs() / 50.0,
             max_steps: 1000,
         };
-        let b = continue_equilibria(&model(&[]), &opts).unwrap();
+        let b = continue_equilibria(&System::new(&model(&[])).unwrap(), &opts).unwrap();
         let (lo, hi) = (from.min(to), from.max(to));
         assert!(b.points.iter().all(|p| p.value >= lo && p.value <= hi));
         assert_eq!(b.points.last().unwrap().value, to);

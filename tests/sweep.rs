@@ -2,6 +2,7 @@
 //! the paper's Figures 8–9 as properties, determinism across threads, hysteresis.
 
 use detune::Model;
+use detune::System;
 use detune::frequency::{Direction, SteadyOptions, Sweep, SweepMode, SweepOptions, sweep};
 use detune::linear::{frequency_response, modal_analysis};
 use std::sync::atomic::AtomicBool;
@@ -34,7 +35,13 @@ fn run(m: &Model, values: Vec<f64>, mode: SweepMode, refine: Option<f64>) -> Swe
         refine,
         steady: SteadyOptions::default(),
     };
-    sweep(m, &opts, &|_| {}, &AtomicBool::new(false)).unwrap()
+    sweep(
+        &System::new(&m).unwrap(),
+        &opts,
+        &|_| {},
+        &AtomicBool::new(false),
+    )
+    .unwrap()
 }
 
 fn amplitude(s: &Sweep, dir: Direction, omega: f64) -> f64 {
@@ -59,7 +66,7 @@ fn small_forcing_reproduces_the_linear_resonance() {
                 .all(|p| p.steady.settled && p.steady.period_multiple == 1)
     );
     // the peak of a force-driven linear oscillator: ω_n √(1 − 2ζ²)
-    let modal = modal_analysis(&m, None).unwrap();
+    let modal = modal_analysis(&System::new(&m).unwrap(), None).unwrap();
     let (wn, zeta) = (modal.modes[0].omega_n_rad_s, modal.modes[0].damping_ratio);
     let expected = wn * (1.0 - 2.0 * zeta * zeta).sqrt();
     assert!((expected - 4.28003).abs() < 1e-5);
@@ -73,7 +80,13 @@ fn small_forcing_reproduces_the_linear_resonance() {
         p.uncertainty
     );
     // amplitudes within 1 % of the linear frequency response; first harmonic and phase too
-    let lin = frequency_response(&m, "omega", &values, &["bar1.theta".to_string()]).unwrap();
+    let lin = frequency_response(
+        &System::new(&m).unwrap(),
+        "omega",
+        &values,
+        &["bar1.theta".to_string()],
+    )
+    .unwrap();
     for (k, w) in values.iter().enumerate() {
         let (amp, phase) = lin.values[k][0];
         let pt = s.points.iter().find(|p| p.steady.omega == *w).unwrap();
@@ -204,31 +217,52 @@ fn bad_sweep_requests_are_refused() {
         steady: SteadyOptions::default(),
     };
     let no = AtomicBool::new(false);
-    let e = sweep(&m, &opts("k", vec![1.0]), &|_| {}, &no)
-        .unwrap_err()
-        .to_string();
+    let e = sweep(
+        &System::new(&m).unwrap(),
+        &opts("k", vec![1.0]),
+        &|_| {},
+        &no,
+    )
+    .unwrap_err()
+    .to_string();
     assert!(
         e.contains("does not depend on `k`") && e.contains("help"),
         "{e}"
     );
-    let e = sweep(&m, &opts("omegaa", vec![1.0]), &|_| {}, &no)
-        .unwrap_err()
-        .to_string();
+    let e = sweep(
+        &System::new(&m).unwrap(),
+        &opts("omegaa", vec![1.0]),
+        &|_| {},
+        &no,
+    )
+    .unwrap_err()
+    .to_string();
     assert!(e.contains("`omega`"), "{e}");
-    let e = sweep(&model(&[]), &opts("omega", vec![1.0]), &|_| {}, &no)
-        .unwrap_err()
-        .to_string();
+    let e = sweep(
+        &System::new(&model(&[])).unwrap(),
+        &opts("omega", vec![1.0]),
+        &|_| {},
+        &no,
+    )
+    .unwrap_err()
+    .to_string();
     assert!(e.contains("zero forcing"), "{e}");
     let mut o = opts("omega", vec![1.0]);
     o.responses = vec!["bar3.theta".into()];
-    let e = sweep(&m, &o, &|_| {}, &no).unwrap_err().to_string();
+    let e = sweep(&System::new(&m).unwrap(), &o, &|_| {}, &no)
+        .unwrap_err()
+        .to_string();
     assert!(e.contains("bar3.theta"), "{e}");
     let mut o = opts("omega", vec![3.0, 3.5, 4.0]);
     o.steady.max_periods = 0;
-    let e = sweep(&m, &o, &|_| {}, &no).unwrap_err().to_string();
+    let e = sweep(&System::new(&m).unwrap(), &o, &|_| {}, &no)
+        .unwrap_err()
+        .to_string();
     assert!(e.contains("--max-periods 0"), "{e}");
     let mut o = opts("omega", vec![3.0, 3.5, 4.0]);
     o.refine = Some(1.0);
-    let e = sweep(&m, &o, &|_| {}, &no).unwrap_err().to_string();
+    let e = sweep(&System::new(&m).unwrap(), &o, &|_| {}, &no)
+        .unwrap_err()
+        .to_string();
     assert!(e.contains("not finer than a peak's bracket"), "{e}");
 }

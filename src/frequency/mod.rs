@@ -19,7 +19,6 @@ pub mod measure;
 use crate::diag::{Error, Result};
 use crate::dynamics::simulate::{SimOptions, simulate};
 use crate::dynamics::{DynWorkspace, State, project_position, project_velocity};
-use crate::model::Model;
 use crate::statics::{Equilibrium, Statics};
 use crate::system::System;
 use measure::Measures;
@@ -399,13 +398,8 @@ pub struct Sweep {
     pub complete: bool,
 }
 
-/// The compiled system at one value of the frequency parameter.
-fn system_at(model: &Model, param: &str, omega: f64) -> Result<System> {
-    System::new(&crate::linear::at_frequency(model, param, omega)?)
-}
-
-fn check_request(model: &Model, opts: &SweepOptions) -> Result<()> {
-    crate::linear::check_frequencies(model, &opts.param, &opts.values)?;
+fn check_request(sys: &System, opts: &SweepOptions) -> Result<usize> {
+    let index = crate::linear::check_frequencies(sys, &opts.param, &opts.values)?;
     if let Some(r) = opts.refine
         && (!(r > 0.0) || !r.is_finite())
     {
@@ -438,16 +432,16 @@ fn check_request(model: &Model, opts: &SweepOptions) -> Result<()> {
             "give at least 1, or None to detect the steady state",
         ));
     }
-    Ok(())
+    Ok(index)
 }
 
 /// Everything a sweep checks before it simulates: the request, the response
 /// coordinates, the equilibrium it starts from (under the loads' mean over a forcing
 /// period, see [`crate::linear::at_frequency`]) and a non-zero forcing. Cheap (no
 /// simulation): call it on every model of a family before sweeping any of them.
-pub fn prepare(model: &Model, opts: &SweepOptions) -> Result<(System, Vec<usize>, Equilibrium)> {
-    check_request(model, opts)?;
-    let sys0 = system_at(model, &opts.param, opts.values[0])?;
+pub fn prepare(sys: &System, opts: &SweepOptions) -> Result<(System, Vec<usize>, Equilibrium)> {
+    let index = check_request(sys, opts)?;
+    let sys0 = crate::linear::at_frequency(sys, index, opts.values[0])?;
     let responses: Vec<usize> = opts
         .responses
         .iter()
@@ -456,7 +450,7 @@ pub fn prepare(model: &Model, opts: &SweepOptions) -> Result<(System, Vec<usize>
     let start = crate::dynamics::assemble(&sys0)?;
     let st = Statics::new(&sys0, &start.q)?;
     let eq = st.nearest(&start)?;
-    crate::linear::harmonic_forcing(&sys0, &eq.q, &opts.param, opts.values[0])?;
+    crate::linear::harmonic_forcing(&sys0, &eq, &st.rows, &opts.param, opts.values[0])?;
     Ok((sys0, responses, eq))
 }
 
@@ -464,21 +458,20 @@ pub fn prepare(model: &Model, opts: &SweepOptions) -> Result<(System, Vec<usize>
 /// and refinement); `cancel` stops it within one integration step, returning what was computed with
 /// `complete = false`.
 pub fn sweep(
-    model: &Model,
+    sys: &System,
     opts: &SweepOptions,
     progress: &(dyn Fn(usize) + Sync),
     cancel: &AtomicBool,
 ) -> Result<Sweep> {
-    let (sys0, responses, eq) = prepare(model, opts)?;
-    let rest = State {
-        t: 0.0,
-        q: eq.q.clone(),
-        v: vec![0.0; sys0.n()],
-    };
+    let (sys0, responses, eq) = prepare(sys, opts)?;
+    let index = sys0.forcing_param().expect("checked by prepare");
+    let rest = rest_state(&sys0, &eq.q);
     let done = AtomicUsize::new(0);
     let tick = || progress(done.fetch_add(1, Ordering::Relaxed) + 1);
+    // one compiled system; each frequency sets its parameter on a copy (no recompiling),
+    // and the integration reads ω from it: one source of truth
     let eval = |omega: f64, from: &State| -> Result<SteadyState> {
-        let s = system_at(model, &opts.param, omega)?;
+        let s = sys0.with_param(index, omega)?;
         let r = steady_state(&s, from, omega, &responses, &opts.steady, cancel);
         tick();
         r
@@ -613,6 +606,21 @@ pub fn sweep(
         hysteresis,
         complete,
     })
+}
+
+/// At rest at the equilibrium q: relative to the ground, which may move (base
+/// excitation), with the velocities made consistent with the constraints at t = 0.
+fn rest_state(sys: &System, q: &[f64]) -> State {
+    let mut v = sys.ground_velocity(q, 0.0);
+    if sys.rheonomic {
+        let mut ws = DynWorkspace::new(sys);
+        project_velocity(sys, &mut ws, q, &mut v, 0.0);
+    }
+    State {
+        t: 0.0,
+        q: q.to_vec(),
+        v,
+    }
 }
 
 fn collect(results: Vec<Result<SteadyState>>, dir: Direction) -> (Vec<SweepPoint>, Result<()>) {

@@ -13,6 +13,15 @@
 //! manifold's parametrization multiply the total generalized force f̄ + Aᵀλ, which is zero
 //! at equilibrium, so nothing else enters.
 //!
+//! Harmonic forcing enters two ways: loads f(q*, 0, t) (a force, a damper to a moving
+//! anchor) with first harmonic F, and moving constraints Φ(q*, t) (base excitation) with
+//! first harmonic P. The response y = Im[Y e^{iωt}] is Y = N η + Y_p with the particular
+//! solution Y_p = −A⁺ P of the linearized constraints A Y + P = 0 and
+//!
+//! ```text
+//! (Nᵀ Z N) η = Nᵀ (F − Z Y_p),    Z = K − ω² M + iω C   (n × n)
+//! ```
+//!
 //! Modes: eigenvalues of the state matrix [0 I; −M_r⁻¹K_r −M_r⁻¹C_r] (nalgebra, Schur);
 //! each shape is the null vector of the complex matrix λ²M_r + λC_r + K_r (complex SVD),
 //! mapped back to the model's coordinates by N. Undamped: eig(M_r⁻¹ K_r).
@@ -34,6 +43,22 @@ pub struct Linearization {
     pub mass: DMatrix<f64>,
     pub damping: DMatrix<f64>,
     pub stiffness: DMatrix<f64>,
+    /// The same in the model's coordinates (n × n): M, C, K.
+    pub full_mass: DMatrix<f64>,
+    pub full_damping: DMatrix<f64>,
+    pub full_stiffness: DMatrix<f64>,
+    /// The mean constraint Jacobian Ā at q* (m × n).
+    pub jacobian: DMatrix<f64>,
+}
+
+/// The first harmonics of a model's forcing at rest at an equilibrium, so that
+/// f − f̄ = Im[F e^{iωt}] and Φ − Φ̄ = Im[P e^{iωt}].
+#[derive(Debug, Clone)]
+pub struct Forcing {
+    /// Generalized force, including the constraint reactions' change (n).
+    pub force: DVector<Complex<f64>>,
+    /// Constraint function: the motion of the constraints (m).
+    pub constraint: DVector<Complex<f64>>,
 }
 
 /// One mode.
@@ -93,16 +118,24 @@ fn velocity_jacobian(st: &Statics, q: &[f64]) -> DMatrix<f64> {
 impl Linearization {
     /// Linearize about an equilibrium.
     pub fn new(st: &Statics, eq: &Equilibrium) -> Linearization {
-        let basis = st.null_space(&eq.q);
-        let stiffness = st.reduced_stiffness(&eq.q, &eq.lambda, &basis);
-        let damping = basis.transpose() * (-velocity_jacobian(st, &eq.q)) * &basis;
-        let mass = basis.transpose() * &st.sys.mass_matrix * &basis;
+        let jacobian = st.mean_jacobian(&eq.q);
+        let basis = crate::statics::null_space_of(&jacobian);
+        let full_stiffness = st.stiffness(&eq.q, &eq.lambda);
+        let full_damping = -velocity_jacobian(st, &eq.q);
+        let full_mass = st.sys.mass_matrix.clone();
+        let stiffness = basis.transpose() * &full_stiffness * &basis;
+        let damping = basis.transpose() * &full_damping * &basis;
+        let mass = basis.transpose() * &full_mass * &basis;
         Linearization {
             q: eq.q.clone(),
             basis,
             mass,
             damping,
             stiffness,
+            full_mass,
+            full_damping,
+            full_stiffness,
+            jacobian,
         }
     }
 
@@ -193,18 +226,36 @@ impl Linearization {
         v_t.row(imin).transpose().map(|z| z.conj())
     }
 
-    /// Steady response amplitudes of all coordinates to a harmonic generalized force
-    /// Im[F e^{iωt}] (n): returns the complex amplitudes Y (n), q(t) − q* = Im[Y e^{iωt}].
-    pub fn response(
-        &self,
-        omega: f64,
-        force: &DVector<Complex<f64>>,
-    ) -> Result<DVector<Complex<f64>>> {
+    /// Steady response amplitudes of all coordinates to a harmonic forcing (a generalized
+    /// force Im[F e^{iωt}] and a constraint motion Im[P e^{iωt}]): returns the complex
+    /// amplitudes Y (n), q(t) − q* = Im[Y e^{iωt}].
+    pub fn response(&self, omega: f64, forcing: &Forcing) -> Result<DVector<Complex<f64>>> {
         let c = |m: &DMatrix<f64>| m.map(|v| Complex::new(v, 0.0));
         let nb = c(&self.basis);
         let dynamic = c(&self.stiffness) - c(&self.mass) * Complex::new(omega * omega, 0.0)
             + c(&self.damping) * Complex::new(0.0, omega);
-        let rhs = nb.transpose() * force;
+        let moving = forcing.constraint.iter().any(|z| z.norm() > 0.0);
+        let particular = if moving {
+            // Y_p = −Ā⁺ P (minimum norm), real and imaginary parts separately
+            let a = self.jacobian.clone();
+            let re =
+                crate::statics::solve_least_squares(a.clone(), &forcing.constraint.map(|z| -z.re));
+            let im = crate::statics::solve_least_squares(a, &forcing.constraint.map(|z| -z.im));
+            Some(DVector::from_fn(re.len(), |i, _| {
+                Complex::new(re[i], im[i])
+            }))
+        } else {
+            None
+        };
+        let rhs = match &particular {
+            None => nb.transpose() * &forcing.force,
+            Some(yp) => {
+                let z = c(&self.full_stiffness)
+                    - c(&self.full_mass) * Complex::new(omega * omega, 0.0)
+                    + c(&self.full_damping) * Complex::new(0.0, omega);
+                nb.transpose() * (&forcing.force - z * yp)
+            }
+        };
         // Singular relative to the size of its terms (not to its own largest singular
         // value, which for one degree of freedom is the smallest one too).
         let scale =
@@ -226,31 +277,53 @@ impl Linearization {
                 "add damping or step around that frequency",
             )
         })?;
-        Ok(nb * x)
+        Ok(match particular {
+            None => nb * x,
+            Some(yp) => nb * x + yp,
+        })
     }
 }
 
-/// First harmonic of the generalized force at rest at q over one period of ω:
-/// f(t) ≈ f̄ + a sin ωt + b cos ωt, returned as F = a + i b (so f − f̄ = Im[F e^{iωt}]).
-pub fn first_harmonic(sys: &System, q: &[f64], omega: f64) -> DVector<Complex<f64>> {
+/// First harmonics of the forcing at rest at the equilibrium `eq` (independent
+/// constraint rows `rows`) over one period of ω: the generalized force
+/// f(q*, 0, t) + A(q*, t)ᵀ λ* and the constraint function Φ(q*, t), each
+/// ≈ mean + a sin ωt + b cos ωt, returned as a + i b (so x − x̄ = Im[X e^{iωt}]).
+pub fn forcing_harmonics(sys: &System, eq: &Equilibrium, rows: &[usize], omega: f64) -> Forcing {
     const SAMPLES: usize = 64;
-    let n = sys.n();
+    let (n, m) = (sys.n(), sys.m());
+    let q = &eq.q;
     let zero = vec![0.0; n];
     let mut f = vec![0.0; n];
-    let mut out = DVector::from_element(n, Complex::new(0.0, 0.0));
+    let mut force = DVector::from_element(n, Complex::new(0.0, 0.0));
+    let mut constraint = DVector::from_element(m, Complex::new(0.0, 0.0));
     if omega == 0.0 {
-        return out;
+        return Forcing { force, constraint };
     }
+    let mut ws = crate::dynamics::DynWorkspace::new(sys);
+    let lambda = DVector::from_column_slice(&eq.lambda);
     let period = 2.0 * std::f64::consts::PI / omega.abs();
     for k in 0..SAMPLES {
         let t = k as f64 * period / SAMPLES as f64;
         sys.forces(q, &zero, t, &mut f);
         let (s, c) = (omega * t).sin_cos();
+        let w = 2.0 / SAMPLES as f64;
+        if sys.rheonomic {
+            // the constraints move: their reactions turn with them, and Φ(q*, t) ≠ 0
+            sys.jacobian(&mut ws.sys, q, t, &mut ws.a);
+            let reaction = ws.a.select_rows(rows.iter()).transpose() * &lambda;
+            for i in 0..n {
+                f[i] += reaction[i];
+            }
+            let phi = sys.residual(q, t);
+            for i in 0..m {
+                constraint[i] += Complex::new(phi[i] * s, phi[i] * c) * w;
+            }
+        }
         for i in 0..n {
-            out[i] += Complex::new(f[i] * s, f[i] * c) * (2.0 / SAMPLES as f64);
+            force[i] += Complex::new(f[i] * s, f[i] * c) * w;
         }
     }
-    out
+    Forcing { force, constraint }
 }
 
 /// Modes about the equilibrium nearest a model's initial pose.
@@ -287,14 +360,13 @@ pub fn default_reference(sys: &System) -> usize {
 }
 
 /// Equilibrium nearest the initial pose, linearization, modes.
-pub fn modal_analysis(model: &crate::Model, normalize: Option<&str>) -> Result<ModalAnalysis> {
-    let sys = System::new(model)?;
+pub fn modal_analysis(sys: &System, normalize: Option<&str>) -> Result<ModalAnalysis> {
     let reference = match normalize {
-        Some(name) => coordinate(&sys, name, "--normalize")?,
-        None => default_reference(&sys),
+        Some(name) => coordinate(sys, name, "--normalize")?,
+        None => default_reference(sys),
     };
-    let start = crate::dynamics::assemble(&sys)?;
-    let st = Statics::new(&sys, &start.q)?;
+    let start = crate::dynamics::assemble(sys)?;
+    let st = Statics::new(sys, &start.q)?;
     let equilibrium = st.nearest(&start)?;
     let linearization = Linearization::new(&st, &equilibrium);
     let modes = linearization.modes(reference);
@@ -311,12 +383,12 @@ pub fn modal_analysis(model: &crate::Model, normalize: Option<&str>) -> Result<M
 
 /// A request for the response at `values` of `param` (`frf`, `sweep`): `param` must be
 /// the model's forcing frequency, and the frequencies positive and finite (rad/s).
-pub fn check_frequencies(model: &crate::Model, param: &str, values: &[f64]) -> Result<()> {
-    model
-        .parameters
-        .require(param, &format!("--param {param}"))?;
-    match &model.forcing_frequency {
-        Some(f) if f != param => {
+/// Returns the parameter's index.
+pub fn check_frequencies(sys: &System, param: &str, values: &[f64]) -> Result<usize> {
+    let index = sys.require_param(param, &format!("--param {param}"))?;
+    match sys.forcing_param() {
+        Some(f) if f != index => {
+            let f = &sys.param_names()[f];
             return Err(Error::request(
                 format!(
                     "--param {param}: the forcing of this model does not depend on `{param}`; it turns at `{f}`"
@@ -338,37 +410,41 @@ pub fn check_frequencies(model: &crate::Model, param: &str, values: &[f64]) -> R
             "give --from > 0",
         ));
     }
-    Ok(())
+    Ok(index)
 }
 
-/// The model with its forcing-frequency parameter set to `omega` (> 0): statics then
-/// averages the time-dependent loads over the forcing's period. (A load that depends on
-/// time through ωt has the same mean at every ω ≠ 0; at a model's own ω = 0 a
-/// `cos(omega*t)` load would be taken at its value at t = 0.)
-pub fn at_frequency(model: &crate::Model, param: &str, omega: f64) -> Result<crate::Model> {
-    model.at_parameter(param, omega)
+/// The system with its forcing-frequency parameter (index `param`) set to `omega`
+/// (> 0): statics then averages the time-dependent loads over the forcing's period. (A
+/// load that depends on time through ωt has the same mean at every ω ≠ 0; at a model's
+/// own ω = 0 a `cos(omega*t)` load would be taken at its value at t = 0.)
+pub fn at_frequency(sys: &System, param: usize, omega: f64) -> Result<System> {
+    sys.with_param(param, omega)
 }
 
-/// The first harmonic of the generalized force at rest at `q` (see [`first_harmonic`]),
-/// or an error when it is zero: zero forcing gives no response curve, not a curve of zeros.
+/// The forcing harmonics at the equilibrium (see [`forcing_harmonics`]), or an error when
+/// they are zero: zero forcing gives no response curve, not a curve of zeros.
 pub fn harmonic_forcing(
     sys: &System,
-    q: &[f64],
+    eq: &Equilibrium,
+    rows: &[usize],
     param: &str,
     omega: f64,
-) -> Result<DVector<Complex<f64>>> {
-    let force = first_harmonic(sys, q, omega);
+) -> Result<Forcing> {
+    let forcing = forcing_harmonics(sys, eq, rows, omega);
     // rounding of the constant loads leaves ~1e-16 of them in the harmonic sums
     let mut mean = vec![0.0; sys.n()];
-    sys.forces(q, &vec![0.0; sys.n()], 0.0, &mut mean);
+    sys.forces(&eq.q, &vec![0.0; sys.n()], 0.0, &mut mean);
     let load = mean.iter().fold(1.0f64, |a, v| a.max(v.abs()));
-    if force.iter().all(|c| c.norm() <= 1e-12 * load) {
+    let size = 1.0 + eq.q.iter().fold(0.0f64, |a, v| a.max(v.abs()));
+    if forcing.force.iter().all(|c| c.norm() <= 1e-12 * load)
+        && forcing.constraint.iter().all(|c| c.norm() <= 1e-14 * size)
+    {
         return Err(Error::request(
             format!("zero forcing: the model's loads have no harmonic part at {param} = {omega}"),
             "give the forcing an amplitude (for the overcentre, --set F0=1), or check that the forcing depends on this parameter",
         ));
     }
-    Ok(force)
+    Ok(forcing)
 }
 
 /// Linear frequency response of some coordinates over values of the forcing frequency.
@@ -388,26 +464,25 @@ pub struct FrequencyResponse {
 /// the initial pose, to the model's forcing at each value of `param` (the forcing's
 /// angular frequency, rad/s). Exact for the linear system.
 pub fn frequency_response(
-    model: &crate::Model,
+    sys: &System,
     param: &str,
     values: &[f64],
     responses: &[String],
 ) -> Result<FrequencyResponse> {
-    check_frequencies(model, param, values)?;
-    let first = values[0];
-    let model = &at_frequency(model, param, first)?;
-    let modal = modal_analysis(model, None)?;
-    let sys = System::new(model)?;
+    let index = check_frequencies(sys, param, values)?;
+    let mut at = at_frequency(sys, index, values[0])?;
     let idx: Vec<usize> = responses
         .iter()
-        .map(|r| coordinate(&sys, r, "--response"))
+        .map(|r| coordinate(&at, r, "--response"))
         .collect::<Result<_>>()?;
+    let modal = modal_analysis(&at, None)?;
+    let start = crate::dynamics::assemble(&at)?;
+    let rows = Statics::new(&at, &start.q)?.rows;
     let mut out = Vec::with_capacity(values.len());
     for &w in values {
-        let m = model.at_parameter(param, w)?;
-        let sw = System::new(&m)?;
-        let force = harmonic_forcing(&sw, &modal.equilibrium.q, param, w)?;
-        let y = modal.linearization.response(w, &force)?;
+        at.set_param(index, w)?;
+        let forcing = harmonic_forcing(&at, &modal.equilibrium, &rows, param, w)?;
+        let y = modal.linearization.response(w, &forcing)?;
         out.push(
             idx.iter()
                 .map(|&i| (y[i].norm(), y[i].arg().to_degrees()))

@@ -47,7 +47,7 @@ use std::f64::consts::PI;
 use std::fmt;
 
 use super::units::{self, Dim};
-use crate::scalar::Scalar;
+use crate::scalar::{Env, NO_ENV, Scalar};
 
 /// Byte offsets into the expression source.
 pub type Span = std::ops::Range<usize>;
@@ -251,8 +251,11 @@ pub enum Expr {
 /// What a name stands for, as decided by the caller of [`Expr::compile`].
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Slot {
-    /// A known value (a parameter), folded into the program.
+    /// A known value, folded into the program.
     Const(f64),
+    /// Live parameter number `i`, read from the [`Env`] at evaluation (so it can change
+    /// without recompiling, and carry a derivative).
+    Param(usize),
     /// Generalised coordinate number `i`: `q[i]` at evaluation.
     Coord(usize),
     /// Time `t`.
@@ -1104,6 +1107,7 @@ fn unknown_function(name: &str, span: Span) -> ExprError {
 enum Op {
     Const(f64),
     Coord(usize),
+    Param(usize),
     Time,
     Neg,
     Add,
@@ -1136,7 +1140,7 @@ impl Op {
     /// Change of the stack depth.
     fn stack_delta(self) -> isize {
         match self {
-            Op::Const(_) | Op::Coord(_) | Op::Time => 1,
+            Op::Const(_) | Op::Coord(_) | Op::Param(_) | Op::Time => 1,
             Op::Add | Op::Sub | Op::Mul | Op::Div | Op::Powd | Op::Atan2 => -1,
             _ => 0,
         }
@@ -1198,6 +1202,7 @@ fn emit(
         Expr::Var { name, span } => match lookup(name, span)? {
             Slot::Const(c) => Piece::Const(c),
             Slot::Coord(i) => Piece::Code(vec![Op::Coord(i)]),
+            Slot::Param(i) => Piece::Code(vec![Op::Param(i)]),
             Slot::Time => Piece::Code(vec![Op::Time]),
         },
         Expr::Neg { arg, .. } => match emit(arg, lookup)? {
@@ -1275,6 +1280,7 @@ pub struct Compiled {
     depth: usize,
     time: bool,
     coords: bool,
+    params: bool,
 }
 
 impl Compiled {
@@ -1289,6 +1295,7 @@ impl Compiled {
         Compiled {
             time: ops.iter().any(|op| matches!(op, Op::Time)),
             coords: ops.iter().any(|op| matches!(op, Op::Coord(_))),
+            params: ops.iter().any(|op| matches!(op, Op::Param(_))),
             depth: depth as usize,
             ops,
         }
@@ -1299,9 +1306,17 @@ impl Compiled {
         Compiled::from_ops(vec![Op::Const(c)])
     }
 
-    /// True if the value depends on neither coordinates nor time.
+    /// True if the value depends on neither coordinates, time nor live parameters.
     pub fn is_constant(&self) -> bool {
-        !self.time && !self.coords
+        !self.time && !self.coords && !self.params
+    }
+
+    /// The live parameters the value reads, in program order (repeats possible).
+    pub fn parameters(&self) -> impl Iterator<Item = usize> + '_ {
+        self.ops.iter().filter_map(|op| match op {
+            Op::Param(i) => Some(*i),
+            _ => None,
+        })
     }
 
     /// The value, if constant.
@@ -1339,22 +1354,32 @@ impl Compiled {
     /// Does not allocate unless the expression needs a stack deeper than 16. Division by
     /// zero, `sqrt` of a negative number etc. give infinities or NaN. Panics if a coordinate
     /// index is out of range of `q`.
+    /// Panics if it reads a live parameter: use [`Compiled::eval_in`] for those.
     #[inline]
     pub fn eval<D: Scalar>(&self, q: &[D], t: D) -> D {
+        self.eval_in(q, t, NO_ENV)
+    }
+
+    /// Evaluate with coordinates `q`, time `t` and live parameters from `env`.
+    #[inline]
+    pub fn eval_in<D: Scalar, E: Env<D>>(&self, q: &[D], t: D, env: E) -> D {
         match self.ops.as_slice() {
             [Op::Const(c)] => D::from(*c),
             [Op::Coord(i)] => q[*i],
+            [Op::Param(i)] => env.param(*i),
             [Op::Time] => t,
-            ops if self.depth <= 4 => run(ops, q, t, &mut [D::from(0.0); 4]),
-            ops if self.depth <= INLINE_STACK => run(ops, q, t, &mut [D::from(0.0); INLINE_STACK]),
-            ops => run(ops, q, t, &mut vec![D::from(0.0); self.depth]),
+            ops if self.depth <= 4 => run(ops, q, t, env, &mut [D::from(0.0); 4]),
+            ops if self.depth <= INLINE_STACK => {
+                run(ops, q, t, env, &mut [D::from(0.0); INLINE_STACK])
+            }
+            ops => run(ops, q, t, env, &mut vec![D::from(0.0); self.depth]),
         }
     }
 }
 
 /// Run a postfix program on a stack large enough for it.
 #[inline]
-fn run<D: Scalar>(ops: &[Op], q: &[D], t: D, s: &mut [D]) -> D {
+fn run<D: Scalar, E: Env<D>>(ops: &[Op], q: &[D], t: D, env: E, s: &mut [D]) -> D {
     let mut n = 0; // number of values on the stack
     for op in ops {
         match *op {
@@ -1364,6 +1389,10 @@ fn run<D: Scalar>(ops: &[Op], q: &[D], t: D, s: &mut [D]) -> D {
             }
             Op::Coord(i) => {
                 s[n] = q[i];
+                n += 1;
+            }
+            Op::Param(i) => {
+                s[n] = env.param(i);
                 n += 1;
             }
             Op::Time => {

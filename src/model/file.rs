@@ -210,12 +210,32 @@ pub struct RawForce {
     pub force: Option<SVector>,
 }
 
+/// `[ground]`: the ground frame. `motion = { x = "D0*sin(omega*t)" }` prescribes its
+/// motion (x, y in m, theta in rad, as expressions of `t` and the parameters): every
+/// ground point moves with it (base excitation).
+#[derive(Debug, Clone, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawGround {
+    pub motion: Option<Spanned<RawMotion>>,
+}
+
+/// `[ground] motion`: planar components, each optional (0 when absent).
+#[derive(Debug, Clone, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawMotion {
+    pub x: Option<SValue>,
+    pub y: Option<SValue>,
+    pub theta: Option<SValue>,
+}
+
 /// The whole file.
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct RawModel {
     #[serde(default)]
     pub model: RawHeader,
+    #[serde(default)]
+    pub ground: RawGround,
     #[serde(default)]
     pub parameters: std::collections::BTreeMap<String, Spanned<RawParam>>,
     #[serde(default)]

@@ -247,6 +247,15 @@ pub struct ForceDef {
     pub kind: ForceKind,
 }
 
+/// The ground frame's prescribed motion (`[ground] motion`): planar x, y (m), theta
+/// (rad) as expressions of `t` and the parameters; absent components stay 0.
+#[derive(Debug, Clone, Default)]
+pub struct GroundDef {
+    pub x: Option<Field>,
+    pub y: Option<Field>,
+    pub theta: Option<Field>,
+}
+
 /// A loaded model: immutable; cheap to clone with other parameter values.
 #[derive(Debug, Clone)]
 pub struct Model {
@@ -260,6 +269,8 @@ pub struct Model {
     pub joints: Arc<Vec<Joint>>,
     pub constraints: Arc<Vec<CustomConstraint>>,
     pub forces: Arc<Vec<ForceDef>>,
+    /// The ground's prescribed motion (none: fixed).
+    pub ground: Arc<GroundDef>,
     /// The `--set` overrides applied, as given (`NAME=VALUE`).
     pub overrides: Vec<(String, String)>,
     /// The parameter that is the forcing's angular frequency (`[model] forcing_frequency`).
@@ -357,6 +368,24 @@ impl Model {
             .enumerate()
             .filter_map(|(i, r)| b.force(i, r))
             .collect();
+        let ground = match &raw.ground.motion {
+            None => GroundDef::default(),
+            Some(m) => {
+                let mm = m.get_ref();
+                if mm.x.is_none() && mm.y.is_none() && mm.theta.is_none() {
+                    b.diags.push(
+                        Diagnostic::new("`[ground] motion` gives no component")
+                            .at(m.span())
+                            .help("give x, y and/or theta as expressions of t, e.g. motion = { x = \"D0*sin(omega*t)\" }"),
+                    );
+                }
+                GroundDef {
+                    x: mm.x.as_ref().and_then(|v| b.field(v)),
+                    y: mm.y.as_ref().and_then(|v| b.field(v)),
+                    theta: mm.theta.as_ref().and_then(|v| b.field(v)),
+                }
+            }
+        };
         if bodies.is_empty() && diags.is_empty() {
             diags.push(
                 Diagnostic::new("the model has no bodies")
@@ -378,6 +407,7 @@ impl Model {
             joints: Arc::new(joints),
             constraints: Arc::new(constraints),
             forces: Arc::new(forces),
+            ground: Arc::new(ground),
             overrides: Vec::new(),
             forcing_frequency: raw
                 .model

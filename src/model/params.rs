@@ -29,6 +29,9 @@ pub struct Parameters {
     pub dims: Vec<Option<Dim>>,
     /// The expression text given with `--set`, per parameter.
     pub overridden: Vec<Option<String>>,
+    /// The parsed `--set` expression in force, per parameter (one that named the
+    /// parameter itself is already evaluated to a number).
+    pub override_exprs: Vec<Option<Expr>>,
 }
 
 const RESERVED: &[&str] = &["t", "pi"];
@@ -41,6 +44,13 @@ impl Parameters {
     /// SI value of a parameter.
     pub fn value(&self, name: &str) -> Option<f64> {
         self.index(name).map(|i| self.values[i])
+    }
+
+    /// The definition in force of parameter `i`: its `--set` expression, or the file's.
+    pub fn definition(&self, i: usize) -> &Expr {
+        self.override_exprs[i]
+            .as_ref()
+            .unwrap_or(&self.list[i].field.expr)
     }
 
     pub fn names(&self) -> impl Iterator<Item = &str> {
@@ -138,6 +148,7 @@ impl Parameters {
             values: vec![f64::NAN; n],
             dims: vec![None; n],
             overridden: vec![None; n],
+            override_exprs: vec![None; n],
         };
         let overrides = vec![None; n];
         match evaluate(&params.list, &overrides, &broken) {
@@ -179,12 +190,8 @@ impl Parameters {
         source: &SourceFile,
         overrides: &[(String, String)],
     ) -> Result<Parameters> {
-        // Earlier overrides stay in force (they parsed before, so they parse again).
-        let mut exprs: Vec<Option<Expr>> = self
-            .overridden
-            .iter()
-            .map(|t| t.as_ref().and_then(|t| expr::parse(t).ok()))
-            .collect();
+        // Earlier overrides stay in force.
+        let mut exprs: Vec<Option<Expr>> = self.override_exprs.clone();
         let mut texts = self.overridden.clone();
         for (name, value) in overrides {
             let i = self.require(name, &format!("--set {name}={value}"))?;
@@ -224,6 +231,7 @@ impl Parameters {
                 values,
                 dims,
                 overridden: texts,
+                override_exprs: exprs,
             }),
             Err(problems) => {
                 let mut file = Vec::new();

@@ -7,10 +7,10 @@
 //! Unknowns y = (x, p), x = (q, λ). Predictor y + Δs·τ along the unit tangent τ
 //! (null vector of [J_x  H_p]); corrector: Newton on [H(y); τ̂ᵀ (y − y_pred)] = 0, where
 //! τ̂ is τ with its λ entries zeroed (arclength is measured in coordinates and the
-//! parameter only, so large multipliers do not shrink the steps). ∂H/∂p by second-order
-//! differences of the compiled system (parameters are folded into constants when a model
-//! is compiled): central at p ± δ inside the range, one-sided at its ends, so the model is
-//! not evaluated outside [from, to] for derivatives. A step whose prediction would leave
+//! parameter only, so large multipliers do not shrink the steps). ∂H/∂p by automatic
+//! differentiation with the parameter live in the compiled system
+//! ([`Statics::residual_dp`]): exact, and the model is never evaluated outside
+//! [from, to] for a derivative. A step whose prediction would leave
 //! the range ends on its boundary (natural-parameter corrector there); a Newton iterate
 //! that strays outside and finds the model invalid counts as a failed step. A fold is where τ_p changes sign, a branch point where
 //! det J_x does and τ_p does not; both are located by secant iteration along the
@@ -18,7 +18,6 @@
 
 use super::{Statics, solve_least_squares};
 use crate::diag::{Error, Result};
-use crate::model::Model;
 use crate::system::System;
 use nalgebra::{DMatrix, DVector};
 
@@ -60,8 +59,9 @@ pub struct Branch {
 
 /// The equilibrium equations as a function of (x, p).
 struct Family<'m> {
-    model: &'m Model,
+    sys: &'m System,
     param: String,
+    index: usize,
     rows: Vec<usize>,
     n: usize,
     /// The requested range of the parameter.
@@ -81,11 +81,9 @@ struct Pt {
 
 impl Family<'_> {
     fn system(&self, p: f64) -> Result<System> {
-        let m = self
-            .model
-            .at_parameter(&self.param, p)
-            .map_err(|e| e.context(&format!("continuation at {} = {p}", self.param)))?;
-        System::new(&m)
+        self.sys
+            .with_param(self.index, p)
+            .map_err(|e| e.context(&format!("continuation at {} = {p}", self.param)))
     }
 
     /// H, [J_x H_p], det J_x.
@@ -97,22 +95,7 @@ impl Family<'_> {
         let st = Statics::with_rows(&sys, self.rows.clone())?;
         let h = st.residual(x);
         let jx = st.kkt_jacobian(x);
-        // ∂H/∂p by second-order differences that stay inside [lo, hi], so a parameter
-        // with a validity limit just outside the range (a mass → 0) is never evaluated
-        // beyond it: central inside, one-sided (three points) at the ends.
-        // (never wider than a quarter of the range, so p ± 2δ stays inside it)
-        let delta = (1e-6 * p.abs().max(1.0)).min(0.25 * (self.hi - self.lo));
-        let at = |p: f64| -> Result<DVector<f64>> {
-            let s = self.system(p)?;
-            Ok(Statics::with_rows(&s, self.rows.clone())?.residual(x))
-        };
-        let hp = if p - delta < self.lo {
-            (at(p + delta)? * 4.0 - &h * 3.0 - at(p + 2.0 * delta)?) / (2.0 * delta)
-        } else if p + delta > self.hi {
-            (&h * 3.0 - at(p - delta)? * 4.0 + at(p - 2.0 * delta)?) / (2.0 * delta)
-        } else {
-            (at(p + delta)? - at(p - delta)?) / (2.0 * delta)
-        };
+        let hp = st.residual_dp(x, self.index);
         let det = jx.determinant();
         let mut j = DMatrix::zeros(d, d + 1);
         j.view_mut((0, 0), (d, d)).copy_from(&jx);
@@ -279,20 +262,20 @@ impl Statics<'_> {
 
 /// Follow the equilibrium branch through the equilibrium nearest the model's initial pose
 /// at p = `from`, until p leaves [from, to] or `max_steps` points were computed.
-pub fn continue_equilibria(model: &Model, opts: &ContinuationOptions) -> Result<Branch> {
-    check(model, opts)?;
+pub fn continue_equilibria(sys: &System, opts: &ContinuationOptions) -> Result<Branch> {
+    let index = check(sys, opts)?;
     let dir = (opts.to - opts.from).signum();
-    let m0 = model
-        .at_parameter(&opts.param, opts.from)
+    let sys0 = sys
+        .with_param(index, opts.from)
         .map_err(|e| e.context(&format!("continuation at {} = {}", opts.param, opts.from)))?;
-    let sys0 = System::new(&m0)?;
     let start = crate::dynamics::assemble(&sys0)?;
     let st0 = Statics::new(&sys0, &start.q)?;
     let eq = st0.nearest(&start)?;
     let n = sys0.n();
     let (lo, hi) = (opts.from.min(opts.to), opts.from.max(opts.to));
     let fam = Family {
-        model,
+        sys,
+        index,
         param: opts.param.clone(),
         rows: st0.rows.clone(),
         n,
@@ -431,10 +414,8 @@ pub fn continue_equilibria(model: &Model, opts: &ContinuationOptions) -> Result<
     Ok(branch)
 }
 
-fn check(model: &Model, opts: &ContinuationOptions) -> Result<()> {
-    model
-        .parameters
-        .require(&opts.param, &format!("--param {}", opts.param))?;
+fn check(sys: &System, opts: &ContinuationOptions) -> Result<usize> {
+    let index = sys.require_param(&opts.param, &format!("--param {}", opts.param))?;
     if !(opts.from.is_finite() && opts.to.is_finite()) || opts.from == opts.to {
         return Err(Error::request(
             format!("empty range: --from {} --to {}", opts.from, opts.to),
@@ -453,5 +434,5 @@ fn check(model: &Model, opts: &ContinuationOptions) -> Result<()> {
             "give at least 1",
         ));
     }
-    Ok(())
+    Ok(index)
 }

@@ -24,6 +24,7 @@ pub mod continuation;
 
 use crate::diag::{Error, Result};
 use crate::dynamics::{DynWorkspace, RANK_TOL, State};
+use crate::scalar::{Env, Scalar};
 use crate::system::System;
 use nalgebra::{DMatrix, DVector};
 use num_dual::{Dual64, HyperDual64};
@@ -60,8 +61,8 @@ pub struct Equilibrium {
 impl<'a> Statics<'a> {
     /// Set up the static problem; independent rows are chosen at `q_ref`.
     pub fn new(sys: &'a System, q_ref: &[f64]) -> Result<Statics<'a>> {
-        let times = if sys.forces_depend_on_time() {
-            match sys.forcing_frequency {
+        let times = if sys.depends_on_time() {
+            match sys.forcing_frequency() {
                 Some(w) if w != 0.0 => {
                     let period = 2.0 * std::f64::consts::PI / w.abs();
                     (0..PERIOD_SAMPLES)
@@ -69,6 +70,8 @@ impl<'a> Statics<'a> {
                         .collect()
                 }
                 Some(_) => vec![0.0],
+                // a time-dependent constraint of an unforced model: taken at t = 0
+                None if !sys.forces_depend_on_time() => vec![0.0],
                 None => {
                     return Err(Error::request(
                         "the loads depend on time, but the model does not say over which period to average them for statics",
@@ -94,18 +97,133 @@ impl<'a> Statics<'a> {
     }
 
     /// Mean impressed force at rest over one period, generic for derivatives.
-    pub fn static_force<D: crate::scalar::Scalar>(&self, q: &[D], out: &mut [D]) {
+    pub fn static_force<D: Scalar>(&self, q: &[D], out: &mut [D]) {
+        self.static_force_in(q, self.sys.env(), out)
+    }
+
+    /// [`Statics::static_force`] with parameters from `env` (for ∂/∂p).
+    pub fn static_force_in<D: Scalar, E: Env<D>>(&self, q: &[D], env: E, out: &mut [D]) {
         let n = self.sys.n();
         let zero = vec![D::from(0.0); n];
         let mut f = vec![D::from(0.0); n];
         out.fill(D::from(0.0));
-        let w = 1.0 / self.times.len() as f64;
-        for &t in &self.times {
-            self.sys.forces(q, &zero, D::from(t), &mut f);
+        let times = self.sample_times(&self.times, env);
+        let w = 1.0 / times.len() as f64;
+        for &t in &times {
+            self.sys.forces_in(q, &zero, t, env, &mut f);
             for i in 0..n {
                 out[i] += f[i] * w;
             }
         }
+    }
+
+    /// `times` in type D: one period of the forcing frequency read from `env` (so that a
+    /// derivative with respect to the frequency moves the samples with the period, and
+    /// the mean of a harmonic load does not depend on it), or the single time given.
+    fn sample_times<D: Scalar, E: Env<D>>(&self, times: &[f64], env: E) -> Vec<D> {
+        match (times.len(), self.sys.forcing_param()) {
+            (1, _) | (_, None) => times.iter().map(|&t| D::from(t)).collect(),
+            (k, Some(f)) => {
+                let period = D::from(2.0 * std::f64::consts::PI) / env.param(f).abs();
+                (0..k)
+                    .map(|i| D::from(i as f64) * period / k as f64)
+                    .collect()
+            }
+        }
+    }
+
+    /// ∂R/∂p_i at x = (q, λ): the derivative of the equilibrium equations with respect to
+    /// parameter `i`, by automatic differentiation (dual numbers seeded on the parameter,
+    /// hyper-dual for the constraint forces A_rᵀ λ).
+    pub fn residual_dp(&self, x: &[f64], i: usize) -> DVector<f64> {
+        let sys = self.sys;
+        let n = sys.n();
+        let (q, lambda) = x.split_at(n);
+        let p = sys.param(i);
+        let (pd, cd) = sys.seeded(i, Dual64::new(p, 1.0));
+        let env = crate::scalar::Seeded {
+            params: &pd,
+            coefs: &cd,
+        };
+        let qd: Vec<Dual64> = q.iter().map(|&x| Dual64::from(x)).collect();
+        let mut f = vec![Dual64::from(0.0); n];
+        self.static_force_in(&qd, env, &mut f);
+        let mut phi = vec![Dual64::from(0.0); sys.m()];
+        self.static_phi_in(&qd, env, &mut phi);
+        // ∂(A_rᵀ λ)_j/∂p = ∂²(λ·Φ_r)/∂q_j∂p
+        let (ph, ch) = sys.seeded(i, HyperDual64::new(p, 0.0, 1.0, 0.0));
+        let envh = crate::scalar::Seeded {
+            params: &ph,
+            coefs: &ch,
+        };
+        let mut qh: Vec<HyperDual64> = q.iter().map(|&x| HyperDual64::from(x)).collect();
+        let mut phih = vec![HyperDual64::from(0.0); sys.m()];
+        let mut r = DVector::zeros(self.dim());
+        for j in 0..n {
+            qh[j].eps1 = 1.0;
+            self.static_phi_in(&qh, envh, &mut phih);
+            qh[j].eps1 = 0.0;
+            let cf: f64 = self
+                .rows
+                .iter()
+                .zip(lambda)
+                .map(|(&row, l)| l * phih[row].eps1eps2)
+                .sum();
+            r[j] = f[j].eps + cf;
+        }
+        for (k, &row) in self.rows.iter().enumerate() {
+            r[n + k] = phi[row].eps;
+        }
+        r
+    }
+
+    /// Times at which the constraints are averaged: the forcing period when they depend
+    /// on time (a moving ground), else t = 0.
+    fn constraint_times(&self) -> &[f64] {
+        if self.sys.rheonomic {
+            &self.times
+        } else {
+            &[0.0]
+        }
+    }
+
+    /// Mean constraint function Φ̄(q) over one period (Φ(q, 0) when it does not depend on
+    /// time), generic for derivatives.
+    pub fn static_phi<D: Scalar>(&self, q: &[D], out: &mut [D]) {
+        self.static_phi_in(q, self.sys.env(), out)
+    }
+
+    /// [`Statics::static_phi`] with parameters from `env`.
+    pub fn static_phi_in<D: Scalar, E: Env<D>>(&self, q: &[D], env: E, out: &mut [D]) {
+        let times = self.sample_times(self.constraint_times(), env);
+        if times.len() == 1 {
+            return self.sys.phi_in(q, times[0], env, out);
+        }
+        let mut p = vec![D::from(0.0); self.sys.m()];
+        out.fill(D::from(0.0));
+        let w = 1.0 / times.len() as f64;
+        for &t in &times {
+            self.sys.phi_in(q, t, env, &mut p);
+            for i in 0..p.len() {
+                out[i] += p[i] * w;
+            }
+        }
+    }
+
+    /// Ā = ∂Φ̄/∂q (m × n).
+    pub fn mean_jacobian(&self, q: &[f64]) -> DMatrix<f64> {
+        let times = self.constraint_times();
+        let mut ws = DynWorkspace::new(self.sys);
+        if times.len() == 1 {
+            self.sys.jacobian(&mut ws.sys, q, times[0], &mut ws.a);
+            return ws.a;
+        }
+        let mut sum = DMatrix::zeros(self.sys.m(), self.sys.n());
+        for &t in times {
+            self.sys.jacobian(&mut ws.sys, q, t, &mut ws.a);
+            sum += &ws.a;
+        }
+        sum / times.len() as f64
     }
 
     /// ∂f̄/∂q (n × n).
@@ -135,7 +253,7 @@ impl<'a> Statics<'a> {
             for k in j..n {
                 qh[j].eps1 = 1.0;
                 qh[k].eps2 = 1.0;
-                self.sys.phi(&qh, HyperDual64::from(0.0), &mut phi);
+                self.static_phi(&qh, &mut phi);
                 qh[j].eps1 = 0.0;
                 qh[k].eps2 = 0.0;
                 let v: f64 = self
@@ -151,11 +269,9 @@ impl<'a> Statics<'a> {
         h
     }
 
-    /// A_r (r × n).
+    /// A_r (r × n) of the mean constraints.
     pub fn jacobian_rows(&self, q: &[f64]) -> DMatrix<f64> {
-        let mut ws = DynWorkspace::new(self.sys);
-        self.sys.jacobian(&mut ws.sys, q, 0.0, &mut ws.a);
-        ws.a.select_rows(self.rows.iter())
+        self.mean_jacobian(q).select_rows(self.rows.iter())
     }
 
     /// R(x) = (f̄ + A_rᵀ λ, Φ_r).
@@ -166,7 +282,8 @@ impl<'a> Statics<'a> {
         self.static_force(q, &mut f);
         let ar = self.jacobian_rows(q);
         let cf = ar.transpose() * DVector::from_column_slice(lambda);
-        let phi = self.sys.residual(q, 0.0);
+        let mut phi = vec![0.0; self.sys.m()];
+        self.static_phi(q, &mut phi);
         let mut r = DVector::zeros(self.dim());
         for i in 0..n {
             r[i] = f[i] + cf[i];
@@ -209,15 +326,19 @@ impl<'a> Statics<'a> {
         l.iter().copied().collect()
     }
 
-    /// Orthonormal basis of the null space of A at q (n × (n − rank)).
+    /// Orthonormal basis of the null space of Ā at q (n × (n − rank)).
     pub fn null_space(&self, q: &[f64]) -> DMatrix<f64> {
-        null_space(self.sys, q, 0.0)
+        null_space_of(&self.mean_jacobian(q))
     }
 
     /// Tangent stiffness on the manifold K_r = Nᵀ K N, K = −(∂f̄/∂q + Σ λ_i ∇²Φ_i).
     pub fn reduced_stiffness(&self, q: &[f64], lambda: &[f64], nb: &DMatrix<f64>) -> DMatrix<f64> {
-        let k = -(self.force_jacobian(q) + self.constraint_curvature(q, lambda));
-        nb.transpose() * k * nb
+        nb.transpose() * self.stiffness(q, lambda) * nb
+    }
+
+    /// Stiffness in the model's coordinates K = −(∂f̄/∂q + Σ λ_i ∇²Φ_i) (n × n).
+    pub fn stiffness(&self, q: &[f64], lambda: &[f64]) -> DMatrix<f64> {
+        -(self.force_jacobian(q) + self.constraint_curvature(q, lambda))
     }
 
     /// Stability and ω² = eig(M_r⁻¹ K_r) at an equilibrium.
@@ -532,8 +653,17 @@ pub fn null_space(sys: &System, q: &[f64], t: f64) -> DMatrix<f64> {
     }
     let mut ws = DynWorkspace::new(sys);
     sys.jacobian(&mut ws.sys, q, t, &mut ws.a);
+    null_space_of(&ws.a)
+}
+
+/// Orthonormal basis of the null space of a matrix A (n × (n − rank)), from the SVD.
+pub fn null_space_of(a: &DMatrix<f64>) -> DMatrix<f64> {
+    let n = a.ncols();
+    if a.nrows() == 0 {
+        return DMatrix::identity(n, n);
+    }
     // SVD of Aᵀ A (n × n) gives the full right singular basis even when m < n.
-    let ata = ws.a.transpose() * &ws.a;
+    let ata = a.transpose() * a;
     let eig = nalgebra::SymmetricEigen::new(ata);
     let max = eig.eigenvalues.iter().fold(0.0f64, |a, v| a.max(v.abs()));
     let cols: Vec<usize> = (0..n)

@@ -1,0 +1,71 @@
+//! Impressed forces: spring–dashpots between two points and point forces given by
+//! expressions (gravity is applied per body by the system).
+
+use super::frame::{Frames, SysPoint};
+use crate::model::expr::Compiled;
+use crate::scalar::{Env, Scalar};
+
+#[derive(Debug, Clone)]
+pub enum Force {
+    /// T = k (d − L0) + c ḋ along P1→P2, tension positive (coefficient indices).
+    Spring {
+        a: SysPoint,
+        b: SysPoint,
+        k: usize,
+        c: usize,
+        l0: usize,
+    },
+    /// World-frame force at a point.
+    Point { at: SysPoint, f: [Compiled; 2] },
+}
+
+impl Force {
+    /// Add the generalized force to `out`.
+    #[inline]
+    pub fn add<D: Scalar, E: Env<D>>(&self, fr: &Frames<'_, D, E>, v: &[D], t: D, out: &mut [D]) {
+        match self {
+            Force::Spring { a, b, k, c, l0 } => {
+                let pa = fr.position(a);
+                let pb = fr.position(b);
+                let d = [pb[0] - pa[0], pb[1] - pa[1]];
+                let len = (d[0] * d[0] + d[1] * d[1]).sqrt();
+                if len.re() == 0.0 {
+                    return;
+                }
+                let u = [d[0] / len, d[1] / len];
+                let va = fr.velocity(v, a);
+                let vb = fr.velocity(v, b);
+                let rate = u[0] * (vb[0] - va[0]) + u[1] * (vb[1] - va[1]);
+                let tension = (len - fr.env.coef(*l0)) * fr.env.coef(*k) + rate * fr.env.coef(*c);
+                fr.apply(a, [tension * u[0], tension * u[1]], out);
+                fr.apply(b, [-(tension * u[0]), -(tension * u[1])], out);
+            }
+            Force::Point { at, f } => {
+                let fx = f[0].eval_in(fr.q, t, fr.env);
+                let fy = f[1].eval_in(fr.q, t, fr.env);
+                fr.apply(at, [fx, fy], out);
+            }
+        }
+    }
+
+    /// Whether the force depends on time explicitly (not through a moving ground).
+    pub fn depends_on_time(&self) -> bool {
+        match self {
+            Force::Point { f, .. } => f.iter().any(|c| c.depends_on_time()),
+            Force::Spring { .. } => false,
+        }
+    }
+
+    /// Potential energy, J (springs; 0 for the rest).
+    pub fn potential<E: Env<f64>>(&self, fr: &Frames<'_, f64, E>) -> f64 {
+        match self {
+            Force::Spring { a, b, k, l0, .. } => {
+                let pa = fr.position(a);
+                let pb = fr.position(b);
+                let len = (pb[0] - pa[0]).hypot(pb[1] - pa[1]);
+                0.5 * fr.env.coef(*k) * (len - fr.env.coef(*l0)).powi(2)
+            }
+            Force::Point { .. } => 0.0,
+        }
+    }
+}

@@ -1,0 +1,440 @@
+//! The compiled equations of a model: constraint function Φ(q, t), its Jacobian A and
+//! bias b by automatic differentiation, mass matrix M and impressed forces f(q, v, t),
+//! with live parameters.
+//!
+//! Everything here is generic over the number type and over where parameter values come
+//! from ([`Env`]): the constraint function is written once over any [`Scalar`], so
+//!
+//! * `A = ∂Φ/∂q` comes from one `Dual64` pass per coordinate (column j: seed `q_j + ε`),
+//! * `b = −d²/ds² Φ(q + s·v, t + s)|s=0` from one `Dual2_64` pass along the motion,
+//! * `∂Φ/∂p`, `∂f/∂p` from one pass with the parameter seeded ([`System::seeded`]).
+//!
+//! Parameters stay live: [`System::set_param`] changes one without recompiling (a sweep's
+//! frequency, a continuation's parameter), and everything defined from it follows.
+//!
+//! Planar bodies have `q = (x, y, θ)` of the centre of gravity and `v = q̇`.
+//!
+//! Layout: [`compile`] turns a model into a system, [`live`] holds the parameters and
+//! element coefficients, [`frame`] the frames and points (and the moving ground),
+//! [`joints`] and [`forces`] the elements.
+
+mod compile;
+pub mod forces;
+pub mod frame;
+pub mod joints;
+pub mod live;
+
+use crate::diag::{Error, Result, SourceFile};
+use crate::model::BodyKind;
+use crate::model::units::Dim;
+use crate::scalar::{Env, Plain, Scalar, Seeded};
+use frame::{Frames, GroundMotion, GroundPose};
+use nalgebra::{DMatrix, DVector};
+use num_dual::{Dual2_64, Dual64};
+
+/// A compiled body.
+#[derive(Debug, Clone)]
+pub struct SysBody {
+    pub name: String,
+    pub kind: BodyKind,
+    /// Index of the body's first coordinate in q (and v).
+    pub offset: usize,
+    /// kg (current value).
+    pub mass: f64,
+    /// Centroidal moment of inertia, kg·m² (current value).
+    pub inertia: f64,
+    /// Coefficient indices of mass and inertia.
+    mass_coef: usize,
+    inertia_coef: usize,
+}
+
+/// The initial state as the model gives it (before assembly).
+#[derive(Debug, Clone)]
+pub struct InitialGuess {
+    /// Coordinates (fixed ones exact, the rest guesses).
+    pub q: Vec<f64>,
+    /// Held during assembly.
+    pub fixed: Vec<bool>,
+    /// Velocities: given ones (held) or 0.
+    pub v: Vec<f64>,
+    pub v_given: Vec<bool>,
+}
+
+/// Compiled equations of motion of one model, with live parameters.
+#[derive(Debug, Clone)]
+pub struct System {
+    /// `<body>.<coordinate>` for each entry of q.
+    pub coordinates: Vec<String>,
+    /// The dimension of each coordinate (length, or angle: none).
+    pub coordinate_dims: Vec<Dim>,
+    /// One name per constraint row (`joint.x`, `constraint2`, ...).
+    pub constraint_names: Vec<String>,
+    pub bodies: Vec<SysBody>,
+    constraints: Vec<joints::Constraint>,
+    forces: Vec<forces::Force>,
+    /// Gravity entries (coefficient pairs, m/s²), summed.
+    gravity_coefs: Vec<[usize; 2]>,
+    /// Gravitational acceleration, m/s² (current value).
+    pub gravity: [f64; 2],
+    /// The ground's prescribed motion (none: fixed).
+    pub ground: GroundMotion,
+    /// Mass matrix M (n × n), constant for planar bodies.
+    pub mass_matrix: DMatrix<f64>,
+    /// M⁻¹ (n × n).
+    pub mass_inv: DMatrix<f64>,
+    /// M^-½ (n × n).
+    pub mass_inv_sqrt: DMatrix<f64>,
+    pub initial: InitialGuess,
+    /// Coefficients of the initial coordinates and of the given velocities.
+    initial_coefs: Vec<usize>,
+    velocity_coefs: Vec<Option<usize>>,
+    /// Whether any constraint depends on time explicitly (a custom constraint in `t`, or
+    /// a moving ground).
+    pub rheonomic: bool,
+    /// The parameter that is the harmonic forcing's angular frequency.
+    forcing: Option<usize>,
+    live: live::Live,
+    /// The model file, for located messages when a parameter change is refused.
+    source: SourceFile,
+    /// The user's `--set`s, quoted in such messages.
+    overrides: String,
+}
+
+/// Scratch buffers for one thread of evaluation.
+#[derive(Debug, Clone)]
+pub struct Workspace {
+    qd: Vec<Dual64>,
+    phid: Vec<Dual64>,
+    q2: Vec<Dual2_64>,
+    phi2: Vec<Dual2_64>,
+}
+
+impl Workspace {
+    pub fn new(sys: &System) -> Self {
+        let n = sys.n();
+        let m = sys.m();
+        Workspace {
+            qd: vec![Dual64::from(0.0); n],
+            phid: vec![Dual64::from(0.0); m],
+            q2: vec![Dual2_64::from(0.0); n],
+            phi2: vec![Dual2_64::from(0.0); m],
+        }
+    }
+}
+
+impl System {
+    /// Number of coordinates (= velocities for planar bodies).
+    pub fn n(&self) -> usize {
+        self.coordinates.len()
+    }
+    /// Number of constraint rows.
+    pub fn m(&self) -> usize {
+        self.constraint_names.len()
+    }
+
+    /// Index of a coordinate by name.
+    pub fn coordinate_index(&self, name: &str) -> Option<usize> {
+        self.coordinates.iter().position(|c| c == name)
+    }
+
+    /// Whether coordinate `i` is an angle (rad).
+    pub fn is_angle(&self, i: usize) -> bool {
+        self.coordinate_dims[i] == Dim::NONE
+    }
+
+    /// The current values of the parameters and coefficients.
+    #[inline]
+    pub fn env(&self) -> Plain<'_> {
+        Plain {
+            params: &self.live.values,
+            coefs: &self.live.coefs,
+        }
+    }
+
+    // ---- parameters ------------------------------------------------------------------
+
+    /// Parameter names, in index order.
+    pub fn param_names(&self) -> &[String] {
+        &self.live.names
+    }
+
+    /// Index of a parameter by name.
+    pub fn param_index(&self, name: &str) -> Option<usize> {
+        self.live.index(name)
+    }
+
+    /// The index of parameter `name`, or an error saying that `request` (the flag that
+    /// named it, e.g. `--param k`) names no parameter, with a suggestion or the list.
+    pub fn require_param(&self, name: &str, request: &str) -> Result<usize> {
+        self.param_index(name).ok_or_else(|| {
+            let names = self.live.names.iter().map(|s| s.as_str());
+            let help = crate::model::suggest(name, names.clone()).unwrap_or_else(|| {
+                format!(
+                    "parameters of this model: {}",
+                    names.collect::<Vec<_>>().join(", ")
+                )
+            });
+            Error::request(
+                format!("{request}: the model has no parameter `{name}`"),
+                help,
+            )
+        })
+    }
+
+    /// Current SI value of parameter `i`.
+    pub fn param(&self, i: usize) -> f64 {
+        self.live.values[i]
+    }
+
+    /// Current SI values of all parameters.
+    pub fn params(&self) -> &[f64] {
+        &self.live.values
+    }
+
+    /// The forcing frequency's parameter index (`[model] forcing_frequency`).
+    pub fn forcing_param(&self) -> Option<usize> {
+        self.forcing
+    }
+
+    /// Angular frequency of the harmonic forcing, rad/s (`[model] forcing_frequency`).
+    pub fn forcing_frequency(&self) -> Option<f64> {
+        self.forcing.map(|i| self.live.values[i])
+    }
+
+    /// Set parameter `i` to `value` (SI): every parameter defined from it, every element
+    /// coefficient, the mass matrix and the initial guess follow; no recompilation. The
+    /// parameter no longer follows its own definition. A value the model cannot take (a
+    /// mass ≤ 0, a coefficient that is not finite) is refused with the model's located
+    /// message and leaves the system unchanged.
+    pub fn set_param(&mut self, i: usize, value: f64) -> Result<()> {
+        self.live
+            .set(i, value, &self.overrides)
+            .map_err(|diagnostics| Error::Model {
+                source: self.source.clone(),
+                diagnostics,
+            })?;
+        self.refresh();
+        Ok(())
+    }
+
+    /// A copy with parameter `name` at `value` (see [`System::set_param`]).
+    pub fn with_param(&self, i: usize, value: f64) -> Result<System> {
+        let mut s = self.clone();
+        s.set_param(i, value)?;
+        Ok(s)
+    }
+
+    /// Parameters and coefficients carrying a derivative with respect to parameter `i`:
+    /// `value` is the parameter in type D (its dual part the seed). Evaluate with
+    /// [`System::phi_in`], [`System::forces_in`] and `Seeded { params, coefs }`.
+    pub fn seeded<D: Scalar>(&self, i: usize, value: D) -> (Vec<D>, Vec<D>) {
+        self.live.seeded(i, value)
+    }
+
+    /// Recompute what depends on the coefficients: masses, gravity, initial guess.
+    fn refresh(&mut self) {
+        let c = &self.live.coefs;
+        let n = self.n();
+        let mut mdiag = DVector::zeros(n);
+        for b in &mut self.bodies {
+            b.mass = c[b.mass_coef];
+            b.inertia = c[b.inertia_coef];
+            mdiag[b.offset] = b.mass;
+            mdiag[b.offset + 1] = b.mass;
+            mdiag[b.offset + 2] = b.inertia;
+        }
+        self.mass_matrix = DMatrix::from_diagonal(&mdiag);
+        self.mass_inv = DMatrix::from_diagonal(&mdiag.map(|x| 1.0 / x));
+        self.mass_inv_sqrt = DMatrix::from_diagonal(&mdiag.map(|x| 1.0 / x.sqrt()));
+        self.gravity = [0.0, 0.0];
+        for g in &self.gravity_coefs {
+            self.gravity[0] += c[g[0]];
+            self.gravity[1] += c[g[1]];
+        }
+        for (k, &i) in self.initial_coefs.iter().enumerate() {
+            self.initial.q[k] = c[i];
+        }
+        for (k, v) in self.velocity_coefs.iter().enumerate() {
+            self.initial.v[k] = v.map_or(0.0, |i| c[i]);
+        }
+    }
+
+    // ---- equations -------------------------------------------------------------------
+
+    /// Constraint function Φ(q, t) (m) at the current parameters.
+    #[inline]
+    pub fn phi<D: Scalar>(&self, q: &[D], t: D, out: &mut [D]) {
+        self.phi_in(q, t, self.env(), out)
+    }
+
+    /// Constraint function Φ(q, t) with parameters from `env`.
+    pub fn phi_in<D: Scalar, E: Env<D>>(&self, q: &[D], t: D, env: E, out: &mut [D]) {
+        let fr = Frames {
+            q,
+            ground: GroundPose::at(&self.ground, t, env),
+            env,
+        };
+        let mut r = 0;
+        for c in &self.constraints {
+            let k = c.rows();
+            c.phi(&fr, t, &mut out[r..r + k]);
+            r += k;
+        }
+    }
+
+    /// Φ(q, t) in f64.
+    pub fn residual(&self, q: &[f64], t: f64) -> DVector<f64> {
+        let mut out = DVector::zeros(self.m());
+        self.phi(q, t, out.as_mut_slice());
+        out
+    }
+
+    /// Constraint Jacobian A = ∂Φ/∂q (m × n), one dual pass per column.
+    pub fn jacobian(&self, ws: &mut Workspace, q: &[f64], t: f64, a: &mut DMatrix<f64>) {
+        for (d, &x) in ws.qd.iter_mut().zip(q) {
+            *d = Dual64::from(x);
+        }
+        let td = Dual64::from(t);
+        for j in 0..self.n() {
+            ws.qd[j].eps = 1.0;
+            self.phi(&ws.qd, td, &mut ws.phid);
+            ws.qd[j].eps = 0.0;
+            for i in 0..self.m() {
+                a[(i, j)] = ws.phid[i].eps;
+            }
+        }
+    }
+
+    /// ∂Φ/∂t (m): the explicit time rate of the constraints.
+    pub fn phi_t(&self, ws: &mut Workspace, q: &[f64], t: f64, out: &mut DVector<f64>) {
+        if !self.rheonomic {
+            out.fill(0.0);
+            return;
+        }
+        for (d, &x) in ws.qd.iter_mut().zip(q) {
+            *d = Dual64::from(x);
+        }
+        self.phi(&ws.qd, Dual64::new(t, 1.0), &mut ws.phid);
+        for i in 0..self.m() {
+            out[i] = ws.phid[i].eps;
+        }
+    }
+
+    /// Bias b = −d²/ds² Φ(q + s·v, t + s)|s=0 (m), so that A v̇ = b.
+    pub fn bias(&self, ws: &mut Workspace, q: &[f64], v: &[f64], t: f64, b: &mut DVector<f64>) {
+        for ((d, &x), &dx) in ws.q2.iter_mut().zip(q).zip(v) {
+            *d = Dual2_64::new(x, dx, 0.0);
+        }
+        let td = Dual2_64::new(t, 1.0, 0.0);
+        self.phi(&ws.q2, td, &mut ws.phi2);
+        for i in 0..self.m() {
+            b[i] = -ws.phi2[i].v2;
+        }
+    }
+
+    /// Impressed generalized forces f(q, v, t) (n): gravity, springs, dampers, point
+    /// forces. Generic, so that stiffness ∂f/∂q and damping ∂f/∂v come from dual numbers.
+    #[inline]
+    pub fn forces<D: Scalar>(&self, q: &[D], v: &[D], t: D, f: &mut [D]) {
+        self.forces_in(q, v, t, self.env(), f)
+    }
+
+    /// f(q, v, t) with parameters from `env`.
+    pub fn forces_in<D: Scalar, E: Env<D>>(&self, q: &[D], v: &[D], t: D, env: E, f: &mut [D]) {
+        f.fill(D::from(0.0));
+        if !self.gravity_coefs.is_empty() {
+            let mut g = [D::from(0.0), D::from(0.0)];
+            for c in &self.gravity_coefs {
+                g[0] += env.coef(c[0]);
+                g[1] += env.coef(c[1]);
+            }
+            for b in &self.bodies {
+                let m = env.coef(b.mass_coef);
+                f[b.offset] += m * g[0];
+                f[b.offset + 1] += m * g[1];
+            }
+        }
+        if self.forces.is_empty() {
+            return;
+        }
+        let fr = Frames {
+            q,
+            ground: GroundPose::at(&self.ground, t, env),
+            env,
+        };
+        for force in &self.forces {
+            force.add(&fr, v, t, f);
+        }
+    }
+
+    /// The diagonal of M with parameters from `env` (for ∂M/∂p).
+    pub fn mass_diagonal_in<D: Scalar, E: Env<D>>(&self, env: E) -> Vec<D> {
+        let mut d = vec![D::from(0.0); self.n()];
+        for b in &self.bodies {
+            let m = env.coef(b.mass_coef);
+            d[b.offset] = m;
+            d[b.offset + 1] = m;
+            d[b.offset + 2] = env.coef(b.inertia_coef);
+        }
+        d
+    }
+
+    /// Whether any impressed force depends on time explicitly, or through the motion of
+    /// the ground (a damper to a moving anchor).
+    pub fn forces_depend_on_time(&self) -> bool {
+        self.forces.iter().any(|f| f.depends_on_time())
+            || (self.ground.is_moving() && !self.forces.is_empty())
+    }
+
+    /// Whether the model's constraints or loads depend on time (a forcing, a moving ground).
+    pub fn depends_on_time(&self) -> bool {
+        self.rheonomic || self.forces_depend_on_time()
+    }
+
+    /// The velocity of the ground frame carried to each body's centre of gravity at pose q
+    /// and time t (n): what a body at rest relative to the moving ground has.
+    pub fn ground_velocity(&self, q: &[f64], t: f64) -> Vec<f64> {
+        let mut v = vec![0.0; self.n()];
+        if !self.ground.is_moving() {
+            return v;
+        }
+        let g = GroundPose::<f64>::at(&self.ground, t, self.env());
+        let (r, vel, w) = g.motion();
+        for b in &self.bodies {
+            let o = b.offset;
+            v[o] = vel[0] - w * (q[o + 1] - r[1]);
+            v[o + 1] = vel[1] + w * (q[o] - r[0]);
+            v[o + 2] = w;
+        }
+        v
+    }
+
+    /// Potential energy of gravity and springs, J (for energy checks).
+    pub fn potential_energy(&self, q: &[f64]) -> f64 {
+        let mut e = 0.0;
+        for b in &self.bodies {
+            e -= b.mass * (self.gravity[0] * q[b.offset] + self.gravity[1] * q[b.offset + 1]);
+        }
+        let env = self.env();
+        let fr = Frames {
+            q,
+            ground: GroundPose::at(&self.ground, 0.0, env),
+            env,
+        };
+        for force in &self.forces {
+            e += force.potential(&fr);
+        }
+        e
+    }
+
+    /// Kinetic energy ½ vᵀ M v, J.
+    pub fn kinetic_energy(&self, v: &[f64]) -> f64 {
+        let v = DVector::from_column_slice(v);
+        0.5 * (v.transpose() * &self.mass_matrix * &v)[(0, 0)]
+    }
+}
+
+/// A system's parameters seeded for ∂/∂p_i, as an environment (see [`System::seeded`]).
+pub fn seeded_env<'a, D: Scalar>(params: &'a [D], coefs: &'a [D]) -> Seeded<'a, D> {
+    Seeded { params, coefs }
+}
