@@ -269,7 +269,8 @@ pub struct State {
 
 /// Assemble the initial state: solve Φ(q, 0) = 0 for the coordinates the model does not
 /// fix, starting from its guesses (damped Gauss–Newton with minimum-norm steps), then the
-/// velocities the model does not give from A v + Φ_t = 0.
+/// velocities the model does not give from A v + Φ_t = 0, nearest to rest relative to the
+/// ground.
 pub fn assemble(sys: &System) -> Result<State> {
     let n = sys.n();
     let init = &sys.initial;
@@ -348,8 +349,15 @@ pub fn assemble(sys: &System) -> Result<State> {
             ),
         ));
     }
-    // Velocities: the given ones are held; solve the others, minimum norm.
+    // Velocities: the given ones are held; the others start at rest relative to the
+    // ground (which may move) and are corrected to the constraints, minimum norm.
     let mut v = init.v.clone();
+    let carried = sys.ground_velocity(&q, t);
+    for i in 0..n {
+        if !init.v_given[i] {
+            v[i] = carried[i];
+        }
+    }
     if sys.m() > 0 {
         let vfree: Vec<usize> = (0..n).filter(|&i| !init.v_given[i]).collect();
         let psi = velocity_residual(sys, &mut ws, &q, &v, t);
