@@ -137,8 +137,60 @@ fn stage_rhs_total(bencher: divan::Bencher) {
 #[divan::bench]
 fn stage_jacobian_a(bencher: divan::Bencher) {
     let (sys, mut ws, q, _) = mid_state();
+    bencher.bench_local(|| sys.jacobian_blocks(&mut ws.sys, &q, 0.37));
+}
+
+#[divan::bench]
+fn stage_jacobian_a_dense(bencher: divan::Bencher) {
+    let (sys, mut ws, q, _) = mid_state();
     let mut a = DMatrix::zeros(sys.m(), sys.n());
     bencher.bench_local(|| sys.jacobian(&mut ws.sys, &q, 0.37, &mut a));
+}
+
+/// A planar chain of `n` uniform bars (1 m, 1 kg) pinned in series to the ground and to
+/// each other, under gravity, as a model file.
+fn chain_model(n: usize) -> String {
+    let mut t = String::from("[model]\nname = \"chain\"\n\n");
+    for i in 0..n {
+        t += &format!(
+            "[[bodies]]\nname = \"bar{i}\"\nmass = 1\ninertia = \"1/12\"\nx = {}\ny = 0\ntheta = 0\n\n",
+            i as f64 + 0.5
+        );
+    }
+    t += "[[joints]]\nname = \"j0\"\ntype = \"revolute\"\nbody1 = \"bar0\"\npoint1 = [-0.5, 0]\nbody2 = \"ground\"\n\n";
+    for i in 1..n {
+        t += &format!(
+            "[[joints]]\nname = \"j{i}\"\ntype = \"revolute\"\nbody1 = \"bar{i}\"\npoint1 = [-0.5, 0]\nbody2 = \"bar{}\"\npoint2 = [0.5, 0]\n\n",
+            i - 1
+        );
+    }
+    t + "[[forces]]\ntype = \"gravity\"\nacceleration = [0, -9.81]\n"
+}
+
+/// One right-hand side of an N-link chain (A, b, f, the constraint solve), at a swinging
+/// state: the cost should grow linearly with N.
+#[divan::bench(args = [4, 8, 16, 32, 64])]
+fn chain_rhs(bencher: divan::Bencher, n: usize) {
+    let model = Model::from_str("chain.toml", &chain_model(n)).unwrap();
+    let sys = System::new(&model).unwrap();
+    let start = assemble(&sys).unwrap();
+    let traj = simulate(
+        &sys,
+        &start,
+        &SimOptions {
+            t_end: 0.2,
+            ..SimOptions::default()
+        },
+        &mut |_| true,
+    )
+    .unwrap();
+    let (q, v) = (
+        traj.q.last().unwrap().clone(),
+        traj.v.last().unwrap().clone(),
+    );
+    let mut ws = DynWorkspace::new(&sys);
+    let mut out = vec![0.0; sys.n()];
+    bencher.bench_local(|| accelerations(&sys, &mut ws, &q, &v, 0.2, &mut out));
 }
 
 #[divan::bench]

@@ -17,6 +17,7 @@
 pub mod diag;
 pub mod dynamics;
 pub mod frequency;
+pub mod linalg;
 pub mod linear;
 pub mod model;
 pub mod output;

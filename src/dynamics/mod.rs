@@ -14,14 +14,10 @@ pub mod integrator;
 pub mod simulate;
 
 use crate::diag::{Error, Result};
+use crate::linalg::{CHOL_TOL, Envelope};
+pub use crate::linalg::{RANK_TOL, all_finite, pinv_solve};
 use crate::system::{System, Workspace};
 use nalgebra::{DMatrix, DVector};
-
-/// Singular values below `RANK_TOL · σ_max` count as zero.
-pub const RANK_TOL: f64 = 1e-10;
-
-/// Cholesky pivots below `CHOL_TOL · max diag(B Bᵀ)` send the solve to the SVD.
-const CHOL_TOL: f64 = 1e-10;
 
 /// Scratch space for the dynamics of one system on one thread.
 #[derive(Debug, Clone)]
@@ -43,6 +39,10 @@ pub struct DynWorkspace {
     r: DVector<f64>,
     /// How many solves took the SVD path.
     pub svd_solves: usize,
+    /// The sparse path: A W Aᵀ in envelope storage and the entries of each column of A.
+    gram_env: Envelope,
+    col_entries: Vec<Vec<(usize, usize)>>,
+    y: Vec<f64>,
 }
 
 impl DynWorkspace {
@@ -58,51 +58,37 @@ impl DynWorkspace {
             acc: DVector::zeros(n),
             r: DVector::zeros(m),
             svd_solves: 0,
+            gram_env: gram_envelope(sys),
+            col_entries: column_entries(sys),
+            y: vec![0.0; m],
         }
     }
 }
 
-fn all_finite(x: &[f64]) -> bool {
-    x.iter().all(|v| v.is_finite())
-}
-
-/// `x = B⁺ r` (minimum-norm least squares); returns the numerical rank of B.
-pub fn pinv_solve(
-    bm: &DMatrix<f64>,
-    r: &DVector<f64>,
-    gram: &mut DMatrix<f64>,
-    svd_count: &mut usize,
-) -> (DVector<f64>, usize) {
-    let m = bm.nrows();
-    if m == 0 {
-        return (DVector::zeros(bm.ncols()), 0);
-    }
-    // NaN or inf (a force like sqrt(-1 - t), a diverging run): nalgebra's SVD never
-    // returns on them. Pass the NaN on; the integrator's guard reports it with its time.
-    if !all_finite(bm.as_slice()) || !all_finite(r.as_slice()) {
-        return (DVector::from_element(bm.ncols(), f64::NAN), 0);
-    }
-    bm.mul_to(&bm.transpose(), gram);
-    let scale = gram.diagonal().max();
-    if let Some(ch) = gram.clone().cholesky() {
-        let l = ch.l_dirty();
-        let min_pivot = (0..m)
-            .map(|i| l[(i, i)] * l[(i, i)])
-            .fold(f64::INFINITY, f64::min);
-        if min_pivot > CHOL_TOL * scale {
-            let y = ch.solve(r);
-            return (bm.transpose() * y, m);
+/// For each column of A: its entries as (row, index into the values by blocks).
+fn column_entries(sys: &System) -> Vec<Vec<(usize, usize)>> {
+    let mut cols = vec![Vec::new(); sys.n()];
+    for b in sys.blocks() {
+        for r in 0..b.rows {
+            for (ci, &j) in b.cols.iter().enumerate() {
+                cols[j].push((b.row0 + r, b.val0 + r * b.cols.len() + ci));
+            }
         }
     }
-    *svd_count += 1;
-    let svd = bm.clone().svd(true, true);
-    let smax = svd.singular_values.max();
-    let eps = RANK_TOL * smax;
-    let rank = svd.rank(eps);
-    let x = svd
-        .solve(r, eps)
-        .unwrap_or_else(|_| DVector::zeros(bm.ncols()));
-    (x, rank)
+    cols
+}
+
+/// The envelope of A W Aᵀ: row i starts at the first row sharing a column with it.
+fn gram_envelope(sys: &System) -> Envelope {
+    let mut first: Vec<usize> = (0..sys.m()).collect();
+    for entries in column_entries(sys) {
+        if let Some(lo) = entries.iter().map(|e| e.0).min() {
+            for &(r, _) in &entries {
+                first[r] = first[r].min(lo);
+            }
+        }
+    }
+    Envelope::new(first)
 }
 
 /// Numerical rank of A M^-½ at a pose.
@@ -133,20 +119,57 @@ pub fn accelerations(
     t: f64,
     vdot: &mut [f64],
 ) {
-    // f = impressed forces; a = M⁻¹ f
+    // f = impressed forces; a = M⁻¹ f (M diagonal)
     sys.forces(q, v, t, ws.f.as_mut_slice());
-    sys.mass_inv.mul_to(&ws.f, &mut ws.acc);
+    for i in 0..ws.acc.len() {
+        ws.acc[i] = sys.mass_inv_diag[i] * ws.f[i];
+    }
     if sys.m() == 0 {
         vdot.copy_from_slice(ws.acc.as_slice());
         return;
     }
-    // A, b by automatic differentiation
-    sys.jacobian(&mut ws.sys, q, t, &mut ws.a);
+    // A (by blocks), b by automatic differentiation
+    sys.jacobian_blocks(&mut ws.sys, q, t);
     sys.bias(&mut ws.sys, q, v, t, &mut ws.b);
-    // r = b − A a ; B = A M^-½
-    ws.a.mul_to(&ws.acc, &mut ws.r);
-    ws.r.neg_mut();
-    ws.r += &ws.b;
+    // r = b − A a
+    for b in sys.blocks() {
+        let nc = b.cols.len();
+        for r in 0..b.rows {
+            let row = &ws.sys.vals[b.val0 + r * nc..b.val0 + (r + 1) * nc];
+            let aa: f64 = row.iter().zip(&b.cols).map(|(x, &j)| x * ws.acc[j]).sum();
+            ws.r[b.row0 + r] = ws.b[b.row0 + r] - aa;
+        }
+    }
+    // Sparse path: A M⁻¹ Aᵀ y = r by an envelope Cholesky, v̇ = a + M⁻¹ Aᵀ y (the same
+    // as the pseudoinverse when A has full row rank and is well conditioned).
+    ws.gram_env.clear();
+    for (j, entries) in ws.col_entries.iter().enumerate() {
+        for (k, &(ra, ia)) in entries.iter().enumerate() {
+            let wa = ws.sys.vals[ia] * sys.mass_inv_diag[j];
+            for &(rb, ib) in &entries[..=k] {
+                let (hi, lo) = if ra >= rb { (ra, rb) } else { (rb, ra) };
+                ws.gram_env.add(hi, lo, wa * ws.sys.vals[ib]);
+            }
+        }
+    }
+    if ws.gram_env.factor(CHOL_TOL) {
+        ws.y.copy_from_slice(ws.r.as_slice());
+        ws.gram_env.solve(&mut ws.y);
+        vdot.copy_from_slice(ws.acc.as_slice());
+        for b in sys.blocks() {
+            let nc = b.cols.len();
+            for r in 0..b.rows {
+                let yr = ws.y[b.row0 + r];
+                for (ci, &j) in b.cols.iter().enumerate() {
+                    vdot[j] += sys.mass_inv_diag[j] * ws.sys.vals[b.val0 + r * nc + ci] * yr;
+                }
+            }
+        }
+        return;
+    }
+    // Rank-deficient or ill-conditioned: the dense pseudoinverse.
+    sys.jacobian(&mut ws.sys, q, t, &mut ws.a);
+    // B = A M^-½
     ws.a.mul_to(&sys.mass_inv_sqrt, &mut ws.bm);
     let (x, _) = pinv_solve(&ws.bm, &ws.r, &mut ws.gram, &mut ws.svd_solves);
     // v̇ = a + M^-½ x

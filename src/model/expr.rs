@@ -1337,6 +1337,14 @@ impl Compiled {
         self.coords
     }
 
+    /// The coordinates read, in program order (repeats possible).
+    pub fn coordinates(&self) -> impl Iterator<Item = usize> + '_ {
+        self.ops.iter().filter_map(|op| match op {
+            Op::Coord(i) => Some(*i),
+            _ => None,
+        })
+    }
+
     /// The largest coordinate index used, if any (`q` passed to [`Compiled::eval`] must be
     /// longer than this).
     pub fn max_coord(&self) -> Option<usize> {

@@ -23,7 +23,8 @@
 pub mod continuation;
 
 use crate::diag::{Error, Result};
-use crate::dynamics::{DynWorkspace, RANK_TOL, State};
+use crate::dynamics::{DynWorkspace, State};
+pub use crate::linalg::{RANK_TOL, generalized_eigenvalues, null_space_of, solve_least_squares};
 use crate::scalar::{Env, Scalar};
 use crate::system::System;
 use nalgebra::{DMatrix, DVector};
@@ -617,14 +618,6 @@ fn assemble_at(sys: &System, ws: &mut DynWorkspace, q: &mut [f64]) -> bool {
     sys.residual(q, 0.0).amax() < 1e-11
 }
 
-/// Minimum-norm least-squares solution of J x = r (SVD, relative rank tolerance).
-pub fn solve_least_squares(j: DMatrix<f64>, r: &DVector<f64>) -> DVector<f64> {
-    let cols = j.ncols();
-    let svd = j.svd(true, true);
-    let eps = RANK_TOL * svd.singular_values.max().max(f64::MIN_POSITIVE);
-    svd.solve(r, eps).unwrap_or_else(|_| DVector::zeros(cols))
-}
-
 /// Rows of A that are independent at q (greedy, in model order).
 pub fn independent_rows(sys: &System, q: &[f64]) -> Vec<usize> {
     let mut ws = DynWorkspace::new(sys);
@@ -654,60 +647,4 @@ pub fn null_space(sys: &System, q: &[f64], t: f64) -> DMatrix<f64> {
     let mut ws = DynWorkspace::new(sys);
     sys.jacobian(&mut ws.sys, q, t, &mut ws.a);
     null_space_of(&ws.a)
-}
-
-/// Orthonormal basis of the null space of a matrix A (n × (n − rank)), from the SVD.
-pub fn null_space_of(a: &DMatrix<f64>) -> DMatrix<f64> {
-    let n = a.ncols();
-    if a.nrows() == 0 {
-        return DMatrix::identity(n, n);
-    }
-    // SVD of Aᵀ A (n × n) gives the full right singular basis even when m < n.
-    let ata = a.transpose() * a;
-    let eig = nalgebra::SymmetricEigen::new(ata);
-    let max = eig.eigenvalues.iter().fold(0.0f64, |a, v| a.max(v.abs()));
-    let cols: Vec<usize> = (0..n)
-        .filter(|&i| eig.eigenvalues[i].abs() <= RANK_TOL * max.max(f64::MIN_POSITIVE))
-        .collect();
-    let mut nb = eig.eigenvectors.select_columns(cols.iter());
-    // a deterministic sign: largest entry of each column positive
-    for mut c in nb.column_iter_mut() {
-        let imax = c.iamax();
-        if c[imax] < 0.0 {
-            c.neg_mut();
-        }
-    }
-    nb
-}
-
-/// Eigenvalues of M⁻¹ K for symmetric positive definite M (ascending). K is symmetrized;
-/// a nonsymmetric K (follower loads) gives the real parts of the general eigenvalues.
-pub fn generalized_eigenvalues(k: &DMatrix<f64>, m: &DMatrix<f64>) -> Vec<f64> {
-    if k.nrows() == 0 {
-        return Vec::new(); // no degree of freedom
-    }
-    let asym = (k - k.transpose()).amax();
-    let mut w: Vec<f64> = if asym <= 1e-9 * k.amax().max(f64::MIN_POSITIVE) {
-        let l = m
-            .clone()
-            .cholesky()
-            .expect("mass matrix is positive definite")
-            .l();
-        let linv = l.clone().try_inverse().expect("invertible");
-        let s = &linv * (k + k.transpose()) * 0.5 * linv.transpose();
-        nalgebra::SymmetricEigen::new(s)
-            .eigenvalues
-            .iter()
-            .copied()
-            .collect()
-    } else {
-        let minv = m.clone().try_inverse().expect("invertible");
-        (minv * k)
-            .complex_eigenvalues()
-            .iter()
-            .map(|c| c.re)
-            .collect()
-    };
-    w.sort_by(f64::total_cmp);
-    w
 }

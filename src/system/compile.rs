@@ -268,7 +268,7 @@ impl Compiler<'_> {
     fn body_of(&self, p: &PointRef) -> Option<usize> {
         match p.body {
             BodyRef::Ground => None,
-            BodyRef::Body(i) => Some(self.body_offset(i)),
+            BodyRef::Body(i) => Some(i),
         }
     }
 
@@ -511,12 +511,43 @@ impl Compiler<'_> {
             return None;
         }
         let n = self.coordinates.len();
+        // Where each coordinate lives, and the block of A of each constraint.
+        let offsets: Vec<usize> = (0..model.bodies.len())
+            .map(|i| self.body_offset(i))
+            .collect();
+        let mut coord_body = Vec::with_capacity(n);
+        for (k, b) in model.bodies.iter().enumerate() {
+            coord_body.extend((0..b.kind.coordinates().len()).map(|d| (k, d)));
+        }
+        let mut blocks = Vec::with_capacity(constraints.len());
+        let (mut row0, mut val0) = (0, 0);
+        for c in &constraints {
+            let mut cols = c.coordinates();
+            for k in c.bodies() {
+                cols.extend(offsets[k]..offsets[k] + model.bodies[k].kind.coordinates().len());
+            }
+            cols.sort_unstable();
+            cols.dedup();
+            let rows = c.rows();
+            blocks.push(super::Block {
+                row0,
+                rows,
+                val0,
+                cols: cols.clone(),
+            });
+            row0 += rows;
+            val0 += rows * cols.len();
+        }
         let mut sys = System {
             coordinates: self.coordinates.clone(),
             coordinate_dims,
             constraint_names: names,
             bodies,
+            offsets,
+            coord_body,
             constraints,
+            blocks,
+            nvals: val0,
             forces,
             gravity_coefs,
             gravity: [0.0, 0.0],
@@ -524,6 +555,8 @@ impl Compiler<'_> {
             mass_matrix: DMatrix::zeros(n, n),
             mass_inv: DMatrix::zeros(n, n),
             mass_inv_sqrt: DMatrix::zeros(n, n),
+            mass_diag: vec![0.0; n],
+            mass_inv_diag: vec![0.0; n],
             initial,
             initial_coefs,
             velocity_coefs,

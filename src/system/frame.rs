@@ -9,8 +9,8 @@ use crate::model::expr::Compiled;
 use crate::scalar::{Env, Scalar};
 use num_dual::Dual;
 
-/// A point fixed in a body (or the ground): the body's coordinate offset and the
-/// body-frame position as two coefficient indices (m).
+/// A point fixed in a body (or the ground): the body's index and the body-frame
+/// position as two coefficient indices (m).
 #[derive(Debug, Clone, Copy)]
 pub struct SysPoint {
     pub body: Option<usize>,
@@ -107,10 +107,101 @@ impl<D: Scalar> GroundPose<D> {
     }
 }
 
-/// The frames of one evaluation: the ground's pose, the coordinates and the coefficients.
+/// A planar body's pose in type D: centre of gravity r, angle θ and its (sin, cos),
+/// computed once per evaluation and shared by every element on the body.
+#[derive(Debug, Clone, Copy)]
+pub struct Pose<D> {
+    pub r: [D; 2],
+    pub theta: D,
+    pub s: D,
+    pub c: D,
+}
+
+impl<D: Scalar> Pose<D> {
+    /// The pose of a planar body whose coordinates start at `q[o]`.
+    #[inline]
+    pub fn planar(q: &[D], o: usize) -> Self {
+        let (s, c) = q[o + 2].sin_cos();
+        Pose {
+            r: [q[o], q[o + 1]],
+            theta: q[o + 2],
+            s,
+            c,
+        }
+    }
+
+    pub fn zero() -> Self {
+        let z = D::from(0.0);
+        Pose {
+            r: [z, z],
+            theta: z,
+            s: z,
+            c: z,
+        }
+    }
+}
+
+impl Pose<f64> {
+    /// This pose as dual numbers carrying its derivative along tangent direction `d` of
+    /// the body (planar: 0 = x, 1 = y, 2 = θ): the seeded pose of a Jacobian column,
+    /// without evaluating sin and cos again.
+    #[inline]
+    pub fn seeded(&self, d: usize) -> Pose<num_dual::Dual64> {
+        use num_dual::Dual64 as D1;
+        let mut p = self.lift();
+        match d {
+            0 => p.r[0].eps = 1.0,
+            1 => p.r[1].eps = 1.0,
+            _ => {
+                p.theta.eps = 1.0;
+                p.s = D1::new(self.s, self.c);
+                p.c = D1::new(self.c, -self.s);
+            }
+        }
+        p
+    }
+
+    /// This pose as dual numbers with zero derivative.
+    #[inline]
+    pub fn lift(&self) -> Pose<num_dual::Dual64> {
+        use num_dual::Dual64 as D1;
+        Pose {
+            r: [D1::from(self.r[0]), D1::from(self.r[1])],
+            theta: D1::from(self.theta),
+            s: D1::from(self.s),
+            c: D1::from(self.c),
+        }
+    }
+}
+
+/// Bodies on the stack up to this count when poses are computed for one evaluation.
+const INLINE_BODIES: usize = 16;
+
+/// Compute the poses of all bodies (coordinate offsets `offsets`) from `q` and call `f`
+/// with them, without allocating for up to 16 bodies.
+#[inline]
+pub fn with_poses<D: Scalar, R>(q: &[D], offsets: &[usize], f: impl FnOnce(&[Pose<D>]) -> R) -> R {
+    let nb = offsets.len();
+    if nb <= INLINE_BODIES {
+        let mut buf = [Pose::zero(); INLINE_BODIES];
+        for (p, &o) in buf.iter_mut().zip(offsets) {
+            *p = Pose::planar(q, o);
+        }
+        f(&buf[..nb])
+    } else {
+        let poses: Vec<Pose<D>> = offsets.iter().map(|&o| Pose::planar(q, o)).collect();
+        f(&poses)
+    }
+}
+
+/// The frames of one evaluation: body poses, the ground's pose, the coordinates (for
+/// custom expressions) and where parameters come from.
 #[derive(Clone, Copy)]
 pub struct Frames<'a, D, E> {
     pub q: &'a [D],
+    pub poses: &'a [Pose<D>],
+    /// Coordinate offset of each body (for generalized forces).
+    pub offsets: &'a [usize],
     pub ground: GroundPose<D>,
     pub env: E,
 }
@@ -120,7 +211,10 @@ impl<D: Scalar, E: Env<D>> Frames<'_, D, E> {
     #[inline]
     pub fn rotation(&self, body: Option<usize>) -> Option<(D, D)> {
         match body {
-            Some(o) => Some(self.q[o + 2].sin_cos()),
+            Some(k) => {
+                let p = &self.poses[k];
+                Some((p.s, p.c))
+            }
             None => self.ground.sc,
         }
     }
@@ -151,7 +245,7 @@ impl<D: Scalar, E: Env<D>> Frames<'_, D, E> {
     pub fn position(&self, pt: &SysPoint) -> [D; 2] {
         let p = self.local(pt);
         let r = match pt.body {
-            Some(o) => [self.q[o], self.q[o + 1]],
+            Some(k) => self.poses[k].r,
             None => self.ground.r,
         };
         match self.rotation(pt.body) {
@@ -165,7 +259,10 @@ impl<D: Scalar, E: Env<D>> Frames<'_, D, E> {
     pub fn velocity(&self, v: &[D], pt: &SysPoint) -> [D; 2] {
         let r = self.arm(pt);
         let (vel, w) = match pt.body {
-            Some(o) => ([v[o], v[o + 1]], v[o + 2]),
+            Some(k) => {
+                let o = self.offsets[k];
+                ([v[o], v[o + 1]], v[o + 2])
+            }
             None => (self.ground.vel, self.ground.omega),
         };
         [vel[0] - w * r[1], vel[1] + w * r[0]]
@@ -175,7 +272,8 @@ impl<D: Scalar, E: Env<D>> Frames<'_, D, E> {
     /// A force on the ground does nothing.
     #[inline]
     pub fn apply(&self, pt: &SysPoint, f: [D; 2], out: &mut [D]) {
-        if let Some(o) = pt.body {
+        if let Some(k) = pt.body {
+            let o = self.offsets[k];
             let r = self.arm(pt);
             out[o] += f[0];
             out[o + 1] += f[1];
@@ -187,7 +285,7 @@ impl<D: Scalar, E: Env<D>> Frames<'_, D, E> {
     #[inline]
     pub fn angle(&self, body: Option<usize>) -> D {
         match body {
-            Some(o) => self.q[o + 2],
+            Some(k) => self.poses[k].theta,
             None => self.ground.theta,
         }
     }

@@ -123,6 +123,28 @@ pub enum Constraint {
 }
 
 impl Constraint {
+    /// The bodies whose poses the constraint reads (a custom constraint reads
+    /// coordinates directly: see [`Constraint::coordinates`]).
+    pub fn bodies(&self) -> Vec<usize> {
+        match self {
+            Constraint::Joint(j) => [j.a.body, j.b.body].into_iter().flatten().collect(),
+            Constraint::Custom(_) => Vec::new(),
+        }
+    }
+
+    /// The coordinates a custom constraint reads, sorted, without repeats.
+    pub fn coordinates(&self) -> Vec<usize> {
+        match self {
+            Constraint::Joint(_) => Vec::new(),
+            Constraint::Custom(e) => {
+                let mut c: Vec<usize> = e.coordinates().collect();
+                c.sort_unstable();
+                c.dedup();
+                c
+            }
+        }
+    }
+
     pub fn rows(&self) -> usize {
         match self {
             Constraint::Joint(j) => j.rows(),

@@ -28,7 +28,7 @@ use crate::diag::{Error, Result, SourceFile};
 use crate::model::BodyKind;
 use crate::model::units::Dim;
 use crate::scalar::{Env, Plain, Scalar, Seeded};
-use frame::{Frames, GroundMotion, GroundPose};
+use frame::{Frames, GroundMotion, GroundPose, Pose, with_poses};
 use nalgebra::{DMatrix, DVector};
 use num_dual::{Dual2_64, Dual64};
 
@@ -46,6 +46,20 @@ pub struct SysBody {
     /// Coefficient indices of mass and inertia.
     mass_coef: usize,
     inertia_coef: usize,
+}
+
+/// The rows of one constraint element and the coordinates (columns of A) it depends
+/// on: A is stored by blocks, so its cost grows with the number of elements, not with
+/// its size.
+#[derive(Debug, Clone)]
+pub struct Block {
+    /// First row and number of rows.
+    pub row0: usize,
+    pub rows: usize,
+    /// Columns, ascending.
+    pub cols: Vec<usize>,
+    /// Index of the block's first value in the values (row-major, rows × cols).
+    pub val0: usize,
 }
 
 /// The initial state as the model gives it (before assembly).
@@ -70,7 +84,15 @@ pub struct System {
     /// One name per constraint row (`joint.x`, `constraint2`, ...).
     pub constraint_names: Vec<String>,
     pub bodies: Vec<SysBody>,
+    /// Coordinate offset of each body.
+    offsets: Vec<usize>,
+    /// For each coordinate: its body and direction (planar: 0 = x, 1 = y, 2 = θ).
+    coord_body: Vec<(usize, usize)>,
     constraints: Vec<joints::Constraint>,
+    /// The block of A of each constraint element.
+    blocks: Vec<Block>,
+    /// Number of values of A stored by blocks.
+    nvals: usize,
     forces: Vec<forces::Force>,
     /// Gravity entries (coefficient pairs, m/s²), summed.
     gravity_coefs: Vec<[usize; 2]>,
@@ -84,6 +106,9 @@ pub struct System {
     pub mass_inv: DMatrix<f64>,
     /// M^-½ (n × n).
     pub mass_inv_sqrt: DMatrix<f64>,
+    /// The diagonal of M (planar bodies: m, m, I), and its inverse.
+    pub mass_diag: Vec<f64>,
+    pub mass_inv_diag: Vec<f64>,
     pub initial: InitialGuess,
     /// Coefficients of the initial coordinates and of the given velocities.
     initial_coefs: Vec<usize>,
@@ -107,17 +132,25 @@ pub struct Workspace {
     phid: Vec<Dual64>,
     q2: Vec<Dual2_64>,
     phi2: Vec<Dual2_64>,
+    pose_f: Vec<Pose<f64>>,
+    pose_d: Vec<Pose<Dual64>>,
+    /// The values of A by blocks (see [`System::blocks`]).
+    pub vals: Vec<f64>,
 }
 
 impl Workspace {
     pub fn new(sys: &System) -> Self {
         let n = sys.n();
         let m = sys.m();
+        let nb = sys.offsets.len();
         Workspace {
             qd: vec![Dual64::from(0.0); n],
             phid: vec![Dual64::from(0.0); m],
             q2: vec![Dual2_64::from(0.0); n],
             phi2: vec![Dual2_64::from(0.0); m],
+            pose_f: vec![Pose::zero(); nb],
+            pose_d: vec![Pose::zero(); nb],
+            vals: vec![0.0; sys.nvals],
         }
     }
 }
@@ -243,6 +276,8 @@ impl System {
             mdiag[b.offset + 1] = b.mass;
             mdiag[b.offset + 2] = b.inertia;
         }
+        self.mass_diag = mdiag.iter().copied().collect();
+        self.mass_inv_diag = mdiag.iter().map(|x| 1.0 / x).collect();
         self.mass_matrix = DMatrix::from_diagonal(&mdiag);
         self.mass_inv = DMatrix::from_diagonal(&mdiag.map(|x| 1.0 / x));
         self.mass_inv_sqrt = DMatrix::from_diagonal(&mdiag.map(|x| 1.0 / x.sqrt()));
@@ -269,16 +304,61 @@ impl System {
 
     /// Constraint function Φ(q, t) with parameters from `env`.
     pub fn phi_in<D: Scalar, E: Env<D>>(&self, q: &[D], t: D, env: E, out: &mut [D]) {
-        let fr = Frames {
-            q,
-            ground: GroundPose::at(&self.ground, t, env),
-            env,
-        };
-        let mut r = 0;
-        for c in &self.constraints {
-            let k = c.rows();
-            c.phi(&fr, t, &mut out[r..r + k]);
-            r += k;
+        let ground = GroundPose::at(&self.ground, t, env);
+        with_poses(q, &self.offsets, |poses| {
+            let fr = Frames {
+                q,
+                poses,
+                offsets: &self.offsets,
+                ground,
+                env,
+            };
+            for (c, b) in self.constraints.iter().zip(&self.blocks) {
+                c.phi(&fr, t, &mut out[b.row0..b.row0 + b.rows]);
+            }
+        })
+    }
+
+    /// The blocks of A: one per constraint element (see [`System::jacobian_blocks`]).
+    pub fn blocks(&self) -> &[Block] {
+        &self.blocks
+    }
+
+    /// A = ∂Φ/∂q by blocks into `ws.vals`: each element is differentiated over the
+    /// coordinates it touches only (a joint: its two bodies), with each body's pose
+    /// computed once and its derivative along a coordinate seeded without evaluating sin
+    /// and cos again. The cost grows linearly with the number of elements.
+    pub fn jacobian_blocks(&self, ws: &mut Workspace, q: &[f64], t: f64) {
+        let env = self.env();
+        for (k, &o) in self.offsets.iter().enumerate() {
+            ws.pose_f[k] = Pose::planar(q, o);
+            ws.pose_d[k] = ws.pose_f[k].lift();
+        }
+        for (d, &x) in ws.qd.iter_mut().zip(q) {
+            *d = Dual64::from(x);
+        }
+        let td = Dual64::from(t);
+        let ground = GroundPose::at(&self.ground, td, env);
+        for (c, b) in self.constraints.iter().zip(&self.blocks) {
+            let ncols = b.cols.len();
+            for (ci, &j) in b.cols.iter().enumerate() {
+                let (k, d) = self.coord_body[j];
+                ws.pose_d[k] = ws.pose_f[k].seeded(d);
+                ws.qd[j].eps = 1.0;
+                let fr = Frames {
+                    q: &ws.qd,
+                    poses: &ws.pose_d,
+                    offsets: &self.offsets,
+                    ground,
+                    env,
+                };
+                c.phi(&fr, td, &mut ws.phid[..b.rows]);
+                ws.qd[j].eps = 0.0;
+                ws.pose_d[k] = ws.pose_f[k].lift();
+                for r in 0..b.rows {
+                    ws.vals[b.val0 + r * ncols + ci] = ws.phid[r].eps;
+                }
+            }
         }
     }
 
@@ -289,18 +369,16 @@ impl System {
         out
     }
 
-    /// Constraint Jacobian A = ∂Φ/∂q (m × n), one dual pass per column.
+    /// Constraint Jacobian A = ∂Φ/∂q (m × n), dense (from [`System::jacobian_blocks`]).
     pub fn jacobian(&self, ws: &mut Workspace, q: &[f64], t: f64, a: &mut DMatrix<f64>) {
-        for (d, &x) in ws.qd.iter_mut().zip(q) {
-            *d = Dual64::from(x);
-        }
-        let td = Dual64::from(t);
-        for j in 0..self.n() {
-            ws.qd[j].eps = 1.0;
-            self.phi(&ws.qd, td, &mut ws.phid);
-            ws.qd[j].eps = 0.0;
-            for i in 0..self.m() {
-                a[(i, j)] = ws.phid[i].eps;
+        self.jacobian_blocks(ws, q, t);
+        a.fill(0.0);
+        for b in &self.blocks {
+            let ncols = b.cols.len();
+            for r in 0..b.rows {
+                for (ci, &j) in b.cols.iter().enumerate() {
+                    a[(b.row0 + r, j)] = ws.vals[b.val0 + r * ncols + ci];
+                }
             }
         }
     }
@@ -357,14 +435,19 @@ impl System {
         if self.forces.is_empty() {
             return;
         }
-        let fr = Frames {
-            q,
-            ground: GroundPose::at(&self.ground, t, env),
-            env,
-        };
-        for force in &self.forces {
-            force.add(&fr, v, t, f);
-        }
+        let ground = GroundPose::at(&self.ground, t, env);
+        with_poses(q, &self.offsets, |poses| {
+            let fr = Frames {
+                q,
+                poses,
+                offsets: &self.offsets,
+                ground,
+                env,
+            };
+            for force in &self.forces {
+                force.add(&fr, v, t, f);
+            }
+        })
     }
 
     /// The diagonal of M with parameters from `env` (for ∂M/∂p).
@@ -416,14 +499,19 @@ impl System {
             e -= b.mass * (self.gravity[0] * q[b.offset] + self.gravity[1] * q[b.offset + 1]);
         }
         let env = self.env();
-        let fr = Frames {
-            q,
-            ground: GroundPose::at(&self.ground, 0.0, env),
-            env,
-        };
-        for force in &self.forces {
-            e += force.potential(&fr);
-        }
+        let ground = GroundPose::at(&self.ground, 0.0, env);
+        with_poses(q, &self.offsets, |poses| {
+            let fr = Frames {
+                q,
+                poses,
+                offsets: &self.offsets,
+                ground,
+                env,
+            };
+            for force in &self.forces {
+                e += force.potential(&fr);
+            }
+        });
         e
     }
 

@@ -1,0 +1,283 @@
+//! The matrix helpers, in one place: the pseudoinverse solve of the fundamental equation
+//! (Cholesky of B Bᵀ, SVD fallback), least squares, null spaces, generalized
+//! eigenvalues, the rank tolerance, and a Cholesky factorization of sparse Gram matrices
+//! A W Aᵀ in envelope (skyline) storage.
+//!
+//! nalgebra does the dense work. The envelope Cholesky is written by hand (about 80
+//! lines): the constraint Gram matrix of a chain is banded, its structure is known when
+//! the model is compiled and never changes, and it is factored on every right-hand side,
+//! so it must not allocate; faer's sparse Cholesky needs its own matrix types, a symbolic
+//! phase and ~60 s more of build for the same result on these sizes.
+
+use nalgebra::{DMatrix, DVector};
+
+/// Singular values below `RANK_TOL · σ_max` count as zero.
+pub const RANK_TOL: f64 = 1e-10;
+
+/// Cholesky pivots below `CHOL_TOL · max diag(B Bᵀ)` send the solve to the SVD.
+pub const CHOL_TOL: f64 = 1e-10;
+
+pub fn all_finite(x: &[f64]) -> bool {
+    x.iter().all(|v| v.is_finite())
+}
+
+/// `x = B⁺ r` (minimum-norm least squares); returns the numerical rank of B.
+pub fn pinv_solve(
+    bm: &DMatrix<f64>,
+    r: &DVector<f64>,
+    gram: &mut DMatrix<f64>,
+    svd_count: &mut usize,
+) -> (DVector<f64>, usize) {
+    let m = bm.nrows();
+    if m == 0 {
+        return (DVector::zeros(bm.ncols()), 0);
+    }
+    // NaN or inf (a force like sqrt(-1 - t), a diverging run): nalgebra's SVD never
+    // returns on them. Pass the NaN on; the integrator's guard reports it with its time.
+    if !all_finite(bm.as_slice()) || !all_finite(r.as_slice()) {
+        return (DVector::from_element(bm.ncols(), f64::NAN), 0);
+    }
+    bm.mul_to(&bm.transpose(), gram);
+    let scale = gram.diagonal().max();
+    if let Some(ch) = gram.clone().cholesky() {
+        let l = ch.l_dirty();
+        let min_pivot = (0..m)
+            .map(|i| l[(i, i)] * l[(i, i)])
+            .fold(f64::INFINITY, f64::min);
+        if min_pivot > CHOL_TOL * scale {
+            let y = ch.solve(r);
+            return (bm.transpose() * y, m);
+        }
+    }
+    *svd_count += 1;
+    let svd = bm.clone().svd(true, true);
+    let smax = svd.singular_values.max();
+    let eps = RANK_TOL * smax;
+    let rank = svd.rank(eps);
+    let x = svd
+        .solve(r, eps)
+        .unwrap_or_else(|_| DVector::zeros(bm.ncols()));
+    (x, rank)
+}
+
+/// Minimum-norm least-squares solution of J x = r (SVD, relative rank tolerance).
+pub fn solve_least_squares(j: DMatrix<f64>, r: &DVector<f64>) -> DVector<f64> {
+    let cols = j.ncols();
+    let svd = j.svd(true, true);
+    let eps = RANK_TOL * svd.singular_values.max().max(f64::MIN_POSITIVE);
+    svd.solve(r, eps).unwrap_or_else(|_| DVector::zeros(cols))
+}
+
+/// Orthonormal basis of the null space of a matrix A (n × (n − rank)), from the SVD.
+pub fn null_space_of(a: &DMatrix<f64>) -> DMatrix<f64> {
+    let n = a.ncols();
+    if a.nrows() == 0 {
+        return DMatrix::identity(n, n);
+    }
+    // SVD of Aᵀ A (n × n) gives the full right singular basis even when m < n.
+    let ata = a.transpose() * a;
+    let eig = nalgebra::SymmetricEigen::new(ata);
+    let max = eig.eigenvalues.iter().fold(0.0f64, |a, v| a.max(v.abs()));
+    let cols: Vec<usize> = (0..n)
+        .filter(|&i| eig.eigenvalues[i].abs() <= RANK_TOL * max.max(f64::MIN_POSITIVE))
+        .collect();
+    let mut nb = eig.eigenvectors.select_columns(cols.iter());
+    // a deterministic sign: largest entry of each column positive
+    for mut c in nb.column_iter_mut() {
+        let imax = c.iamax();
+        if c[imax] < 0.0 {
+            c.neg_mut();
+        }
+    }
+    nb
+}
+
+/// Eigenvalues of M⁻¹ K for symmetric positive definite M (ascending). K is symmetrized;
+/// a nonsymmetric K (follower loads) gives the real parts of the general eigenvalues.
+pub fn generalized_eigenvalues(k: &DMatrix<f64>, m: &DMatrix<f64>) -> Vec<f64> {
+    if k.nrows() == 0 {
+        return Vec::new(); // no degree of freedom
+    }
+    let asym = (k - k.transpose()).amax();
+    let mut w: Vec<f64> = if asym <= 1e-9 * k.amax().max(f64::MIN_POSITIVE) {
+        let l = m
+            .clone()
+            .cholesky()
+            .expect("mass matrix is positive definite")
+            .l();
+        let linv = l.clone().try_inverse().expect("invertible");
+        let s = &linv * (k + k.transpose()) * 0.5 * linv.transpose();
+        nalgebra::SymmetricEigen::new(s)
+            .eigenvalues
+            .iter()
+            .copied()
+            .collect()
+    } else {
+        let minv = m.clone().try_inverse().expect("invertible");
+        (minv * k)
+            .complex_eigenvalues()
+            .iter()
+            .map(|c| c.re)
+            .collect()
+    };
+    w.sort_by(f64::total_cmp);
+    w
+}
+
+/// A symmetric matrix in envelope (skyline) storage, factored in place as L Lᵀ: row i
+/// holds columns `first[i]..=i`. A banded Gram matrix (a chain's constraints) costs
+/// O(m · bandwidth²) to factor and O(m · bandwidth) to solve, without allocating.
+#[derive(Debug, Clone)]
+pub struct Envelope {
+    first: Vec<usize>,
+    start: Vec<usize>,
+    /// The entries, row by row.
+    vals: Vec<f64>,
+}
+
+impl Envelope {
+    /// An envelope whose row i starts at column `first[i]` (≤ i).
+    pub fn new(first: Vec<usize>) -> Envelope {
+        let mut start = Vec::with_capacity(first.len());
+        let mut len = 0;
+        for (i, &f) in first.iter().enumerate() {
+            debug_assert!(f <= i);
+            start.push(len);
+            len += i + 1 - f;
+        }
+        Envelope {
+            first,
+            start,
+            vals: vec![0.0; len],
+        }
+    }
+
+    pub fn dim(&self) -> usize {
+        self.first.len()
+    }
+
+    #[inline(always)]
+    fn idx(&self, i: usize, j: usize) -> usize {
+        self.start[i] + j - self.first[i]
+    }
+
+    pub fn clear(&mut self) {
+        self.vals.fill(0.0);
+    }
+
+    /// Add v to entry (i, j), j ≤ i, inside the envelope.
+    #[inline(always)]
+    pub fn add(&mut self, i: usize, j: usize, v: f64) {
+        let k = self.idx(i, j);
+        self.vals[k] += v;
+    }
+
+    /// Factor in place. Fails (returns false, the contents then undefined) when a pivot
+    /// L_ii² falls below `tol` times the largest diagonal entry, or on non-finite input:
+    /// the matrix is then singular or ill-conditioned for this purpose.
+    pub fn factor(&mut self, tol: f64) -> bool {
+        let m = self.dim();
+        let scale = (0..m)
+            .map(|i| self.vals[self.idx(i, i)])
+            .fold(0.0f64, f64::max);
+        if !(scale > 0.0) || !scale.is_finite() {
+            return false;
+        }
+        for i in 0..m {
+            let fi = self.first[i];
+            for j in fi..=i {
+                let k0 = fi.max(self.first[j]);
+                let (ri, rj) = (self.idx(i, k0), self.idx(j, k0));
+                let mut s = self.vals[self.idx(i, j)];
+                for k in 0..j - k0 {
+                    s -= self.vals[ri + k] * self.vals[rj + k];
+                }
+                if j < i {
+                    let d = self.vals[self.idx(j, j)];
+                    let at = self.idx(i, j);
+                    self.vals[at] = s / d;
+                } else {
+                    if !(s > tol * scale) {
+                        return false;
+                    }
+                    let at = self.idx(i, i);
+                    self.vals[at] = s.sqrt();
+                }
+            }
+        }
+        true
+    }
+
+    /// Solve L Lᵀ x = r in place (after [`Envelope::factor`]).
+    pub fn solve(&self, r: &mut [f64]) {
+        let m = self.dim();
+        for i in 0..m {
+            let fi = self.first[i];
+            let row = self.idx(i, fi);
+            let mut s = r[i];
+            for k in fi..i {
+                s -= self.vals[row + k - fi] * r[k];
+            }
+            r[i] = s / self.vals[self.idx(i, i)];
+        }
+        for i in (0..m).rev() {
+            let fi = self.first[i];
+            let row = self.idx(i, fi);
+            r[i] /= self.vals[self.idx(i, i)];
+            let ri = r[i];
+            for k in fi..i {
+                r[k] -= self.vals[row + k - fi] * ri;
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn envelope_cholesky_solves_a_banded_system_like_nalgebra() {
+        // a random-ish banded SPD matrix with an irregular profile
+        let m = 9;
+        let first: Vec<usize> = (0..m).map(|i: usize| i.saturating_sub(1 + i % 3)).collect();
+        let mut dense = DMatrix::zeros(m, m);
+        for i in 0..m {
+            for j in first[i]..i {
+                let v = ((i * 7 + j * 3) % 5) as f64 * 0.1 - 0.2;
+                dense[(i, j)] = v;
+                dense[(j, i)] = v;
+            }
+            dense[(i, i)] = 2.0 + i as f64 * 0.1;
+        }
+        let mut env = Envelope::new(first.clone());
+        for i in 0..m {
+            for j in first[i]..=i {
+                env.add(i, j, dense[(i, j)]);
+            }
+        }
+        assert!(env.factor(1e-12));
+        let r: Vec<f64> = (0..m).map(|i| (i as f64).sin()).collect();
+        let mut x = r.clone();
+        env.solve(&mut x);
+        let want = dense
+            .clone()
+            .cholesky()
+            .unwrap()
+            .solve(&DVector::from_vec(r));
+        for i in 0..m {
+            assert!(
+                (x[i] - want[i]).abs() <= 1e-14,
+                "{i}: {} vs {}",
+                x[i],
+                want[i]
+            );
+        }
+        // singular: refused
+        let mut sing = Envelope::new(vec![0, 0]);
+        sing.add(0, 0, 1.0);
+        sing.add(1, 0, 1.0);
+        sing.add(1, 1, 1.0);
+        assert!(!sing.factor(1e-10));
+    }
+}
