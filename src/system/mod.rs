@@ -492,14 +492,15 @@ impl System {
         v
     }
 
-    /// Potential energy of gravity and springs, J (for energy checks).
-    pub fn potential_energy(&self, q: &[f64]) -> f64 {
+    /// Potential energy of gravity and springs at time t, J (for energy checks; a spring
+    /// to a moving ground is taken with its anchor where the ground is at t).
+    pub fn potential_energy(&self, q: &[f64], t: f64) -> f64 {
         let mut e = 0.0;
         for b in &self.bodies {
             e -= b.mass * (self.gravity[0] * q[b.offset] + self.gravity[1] * q[b.offset + 1]);
         }
         let env = self.env();
-        let ground = GroundPose::at(&self.ground, 0.0, env);
+        let ground = GroundPose::at(&self.ground, t, env);
         with_poses(q, &self.offsets, |poses| {
             let fr = Frames {
                 q,
