@@ -119,8 +119,9 @@ pub fn accelerations(
     t: f64,
     vdot: &mut [f64],
 ) {
-    // f = impressed forces; a = M⁻¹ f (M diagonal)
-    sys.forces(q, v, t, ws.f.as_mut_slice());
+    // f = impressed forces, A (by blocks) and b by automatic differentiation, sharing
+    // each body's pose; a = M⁻¹ f (M diagonal)
+    sys.rhs_terms(&mut ws.sys, q, v, t, ws.f.as_mut_slice(), &mut ws.b);
     for i in 0..ws.acc.len() {
         ws.acc[i] = sys.mass_inv_diag[i] * ws.f[i];
     }
@@ -128,9 +129,6 @@ pub fn accelerations(
         vdot.copy_from_slice(ws.acc.as_slice());
         return;
     }
-    // A (by blocks), b by automatic differentiation
-    sys.jacobian_blocks(&mut ws.sys, q, t);
-    sys.bias(&mut ws.sys, q, v, t, &mut ws.b);
     // r = b − A a
     for b in sys.blocks() {
         let nc = b.cols.len();

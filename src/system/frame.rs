@@ -161,6 +161,24 @@ impl Pose<f64> {
         p
     }
 
+    /// The pose along the motion q + s·v as second-order dual numbers in s (for the bias
+    /// b), from this pose and the body's velocities `v[o..o + 3]`: sin and cos by the
+    /// chain rule, not evaluated again.
+    #[inline]
+    pub fn along(&self, v: &[f64], o: usize) -> Pose<num_dual::Dual2_64> {
+        use num_dual::Dual2_64 as D2;
+        let w = v[o + 2];
+        Pose {
+            r: [
+                D2::new(self.r[0], v[o], 0.0),
+                D2::new(self.r[1], v[o + 1], 0.0),
+            ],
+            theta: D2::new(self.theta, w, 0.0),
+            s: D2::new(self.s, self.c * w, -self.s * w * w),
+            c: D2::new(self.c, -self.s * w, -self.c * w * w),
+        }
+    }
+
     /// This pose as dual numbers with zero derivative.
     #[inline]
     pub fn lift(&self) -> Pose<num_dual::Dual64> {

@@ -134,6 +134,7 @@ pub struct Workspace {
     phi2: Vec<Dual2_64>,
     pose_f: Vec<Pose<f64>>,
     pose_d: Vec<Pose<Dual64>>,
+    pose_2: Vec<Pose<Dual2_64>>,
     /// The values of A by blocks (see [`System::blocks`]).
     pub vals: Vec<f64>,
 }
@@ -150,6 +151,7 @@ impl Workspace {
             phi2: vec![Dual2_64::from(0.0); m],
             pose_f: vec![Pose::zero(); nb],
             pose_d: vec![Pose::zero(); nb],
+            pose_2: vec![Pose::zero(); nb],
             vals: vec![0.0; sys.nvals],
         }
     }
@@ -329,9 +331,21 @@ impl System {
     /// computed once and its derivative along a coordinate seeded without evaluating sin
     /// and cos again. The cost grows linearly with the number of elements.
     pub fn jacobian_blocks(&self, ws: &mut Workspace, q: &[f64], t: f64) {
-        let env = self.env();
+        self.poses_into(ws, q);
+        self.jacobian_posed(ws, q, t);
+    }
+
+    /// Every body's pose at q into the workspace (once per right-hand side).
+    fn poses_into(&self, ws: &mut Workspace, q: &[f64]) {
         for (k, &o) in self.offsets.iter().enumerate() {
             ws.pose_f[k] = Pose::planar(q, o);
+        }
+    }
+
+    /// [`System::jacobian_blocks`] with the poses already in the workspace.
+    fn jacobian_posed(&self, ws: &mut Workspace, q: &[f64], t: f64) {
+        let env = self.env();
+        for k in 0..self.offsets.len() {
             ws.pose_d[k] = ws.pose_f[k].lift();
         }
         for (d, &x) in ws.qd.iter_mut().zip(q) {
@@ -410,15 +424,63 @@ impl System {
         }
     }
 
-    /// Impressed generalized forces f(q, v, t) (n): gravity, springs, dampers, point
-    /// forces. Generic, so that stiffness ∂f/∂q and damping ∂f/∂v come from dual numbers.
-    #[inline]
-    pub fn forces<D: Scalar>(&self, q: &[D], v: &[D], t: D, f: &mut [D]) {
-        self.forces_in(q, v, t, self.env(), f)
+    /// What one right-hand side needs, sharing each body's pose: the forces f (n), A by
+    /// blocks (into `ws.vals`) and b (m). The same values as [`System::forces`],
+    /// [`System::jacobian_blocks`] and [`System::bias`], with sin and cos evaluated once
+    /// per body instead of once per evaluation.
+    pub fn rhs_terms(
+        &self,
+        ws: &mut Workspace,
+        q: &[f64],
+        v: &[f64],
+        t: f64,
+        f: &mut [f64],
+        b: &mut DVector<f64>,
+    ) {
+        self.poses_into(ws, q);
+        let env = self.env();
+        self.gravity_in(env, f);
+        if !self.forces.is_empty() {
+            let fr = Frames {
+                q,
+                poses: &ws.pose_f,
+                offsets: &self.offsets,
+                ground: GroundPose::at(&self.ground, t, env),
+                env,
+            };
+            for force in &self.forces {
+                force.add(&fr, v, t, f);
+            }
+        }
+        if self.m() == 0 {
+            return;
+        }
+        self.jacobian_posed(ws, q, t);
+        for ((d, &x), &dx) in ws.q2.iter_mut().zip(q).zip(v) {
+            *d = Dual2_64::new(x, dx, 0.0);
+        }
+        for (k, &o) in self.offsets.iter().enumerate() {
+            ws.pose_2[k] = ws.pose_f[k].along(v, o);
+        }
+        let td = Dual2_64::new(t, 1.0, 0.0);
+        let fr = Frames {
+            q: &ws.q2,
+            poses: &ws.pose_2,
+            offsets: &self.offsets,
+            ground: GroundPose::at(&self.ground, td, env),
+            env,
+        };
+        for (c, blk) in self.constraints.iter().zip(&self.blocks) {
+            c.phi(&fr, td, &mut ws.phi2[blk.row0..blk.row0 + blk.rows]);
+        }
+        for i in 0..self.m() {
+            b[i] = -ws.phi2[i].v2;
+        }
     }
 
-    /// f(q, v, t) with parameters from `env`.
-    pub fn forces_in<D: Scalar, E: Env<D>>(&self, q: &[D], v: &[D], t: D, env: E, f: &mut [D]) {
+    /// f = gravity (the forces' first term).
+    #[inline]
+    fn gravity_in<D: Scalar, E: Env<D>>(&self, env: E, f: &mut [D]) {
         f.fill(D::from(0.0));
         if !self.gravity_coefs.is_empty() {
             let mut g = [D::from(0.0), D::from(0.0)];
@@ -432,6 +494,18 @@ impl System {
                 f[b.offset + 1] += m * g[1];
             }
         }
+    }
+
+    /// Impressed generalized forces f(q, v, t) (n): gravity, springs, dampers, point
+    /// forces. Generic, so that stiffness ∂f/∂q and damping ∂f/∂v come from dual numbers.
+    #[inline]
+    pub fn forces<D: Scalar>(&self, q: &[D], v: &[D], t: D, f: &mut [D]) {
+        self.forces_in(q, v, t, self.env(), f)
+    }
+
+    /// f(q, v, t) with parameters from `env`.
+    pub fn forces_in<D: Scalar, E: Env<D>>(&self, q: &[D], v: &[D], t: D, env: E, f: &mut [D]) {
+        self.gravity_in(env, f);
         if self.forces.is_empty() {
             return;
         }
