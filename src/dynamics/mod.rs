@@ -202,9 +202,7 @@ pub fn project_position(
         ws.a.mul_to(&sys.mass_inv_sqrt, &mut ws.bm);
         let (x, _) = pinv_solve(&ws.bm, &phi, &mut ws.gram, &mut ws.svd_solves);
         let dq = &sys.mass_inv_sqrt * x;
-        for i in 0..q.len() {
-            q[i] -= dq[i];
-        }
+        sys.retract(q, dq.as_slice(), -1.0);
         let new_phi = sys.residual(q, t);
         let new_norm = new_phi.amax();
         if !(new_norm < norm) {
@@ -319,11 +317,13 @@ pub fn assemble(sys: &System) -> Result<State> {
         // damped step: halve until |Φ| decreases
         let mut step = 1.0;
         let mut accepted = false;
+        let mut delta = vec![0.0; sys.nv()];
+        for (k, &i) in free.iter().enumerate() {
+            delta[i] = dx[k];
+        }
         for _ in 0..30 {
             let mut trial = q.clone();
-            for (k, &i) in free.iter().enumerate() {
-                trial[i] -= step * dx[k];
-            }
+            sys.retract(&mut trial, &delta, -step);
             let p = sys.residual(&trial, t);
             if p.amax() < norm {
                 q = trial;

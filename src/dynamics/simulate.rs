@@ -100,9 +100,9 @@ impl<'a> ConstrainedOde<'a> {
 
 impl ODE<f64, Vec<f64>> for ConstrainedOde<'_> {
     fn diff(&self, t: f64, y: &Vec<f64>, dydt: &mut Vec<f64>) {
-        let n = self.sys.n();
+        let n = self.sys.nq();
         let (q, v) = y.split_at(n);
-        dydt[..n].copy_from_slice(v);
+        self.sys.qdot(q, v, &mut dydt[..n]);
         let mut ws = self.ws.borrow_mut();
         accelerations(self.sys, &mut ws, q, v, t, &mut dydt[n..]);
     }

@@ -92,7 +92,9 @@ pub fn steady_state(
         atol: opts.atol,
         ..SimOptions::default()
     };
-    let dof = n.saturating_sub(crate::dynamics::constraint_rank(sys, &start.q, 0.0));
+    let dof = sys
+        .nv()
+        .saturating_sub(crate::dynamics::constraint_rank(sys, &start.q, 0.0));
     let order = (2 * dof).clamp(1, 8);
     let mut ws = DynWorkspace::new(sys);
     let mut state = State {
@@ -101,6 +103,8 @@ pub fn steady_state(
         v: start.v.clone(),
     };
     // Poincaré points since the last extrapolation, and the sampled last 4 periods.
+    let q_ref = start.q.clone();
+    let pack = |s: &State| pack(sys, &q_ref, s);
     let mut points: Vec<DVector<f64>> = vec![pack(&state)];
     let mut recent: Vec<Vec<Vec<f64>>> = Vec::new();
     let mut extrapolate = opts.extrapolate;
@@ -215,7 +219,7 @@ pub fn steady_state(
             && change < last_change
             && let Some(s) = mpe(&points[points.len() - order - 2..])
         {
-            let mut guess = unpack(&s, n);
+            let mut guess = unpack(sys, &q_ref, &s);
             project_position(sys, &mut ws, &mut guess.q, 0.0, 1e-14, 10);
             project_velocity(sys, &mut ws, &guess.q, &mut guess.v, 0.0);
             if guess.q.iter().chain(&guess.v).all(|x| x.is_finite()) {
@@ -240,15 +244,26 @@ pub fn steady_state(
     })
 }
 
-fn pack(s: &State) -> DVector<f64> {
-    DVector::from_iterator(s.q.len() * 2, s.q.iter().chain(&s.v).copied())
+/// A state as one vector for the Poincaré sequence: the coordinates as the tangent from
+/// `q_ref` (so the extrapolation works on the tangent space, whatever the coordinates
+/// are), then the velocities.
+fn pack(sys: &System, q_ref: &[f64], s: &State) -> DVector<f64> {
+    let nv = sys.nv();
+    let mut y = DVector::zeros(2 * nv);
+    sys.difference(&s.q, q_ref, &mut y.as_mut_slice()[..nv]);
+    y.rows_mut(nv, nv).copy_from_slice(&s.v);
+    y
 }
 
-fn unpack(y: &DVector<f64>, n: usize) -> State {
+/// The state of a packed vector (see [`pack`]): q = q_ref ⊕ δ.
+fn unpack(sys: &System, q_ref: &[f64], y: &DVector<f64>) -> State {
+    let nv = sys.nv();
+    let mut q = q_ref.to_vec();
+    sys.retract(&mut q, &y.as_slice()[..nv], 1.0);
     State {
         t: 0.0,
-        q: y.as_slice()[..n].to_vec(),
-        v: y.as_slice()[n..].to_vec(),
+        q,
+        v: y.as_slice()[nv..].to_vec(),
     }
 }
 

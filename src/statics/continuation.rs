@@ -103,6 +103,16 @@ impl Family<'_> {
         Ok((h, j, det))
     }
 
+    /// y ⊕ s·dy: coordinates through the retraction, multipliers and parameter added.
+    fn advance(&self, y: &DVector<f64>, dy: &DVector<f64>, s: f64) -> DVector<f64> {
+        DVector::from_vec(super::advance(self.sys, y.as_slice(), dy.as_slice(), s))
+    }
+
+    /// The tangent from y0 to y1.
+    fn difference(&self, y1: &DVector<f64>, y0: &DVector<f64>) -> DVector<f64> {
+        DVector::from_vec(super::difference(self.sys, y1.as_slice(), y0.as_slice()))
+    }
+
     /// Weight vector: 1 for q and p, 0 for λ.
     fn weights(&self, len: usize) -> DVector<f64> {
         DVector::from_fn(
@@ -170,7 +180,7 @@ impl Family<'_> {
         scale: f64,
         tw: DVector<f64>,
     ) -> Result<Option<(Pt, usize)>> {
-        let pred = &base.y + &base.tau * s;
+        let pred = self.advance(&base.y, &base.tau, s);
         let mut y = pred.clone();
         let d = y.len() - 1;
         for it in 0..10 {
@@ -184,7 +194,7 @@ impl Family<'_> {
             if !h.iter().all(|v| v.is_finite()) {
                 return Ok(None);
             }
-            let g = tw.dot(&(&y - &pred));
+            let g = tw.dot(&self.difference(&y, &pred));
             if self.converged(&h, scale) && g.abs() < 1e-12 {
                 let tau = self.tangent(&j, Some(&base.tau), 1.0);
                 return Ok(Some((Pt { y, tau, det }, it)));
@@ -196,7 +206,7 @@ impl Family<'_> {
             r.rows_mut(0, d).copy_from(&h);
             r[d] = g;
             let dy = solve_least_squares(b, &r);
-            y -= dy;
+            y = self.advance(&y, &dy, -1.0);
         }
         Ok(None)
     }
@@ -363,7 +373,7 @@ pub fn continue_equilibria(sys: &System, opts: &ContinuationOptions) -> Result<B
         // Reject a corrector that left the branch: too far from the prediction, or a
         // tangent turned by more than about 25°; retry with half the step.
         let w = fam.weights(next.y.len());
-        let dist = (&next.y - &cur.y).component_mul(&w).norm();
+        let dist = fam.difference(&next.y, &cur.y).component_mul(&w).norm();
         if dist > 1.5 * s.max(1e-3 * ds) || next.tau.component_mul(&w).dot(&cur.tau) < 0.9 {
             ds = s * 0.5;
             if ds < min_ds {

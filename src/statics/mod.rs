@@ -87,6 +87,11 @@ impl<'a> Statics<'a> {
         Ok(Statics { sys, rows, times })
     }
 
+    /// x ⊕ s·dx for x = (q, λ, …) (see [`advance`]).
+    pub fn advance(&self, x: &[f64], dx: &[f64], s: f64) -> Vec<f64> {
+        advance(self.sys, x, dx, s)
+    }
+
     /// Times at which time-dependent loads are averaged.
     pub fn times(&self) -> &[f64] {
         &self.times
@@ -460,7 +465,7 @@ impl<'a> Statics<'a> {
                 1.0
             };
             loop {
-                let trial: Vec<f64> = x.iter().zip(dx.iter()).map(|(a, d)| a - step * d).collect();
+                let trial = self.advance(&x, dx.as_slice(), -step);
                 let rt = self.residual(&trial);
                 if rt.norm() < norm0 || step < 1e-6 {
                     x = trial;
@@ -584,6 +589,29 @@ impl<'a> Statics<'a> {
     }
 }
 
+/// x ⊕ s·dx for x = (q, λ, …): the coordinates through the system's retraction, the
+/// rest (multipliers, a continuation parameter) added.
+pub fn advance(sys: &System, x: &[f64], dx: &[f64], s: f64) -> Vec<f64> {
+    let (nq, nv) = (sys.nq(), sys.nv());
+    let mut y = x.to_vec();
+    sys.retract(&mut y[..nq], &dx[..nv], s);
+    for (a, d) in y[nq..].iter_mut().zip(&dx[nv..]) {
+        *a += s * d;
+    }
+    y
+}
+
+/// The tangent from x0 to x1 for x = (q, λ, …) (see [`advance`]).
+pub fn difference(sys: &System, x1: &[f64], x0: &[f64]) -> Vec<f64> {
+    let (nq, nv) = (sys.nq(), sys.nv());
+    let mut d = vec![0.0; x1.len() - nq + nv];
+    sys.difference(&x1[..nq], &x0[..nq], &mut d[..nv]);
+    for ((o, a), b) in d[nv..].iter_mut().zip(&x1[nq..]).zip(&x0[nq..]) {
+        *o = a - b;
+    }
+    d
+}
+
 /// σ_min/σ_max of ∂Φ_r/∂q_free (1 when nothing is free or nothing constrains).
 fn free_jacobian_conditioning(sys: &System, q: &[f64], rows: &[usize]) -> f64 {
     let free: Vec<usize> = (0..sys.n()).filter(|&i| !sys.initial.fixed[i]).collect();
@@ -608,9 +636,11 @@ fn assemble_at(sys: &System, ws: &mut DynWorkspace, q: &mut [f64]) -> bool {
         sys.jacobian(&mut ws.sys, q, 0.0, &mut ws.a);
         let af = ws.a.select_columns(free.iter());
         let dx = solve_least_squares(af, &phi);
+        let mut delta = vec![0.0; sys.nv()];
         for (k, &i) in free.iter().enumerate() {
-            q[i] -= dx[k];
+            delta[i] = dx[k];
         }
+        sys.retract(q, &delta, -1.0);
         if !q.iter().all(|v| v.is_finite()) {
             return false;
         }

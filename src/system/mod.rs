@@ -167,6 +167,58 @@ impl System {
         self.constraint_names.len()
     }
 
+    /// Number of configuration coordinates q.
+    pub fn nq(&self) -> usize {
+        self.coordinates.len()
+    }
+
+    /// Number of velocities v: the dimension of the tangent space, the columns of A. (A
+    /// planar body has q = v-rates; a body with a unit quaternion has 7 coordinates and
+    /// 6 velocities.) Every analysis steps through [`System::retract`], so it holds for
+    /// either.
+    pub fn nv(&self) -> usize {
+        self.coordinates.len()
+    }
+
+    /// q ⊕ s·δ in place: the configuration reached from q along the tangent δ (nv) by
+    /// s. Planar bodies: q + s·δ. Newton updates, projections and predictors step
+    /// through this, never by adding to q.
+    pub fn retract(&self, q: &mut [f64], delta: &[f64], s: f64) {
+        for b in &self.bodies {
+            match b.kind {
+                BodyKind::Planar => {
+                    for i in b.offset..b.offset + 3 {
+                        q[i] += s * delta[i];
+                    }
+                }
+            }
+        }
+    }
+
+    /// The tangent δ (nv) with q0 ⊕ δ = q1, for q1 near q0 (planar bodies: q1 − q0).
+    pub fn difference(&self, q1: &[f64], q0: &[f64], out: &mut [f64]) {
+        for b in &self.bodies {
+            match b.kind {
+                BodyKind::Planar => {
+                    for i in b.offset..b.offset + 3 {
+                        out[i] = q1[i] - q0[i];
+                    }
+                }
+            }
+        }
+    }
+
+    /// q̇ = N(q) v (nq): how the coordinates move with the velocities (planar: q̇ = v).
+    pub fn qdot(&self, _q: &[f64], v: &[f64], out: &mut [f64]) {
+        for b in &self.bodies {
+            match b.kind {
+                BodyKind::Planar => {
+                    out[b.offset..b.offset + 3].copy_from_slice(&v[b.offset..b.offset + 3]);
+                }
+            }
+        }
+    }
+
     /// Index of a coordinate by name.
     pub fn coordinate_index(&self, name: &str) -> Option<usize> {
         self.coordinates.iter().position(|c| c == name)
