@@ -83,7 +83,6 @@ pub fn steady_state(
     opts: &SteadyOptions,
     cancel: &AtomicBool,
 ) -> Result<SteadyState> {
-    let n = sys.n();
     let period = 2.0 * std::f64::consts::PI / omega;
     let sim = SimOptions {
         t_end: period,
