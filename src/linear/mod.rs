@@ -351,12 +351,9 @@ pub fn coordinate(sys: &System, name: &str, flag: &str) -> Result<usize> {
     })
 }
 
-/// The first angle coordinate (a name ending in `theta` or `phi`), else the first.
+/// The first angle coordinate (by its dimension), else the first.
 pub fn default_reference(sys: &System) -> usize {
-    sys.coordinates
-        .iter()
-        .position(|c| c.ends_with(".theta") || c.ends_with(".phi"))
-        .unwrap_or(0)
+    (0..sys.n()).find(|&i| sys.is_angle(i)).unwrap_or(0)
 }
 
 /// Equilibrium nearest the initial pose, linearization, modes.

@@ -530,7 +530,7 @@ impl<'a> Statics<'a> {
     /// value reached.
     fn sweep(&self, start: &State, d: usize, dir: f64, seeds: &mut Vec<Vec<f64>>) -> f64 {
         let sys = self.sys;
-        let angle = sys.coordinates[d].ends_with("theta") || sys.coordinates[d].ends_with("phi");
+        let angle = sys.is_angle(d);
         let step = if angle {
             2f64.to_radians()
         } else {
