@@ -97,7 +97,10 @@ fn minimal_free_case(bencher: divan::Bencher) {
             &ode,
             &[std::f64::consts::FRAC_PI_4, 0.0],
             &opts,
-            &mut |_, y| out.push(y[0]),
+            &mut |_, y| {
+                out.push(y[0]);
+                true
+            },
             &mut |_, _| false,
             &mut |_| true,
         )

@@ -36,6 +36,9 @@ pub struct IntegratorStats {
     pub rhs_evaluations: usize,
     /// Restarts after the hook changed the state.
     pub restarts: usize,
+    /// The sample sink ended the run before its end time.
+    #[serde(skip)]
+    pub stopped: bool,
 }
 
 /// Counts evaluations and catches the first non-finite derivative.
@@ -57,7 +60,8 @@ impl<F: ODE<f64, Vec<f64>>> ODE<f64, Vec<f64>> for Guarded<'_, F> {
 
 /// Integrate `ode` from `y0` at `opts.t0` to `opts.t_end`.
 ///
-/// * `sample(t, y)` receives every output sample in order.
+/// * `sample(t, y)` receives every output sample in order; it returns `false` to end the
+///   run there, cleanly (the stats then say `stopped`).
 /// * `after_step(t, y)` runs after each accepted step that is not the last; it returns
 ///   `true` if it changed `y` (the integrator then restarts from it).
 /// * `progress(fraction)` after each accepted step; it returns `false` to stop the
@@ -66,7 +70,7 @@ pub fn integrate<F: ODE<f64, Vec<f64>>>(
     ode: &F,
     y0: &[f64],
     opts: &IntegratorOptions,
-    sample: &mut dyn FnMut(f64, &[f64]),
+    sample: &mut dyn FnMut(f64, &[f64]) -> bool,
     after_step: &mut dyn FnMut(f64, &mut Vec<f64>) -> bool,
     progress: &mut dyn FnMut(f64) -> bool,
 ) -> Result<IntegratorStats> {
@@ -81,7 +85,10 @@ pub fn integrate<F: ODE<f64, Vec<f64>>>(
         n_out
     };
     let out_time = |k: usize| (t0 + k as f64 * opts.dt_out).min(t_end);
-    sample(t0, y0);
+    if !sample(t0, y0) {
+        stats.stopped = true;
+        return Ok(stats);
+    }
     if span <= 0.0 {
         return Ok(stats);
     }
@@ -130,8 +137,8 @@ pub fn integrate<F: ODE<f64, Vec<f64>>>(
         let mut ends: Option<(Vec<f64>, Vec<f64>)> = None;
         while next_k <= last_k && out_time(next_k) <= t_new {
             let tk = out_time(next_k);
-            if tk == t_new {
-                sample(tk, solver.y());
+            let go_on = if tk == t_new {
+                sample(tk, solver.y())
             } else {
                 if ends.is_none() {
                     let t_prev = solver.t_prev();
@@ -143,9 +150,14 @@ pub fn integrate<F: ODE<f64, Vec<f64>>>(
                 }
                 let (f0, f1) = ends.as_ref().expect("set above");
                 let yk = dense_output(&mut solver, tk, f0, f1).map_err(integration_error)?;
-                sample(tk, &yk);
-            }
+                sample(tk, &yk)
+            };
             next_k += 1;
+            if !go_on {
+                stats.stopped = true;
+                stats.rhs_evaluations = guarded.evals.get();
+                return Ok(stats);
+            }
         }
         if let Some((_, f1)) = ends {
             deriv_cache = Some((t_new, f1));

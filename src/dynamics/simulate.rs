@@ -119,13 +119,6 @@ pub fn simulate(
     opts: &SimOptions,
     progress: &mut dyn FnMut(f64) -> bool,
 ) -> Result<Trajectory> {
-    check_options(opts)?;
-    let n = sys.n();
-    let ode = ConstrainedOde::new(sys);
-    let proj_ws = RefCell::new(DynWorkspace::new(sys));
-    let y0: Vec<f64> = start.q.iter().chain(&start.v).copied().collect();
-    let max_residual = std::cell::Cell::new(0.0f64);
-    let drift = std::cell::Cell::new(0.0f64);
     let mut traj = Trajectory {
         coordinates: sys.coordinates.clone(),
         t: Vec::new(),
@@ -133,6 +126,40 @@ pub fn simulate(
         v: Vec::new(),
         stats: SimStats::default(),
     };
+    traj.stats = simulate_with(
+        sys,
+        start,
+        opts,
+        &mut |t, q, v| {
+            traj.t.push(t);
+            traj.q.push(q.to_vec());
+            traj.v.push(v.to_vec());
+            true
+        },
+        progress,
+    )?;
+    Ok(traj)
+}
+
+/// [`simulate`], streaming: every written sample (t, q, v) goes to `sink` as it is
+/// computed, and nothing is kept (memory flat in the run's length). `sink` returns
+/// `false` to end the run there, cleanly (a steady state found, a file full). The
+/// refusal of a run whose constraints could not be kept comes after the samples: a
+/// caller writing a file writes it to a temporary and keeps it only on success.
+pub fn simulate_with(
+    sys: &System,
+    start: &State,
+    opts: &SimOptions,
+    sink: &mut dyn FnMut(f64, &[f64], &[f64]) -> bool,
+    progress: &mut dyn FnMut(f64) -> bool,
+) -> Result<SimStats> {
+    check_options(opts)?;
+    let n = sys.nq();
+    let ode = ConstrainedOde::new(sys);
+    let proj_ws = RefCell::new(DynWorkspace::new(sys));
+    let y0: Vec<f64> = start.q.iter().chain(&start.v).copied().collect();
+    let max_residual = std::cell::Cell::new(0.0f64);
+    let drift = std::cell::Cell::new(0.0f64);
     let mut projections = 0;
     let iopts = IntegratorOptions {
         t0: start.t,
@@ -142,6 +169,7 @@ pub fn simulate(
         atol: opts.atol,
         max_steps: opts.max_steps,
     };
+    let (mut q, mut v) = (vec![0.0; n], vec![0.0; y0.len() - n]);
     let istats = integrate(
         &ode,
         &y0,
@@ -149,8 +177,8 @@ pub fn simulate(
         // Samples from the dense output lie between projected step ends: project them too
         // when they drift past the tolerance, so every written state is consistent.
         &mut |t, y| {
-            let mut q = y[..n].to_vec();
-            let mut v = y[n..].to_vec();
+            q.copy_from_slice(&y[..n]);
+            v.copy_from_slice(&y[n..]);
             let pos = residual_norm(sys, &q, t);
             drift.set(drift.get().max(pos));
             // the residual of the written sample: `pos` unless it was projected
@@ -169,9 +197,7 @@ pub fn simulate(
             } else {
                 m.max(r)
             });
-            traj.t.push(t);
-            traj.q.push(q);
-            traj.v.push(v);
+            sink(t, &q, &v)
         },
         // Drift: project when the residual exceeds the tolerance.
         &mut |t, y| {
@@ -204,7 +230,7 @@ pub fn simulate(
             "tighten --rtol/--atol (the defaults are 1e-10 and 1e-12); if that does not help, the mechanism may pass a singular pose",
         ));
     }
-    traj.stats = SimStats {
+    Ok(SimStats {
         accepted_steps: istats.accepted_steps,
         rejected_steps: istats.rejected_steps,
         rhs_evaluations: istats.rhs_evaluations,
@@ -212,8 +238,7 @@ pub fn simulate(
         svd_solves: ode.ws.borrow().svd_solves,
         max_constraint_residual: max_residual.get(),
         max_drift: drift.get(),
-    };
-    Ok(traj)
+    })
 }
 
 fn check_options(o: &SimOptions) -> Result<()> {

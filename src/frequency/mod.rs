@@ -2,9 +2,9 @@
 //! measured by Fourier projection, swept independently (in parallel) or sequentially
 //! (up / down, to reveal jumps), with every resonance located by refinement.
 //!
-//! Per frequency ω (period T = 2π/ω) the motion is integrated one period at a time from
-//! t = 0 to T (the forcing is T-periodic). The state at the end of each period is a point
-//! of the Poincaré map; the response has settled when successive points agree to the
+//! Per frequency ω (period T = 2π/ω) the motion is integrated continuously from t = 0 (the
+//! forcing is T-periodic), restarted only where the state jumps (an extrapolation). The
+//! state at the end of each period is a point of the Poincaré map; the response has settled when successive points agree to the
 //! settling tolerance relative to the response amplitude, or, for a period-k response
 //! (k = 2..4), when points k periods apart agree. Convergence of the lightly damped
 //! transients is accelerated by minimal polynomial extrapolation (MPE) of the Poincaré
@@ -17,7 +17,7 @@
 pub mod measure;
 
 use crate::diag::{Error, Result};
-use crate::dynamics::simulate::{SimOptions, simulate};
+use crate::dynamics::simulate::SimOptions;
 use crate::dynamics::{DynWorkspace, State, project_position, project_velocity};
 use crate::statics::{Equilibrium, Statics};
 use crate::system::System;
@@ -75,6 +75,10 @@ pub struct SteadyState {
 }
 
 /// Steady response at ω from `start` (t = 0 at forcing phase 0).
+///
+/// The motion is integrated continuously across periods (one integration, sampled
+/// `opts.samples` times a period); a run is restarted only where the Poincaré sequence is
+/// extrapolated (or an extrapolation is undone), since the state then jumps.
 pub fn steady_state(
     sys: &System,
     start: &State,
@@ -84,102 +88,171 @@ pub fn steady_state(
     cancel: &AtomicBool,
 ) -> Result<SteadyState> {
     let period = 2.0 * std::f64::consts::PI / omega;
-    let sim = SimOptions {
-        t_end: period,
-        dt_out: period / opts.samples as f64,
-        rtol: opts.rtol,
-        atol: opts.atol,
-        ..SimOptions::default()
-    };
+    let per = opts.samples;
     let dof = sys
         .nv()
         .saturating_sub(crate::dynamics::constraint_rank(sys, &start.q, 0.0));
-    let order = (2 * dof).clamp(1, 8);
-    let mut ws = DynWorkspace::new(sys);
-    let mut state = State {
-        t: 0.0,
-        q: start.q.clone(),
-        v: start.v.clone(),
+    let mut map = Poincare {
+        sys,
+        ws: DynWorkspace::new(sys),
+        q_ref: start.q.clone(),
+        order: (2 * dof).clamp(1, 8),
+        points: Vec::new(),
+        recent: Vec::new(),
+        extrapolate: opts.extrapolate,
+        pending_check: None,
+        last_change: f64::INFINITY,
+        responses,
+        opts,
+        omega,
     };
-    // Poincaré points since the last extrapolation, and the sampled last 4 periods.
-    let q_ref = start.q.clone();
-    let pack = |s: &State| pack(sys, &q_ref, s);
-    let mut points: Vec<DVector<f64>> = vec![pack(&state)];
-    let mut recent: Vec<Vec<Vec<f64>>> = Vec::new();
-    let mut extrapolate = opts.extrapolate;
-    let mut pending_check: Option<(f64, State)> = None;
-    let mut last_change = f64::INFINITY;
-    if let Some(count) = opts.fixed_periods {
-        for _ in 0..count {
-            if cancel.load(Ordering::Relaxed) {
-                return Err(Error::numerical("interrupted", "the sweep was interrupted"));
-            }
-            let traj = simulate(sys, &state, &sim, &mut |_| !cancel.load(Ordering::Relaxed))?;
-            let k_last = traj.t.len() - 1;
-            recent = vec![
-                responses
-                    .iter()
-                    .map(|&i| traj.q[..k_last].iter().map(|q| q[i]).collect())
-                    .collect(),
-            ];
-            state = State {
-                t: 0.0,
-                q: traj.q[k_last].clone(),
-                v: traj.v[k_last].clone(),
-            };
-        }
-        let measures = (0..responses.len())
-            .map(|r| Measures::of(&recent[0][r], 1))
-            .collect();
-        return Ok(SteadyState {
-            omega,
-            settled: false,
-            periods: count,
-            period_multiple: 1,
-            measures,
-            end: state,
-        });
-    }
-    for p in 1..=opts.max_periods {
+    map.points.push(map.pack(start));
+    let mut state = start.clone();
+    let total = opts.fixed_periods.unwrap_or(opts.max_periods);
+    let mut done = 0; // periods integrated
+    let mut outcome: Option<SteadyState> = None;
+    while done < total && outcome.is_none() {
         if cancel.load(Ordering::Relaxed) {
             return Err(Error::numerical("interrupted", "the sweep was interrupted"));
         }
-        let traj = simulate(sys, &state, &sim, &mut |_| !cancel.load(Ordering::Relaxed))?;
-        let k_last = traj.t.len() - 1;
-        // samples of this period (without the endpoint, which is the next period's start)
-        let period_samples: Vec<Vec<f64>> = responses
-            .iter()
-            .map(|&i| traj.q[..k_last].iter().map(|q| q[i]).collect())
-            .collect();
-        recent.push(period_samples);
-        if recent.len() > 4 {
-            recent.remove(0);
-        }
-        let end = State {
-            t: 0.0,
-            q: traj.q[k_last].clone(),
-            v: traj.v[k_last].clone(),
+        let sim = SimOptions {
+            t_end: (total - done) as f64 * period,
+            dt_out: period / per as f64,
+            rtol: opts.rtol,
+            atol: opts.atol,
+            ..SimOptions::default()
         };
-        let y = pack(&end);
-        let scale = amplitude_scale(&traj.q, &traj.v);
-        let change = relative_change(&y, points.last().expect("non-empty"), &scale);
+        // this period's samples (q, v), the first one being the previous period's end
+        let mut buf: Vec<(Vec<f64>, Vec<f64>)> = Vec::with_capacity(per + 1);
+        let mut restart: Option<State> = None;
+        let mut last = state.clone();
+        crate::dynamics::simulate::simulate_with(
+            sys,
+            &state,
+            &sim,
+            &mut |_, q, v| {
+                buf.push((q.to_vec(), v.to_vec()));
+                if buf.len() < per + 1 {
+                    return true;
+                }
+                done += 1;
+                let end = State {
+                    t: 0.0,
+                    q: q.to_vec(),
+                    v: v.to_vec(),
+                };
+                let action = if opts.fixed_periods.is_some() {
+                    map.record(&buf);
+                    Action::Continue
+                } else {
+                    map.period_end(&buf, &end, done)
+                };
+                last = end;
+                buf.drain(..per);
+                match action {
+                    Action::Continue => done < total,
+                    Action::Settled(s) => {
+                        outcome = Some(s);
+                        false
+                    }
+                    Action::Restart(s) => {
+                        restart = Some(s);
+                        false
+                    }
+                }
+            },
+            &mut |_| !cancel.load(Ordering::Relaxed),
+        )?;
+        state = restart.unwrap_or(last);
+    }
+    if let Some(s) = outcome {
+        return Ok(s);
+    }
+    // Not settled (or the fixed protocol): the last period's measures, flagged.
+    let measures = (0..responses.len())
+        .map(|r| Measures::of(&map.recent.last().expect("one period")[r], 1))
+        .collect();
+    Ok(SteadyState {
+        omega,
+        settled: false,
+        periods: total,
+        period_multiple: 1,
+        measures,
+        end: state,
+    })
+}
+
+/// What to do after a period.
+enum Action {
+    Continue,
+    Settled(SteadyState),
+    /// Restart from this state (an extrapolation, or one undone).
+    Restart(State),
+}
+
+/// The Poincaré map of one frequency: its points since the last extrapolation, the
+/// sampled last 4 periods, and the extrapolation's state.
+struct Poincare<'a> {
+    sys: &'a System,
+    ws: DynWorkspace,
+    q_ref: Vec<f64>,
+    order: usize,
+    points: Vec<DVector<f64>>,
+    /// Per period, per response: the samples (without the period's end).
+    recent: Vec<Vec<Vec<f64>>>,
+    extrapolate: bool,
+    pending_check: Option<(f64, State)>,
+    last_change: f64,
+    responses: &'a [usize],
+    opts: &'a SteadyOptions,
+    omega: f64,
+}
+
+impl Poincare<'_> {
+    fn pack(&self, s: &State) -> DVector<f64> {
+        pack(self.sys, &self.q_ref, s)
+    }
+
+    /// Keep the response samples of a period (`buf`: its samples and its end).
+    fn record(&mut self, buf: &[(Vec<f64>, Vec<f64>)]) {
+        let k_last = buf.len() - 1;
+        self.recent.push(
+            self.responses
+                .iter()
+                .map(|&i| buf[..k_last].iter().map(|s| s.0[i]).collect())
+                .collect(),
+        );
+        if self.recent.len() > 4 {
+            self.recent.remove(0);
+        }
+    }
+
+    /// The end of period `p` (`buf` its samples, `end` its end state).
+    fn period_end(&mut self, buf: &[(Vec<f64>, Vec<f64>)], end: &State, p: usize) -> Action {
+        let opts = self.opts;
+        self.record(buf);
+        let y = self.pack(end);
+        let qs: Vec<Vec<f64>> = buf.iter().map(|s| s.0.clone()).collect();
+        let vs: Vec<Vec<f64>> = buf.iter().map(|s| s.1.clone()).collect();
+        let scale = amplitude_scale(&qs, &vs);
+        let change = relative_change(&y, self.points.last().expect("non-empty"), &scale);
         // An extrapolation that made things worse is undone.
-        if let Some((before, fallback)) = pending_check.take()
+        if let Some((before, fallback)) = self.pending_check.take()
             && change > before
         {
-            extrapolate = false;
-            state = fallback;
-            points = vec![pack(&state)];
-            continue;
+            self.extrapolate = false;
+            self.points = vec![self.pack(&fallback)];
+            return Action::Restart(fallback);
         }
-        points.push(y.clone());
+        self.points.push(y.clone());
+        let points = &self.points;
         // Settled with the forcing's period, or with k periods.
         for k in 1..=4 {
             // a period-k response repeats its whole cycle: the last k Poincaré points all
             // agree with the points k periods before them (a slowly decaying transient
             // that alternates can match once, not k times in a row)
             let need = if k == 1 { 2 } else { 2 * k };
-            if points.len() >= need && recent.len() >= k {
+            if points.len() >= need && self.recent.len() >= k {
                 let len = points.len();
                 let c = (0..if k == 1 { 1 } else { k })
                     .map(|j| {
@@ -192,55 +265,45 @@ pub fn steady_state(
                             <= opts.settle_tol
                 });
                 if c <= opts.settle_tol && !shorter {
-                    let window = &recent[recent.len() - k..];
-                    let measures = (0..responses.len())
+                    let window = &self.recent[self.recent.len() - k..];
+                    let measures = (0..self.responses.len())
                         .map(|r| {
                             let samples: Vec<f64> =
                                 window.iter().flat_map(|w| w[r].iter().copied()).collect();
                             Measures::of(&samples, k)
                         })
                         .collect();
-                    return Ok(SteadyState {
-                        omega,
+                    return Action::Settled(SteadyState {
+                        omega: self.omega,
                         settled: true,
                         periods: p,
                         period_multiple: k,
                         measures,
-                        end,
+                        end: end.clone(),
                     });
                 }
             }
         }
-        state = end;
         // Extrapolate the Poincaré sequence once enough points are in.
-        if extrapolate
-            && points.len() >= order + 2
-            && change < last_change
-            && let Some(s) = mpe(&points[points.len() - order - 2..])
+        let mut action = Action::Continue;
+        if self.extrapolate
+            && points.len() >= self.order + 2
+            && change < self.last_change
+            && let Some(s) = mpe(&points[points.len() - self.order - 2..])
         {
-            let mut guess = unpack(sys, &q_ref, &s);
-            project_position(sys, &mut ws, &mut guess.q, 0.0, 1e-14, 10);
-            project_velocity(sys, &mut ws, &guess.q, &mut guess.v, 0.0);
+            let sys = self.sys;
+            let mut guess = unpack(sys, &self.q_ref, &s);
+            project_position(sys, &mut self.ws, &mut guess.q, 0.0, 1e-14, 10);
+            project_velocity(sys, &mut self.ws, &guess.q, &mut guess.v, 0.0);
             if guess.q.iter().chain(&guess.v).all(|x| x.is_finite()) {
-                pending_check = Some((change, state.clone()));
-                points = vec![pack(&guess)];
-                state = guess;
+                self.pending_check = Some((change, end.clone()));
+                self.points = vec![self.pack(&guess)];
+                action = Action::Restart(guess);
             }
         }
-        last_change = change;
+        self.last_change = change;
+        action
     }
-    // Not settled: report the last period's measures, flagged.
-    let measures = (0..responses.len())
-        .map(|r| Measures::of(&recent.last().expect("one period")[r], 1))
-        .collect();
-    Ok(SteadyState {
-        omega,
-        settled: false,
-        periods: opts.max_periods,
-        period_multiple: 1,
-        measures,
-        end: state,
-    })
 }
 
 /// A state as one vector for the Poincaré sequence: the coordinates as the tangent from
