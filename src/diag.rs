@@ -85,8 +85,24 @@ pub enum Error {
         message: String,
         help: Option<String>,
     },
+    /// A computation that could not be completed, with its numbers (typed: a caller can
+    /// tell one from another and add its own advice), and what it was doing (`context`,
+    /// outermost first).
+    Failed {
+        failure: crate::failure::Failure,
+        context: Vec<String>,
+    },
     /// Reading or writing a file.
     Io { path: String, message: String },
+}
+
+impl From<crate::failure::Failure> for Error {
+    fn from(failure: crate::failure::Failure) -> Self {
+        Error::Failed {
+            failure,
+            context: Vec::new(),
+        }
+    }
 }
 
 pub type Result<T> = std::result::Result<T, Error>;
@@ -122,7 +138,22 @@ impl Error {
                     diagnostics,
                 }
             }
+            Error::Failed {
+                failure,
+                mut context,
+            } => {
+                context.insert(0, what.to_string());
+                Error::Failed { failure, context }
+            }
             other => other,
+        }
+    }
+
+    /// The typed failure, if this is one.
+    pub fn failure(&self) -> Option<&crate::failure::Failure> {
+        match self {
+            Error::Failed { failure, .. } => Some(failure),
+            _ => None,
         }
     }
 
@@ -142,7 +173,26 @@ impl Error {
     /// The full human-readable report: for model errors, `file:line:col`, the source line
     /// with the span marked, and the help line.
     pub fn render(&self, color: bool) -> String {
+        self.render_with(color, &|_| None)
+    }
+
+    /// [`Error::render`], with `advice` giving the help line of a typed failure (the
+    /// command line names its flags there); where it gives none, the failure's own hint.
+    pub fn render_with(
+        &self,
+        color: bool,
+        advice: &dyn Fn(&crate::failure::Failure) -> Option<String>,
+    ) -> String {
         match self {
+            Error::Failed { failure, context } => {
+                let mut message = String::new();
+                for c in context {
+                    message.push_str(c);
+                    message.push_str(": ");
+                }
+                let help = advice(failure).unwrap_or_else(|| failure.hint());
+                format!("error: {message}{failure}\nhelp: {help}\n")
+            }
             Error::Model {
                 source,
                 diagnostics,

@@ -16,6 +16,7 @@
 
 pub mod diag;
 pub mod dynamics;
+pub mod failure;
 pub mod frequency;
 pub mod linalg;
 pub mod linear;

@@ -8,6 +8,7 @@
 //! the constrained dynamics, or a hand-written minimal-coordinate model in a benchmark.
 
 use crate::diag::{Error, Result};
+use crate::failure::Failure;
 use differential_equations::interpolate::Interpolation;
 use differential_equations::ode::{ODE, OrdinaryNumericalMethod};
 use differential_equations::prelude::ExplicitRungeKutta;
@@ -114,13 +115,11 @@ pub fn integrate<F: ODE<f64, Vec<f64>>>(
             solver.set_h(t_end - t);
         }
         if stats.accepted_steps + stats.rejected_steps >= opts.max_steps {
-            return Err(Error::numerical(
-                format!(
-                    "the integration stopped at t = {t:.6} s after {} steps",
-                    opts.max_steps
-                ),
-                "loosen --rtol/--atol or shorten the run; a very small step points to a singular pose",
-            ));
+            return Err(Failure::StepLimit {
+                t,
+                steps: opts.max_steps,
+            }
+            .into());
         }
         let r = solver.step(&guarded);
         if let Some(tb) = guarded.non_finite.get() {
@@ -163,10 +162,7 @@ pub fn integrate<F: ODE<f64, Vec<f64>>>(
             deriv_cache = Some((t_new, f1));
         }
         if !progress((t_new - t0) / span) {
-            return Err(Error::numerical(
-                format!("interrupted at t = {t_new:.6} s"),
-                "the run was cancelled",
-            ));
+            return Err(Failure::Interrupted { t: t_new }.into());
         }
         if next_k > last_k {
             break;
@@ -234,33 +230,24 @@ fn dense_output<S: Interpolation<f64, Vec<f64>> + OrdinaryNumericalMethod<f64, V
 }
 
 fn non_finite_error(t: f64) -> Error {
-    Error::numerical(
-        format!(
-            "the equations of motion produced a non-finite value (NaN or infinity) at t = {t:.6} s"
-        ),
-        "an expression in a force or constraint is undefined there (sqrt or ln of a negative number, division by zero), or the mechanism reached a singular pose",
-    )
+    Failure::NonFinite { t }.into()
 }
 
 fn integration_error(e: differential_equations::error::Error<f64, Vec<f64>>) -> Error {
     use differential_equations::error::Error as E;
     match e {
-        E::StepSize { t, .. } => Error::numerical(
-            format!("the step size fell to zero at t = {t:.6} s"),
-            "the mechanism may be at a singular pose (a rank loss of the constraints) or the forces change abruptly; check the model, or loosen --rtol/--atol",
-        ),
-        E::MaxSteps { t, .. } => Error::numerical(
-            format!("too many steps at t = {t:.6} s"),
-            "loosen --rtol/--atol or shorten the run",
-        ),
-        E::Stiffness { t, .. } => Error::numerical(
-            format!("the problem became stiff at t = {t:.6} s"),
-            "a very stiff spring or damper makes an explicit integrator crawl; soften it or shorten the run",
-        ),
-        E::BadInput { msg } => Error::numerical(
-            format!("integration failed: {msg}"),
-            "check --t-end, --rtol and --atol",
-        ),
-        other => Error::numerical(format!("integration failed: {other:?}"), "check the model"),
+        E::StepSize { t, .. } => Failure::StepSizeUnderflow { t }.into(),
+        E::MaxSteps { t, .. } => Failure::TooManySteps { t }.into(),
+        E::Stiffness { t, .. } => Failure::Stiff { t }.into(),
+        E::BadInput { msg } => Failure::Integrator {
+            message: msg,
+            bad_input: true,
+        }
+        .into(),
+        other => Failure::Integrator {
+            message: format!("{other:?}"),
+            bad_input: false,
+        }
+        .into(),
     }
 }

@@ -13,7 +13,8 @@
 pub mod integrator;
 pub mod simulate;
 
-use crate::diag::{Error, Result};
+use crate::diag::Result;
+use crate::failure::Failure;
 use crate::linalg::{CHOL_TOL, Envelope};
 pub use crate::linalg::{RANK_TOL, all_finite, pinv_solve};
 use crate::system::{System, Workspace};
@@ -295,13 +296,10 @@ pub fn assemble(sys: &System) -> Result<State> {
     let init = &sys.initial;
     let mut q = init.q.clone();
     if let Some(i) = q.iter().position(|x| !x.is_finite()) {
-        return Err(Error::numerical(
-            format!(
-                "the initial pose cannot be assembled: the guess for `{}` is undefined (NaN) with these parameters",
-                sys.coordinates[i]
-            ),
-            "the mechanism probably cannot close in this configuration (a link too short to reach); check the parameters and the fixed coordinates, or give a guess that stays defined",
-        ));
+        return Err(Failure::UndefinedGuess {
+            coordinate: sys.coordinates[i].clone(),
+        }
+        .into());
     }
     let free: Vec<usize> = (0..n).filter(|&i| !init.fixed[i]).collect();
     let mut ws = DynWorkspace::new(sys);
@@ -339,36 +337,29 @@ pub fn assemble(sys: &System) -> Result<State> {
         }
     }
     if let Some(i) = (0..sys.m()).find(|&i| !phi[i].is_finite()) {
-        return Err(Error::numerical(
-            format!(
-                "the initial pose cannot be assembled: the constraint `{}` is undefined ({}) at the pose reached after {iterations} iterations",
-                sys.constraint_names[i], phi[i]
-            ),
-            "check its expression: sqrt or ln of a negative number, or a division by zero, at the guessed pose",
-        ));
+        return Err(Failure::UndefinedConstraint {
+            constraint: sys.constraint_names[i].clone(),
+            value: phi[i],
+            iterations,
+        }
+        .into());
     }
     if norm > 1e-9 || !norm.is_finite() {
         let worst = (0..sys.m())
             .max_by(|&i, &j| phi[i].abs().total_cmp(&phi[j].abs()))
             .map(|i| sys.constraint_names[i].clone())
             .unwrap_or_default();
-        let fixed: Vec<String> = (0..n)
+        let fixed: Vec<(String, f64)> = (0..n)
             .filter(|&i| init.fixed[i])
-            .map(|i| format!("{} = {}", sys.coordinates[i], init.q[i]))
+            .map(|i| (sys.coordinates[i].clone(), init.q[i]))
             .collect();
-        return Err(Error::numerical(
-            format!(
-                "the initial pose cannot be assembled: constraint residual {norm:.3e} after {iterations} iterations (worst: `{worst}`)"
-            ),
-            format!(
-                "no pose satisfies the constraints with {}; check those values and the guesses of the other coordinates",
-                if fixed.is_empty() {
-                    "the guesses given".to_string()
-                } else {
-                    fixed.join(", ")
-                }
-            ),
-        ));
+        return Err(Failure::NoAssembly {
+            residual: norm,
+            iterations,
+            worst,
+            fixed,
+        }
+        .into());
     }
     // Velocities: the given ones are held; the others start at rest relative to the
     // ground (which may move) and are corrected to the constraints, minimum norm.
@@ -388,12 +379,7 @@ pub fn assemble(sys: &System) -> Result<State> {
         }
         let after = velocity_residual(sys, &mut ws, &q, &v, t).amax();
         if after > 1e-8 * (1.0 + v.iter().fold(0.0f64, |a, x| a.max(x.abs()))) {
-            return Err(Error::numerical(
-                format!(
-                    "the initial velocities are inconsistent with the constraints (residual {after:.3e})"
-                ),
-                "give fewer initial velocities, or velocities the joints allow",
-            ));
+            return Err(Failure::InconsistentVelocities { residual: after }.into());
         }
     }
     Ok(State { t, q, v })

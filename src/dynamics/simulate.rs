@@ -9,6 +9,7 @@ use super::{
     velocity_residual,
 };
 use crate::diag::{Error, Result};
+use crate::failure::Failure;
 use crate::system::System;
 use differential_equations::ode::ODE;
 use std::cell::RefCell;
@@ -222,13 +223,10 @@ pub fn simulate_with(
     // and the trajectory is not a motion of the mechanism: refuse it rather than write it.
     let limit = 1e-6f64.max(100.0 * SAMPLE_TOL_FACTOR * opts.projection_tol);
     if !(max_residual.get() <= limit) {
-        return Err(Error::numerical(
-            format!(
-                "the constraints could not be kept: the largest constraint residual reached {:.3e}",
-                max_residual.get()
-            ),
-            "tighten --rtol/--atol (the defaults are 1e-10 and 1e-12); if that does not help, the mechanism may pass a singular pose",
-        ));
+        return Err(Failure::ConstraintsNotKept {
+            residual: max_residual.get(),
+        }
+        .into());
     }
     Ok(SimStats {
         accepted_steps: istats.accepted_steps,

@@ -19,6 +19,7 @@ pub mod measure;
 use crate::diag::{Error, Result};
 use crate::dynamics::simulate::SimOptions;
 use crate::dynamics::{DynWorkspace, State, project_position, project_velocity};
+use crate::failure::Failure;
 use crate::statics::{Equilibrium, Statics};
 use crate::system::System;
 use measure::Measures;
@@ -113,7 +114,7 @@ pub fn steady_state(
     let mut outcome: Option<SteadyState> = None;
     while done < total && outcome.is_none() {
         if cancel.load(Ordering::Relaxed) {
-            return Err(Error::numerical("interrupted", "the sweep was interrupted"));
+            return Err(Failure::SweepInterrupted.into());
         }
         let sim = SimOptions {
             t_end: (total - done) as f64 * period,

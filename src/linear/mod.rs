@@ -27,6 +27,7 @@
 //! mapped back to the model's coordinates by N. Undamped: eig(M_r⁻¹ K_r).
 
 use crate::diag::{Error, Result};
+use crate::failure::Failure;
 use crate::statics::{Equilibrium, Statics, generalized_eigenvalues};
 use crate::system::System;
 use nalgebra::{Complex, DMatrix, DVector};
@@ -262,21 +263,12 @@ impl Linearization {
             self.stiffness.norm() + omega * omega * self.mass.norm() + omega * self.damping.norm();
         let sv = dynamic.clone().svd(false, false).singular_values;
         if !sv.is_empty() && sv.min() <= 1e-10 * scale {
-            return Err(Error::numerical(
-                format!(
-                    "the linear system is singular at ω = {omega} rad/s (an undamped resonance: the response is unbounded)"
-                ),
-                "add damping or step around that frequency",
-            ));
+            return Err(Failure::UndampedResonance { omega }.into());
         }
-        let x = dynamic.lu().solve(&rhs).ok_or_else(|| {
-            Error::numerical(
-                format!(
-                    "the linear system is singular at ω = {omega} rad/s (an undamped resonance)"
-                ),
-                "add damping or step around that frequency",
-            )
-        })?;
+        let x = dynamic
+            .lu()
+            .solve(&rhs)
+            .ok_or(Failure::UndampedResonance { omega })?;
         Ok(match particular {
             None => nb * x,
             Some(yp) => nb * x + yp,

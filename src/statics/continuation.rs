@@ -18,6 +18,7 @@
 
 use super::{Statics, solve_least_squares};
 use crate::diag::{Error, Result};
+use crate::failure::Failure;
 use crate::system::System;
 use nalgebra::{DMatrix, DVector};
 
@@ -360,13 +361,13 @@ pub fn continue_equilibria(sys: &System, opts: &ContinuationOptions) -> Result<B
         let Some((mut next, iters)) = corrected else {
             ds = s * 0.5;
             if ds < min_ds {
-                return Err(Error::numerical(
-                    format!(
-                        "continuation stopped at {} = {}: the corrector does not converge even with steps of {min_ds:.3e} (--step {:.3e} / 1e6)",
-                        opts.param, cur.y[d], opts.step
-                    ),
-                    "the branch may end here (a singular pose or no equilibrium), or --step is far too large for this model (the default is the range / 50): try a smaller --step",
-                ));
+                return Err(Failure::ContinuationStalled {
+                    param: opts.param.clone(),
+                    value: cur.y[d],
+                    step: opts.step,
+                    min_step: min_ds,
+                }
+                .into());
             }
             continue;
         };
@@ -377,13 +378,11 @@ pub fn continue_equilibria(sys: &System, opts: &ContinuationOptions) -> Result<B
         if dist > 1.5 * s.max(1e-3 * ds) || next.tau.component_mul(&w).dot(&cur.tau) < 0.9 {
             ds = s * 0.5;
             if ds < min_ds {
-                return Err(Error::numerical(
-                    format!(
-                        "continuation stopped at {} = {}: the branch turns too sharply to follow",
-                        opts.param, cur.y[d]
-                    ),
-                    "the branch may end here (a singular pose); try a smaller --step",
-                ));
+                return Err(Failure::BranchTurns {
+                    param: opts.param.clone(),
+                    value: cur.y[d],
+                }
+                .into());
             }
             continue;
         }

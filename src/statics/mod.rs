@@ -24,6 +24,7 @@ pub mod continuation;
 
 use crate::diag::{Error, Result};
 use crate::dynamics::{DynWorkspace, State};
+use crate::failure::Failure;
 pub use crate::linalg::{RANK_TOL, generalized_eigenvalues, null_space_of, solve_least_squares};
 use crate::scalar::{Env, Scalar};
 use crate::system::System;
@@ -387,10 +388,7 @@ impl<'a> Statics<'a> {
             Err(first) => {
                 let Ok(all) = self.all(start) else {
                     if free_jacobian_conditioning(self.sys, &start.q, &self.rows) < 1e-6 {
-                        return Err(Error::numerical(
-                            "no equilibrium found: the initial pose is (next to) a singular pose of the constraints, where their Jacobian loses rank and the assembly is ambiguous",
-                            "start away from it: change the coordinate the model fixes for assembly (for the overcentre, θ1 = ±90° is singular: --set theta1_0=1.4)",
-                        ));
+                        return Err(Failure::SingularStart.into());
                     }
                     return Err(first);
                 };
@@ -441,14 +439,12 @@ impl<'a> Statics<'a> {
                     .zip(&x)
                     .map(|(c, v)| format!("{c} = {v:.6}"))
                     .collect();
-                return Err(Error::numerical(
-                    format!(
-                        "no equilibrium found: residual {:.3e} after {it} iterations; last pose {}",
-                        r.amax(),
-                        pose.join(", ")
-                    ),
-                    "start closer to an equilibrium (e.g. --set the initial angle), or check that one exists for these loads",
-                ));
+                return Err(Failure::NoEquilibrium {
+                    residual: r.amax(),
+                    iterations: it,
+                    pose: pose.join(", "),
+                }
+                .into());
             }
             it += 1;
             let j = self.kkt_jacobian(&x);
@@ -516,10 +512,7 @@ impl<'a> Statics<'a> {
             }
         }
         if found.is_empty() {
-            return Err(Error::numerical(
-                "no equilibrium found on the assembly branch of the initial pose",
-                "check the loads: the mechanism may have no static equilibrium (e.g. a force larger than any spring can hold)",
-            ));
+            return Err(Failure::NoEquilibriumOnBranch.into());
         }
         let d0 = drivers[0];
         found.sort_by(|a, b| a.q[d0].total_cmp(&b.q[d0]));

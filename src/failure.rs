@@ -1,0 +1,196 @@
+//! Numerical failures as typed values that carry their numbers (times, residuals,
+//! iteration counts). The library says what happened, in physics; what to do about it
+//! with the command line's flags is the CLI's business (`cli::advice`), and
+//! [`Failure::hint`] is the flag-free hint a library user gets.
+
+/// A computation that could not be completed.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum Failure {
+    #[error("the integration stopped at t = {t:.6} s after {steps} steps")]
+    StepLimit { t: f64, steps: usize },
+    #[error("interrupted at t = {t:.6} s")]
+    Interrupted { t: f64 },
+    #[error("the sweep was interrupted")]
+    SweepInterrupted,
+    #[error(
+        "the equations of motion produced a non-finite value (NaN or infinity) at t = {t:.6} s"
+    )]
+    NonFinite { t: f64 },
+    #[error("the step size fell to zero at t = {t:.6} s")]
+    StepSizeUnderflow { t: f64 },
+    #[error("too many steps at t = {t:.6} s")]
+    TooManySteps { t: f64 },
+    #[error("the problem became stiff at t = {t:.6} s")]
+    Stiff { t: f64 },
+    #[error("integration failed: {message}")]
+    Integrator { message: String, bad_input: bool },
+    #[error(
+        "the initial pose cannot be assembled: the guess for `{coordinate}` is undefined (NaN) with these parameters"
+    )]
+    UndefinedGuess { coordinate: String },
+    #[error(
+        "the initial pose cannot be assembled: the constraint `{constraint}` is undefined ({value}) at the pose reached after {iterations} iterations"
+    )]
+    UndefinedConstraint {
+        constraint: String,
+        value: f64,
+        iterations: usize,
+    },
+    #[error(
+        "the initial pose cannot be assembled: constraint residual {residual:.3e} after {iterations} iterations (worst: `{worst}`)"
+    )]
+    NoAssembly {
+        residual: f64,
+        iterations: usize,
+        worst: String,
+        /// The coordinates held during assembly and their values.
+        fixed: Vec<(String, f64)>,
+    },
+    #[error(
+        "the initial velocities are inconsistent with the constraints (residual {residual:.3e})"
+    )]
+    InconsistentVelocities { residual: f64 },
+    #[error(
+        "the constraints could not be kept: the largest constraint residual reached {residual:.3e}"
+    )]
+    ConstraintsNotKept { residual: f64 },
+    #[error(
+        "continuation stopped at {param} = {value}: the corrector does not converge even with steps of {min_step:.3e} (the largest step {step:.3e} / 1e6)"
+    )]
+    ContinuationStalled {
+        param: String,
+        value: f64,
+        step: f64,
+        min_step: f64,
+    },
+    #[error("continuation stopped at {param} = {value}: the branch turns too sharply to follow")]
+    BranchTurns { param: String, value: f64 },
+    #[error(
+        "no equilibrium found: the initial pose is (next to) a singular pose of the constraints, where their Jacobian loses rank and the assembly is ambiguous"
+    )]
+    SingularStart,
+    #[error(
+        "no equilibrium found: residual {residual:.3e} after {iterations} iterations; last pose {pose}"
+    )]
+    NoEquilibrium {
+        residual: f64,
+        iterations: usize,
+        pose: String,
+    },
+    #[error("no equilibrium found on the assembly branch of the initial pose")]
+    NoEquilibriumOnBranch,
+    #[error(
+        "the linear system is singular at ω = {omega} rad/s (an undamped resonance: the response is unbounded)"
+    )]
+    UndampedResonance { omega: f64 },
+}
+
+impl Failure {
+    /// What the numbers suggest, without naming any command-line flag.
+    pub fn hint(&self) -> String {
+        use Failure::*;
+        match self {
+            StepLimit { .. } | TooManySteps { .. } => {
+                "loosen the integration tolerances or shorten the run; a very small step points to a singular pose".into()
+            }
+            Interrupted { .. } => "the run was cancelled".into(),
+            SweepInterrupted => "the sweep was interrupted".into(),
+            NonFinite { .. } => "an expression in a force or constraint is undefined there (sqrt or ln of a negative number, division by zero), or the mechanism reached a singular pose".into(),
+            StepSizeUnderflow { .. } => "the mechanism may be at a singular pose (a rank loss of the constraints) or the forces change abruptly; check the model, or loosen the integration tolerances".into(),
+            Stiff { .. } => "a very stiff spring or damper makes an explicit integrator crawl; soften it or shorten the run".into(),
+            Integrator { bad_input: true, .. } => "check the run's length and tolerances".into(),
+            Integrator { .. } => "check the model".into(),
+            UndefinedGuess { .. } => "the mechanism probably cannot close in this configuration (a link too short to reach); check the parameters and the fixed coordinates, or give a guess that stays defined".into(),
+            UndefinedConstraint { .. } => "check its expression: sqrt or ln of a negative number, or a division by zero, at the guessed pose".into(),
+            NoAssembly { fixed, .. } => format!(
+                "no pose satisfies the constraints with {}; check those values and the guesses of the other coordinates",
+                if fixed.is_empty() {
+                    "the guesses given".to_string()
+                } else {
+                    fixed
+                        .iter()
+                        .map(|(c, v)| format!("{c} = {v}"))
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                }
+            ),
+            InconsistentVelocities { .. } => "give fewer initial velocities, or velocities the joints allow".into(),
+            ConstraintsNotKept { .. } => "tighten the integration tolerances; if that does not help, the mechanism may pass a singular pose".into(),
+            ContinuationStalled { .. } => "the branch may end here (a singular pose or no equilibrium), or the step is far too large for this model: try a smaller one".into(),
+            BranchTurns { .. } => "the branch may end here (a singular pose); try a smaller step".into(),
+            SingularStart => "start away from it: change the coordinate the model fixes for assembly".into(),
+            NoEquilibrium { .. } => "start closer to an equilibrium (another initial pose), or check that one exists for these loads".into(),
+            NoEquilibriumOnBranch => "check the loads: the mechanism may have no static equilibrium (e.g. a force larger than any spring can hold)".into(),
+            UndampedResonance { .. } => "add damping or step around that frequency".into(),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn library_messages_and_hints_name_no_flag() {
+        let all = [
+            Failure::StepLimit { t: 1.0, steps: 10 },
+            Failure::Interrupted { t: 1.0 },
+            Failure::SweepInterrupted,
+            Failure::NonFinite { t: 1.0 },
+            Failure::StepSizeUnderflow { t: 1.0 },
+            Failure::TooManySteps { t: 1.0 },
+            Failure::Stiff { t: 1.0 },
+            Failure::Integrator {
+                message: "x".into(),
+                bad_input: true,
+            },
+            Failure::UndefinedGuess {
+                coordinate: "b.x".into(),
+            },
+            Failure::UndefinedConstraint {
+                constraint: "c".into(),
+                value: f64::NAN,
+                iterations: 3,
+            },
+            Failure::NoAssembly {
+                residual: 1e-3,
+                iterations: 100,
+                worst: "J.x".into(),
+                fixed: vec![("bar1.theta".into(), 0.7)],
+            },
+            Failure::InconsistentVelocities { residual: 1.0 },
+            Failure::ConstraintsNotKept { residual: 1e-3 },
+            Failure::ContinuationStalled {
+                param: "Fs".into(),
+                value: 1.0,
+                step: 0.5,
+                min_step: 5e-7,
+            },
+            Failure::BranchTurns {
+                param: "Fs".into(),
+                value: 1.0,
+            },
+            Failure::SingularStart,
+            Failure::NoEquilibrium {
+                residual: 1.0,
+                iterations: 50,
+                pose: "b.x = 1".into(),
+            },
+            Failure::NoEquilibriumOnBranch,
+            Failure::UndampedResonance { omega: 4.0 },
+        ];
+        for f in &all {
+            let (m, h) = (f.to_string(), f.hint());
+            assert!(!m.contains("--") && !h.contains("--"), "{m} / {h}");
+            assert!(!m.is_empty() && !h.is_empty());
+        }
+        // the numbers are carried, and shown
+        let f = Failure::NoAssembly {
+            residual: 1.5e-3,
+            iterations: 100,
+            worst: "J.x".into(),
+            fixed: vec![("bar1.theta".into(), 0.7)],
+        };
+        assert!(f.to_string().contains("1.500e-3") && f.hint().contains("bar1.theta = 0.7"));
+    }
+}
