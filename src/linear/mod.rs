@@ -430,7 +430,7 @@ pub fn harmonic_forcing(
     {
         return Err(Error::request(
             format!("zero forcing: the model's loads have no harmonic part at {param} = {omega}"),
-            "give the forcing an amplitude (for the overcentre, --set F0=1), or check that the forcing depends on this parameter",
+            "give the forcing (a load or a ground motion) an amplitude, or check that it depends on this parameter",
         ));
     }
     Ok(forcing)
