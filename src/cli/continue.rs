@@ -1,0 +1,177 @@
+//! `detune continue`: equilibria followed through limit points while a parameter
+//! changes (pseudo-arclength), folds and branch points located.
+
+use super::args::ModelArgs;
+use super::{print_json, unit_of};
+use clap::Args;
+use detune::diag::Result;
+use detune::output::plot::{LinePlot, Series, Style, write_line_plot};
+use detune::output::results::{branch_json, write_branch_csv};
+use detune::output::{Provenance, check_outputs};
+use detune::statics::continuation::{
+    Branch, BranchPoint, ContinuationOptions, continue_equilibria,
+};
+use detune::{Model, System};
+
+#[derive(Args)]
+pub struct ContinueArgs {
+    #[command(flatten)]
+    pub model: ModelArgs,
+    /// Parameter to vary.
+    #[arg(long, value_name = "NAME")]
+    pub param: String,
+    /// Start value (SI).
+    #[arg(long, value_name = "A", allow_hyphen_values = true)]
+    pub from: f64,
+    /// End value (SI).
+    #[arg(long, value_name = "B", allow_hyphen_values = true)]
+    pub to: f64,
+    /// Largest arclength step, in the units of the coordinates and the parameter
+    /// [default: (B − A)/50].
+    #[arg(long, value_name = "S", allow_hyphen_values = true)]
+    pub step: Option<f64>,
+    /// Most continuation steps (points after the start point).
+    #[arg(long, default_value_t = 5000, value_name = "N")]
+    pub max_steps: usize,
+    /// Print the JSON summary (folds, branch points) instead of a table.
+    #[arg(long)]
+    pub json: bool,
+    /// CSV of the branch: `<param>,<coordinates>...,stable`.
+    #[arg(short = 'o', long = "output", value_name = "OUT.csv")]
+    pub output: Option<String>,
+    /// SVG of the branch (stable solid, unstable dashed, folds marked).
+    #[arg(long, value_name = "OUT.svg")]
+    pub plot: Option<String>,
+    /// Coordinate drawn against the parameter [default: the first angle].
+    #[arg(long, value_name = "NAME")]
+    pub plot_coordinate: Option<String>,
+}
+
+pub fn run(a: ContinueArgs) -> Result<()> {
+    let model = a.model.load()?;
+    check_outputs(
+        &model.source.path,
+        &[a.output.as_deref(), a.plot.as_deref()],
+    )?;
+    let opts = ContinuationOptions {
+        param: a.param.clone(),
+        from: a.from,
+        to: a.to,
+        step: a.step.unwrap_or((a.to - a.from).abs() / 50.0),
+        max_steps: a.max_steps,
+    };
+    // Every request is checked before the work, so a bad one leaves no file behind.
+    let sys = System::new(&model)?;
+    let idx = match &a.plot_coordinate {
+        Some(name) => detune::linear::coordinate(&sys, name, "--plot-coordinate")?,
+        None => detune::linear::default_reference(&sys),
+    };
+    let branch = continue_equilibria(&sys, &opts)?;
+    if let Some(o) = &a.output {
+        write_branch_csv(o, &branch)?;
+    }
+    if let Some(p) = &a.plot {
+        write_line_plot(p, &branch_plot(&model, &branch, idx))?;
+    }
+    if a.json {
+        print_json(&branch_json(&branch, &Provenance::of(&model)));
+    } else {
+        println!(
+            "{} points from {} = {} to {}{}",
+            branch.points.len(),
+            branch.param,
+            a.from,
+            branch.points.last().map_or(a.from, |p| p.value),
+            if branch.truncated {
+                " (stopped at --max-steps)"
+            } else {
+                ""
+            }
+        );
+        for f in &branch.folds {
+            println!(
+                "fold at {} = {:.10}: {}",
+                branch.param,
+                f.value,
+                pose(&sys, &f.q)
+            );
+        }
+        for b in &branch.branch_points {
+            println!(
+                "branch point at {} = {:.10}: {}",
+                branch.param,
+                b.value,
+                pose(&sys, &b.q)
+            );
+        }
+    }
+    for f in [&a.output, &a.plot].into_iter().flatten() {
+        eprintln!("wrote {f}");
+    }
+    Ok(())
+}
+
+fn pose(sys: &System, q: &[f64]) -> String {
+    sys.coordinates
+        .iter()
+        .zip(q)
+        .map(|(c, v)| format!("{c} = {v:.8}"))
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+/// The paper's Figure 6: the branch in (parameter, coordinate), stable solid, unstable
+/// dashed, folds marked.
+fn branch_plot(model: &Model, b: &Branch, idx: usize) -> LinePlot {
+    let mut series = Vec::new();
+    let mut seg: Vec<&BranchPoint> = Vec::new();
+    let flush = |seg: &mut Vec<&BranchPoint>, series: &mut Vec<Series>| {
+        if seg.len() > 1 {
+            let stable = seg[1].stable;
+            series.push(Series {
+                label: if stable {
+                    "stable".into()
+                } else {
+                    "unstable".into()
+                },
+                x: seg.iter().map(|p| p.value).collect(),
+                y: seg.iter().map(|p| p.q[idx]).collect(),
+                style: if stable { Style::Solid } else { Style::Dashed },
+            });
+        }
+        seg.clear();
+    };
+    for p in &b.points {
+        if let Some(last) = seg.last()
+            && last.stable != p.stable
+        {
+            seg.push(p);
+            flush(&mut seg, &mut series);
+        }
+        seg.push(p);
+    }
+    flush(&mut seg, &mut series);
+    if !b.folds.is_empty() {
+        series.push(Series {
+            label: "folds".into(),
+            x: b.folds.iter().map(|p| p.value).collect(),
+            y: b.folds.iter().map(|p| p.q[idx]).collect(),
+            style: Style::Markers,
+        });
+    }
+    if !b.branch_points.is_empty() {
+        series.push(Series {
+            label: "branch points".into(),
+            x: b.branch_points.iter().map(|p| p.value).collect(),
+            y: b.branch_points.iter().map(|p| p.q[idx]).collect(),
+            style: Style::Markers,
+        });
+    }
+    LinePlot {
+        title: format!("{}: equilibria against {}", model.name, b.param),
+        x_label: b.param.clone(),
+        y_label: format!("{} [{}]", b.coordinates[idx], unit_of(&b.coordinates[idx])),
+        series,
+        vertical: Vec::new(),
+    }
+}
