@@ -2,16 +2,15 @@
 //! changes (pseudo-arclength), folds and branch points located.
 
 use super::args::ModelArgs;
-use super::{print_json, unit_of};
+use super::print_json;
 use clap::Args;
+use detune::System;
 use detune::diag::Result;
-use detune::output::plot::{LinePlot, Series, Style, write_line_plot};
+use detune::output::figures::branch_figure;
+use detune::output::plot::write_line_plot;
 use detune::output::results::{branch_json, write_branch_csv};
 use detune::output::{Provenance, check_outputs};
-use detune::statics::continuation::{
-    Branch, BranchPoint, ContinuationOptions, continue_equilibria,
-};
-use detune::{Model, System};
+use detune::statics::continuation::{ContinuationOptions, continue_equilibria};
 
 #[derive(Args)]
 pub struct ContinueArgs {
@@ -71,7 +70,10 @@ pub fn run(a: ContinueArgs) -> Result<()> {
         write_branch_csv(o, &branch)?;
     }
     if let Some(p) = &a.plot {
-        write_line_plot(p, &branch_plot(&model, &branch, idx))?;
+        write_line_plot(
+            p,
+            &branch_figure(&model.name, &branch, idx, sys.is_angle(idx)),
+        )?;
     }
     if a.json {
         print_json(&branch_json(&branch, &Provenance::of(&model)));
@@ -118,60 +120,4 @@ fn pose(sys: &System, q: &[f64]) -> String {
         .map(|(c, v)| format!("{c} = {v:.8}"))
         .collect::<Vec<_>>()
         .join(", ")
-}
-
-/// The paper's Figure 6: the branch in (parameter, coordinate), stable solid, unstable
-/// dashed, folds marked.
-fn branch_plot(model: &Model, b: &Branch, idx: usize) -> LinePlot {
-    let mut series = Vec::new();
-    let mut seg: Vec<&BranchPoint> = Vec::new();
-    let flush = |seg: &mut Vec<&BranchPoint>, series: &mut Vec<Series>| {
-        if seg.len() > 1 {
-            let stable = seg[1].stable;
-            series.push(Series {
-                label: if stable {
-                    "stable".into()
-                } else {
-                    "unstable".into()
-                },
-                x: seg.iter().map(|p| p.value).collect(),
-                y: seg.iter().map(|p| p.q[idx]).collect(),
-                style: if stable { Style::Solid } else { Style::Dashed },
-            });
-        }
-        seg.clear();
-    };
-    for p in &b.points {
-        if let Some(last) = seg.last()
-            && last.stable != p.stable
-        {
-            seg.push(p);
-            flush(&mut seg, &mut series);
-        }
-        seg.push(p);
-    }
-    flush(&mut seg, &mut series);
-    if !b.folds.is_empty() {
-        series.push(Series {
-            label: "folds".into(),
-            x: b.folds.iter().map(|p| p.value).collect(),
-            y: b.folds.iter().map(|p| p.q[idx]).collect(),
-            style: Style::Markers,
-        });
-    }
-    if !b.branch_points.is_empty() {
-        series.push(Series {
-            label: "branch points".into(),
-            x: b.branch_points.iter().map(|p| p.value).collect(),
-            y: b.branch_points.iter().map(|p| p.q[idx]).collect(),
-            style: Style::Markers,
-        });
-    }
-    LinePlot {
-        title: format!("{}: equilibria against {}", model.name, b.param),
-        x_label: b.param.clone(),
-        y_label: format!("{} [{}]", b.coordinates[idx], unit_of(&b.coordinates[idx])),
-        series,
-        vertical: Vec::new(),
-    }
 }

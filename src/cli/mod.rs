@@ -38,12 +38,3 @@ pub fn progress_bar(len: u64, template: &str) -> indicatif::ProgressBar {
 pub fn print_json(v: &serde_json::Value) {
     println!("{}", serde_json::to_string_pretty(v).unwrap_or_default());
 }
-
-/// SI unit of a coordinate by its name.
-pub fn unit_of(coordinate: &str) -> &'static str {
-    if coordinate.ends_with(".theta") || coordinate.ends_with(".phi") {
-        "rad"
-    } else {
-        "m"
-    }
-}

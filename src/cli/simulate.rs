@@ -4,12 +4,14 @@
 use super::args::{ModelArgs, Tolerances};
 use super::progress_bar;
 use clap::Args;
+use detune::System;
 use detune::diag::Result;
 use detune::dynamics::assemble;
-use detune::dynamics::simulate::{SimOptions, Trajectory, simulate};
-use detune::output::plot::{LinePlot, Series, Style, write_line_plot};
+use detune::dynamics::simulate::{SimOptions, simulate};
+use detune::output::figures::trajectory_figure;
+use detune::output::plot::write_line_plot;
+use detune::output::results::simulation_json;
 use detune::output::{Provenance, check_outputs, write_json, write_trajectory_csv};
-use detune::{Model, System};
 
 #[derive(Args)]
 pub struct SimulateArgs {
@@ -77,28 +79,13 @@ pub fn run(a: SimulateArgs) -> Result<()> {
     let traj = traj?;
     write_trajectory_csv(&a.output, &traj, a.velocities)?;
     if let Some(p) = &a.plot {
-        write_line_plot(p, &trajectory_plot(&model, &traj))?;
+        write_line_plot(p, &trajectory_figure(&model.name, &traj))?;
+    }
+    if let Some(j) = &a.json {
+        let summary = simulation_json(&Provenance::of(&model), &opts, &traj, &a.output);
+        write_json(j, &summary)?;
     }
     let st = &traj.stats;
-    if let Some(j) = &a.json {
-        let last = traj.q.len() - 1;
-        let final_state: serde_json::Map<String, serde_json::Value> = traj
-            .coordinates
-            .iter()
-            .enumerate()
-            .map(|(i, c)| (c.clone(), serde_json::json!(traj.q[last][i])))
-            .collect();
-        write_json(
-            j,
-            &serde_json::json!({
-                "provenance": Provenance::of(&model),
-                "options": {"t_end": opts.t_end, "dt_out": opts.dt_out, "rtol": opts.rtol, "atol": opts.atol},
-                "stats": st,
-                "final": {"t": traj.t[last], "coordinates": final_state},
-                "output": a.output,
-            }),
-        )?;
-    }
     println!(
         "simulated {} s in {:.3} s: {} steps ({} rejected), {} right-hand sides, {} projections; largest constraint residual {:.2e} (drift before projection {:.2e})",
         opts.t_end,
@@ -118,35 +105,4 @@ pub fn run(a: SimulateArgs) -> Result<()> {
         println!("wrote {j}");
     }
     Ok(())
-}
-
-/// Angle coordinates against time (all coordinates if the model has no angles).
-fn trajectory_plot(model: &Model, traj: &Trajectory) -> LinePlot {
-    let angles: Vec<usize> = (0..traj.coordinates.len())
-        .filter(|&i| traj.coordinates[i].ends_with(".theta"))
-        .collect();
-    let pick = if angles.is_empty() {
-        (0..traj.coordinates.len()).collect()
-    } else {
-        angles.clone()
-    };
-    LinePlot {
-        title: format!("{}: simulation", model.name),
-        x_label: "t [s]".into(),
-        y_label: if angles.is_empty() {
-            "coordinate [SI]".into()
-        } else {
-            "angle [rad]".into()
-        },
-        series: pick
-            .iter()
-            .map(|&i| Series {
-                label: traj.coordinates[i].clone(),
-                x: traj.t.clone(),
-                y: traj.q.iter().map(|q| q[i]).collect(),
-                style: Style::Solid,
-            })
-            .collect(),
-        vertical: Vec::new(),
-    }
 }

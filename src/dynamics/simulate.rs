@@ -67,6 +67,8 @@ pub struct SimStats {
 #[derive(Debug, Clone)]
 pub struct Trajectory {
     pub coordinates: Vec<String>,
+    /// Whether each coordinate is an angle (rad), as [`System::is_angle`] says.
+    pub angles: Vec<bool>,
     pub t: Vec<f64>,
     /// q at each sample (n each).
     pub q: Vec<Vec<f64>>,
@@ -128,6 +130,7 @@ pub fn simulate(
     let drift = std::cell::Cell::new(0.0f64);
     let mut traj = Trajectory {
         coordinates: sys.coordinates.clone(),
+        angles: (0..n).map(|i| sys.is_angle(i)).collect(),
         t: Vec::new(),
         q: Vec::new(),
         v: Vec::new(),

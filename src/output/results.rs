@@ -2,6 +2,8 @@
 
 use super::{Provenance, num, write_atomic};
 use crate::diag::Result;
+use crate::dynamics::simulate::{SimOptions, Trajectory};
+use crate::frequency::study::SweepRun;
 use crate::linear::{FrequencyResponse, ModalAnalysis};
 use crate::statics::Equilibrium;
 use crate::statics::continuation::{Branch, BranchPoint};
@@ -16,6 +18,24 @@ pub fn coordinates_json(names: &[String], q: &[f64]) -> Value {
             .map(|(n, v)| (n.clone(), json!(v)))
             .collect::<Map<String, Value>>(),
     )
+}
+
+/// The `simulate` JSON summary: provenance, options, step statistics, the final state
+/// and the CSV written (`output`).
+pub fn simulation_json(
+    provenance: &Provenance,
+    opts: &SimOptions,
+    traj: &Trajectory,
+    output: &str,
+) -> Value {
+    let last = traj.q.len() - 1;
+    json!({
+        "provenance": provenance,
+        "options": {"t_end": opts.t_end, "dt_out": opts.dt_out, "rtol": opts.rtol, "atol": opts.atol},
+        "stats": traj.stats,
+        "final": {"t": traj.t[last], "coordinates": coordinates_json(&traj.coordinates, &traj.q[last])},
+        "output": output,
+    })
 }
 
 /// `{"coordinates": {...}, "stable": bool, "residual": x, "omega2": [...]}`.
@@ -138,13 +158,6 @@ pub fn frf_json(fr: &FrequencyResponse, provenance: &Provenance) -> Value {
     })
 }
 
-/// One sweep of a `--values` family (or the only one).
-pub struct SweepRun<'a> {
-    /// The `--values` parameter and its value for this sweep.
-    pub value: Option<(&'a str, f64)>,
-    pub sweep: &'a crate::frequency::Sweep,
-}
-
 const MEASURES: [&str; 8] = [
     "amplitude",
     "max",
@@ -171,9 +184,9 @@ fn measure_values(m: &crate::frequency::measure::Measures) -> [f64; 8] {
 
 /// Header of the sweep CSV.
 fn sweep_header(runs: &[SweepRun]) -> Vec<String> {
-    let first = runs[0].sweep;
+    let first = &runs[0].sweep;
     let mut h = vec![first.param.clone(), "direction".to_string()];
-    if let Some((name, _)) = runs[0].value {
+    if let Some((name, _)) = runs[0].tag() {
         h.push(name.to_string());
     }
     for r in &first.responses {
@@ -193,7 +206,7 @@ pub fn write_sweep_csv(path: &str, runs: &[SweepRun]) -> Result<()> {
         for run in runs {
             for p in &run.sweep.points {
                 write!(w, "{},{}", num(p.steady.omega), p.direction.name())?;
-                if let Some((_, v)) = run.value {
+                if let Some((_, v)) = run.tag() {
                     write!(w, ",{}", num(v))?;
                 }
                 for m in &p.steady.measures {
@@ -228,7 +241,7 @@ pub fn sweep_json(runs: &[SweepRun], provenance: &Provenance) -> Value {
     let mut peaks = Vec::new();
     let mut hysteresis = Vec::new();
     for run in runs {
-        let s = run.sweep;
+        let s = &run.sweep;
         for p in &s.points {
             let mut o = Map::new();
             let mut k = 0;
@@ -238,7 +251,7 @@ pub fn sweep_json(runs: &[SweepRun], provenance: &Provenance) -> Value {
             };
             put(&mut o, json!(p.steady.omega));
             put(&mut o, json!(p.direction.name()));
-            if let Some((_, v)) = run.value {
+            if let Some((_, v)) = run.tag() {
                 put(&mut o, json!(v));
             }
             for m in &p.steady.measures {
@@ -254,20 +267,20 @@ pub fn sweep_json(runs: &[SweepRun], provenance: &Provenance) -> Value {
         }
         for pk in &s.peaks {
             let mut v = json!(pk);
-            if let Some((name, val)) = run.value {
+            if let Some((name, val)) = run.tag() {
                 v[name] = json!(val);
             }
             peaks.push(v);
         }
         for h in &s.hysteresis {
             let mut v = json!(h);
-            if let Some((name, val)) = run.value {
+            if let Some((name, val)) = run.tag() {
                 v[name] = json!(val);
             }
             hysteresis.push(v);
         }
     }
-    let first = runs[0].sweep;
+    let first = &runs[0].sweep;
     let mut out = json!({
         "equilibrium": coordinates_json(&first.coordinates, &first.equilibrium),
         "points": points,
@@ -284,7 +297,7 @@ pub fn sweep_json(runs: &[SweepRun], provenance: &Provenance) -> Value {
                 let mut e = json!({
                     "coordinates": coordinates_json(&r.sweep.coordinates, &r.sweep.equilibrium)
                 });
-                if let Some((name, v)) = r.value {
+                if let Some((name, v)) = r.tag() {
                     e[name] = json!(v);
                 }
                 e
