@@ -7,8 +7,9 @@ use clap::Args;
 use detune::System;
 use detune::diag::Result;
 use detune::output::figures::branch_figure;
+use detune::output::json::BranchReport;
 use detune::output::plot::write_line_plot;
-use detune::output::results::{branch_json, write_branch_csv};
+use detune::output::results::write_branch_csv;
 use detune::output::{Provenance, check_outputs};
 use detune::statics::continuation::{ContinuationOptions, continue_equilibria};
 
@@ -76,7 +77,7 @@ pub fn run(a: ContinueArgs) -> Result<()> {
         )?;
     }
     if a.json {
-        print_json(&branch_json(&branch, &Provenance::of(&model)));
+        print_json(&BranchReport::new(&branch, &Provenance::of(&model)));
     } else {
         println!(
             "{} points from {} = {} to {}{}",

@@ -8,7 +8,7 @@ use detune::System;
 use detune::diag::Result;
 use detune::dynamics::assemble;
 use detune::output::Provenance;
-use detune::output::results::equilibrium_json;
+use detune::output::json::{EquilibriaReport, EquilibriumJson, EquilibriumReport};
 use detune::statics::Statics;
 
 #[derive(Args)]
@@ -34,18 +34,19 @@ pub fn run(a: EquilibriumArgs) -> Result<()> {
         vec![st.nearest(&start)?]
     };
     if a.json {
-        let prov = Provenance::of(&model);
-        let v = if a.all {
-            serde_json::json!({
-                "equilibria": list.iter().map(|e| equilibrium_json(&sys.coordinates, e)).collect::<Vec<_>>(),
-                "provenance": prov,
-            })
+        let provenance = Provenance::of(&model);
+        let json = |e| EquilibriumJson::new(&sys.coordinates, e);
+        if a.all {
+            print_json(&EquilibriaReport {
+                equilibria: list.iter().map(json).collect(),
+                provenance: &provenance,
+            });
         } else {
-            let mut v = equilibrium_json(&sys.coordinates, &list[0]);
-            v["provenance"] = serde_json::json!(prov);
-            v
-        };
-        print_json(&v);
+            print_json(&EquilibriumReport {
+                equilibrium: json(&list[0]),
+                provenance: &provenance,
+            });
+        }
         return Ok(());
     }
     for (k, e) in list.iter().enumerate() {

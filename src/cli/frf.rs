@@ -7,7 +7,8 @@ use clap::Args;
 use detune::System;
 use detune::diag::Result;
 use detune::linear::frequency_response;
-use detune::output::results::{frf_json, write_frf_csv};
+use detune::output::json::FrfReport;
+use detune::output::results::write_frf_csv;
 use detune::output::{Provenance, check_outputs};
 
 #[derive(Args)]
@@ -34,7 +35,7 @@ pub fn run(a: FrfArgs) -> Result<()> {
         eprintln!("wrote {o}");
     }
     if a.json {
-        print_json(&frf_json(&fr, &Provenance::of(&model)));
+        print_json(&FrfReport::new(&fr, &Provenance::of(&model)));
     } else if a.output.is_none() {
         let head: Vec<String> = fr
             .responses

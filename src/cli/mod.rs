@@ -34,7 +34,7 @@ pub fn progress_bar(len: u64, template: &str) -> indicatif::ProgressBar {
     bar
 }
 
-/// Print a JSON result on stdout, pretty.
-pub fn print_json(v: &serde_json::Value) {
+/// Print a JSON document on stdout, pretty.
+pub fn print_json(v: &impl serde::Serialize) {
     println!("{}", serde_json::to_string_pretty(v).unwrap_or_default());
 }

@@ -8,7 +8,7 @@ use detune::System;
 use detune::diag::Result;
 use detune::linear::modal_analysis;
 use detune::output::Provenance;
-use detune::output::results::modes_json;
+use detune::output::json::ModesReport;
 
 #[derive(Args)]
 pub struct ModesArgs {
@@ -26,7 +26,7 @@ pub fn run(a: ModesArgs) -> Result<()> {
     let model = a.model.load()?;
     let m = modal_analysis(&System::new(&model)?, a.normalize.as_deref())?;
     if a.json {
-        print_json(&modes_json(&m, &Provenance::of(&model)));
+        print_json(&ModesReport::new(&m, &Provenance::of(&model)));
         return Ok(());
     }
     println!(

@@ -9,8 +9,8 @@ use detune::diag::Result;
 use detune::dynamics::assemble;
 use detune::dynamics::simulate::{SimOptions, simulate};
 use detune::output::figures::trajectory_figure;
+use detune::output::json::SimulationSummary;
 use detune::output::plot::write_line_plot;
-use detune::output::results::simulation_json;
 use detune::output::{Provenance, check_outputs, write_json, write_trajectory_csv};
 
 #[derive(Args)]
@@ -82,8 +82,11 @@ pub fn run(a: SimulateArgs) -> Result<()> {
         write_line_plot(p, &trajectory_figure(&model.name, &traj))?;
     }
     if let Some(j) = &a.json {
-        let summary = simulation_json(&Provenance::of(&model), &opts, &traj, &a.output);
-        write_json(j, &summary)?;
+        let provenance = Provenance::of(&model);
+        write_json(
+            j,
+            &SimulationSummary::new(&provenance, &opts, &traj, &a.output),
+        )?;
     }
     let st = &traj.stats;
     println!(

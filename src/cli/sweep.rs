@@ -8,8 +8,9 @@ use detune::diag::{Error, Result};
 use detune::frequency::study::SweepStudy;
 use detune::frequency::{SteadyOptions, SweepMode, SweepOptions};
 use detune::output::figures::sweep_figures;
+use detune::output::json::SweepReport;
 use detune::output::plot::write_panels;
-use detune::output::results::{sweep_json, write_sweep_csv};
+use detune::output::results::write_sweep_csv;
 use detune::output::{Provenance, check_outputs};
 
 #[derive(Clone, Copy, clap::ValueEnum)]
@@ -120,7 +121,7 @@ pub fn run(a: SweepArgs) -> Result<()> {
         eprintln!("wrote {p}");
     }
     if a.json {
-        print_json(&sweep_json(&runs, &Provenance::of(&model)));
+        print_json(&SweepReport::new(&runs, &Provenance::of(&model)));
     } else {
         let points: usize = runs.iter().map(|r| r.sweep.points.len()).sum();
         let periods: usize = runs
