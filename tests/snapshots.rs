@@ -25,11 +25,17 @@ struct Run {
     stderr: String,
 }
 
-/// Run the binary from the crate root; it must succeed.
-fn detune(args: &[&str]) -> Run {
+/// Run the binary from the crate root with the words of `line` (`MODEL` stands for the
+/// shipped model) and then `extra`; it must succeed.
+fn detune(line: &str, extra: &[&str]) -> Run {
+    let mut args: Vec<&str> = line
+        .split_whitespace()
+        .map(|w| if w == "MODEL" { MODEL } else { w })
+        .collect();
+    args.extend(extra);
     let o = Command::new(env!("CARGO_BIN_EXE_detune"))
         .current_dir(env!("CARGO_MANIFEST_DIR"))
-        .args(args)
+        .args(&args)
         .output()
         .unwrap();
     let run = Run {
@@ -187,13 +193,24 @@ fn close(v: &Value, want: f64, tol: f64) {
     assert!((x - want).abs() <= tol, "{x} is not {want} ± {tol}");
 }
 
-fn path_in(dir: &tempfile::TempDir, name: &str) -> String {
-    dir.path().join(name).to_str().unwrap().to_string()
+/// Output files in a temporary directory: the directory and each file's path.
+fn outputs<const N: usize>(names: [&str; N]) -> (tempfile::TempDir, [String; N]) {
+    let dir = tempfile::tempdir().unwrap();
+    let paths = names.map(|n| dir.path().join(n).to_str().unwrap().to_string());
+    (dir, paths)
+}
+
+/// The run's stderr only (its stdout is JSON, pinned by structure).
+fn stderr_of(run: Run) -> Run {
+    Run {
+        stdout: String::new(),
+        ..run
+    }
 }
 
 #[test]
 fn check_text() {
-    let run = detune(&["check", MODEL, "--set", "F0=0.1", "--set", "L1=2.5 m"]);
+    let run = detune("check MODEL --set F0=0.1", &["--set", "L1=2.5 m"]);
     text_snapshot("check", &run, None);
     assert!(
         run.stdout
@@ -201,29 +218,15 @@ fn check_text() {
     );
 }
 
+const SIMULATE: &str = "simulate MODEL --set F0=3 --set omega=1.5 --t-end 1 --dt-out 0.25";
+
 #[test]
 fn simulate_json_csv_svg_and_text() {
-    let dir = tempfile::tempdir().unwrap();
-    let (csv, json, svg) = (
-        path_in(&dir, "sim.csv"),
-        path_in(&dir, "sim.json"),
-        path_in(&dir, "sim.svg"),
+    let (dir, [csv, json, svg]) = outputs(["sim.csv", "sim.json", "sim.svg"]);
+    let run = detune(
+        SIMULATE,
+        &["-o", &csv, "--json", &json, "--plot", &svg, "--velocities"],
     );
-    let args = [
-        "simulate",
-        MODEL,
-        "--set",
-        "F0=3",
-        "--set",
-        "omega=1.5",
-        "--t-end",
-        "1",
-        "--dt-out",
-        "0.25",
-    ];
-    let mut all = args.to_vec();
-    all.extend(["-o", &csv, "--json", &json, "--plot", &svg, "--velocities"]);
-    let run = detune(&all);
     text_snapshot("simulate", &run, Some(dir.path()));
     let j = json_snapshot("simulate", &std::fs::read_to_string(&json).unwrap());
     csv_header_snapshot("simulate_velocities", Path::new(&csv));
@@ -237,21 +240,20 @@ fn simulate_json_csv_svg_and_text() {
         1e-8,
     );
     // without --velocities
-    let mut all = args.to_vec();
-    all.extend(["-o", &csv]);
-    detune(&all);
+    detune(SIMULATE, &["-o", &csv]);
     csv_header_snapshot("simulate", Path::new(&csv));
 }
 
 #[test]
 fn equilibrium_json_and_text() {
-    let run = detune(&["equilibrium", MODEL, "--json"]);
-    let j = json_snapshot("equilibrium", &run.stdout);
+    let j = json_snapshot(
+        "equilibrium",
+        &detune("equilibrium MODEL --json", &[]).stdout,
+    );
     close(&j["coordinates"]["bar1.theta"], 0.6444905415426762, 1e-9);
-    let run = detune(&["equilibrium", MODEL]);
-    text_snapshot("equilibrium", &run, None);
+    text_snapshot("equilibrium", &detune("equilibrium MODEL", &[]), None);
 
-    let run = detune(&["equilibrium", MODEL, "--all", "--json"]);
+    let run = detune("equilibrium MODEL --all --json", &[]);
     let j = json_snapshot("equilibrium_all", &run.stdout);
     let e = j["equilibria"].as_array().unwrap();
     assert_eq!(e.len(), 3);
@@ -262,29 +264,21 @@ fn equilibrium_json_and_text() {
         close(&e["coordinates"]["bar1.theta"], want, 1e-9);
     }
     close(&e[1]["undamped_omega2"][0], -12.545275, 1e-5);
-    let run = detune(&["equilibrium", MODEL, "--all"]);
-    text_snapshot("equilibrium_all", &run, None);
+    text_snapshot(
+        "equilibrium_all",
+        &detune("equilibrium MODEL --all", &[]),
+        None,
+    );
 }
+
+const CONTINUE: &str = "continue MODEL --param Fs --from -10 --to 30 --step 0.5";
 
 #[test]
 fn continue_json_csv_svg_and_text() {
-    let dir = tempfile::tempdir().unwrap();
-    let (csv, svg) = (path_in(&dir, "curve.csv"), path_in(&dir, "curve.svg"));
-    let args = [
-        "continue", MODEL, "--param", "Fs", "--from", "-10", "--to", "30", "--step", "0.5",
-    ];
-    let mut all = args.to_vec();
-    all.extend(["--json", "-o", &csv, "--plot", &svg]);
-    let run = detune(&all);
+    let (dir, [csv, svg]) = outputs(["curve.csv", "curve.svg"]);
+    let run = detune(CONTINUE, &["--json", "-o", &csv, "--plot", &svg]);
     let j = json_snapshot("continue", &run.stdout);
-    text_snapshot(
-        "continue_json",
-        &Run {
-            stdout: String::new(),
-            ..run
-        },
-        Some(dir.path()),
-    );
+    text_snapshot("continue_json", &stderr_of(run), Some(dir.path()));
     csv_header_snapshot("continue", Path::new(&csv));
     svg_snapshot("continue", Path::new(&svg));
     assert_eq!(j["param"], "Fs");
@@ -294,60 +288,28 @@ fn continue_json_csv_svg_and_text() {
         0.47147630595651285,
         1e-8,
     );
-    let run = detune(&args);
-    text_snapshot("continue", &run, None);
+    text_snapshot("continue", &detune(CONTINUE, &[]), None);
 }
 
 #[test]
 fn modes_json_and_text() {
-    let run = detune(&["modes", MODEL, "--json"]);
-    let j = json_snapshot("modes", &run.stdout);
+    let j = json_snapshot("modes", &detune("modes MODEL --json", &[]).stdout);
     close(&j["modes"][0]["omega_n_rad_s"], 2.9731640996327213, 1e-9);
     close(&j["undamped_omega2"][0], 8.839704763344846, 1e-8);
     assert_eq!(j["normalized_to"], "bar1.theta");
     assert_eq!(j["modes"][0]["normalized_to"], "bar1.theta");
-    let run = detune(&["modes", MODEL]);
-    text_snapshot("modes", &run, None);
+    text_snapshot("modes", &detune("modes MODEL", &[]), None);
 }
+
+const FRF: &str = "frf MODEL --set theta1_0=-0.85 --set F0=0.01 --set c=1 --param omega \
+    --from 0.5 --to 8 --step 2.5 --response bar1.theta --response bar2.x";
 
 #[test]
 fn frf_json_csv_and_text() {
-    let dir = tempfile::tempdir().unwrap();
-    let csv = path_in(&dir, "frf.csv");
-    let args = [
-        "frf",
-        MODEL,
-        "--set",
-        "theta1_0=-0.85",
-        "--set",
-        "F0=0.01",
-        "--set",
-        "c=1",
-        "--param",
-        "omega",
-        "--from",
-        "0.5",
-        "--to",
-        "8",
-        "--step",
-        "2.5",
-        "--response",
-        "bar1.theta",
-        "--response",
-        "bar2.x",
-    ];
-    let mut all = args.to_vec();
-    all.extend(["--json", "-o", &csv]);
-    let run = detune(&all);
+    let (dir, [csv]) = outputs(["frf.csv"]);
+    let run = detune(FRF, &["--json", "-o", &csv]);
     let j = json_snapshot("frf", &run.stdout);
-    text_snapshot(
-        "frf_json",
-        &Run {
-            stdout: String::new(),
-            ..run
-        },
-        Some(dir.path()),
-    );
+    text_snapshot("frf_json", &stderr_of(run), Some(dir.path()));
     csv_header_snapshot("frf", Path::new(&csv));
     let rel = |v: &Value, want: f64| close(v, want, 1e-9 * want.abs());
     rel(&j["points"][1]["omega"], 3.0);
@@ -356,70 +318,33 @@ fn frf_json_csv_and_text() {
         0.00013319740756153738,
     );
     rel(&j["points"][1]["bar2.x_phase_deg"], -5.805316900292289);
-    let run = detune(&args);
-    text_snapshot("frf", &run, None);
+    text_snapshot("frf", &detune(FRF, &[]), None);
 }
 
-/// The sweep's arguments: near the first resonance of the lower well, refined.
-fn sweep_args() -> Vec<&'static str> {
-    vec![
-        "sweep",
-        MODEL,
-        "--set",
-        "theta1_0=-0.85",
-        "--set",
-        "c=1",
-        "--param",
-        "omega",
-        "--from",
-        "3.8",
-        "--to",
-        "4.6",
-        "--step",
-        "0.2",
-        "--refine",
-        "0.05",
-        "--response",
-        "bar1.theta",
-    ]
-}
+/// A sweep near the first resonance of the lower well, refined.
+const SWEEP: &str = "sweep MODEL --set theta1_0=-0.85 --set c=1 --param omega \
+    --from 3.8 --to 4.6 --step 0.2 --refine 0.05 --response bar1.theta";
 
 #[test]
 fn sweep_json_csv_svg_and_text() {
-    let dir = tempfile::tempdir().unwrap();
-    let (csv, svg) = (path_in(&dir, "fr.csv"), path_in(&dir, "fr.svg"));
-    let mut args = sweep_args();
-    args.extend(["--set", "F0=0.5"]);
-    let mut all = args.clone();
-    all.extend(["--json", "-o", &csv, "--plot", &svg]);
-    let run = detune(&all);
+    let (dir, [csv, svg]) = outputs(["fr.csv", "fr.svg"]);
+    let line = format!("{SWEEP} --set F0=0.5");
+    let run = detune(&line, &["--json", "-o", &csv, "--plot", &svg]);
     let j = json_snapshot("sweep", &run.stdout);
-    text_snapshot(
-        "sweep_json",
-        &Run {
-            stdout: String::new(),
-            ..run
-        },
-        Some(dir.path()),
-    );
+    text_snapshot("sweep_json", &stderr_of(run), Some(dir.path()));
     csv_header_snapshot("sweep", Path::new(&csv));
     svg_snapshot("sweep", Path::new(&svg));
     close(&j["equilibrium"]["bar1.theta"], -0.865739159594518, 1e-9);
     assert_eq!(j["points"][0]["direction"], "independent");
     assert_eq!(j["peaks"][0]["response"], "bar1.theta");
-    let run = detune(&args);
-    text_snapshot("sweep", &run, None);
+    text_snapshot("sweep", &detune(&line, &[]), None);
 }
 
 #[test]
 fn sweep_values_json_csv_svg_and_text() {
-    let dir = tempfile::tempdir().unwrap();
-    let (csv, svg) = (path_in(&dir, "fr.csv"), path_in(&dir, "fr.svg"));
-    let mut args = sweep_args();
-    args.extend(["--values", "F0=0.1,1"]);
-    let mut all = args.clone();
-    all.extend(["--json", "-o", &csv, "--plot", &svg]);
-    let run = detune(&all);
+    let (_dir, [csv, svg]) = outputs(["fr.csv", "fr.svg"]);
+    let line = format!("{SWEEP} --values F0=0.1,1");
+    let run = detune(&line, &["--json", "-o", &csv, "--plot", &svg]);
     let j = json_snapshot("sweep_values", &run.stdout);
     csv_header_snapshot("sweep_values", Path::new(&csv));
     svg_snapshot("sweep_values", Path::new(&svg));
@@ -428,55 +353,25 @@ fn sweep_values_json_csv_svg_and_text() {
     close(&e[0]["F0"], 0.1, 0.0);
     close(&e[1]["F0"], 1.0, 0.0);
     close(&e[1]["coordinates"]["bar1.theta"], -0.865739159594518, 1e-9);
-    let run = detune(&args);
-    text_snapshot("sweep_values", &run, None);
+    text_snapshot("sweep_values", &detune(&line, &[]), None);
 }
 
 /// Up and down at 4 N: the jump, hysteresis entries (with the --values parameter), and
 /// a static load in --values (the natural frequencies then differ between runs).
 #[test]
 fn sweep_both_directions_and_a_static_load_in_values() {
-    let dir = tempfile::tempdir().unwrap();
-    let (csv, svg) = (path_in(&dir, "fr.csv"), path_in(&dir, "fr.svg"));
-    let args = [
-        "sweep",
-        MODEL,
-        "--set",
-        "theta1_0=-0.85",
-        "--set",
-        "c=0.2",
-        "--param",
-        "omega",
-        "--from",
-        "3",
-        "--to",
-        "4",
-        "--step",
-        "0.25",
-        "--mode",
-        "both",
-        "--response",
-        "bar1.theta",
-        "--values",
-        "F0=4",
-        "--settle-tol",
-        "1e-4",
-    ];
-    let mut all = args.to_vec();
-    all.extend(["--json", "-o", &csv, "--plot", &svg]);
-    let run = detune(&all);
+    let (dir, [csv, svg]) = outputs(["fr.csv", "fr.svg"]);
+    let both = "sweep MODEL --set theta1_0=-0.85 --set c=0.2 --param omega --from 3 --to 4 \
+        --step 0.25 --mode both --response bar1.theta --values F0=4 --settle-tol 1e-4";
+    let run = detune(both, &["--json", "-o", &csv, "--plot", &svg]);
     let j = json_snapshot("sweep_both", &run.stdout);
     csv_header_snapshot("sweep_both", Path::new(&csv));
     svg_snapshot("sweep_both", Path::new(&svg));
     assert!(!j["hysteresis"].as_array().unwrap().is_empty());
-    let run = detune(&args);
-    text_snapshot("sweep_both", &run, None);
+    text_snapshot("sweep_both", &detune(both, &[]), None);
 
-    let mut args = sweep_args();
-    args.extend([
-        "--set", "F0=0.5", "--values", "Fs=0,2", "-o", &csv, "--plot", &svg,
-    ]);
-    let run = detune(&args);
+    let line = format!("{SWEEP} --set F0=0.5 --values Fs=0,2");
+    let run = detune(&line, &["-o", &csv, "--plot", &svg]);
     text_snapshot("sweep_static_values", &run, Some(dir.path()));
     svg_snapshot("sweep_static_values", Path::new(&svg));
 }

@@ -91,21 +91,18 @@ pub fn run(a: ContinueArgs) -> Result<()> {
                 ""
             }
         );
-        for f in &branch.folds {
-            println!(
-                "fold at {} = {:.10}: {}",
-                branch.param,
-                f.value,
-                pose(&sys, &f.q)
-            );
-        }
-        for b in &branch.branch_points {
-            println!(
-                "branch point at {} = {:.10}: {}",
-                branch.param,
-                b.value,
-                pose(&sys, &b.q)
-            );
+        for (kind, points) in [
+            ("fold", &branch.folds),
+            ("branch point", &branch.branch_points),
+        ] {
+            for p in points {
+                println!(
+                    "{kind} at {} = {:.10}: {}",
+                    branch.param,
+                    p.value,
+                    pose(&sys, &p.q)
+                );
+            }
         }
     }
     for f in [&a.output, &a.plot].into_iter().flatten() {

@@ -77,21 +77,15 @@ pub fn branch_figure(name: &str, b: &Branch, idx: usize, angle: bool) -> LinePlo
         seg.push(p);
     }
     flush(&mut seg, &mut series);
-    if !b.folds.is_empty() {
-        series.push(Series {
-            label: "folds".into(),
-            x: b.folds.iter().map(|p| p.value).collect(),
-            y: b.folds.iter().map(|p| p.q[idx]).collect(),
-            style: Style::Markers,
-        });
-    }
-    if !b.branch_points.is_empty() {
-        series.push(Series {
-            label: "branch points".into(),
-            x: b.branch_points.iter().map(|p| p.value).collect(),
-            y: b.branch_points.iter().map(|p| p.q[idx]).collect(),
-            style: Style::Markers,
-        });
+    for (label, marked) in [("folds", &b.folds), ("branch points", &b.branch_points)] {
+        if !marked.is_empty() {
+            series.push(Series {
+                label: label.into(),
+                x: marked.iter().map(|p| p.value).collect(),
+                y: marked.iter().map(|p| p.q[idx]).collect(),
+                style: Style::Markers,
+            });
+        }
     }
     LinePlot {
         title: format!("{name}: equilibria against {}", b.param),
