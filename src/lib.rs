@@ -14,6 +14,7 @@
 //! `v̇ = a + M^-½ (A M^-½)⁺ (b − A a)`, with A and b from automatic differentiation of the
 //! model's constraint function (see `docs/theory.md`).
 
+pub mod check;
 pub mod diag;
 pub mod dynamics;
 pub mod failure;

@@ -68,6 +68,8 @@ pub struct SimStats {
 #[derive(Debug, Clone)]
 pub struct Trajectory {
     pub coordinates: Vec<String>,
+    /// Whether each coordinate is an angle (rad), as [`System::is_angle`] says.
+    pub angles: Vec<bool>,
     pub t: Vec<f64>,
     /// q at each sample (n each).
     pub q: Vec<Vec<f64>>,
@@ -122,6 +124,7 @@ pub fn simulate(
 ) -> Result<Trajectory> {
     let mut traj = Trajectory {
         coordinates: sys.coordinates.clone(),
+        angles: (0..sys.nq()).map(|i| sys.is_angle(i)).collect(),
         t: Vec::new(),
         q: Vec::new(),
         v: Vec::new(),

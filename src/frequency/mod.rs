@@ -15,6 +15,7 @@
 //! Written by hand: no crate does stepped-sine analysis of constrained mechanisms.
 
 pub mod measure;
+pub mod study;
 
 use crate::diag::{Error, Result};
 use crate::dynamics::simulate::SimOptions;

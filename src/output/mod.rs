@@ -3,6 +3,8 @@
 //! Every file is written to a temporary file in the target directory and renamed into
 //! place when complete, so an error or an interrupt never leaves a half-written output.
 
+pub mod figures;
+pub mod json;
 pub mod plot;
 pub mod results;
 
@@ -160,8 +162,8 @@ pub fn write_trajectory_csv(path: &str, traj: &Trajectory, velocities: bool) -> 
     })
 }
 
-/// Write a JSON value atomically, pretty-printed.
-pub fn write_json(path: &str, value: &serde_json::Value) -> Result<()> {
+/// Write a JSON document atomically, pretty-printed.
+pub fn write_json(path: &str, value: &impl serde::Serialize) -> Result<()> {
     write_atomic(path, |w| {
         serde_json::to_writer_pretty(&mut *w, value)?;
         writeln!(w)

@@ -1,0 +1,93 @@
+//! Argument groups shared by several commands: the model and its `--set`s, the
+//! integrator's tolerances, the frequency grid.
+
+use clap::Args;
+use detune::Model;
+use detune::diag::{Error, Result};
+
+#[derive(Args)]
+pub struct ModelArgs {
+    /// Model file (TOML), e.g. models/overcentre.toml.
+    pub model: String,
+    /// Override a parameter: NAME=VALUE, where VALUE is a number (SI), a quantity ("3 mm")
+    /// or an expression over other parameters ("L1/2"). Repeatable.
+    #[arg(long = "set", value_name = "NAME=VALUE", allow_hyphen_values = true)]
+    pub set: Vec<String>,
+}
+
+impl ModelArgs {
+    /// The model file with the `--set` overrides applied.
+    pub fn load(&self) -> Result<Model> {
+        let model = Model::load(&self.model)?;
+        let overrides = parse_sets(&self.set)?;
+        model.with_overrides(&overrides)
+    }
+}
+
+fn parse_sets(sets: &[String]) -> Result<Vec<(String, String)>> {
+    sets.iter()
+        .map(|s| match s.split_once('=') {
+            Some((n, v)) if !n.trim().is_empty() && !v.trim().is_empty() => {
+                Ok((n.trim().to_string(), v.trim().to_string()))
+            }
+            _ => Err(Error::request(
+                format!("--set {s}: expected NAME=VALUE"),
+                "for example --set Fs=-3 or --set \"L1=2.5 m\"",
+            )),
+        })
+        .collect()
+}
+
+/// The integrator's error tolerances (`simulate`, `sweep`).
+#[derive(Args)]
+pub struct Tolerances {
+    /// Relative error tolerance per step.
+    #[arg(
+        long,
+        default_value_t = 1e-10,
+        value_name = "R",
+        allow_hyphen_values = true
+    )]
+    pub rtol: f64,
+    /// Absolute error tolerance per step (SI units of each coordinate and velocity).
+    #[arg(
+        long,
+        default_value_t = 1e-12,
+        value_name = "A",
+        allow_hyphen_values = true
+    )]
+    pub atol: f64,
+}
+
+/// The frequencies of `frf` and `sweep`, and what they report.
+#[derive(Args)]
+pub struct FrequencyGrid {
+    /// The forcing's frequency parameter (rad/s).
+    #[arg(long, value_name = "NAME")]
+    pub param: String,
+    /// First frequency, rad/s.
+    #[arg(long, value_name = "A", allow_hyphen_values = true)]
+    pub from: f64,
+    /// Last frequency, rad/s (included when the step divides the range).
+    #[arg(long, value_name = "B", allow_hyphen_values = true)]
+    pub to: f64,
+    /// Frequency step, rad/s.
+    #[arg(long, value_name = "S", allow_hyphen_values = true)]
+    pub step: f64,
+    /// Coordinate to report (repeatable) [default: every coordinate].
+    #[arg(long, value_name = "NAME")]
+    pub response: Vec<String>,
+}
+
+impl FrequencyGrid {
+    /// The frequencies and the reported coordinates (every one when none is named).
+    pub fn resolve(&self, model: &Model) -> Result<(Vec<f64>, Vec<String>)> {
+        let values = detune::linear::grid(self.from, self.to, self.step)?;
+        let responses = if self.response.is_empty() {
+            model.coordinate_names()
+        } else {
+            self.response.clone()
+        };
+        Ok((values, responses))
+    }
+}

@@ -1,0 +1,121 @@
+//! `detune continue`: equilibria followed through limit points while a parameter
+//! changes (pseudo-arclength), folds and branch points located.
+
+use super::args::ModelArgs;
+use super::print_json;
+use clap::Args;
+use detune::System;
+use detune::diag::Result;
+use detune::output::figures::branch_figure;
+use detune::output::json::BranchReport;
+use detune::output::plot::write_line_plot;
+use detune::output::results::write_branch_csv;
+use detune::output::{Provenance, check_outputs};
+use detune::statics::continuation::{ContinuationOptions, continue_equilibria};
+
+#[derive(Args)]
+pub struct ContinueArgs {
+    #[command(flatten)]
+    pub model: ModelArgs,
+    /// Parameter to vary.
+    #[arg(long, value_name = "NAME")]
+    pub param: String,
+    /// Start value (SI).
+    #[arg(long, value_name = "A", allow_hyphen_values = true)]
+    pub from: f64,
+    /// End value (SI).
+    #[arg(long, value_name = "B", allow_hyphen_values = true)]
+    pub to: f64,
+    /// Largest arclength step, in the units of the coordinates and the parameter
+    /// [default: (B − A)/50].
+    #[arg(long, value_name = "S", allow_hyphen_values = true)]
+    pub step: Option<f64>,
+    /// Most continuation steps (points after the start point).
+    #[arg(long, default_value_t = 5000, value_name = "N")]
+    pub max_steps: usize,
+    /// Print the JSON summary (folds, branch points) instead of a table.
+    #[arg(long)]
+    pub json: bool,
+    /// CSV of the branch: `<param>,<coordinates>...,stable`.
+    #[arg(short = 'o', long = "output", value_name = "OUT.csv")]
+    pub output: Option<String>,
+    /// SVG of the branch (stable solid, unstable dashed, folds marked).
+    #[arg(long, value_name = "OUT.svg")]
+    pub plot: Option<String>,
+    /// Coordinate drawn against the parameter [default: the first angle].
+    #[arg(long, value_name = "NAME")]
+    pub plot_coordinate: Option<String>,
+}
+
+pub fn run(a: ContinueArgs) -> Result<()> {
+    let model = a.model.load()?;
+    check_outputs(
+        &model.source.path,
+        &[a.output.as_deref(), a.plot.as_deref()],
+    )?;
+    let opts = ContinuationOptions {
+        param: a.param.clone(),
+        from: a.from,
+        to: a.to,
+        step: a.step.unwrap_or((a.to - a.from).abs() / 50.0),
+        max_steps: a.max_steps,
+    };
+    // Every request is checked before the work, so a bad one leaves no file behind.
+    let sys = System::new(&model)?;
+    let idx = match &a.plot_coordinate {
+        Some(name) => detune::linear::coordinate(&sys, name, "--plot-coordinate")?,
+        None => detune::linear::default_reference(&sys),
+    };
+    let branch = continue_equilibria(&sys, &opts)?;
+    if let Some(o) = &a.output {
+        write_branch_csv(o, &branch)?;
+    }
+    if let Some(p) = &a.plot {
+        write_line_plot(
+            p,
+            &branch_figure(&model.name, &branch, idx, sys.is_angle(idx)),
+        )?;
+    }
+    if a.json {
+        print_json(&BranchReport::new(&branch, &Provenance::of(&model)));
+    } else {
+        println!(
+            "{} points from {} = {} to {}{}",
+            branch.points.len(),
+            branch.param,
+            a.from,
+            branch.points.last().map_or(a.from, |p| p.value),
+            if branch.truncated {
+                " (stopped at --max-steps)"
+            } else {
+                ""
+            }
+        );
+        for (kind, points) in [
+            ("fold", &branch.folds),
+            ("branch point", &branch.branch_points),
+        ] {
+            for p in points {
+                println!(
+                    "{kind} at {} = {:.10}: {}",
+                    branch.param,
+                    p.value,
+                    pose(&sys, &p.q)
+                );
+            }
+        }
+    }
+    for f in [&a.output, &a.plot].into_iter().flatten() {
+        eprintln!("wrote {f}");
+    }
+    Ok(())
+}
+
+fn pose(sys: &System, q: &[f64]) -> String {
+    sys.coordinates
+        .iter()
+        .zip(q)
+        .map(|(c, v)| format!("{c} = {v:.8}"))
+        .collect::<Vec<_>>()
+        .join(", ")
+}

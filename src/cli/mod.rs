@@ -1,0 +1,41 @@
+//! The commands of the `detune` binary, one file each, and what they share: argument
+//! groups ([`args`]), the progress bar, the Ctrl-C flag, printing JSON.
+//!
+//! The command line parses arguments, shows progress, handles Ctrl-C and turns errors
+//! into advice; the work itself is the library's.
+
+pub mod advice;
+pub mod args;
+pub mod check;
+pub mod r#continue;
+pub mod equilibrium;
+pub mod frf;
+pub mod modes;
+pub mod simulate;
+pub mod sweep;
+
+use std::sync::atomic::{AtomicBool, Ordering};
+
+/// Set by Ctrl-C once [`interrupt_on_ctrl_c`] is called: a long run stops and writes
+/// what it has.
+pub static INTERRUPTED: AtomicBool = AtomicBool::new(false);
+
+/// From now on, Ctrl-C sets [`INTERRUPTED`] instead of ending the process.
+pub fn interrupt_on_ctrl_c() {
+    let _ = ctrlc::set_handler(|| INTERRUPTED.store(true, Ordering::SeqCst));
+}
+
+/// A progress bar of `len` steps drawn with `template` (shown on a terminal only).
+pub fn progress_bar(len: u64, template: &str) -> indicatif::ProgressBar {
+    let bar = indicatif::ProgressBar::new(len);
+    bar.set_style(
+        indicatif::ProgressStyle::with_template(template)
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+    );
+    bar
+}
+
+/// Print a JSON document on stdout, pretty.
+pub fn print_json(v: &impl serde::Serialize) {
+    println!("{}", serde_json::to_string_pretty(v).unwrap_or_default());
+}

@@ -1,0 +1,180 @@
+//! The figures of the analyses, built from their results (drawn by [`super::plot`]):
+//! a simulation's angles against time, an equilibrium branch against its parameter, a
+//! sweep's amplitude against frequency with the linear natural frequencies marked.
+
+use super::plot::{LinePlot, Series, Style};
+use crate::dynamics::simulate::Trajectory;
+use crate::frequency::Direction;
+use crate::frequency::study::{NaturalFrequency, SweepRun};
+use crate::statics::continuation::{Branch, BranchPoint};
+
+/// SI unit of a coordinate: rad for an angle, else m.
+pub fn unit(angle: bool) -> &'static str {
+    if angle { "rad" } else { "m" }
+}
+
+/// Angle coordinates against time (all coordinates if the model has no angles); `name`
+/// is the model's.
+pub fn trajectory_figure(name: &str, traj: &Trajectory) -> LinePlot {
+    let angles: Vec<usize> = (0..traj.coordinates.len())
+        .filter(|&i| traj.angles[i])
+        .collect();
+    let pick = if angles.is_empty() {
+        (0..traj.coordinates.len()).collect()
+    } else {
+        angles.clone()
+    };
+    LinePlot {
+        title: format!("{name}: simulation"),
+        x_label: "t [s]".into(),
+        y_label: if angles.is_empty() {
+            "coordinate [SI]".into()
+        } else {
+            "angle [rad]".into()
+        },
+        series: pick
+            .iter()
+            .map(|&i| Series {
+                label: traj.coordinates[i].clone(),
+                x: traj.t.clone(),
+                y: traj.q.iter().map(|q| q[i]).collect(),
+                style: Style::Solid,
+            })
+            .collect(),
+        vertical: Vec::new(),
+    }
+}
+
+/// The paper's Figure 6: the branch in (parameter, coordinate `idx`), stable solid,
+/// unstable dashed, folds marked; `name` is the model's, `angle` whether the coordinate
+/// is an angle.
+pub fn branch_figure(name: &str, b: &Branch, idx: usize, angle: bool) -> LinePlot {
+    let mut series = Vec::new();
+    let mut seg: Vec<&BranchPoint> = Vec::new();
+    let flush = |seg: &mut Vec<&BranchPoint>, series: &mut Vec<Series>| {
+        if seg.len() > 1 {
+            let stable = seg[1].stable;
+            series.push(Series {
+                label: if stable {
+                    "stable".into()
+                } else {
+                    "unstable".into()
+                },
+                x: seg.iter().map(|p| p.value).collect(),
+                y: seg.iter().map(|p| p.q[idx]).collect(),
+                style: if stable { Style::Solid } else { Style::Dashed },
+            });
+        }
+        seg.clear();
+    };
+    for p in &b.points {
+        if let Some(last) = seg.last()
+            && last.stable != p.stable
+        {
+            seg.push(p);
+            flush(&mut seg, &mut series);
+        }
+        seg.push(p);
+    }
+    flush(&mut seg, &mut series);
+    for (label, marked) in [("folds", &b.folds), ("branch points", &b.branch_points)] {
+        if !marked.is_empty() {
+            series.push(Series {
+                label: label.into(),
+                x: marked.iter().map(|p| p.value).collect(),
+                y: marked.iter().map(|p| p.q[idx]).collect(),
+                style: Style::Markers,
+            });
+        }
+    }
+    LinePlot {
+        title: format!("{name}: equilibria against {}", b.param),
+        x_label: b.param.clone(),
+        y_label: format!("{} [{}]", b.coordinates[idx], unit(angle)),
+        series,
+        vertical: Vec::new(),
+    }
+}
+
+/// Amplitude of the first response against frequency, one curve per run (`--values`
+/// entry) and direction, the natural frequencies as vertical lines; for a family, a
+/// second panel with the amplitude divided by the run's value (the paper's Figures 8–9).
+pub fn sweep_figures(runs: &[SweepRun], natural: &[NaturalFrequency]) -> Vec<LinePlot> {
+    let first = &runs[0].sweep;
+    let name = &first.responses[0];
+    let angle = first
+        .coordinates
+        .iter()
+        .position(|c| c == name)
+        .is_some_and(|i| runs[0].angles[i]);
+    let vertical: Vec<(f64, String)> = natural
+        .iter()
+        .map(|n| {
+            let tag = n
+                .run
+                .as_ref()
+                .map(|(p, v)| format!(" ({p} = {v})"))
+                .unwrap_or_default();
+            (n.omega, format!("linear ω_n = {:.4} rad/s{tag}", n.omega))
+        })
+        .collect();
+    let curves = |normalized: bool| -> Vec<Series> {
+        let mut out = Vec::new();
+        for run in runs {
+            for dir in [Direction::Independent, Direction::Up, Direction::Down] {
+                let pts: Vec<_> = run
+                    .sweep
+                    .points
+                    .iter()
+                    .filter(|p| p.direction == dir)
+                    .collect();
+                if pts.is_empty() {
+                    continue;
+                }
+                let scale = match (normalized, run.tag()) {
+                    (true, Some((_, v))) if v != 0.0 => 1.0 / v.abs(),
+                    (true, Some(_)) => continue, // nothing to normalize by
+                    _ => 1.0,
+                };
+                let mut label = run
+                    .tag()
+                    .map(|(n, v)| format!("{n} = {v}"))
+                    .unwrap_or_else(|| name.clone());
+                if dir != Direction::Independent {
+                    label.push_str(&format!(" ({})", dir.name()));
+                }
+                out.push(Series {
+                    label,
+                    x: pts.iter().map(|p| p.steady.omega).collect(),
+                    y: pts
+                        .iter()
+                        .map(|p| p.steady.measures[0].amplitude * scale)
+                        .collect(),
+                    style: if dir == Direction::Down {
+                        Style::Dashed
+                    } else {
+                        Style::Solid
+                    },
+                });
+            }
+        }
+        out
+    };
+    let mut plots = vec![LinePlot {
+        title: format!("{name}: stepped-sine amplitude"),
+        x_label: format!("{} [rad/s]", first.param),
+        y_label: format!("{name} amplitude [{}]", unit(angle)),
+        series: curves(false),
+        vertical: vertical.clone(),
+    }];
+    if let Some((vname, _)) = runs[0].tag() {
+        plots.push(LinePlot {
+            title: format!("{name}: amplitude / {vname}"),
+            x_label: format!("{} [rad/s]", first.param),
+            y_label: format!("{name} amplitude / {vname}"),
+            series: curves(true),
+            vertical,
+        });
+    }
+    plots
+}

@@ -1,0 +1,337 @@
+//! The commands' JSON documents as `Serialize` types: `serde_json::to_string_pretty` of
+//! one gives the command's keys, in order (serde_json keeps the order: `preserve_order`).
+//!
+//! Each document borrows the results it shows. Keys named after the model (coordinates,
+//! responses, the `--values` parameter) are computed: [`Named`] and [`Tagged`] serialize
+//! those, and the rows shared with the CSV files come from [`super::results`].
+
+use super::Provenance;
+use super::results::{Cell, frf_header, frf_rows, sweep_header, sweep_rows};
+use crate::dynamics::simulate::{SimOptions, SimStats, Trajectory};
+use crate::frequency::study::SweepRun;
+use crate::frequency::{Hysteresis, Peak};
+use crate::linear::{C64, FrequencyResponse, ModalAnalysis};
+use crate::statics::Equilibrium;
+use crate::statics::continuation::{Branch, BranchPoint};
+use serde::Serialize;
+use serde::ser::{Error as _, SerializeMap, Serializer};
+use serde_json::{Map, Value};
+
+/// `{name: value, ...}`: values by name, e.g. coordinates.
+#[derive(Debug, Clone, Copy)]
+pub struct Named<'a, T> {
+    pub names: &'a [String],
+    pub values: &'a [T],
+}
+
+impl<'a, T> Named<'a, T> {
+    pub fn new(names: &'a [String], values: &'a [T]) -> Self {
+        Named { names, values }
+    }
+}
+
+impl<T: Serialize> Serialize for Named<'_, T> {
+    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        let mut map = s.serialize_map(Some(self.names.len().min(self.values.len())))?;
+        for (n, v) in self.names.iter().zip(self.values) {
+            map.serialize_entry(n, v)?;
+        }
+        map.end()
+    }
+}
+
+/// `item`'s object with one more key: the `--values` parameter and its value in this run
+/// (none without `--values`).
+#[derive(Debug, Clone)]
+pub struct Tagged<'a, T> {
+    pub item: T,
+    pub tag: Option<(&'a str, f64)>,
+}
+
+impl<T: Serialize> Serialize for Tagged<'_, T> {
+    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        let mut v = serde_json::to_value(&self.item).map_err(S::Error::custom)?;
+        if let (Some((name, x)), Value::Object(m)) = (self.tag, &mut v) {
+            m.insert(name.to_string(), Value::from(x));
+        }
+        v.serialize(s)
+    }
+}
+
+/// A result row as an object, keyed by its CSV header. Built as a map: a key given twice
+/// (a response named twice) appears once, where it first appears, with its last value.
+fn row_object(header: &[String], row: &[Cell]) -> Map<String, Value> {
+    header
+        .iter()
+        .cloned()
+        .zip(row.iter().map(Cell::json))
+        .collect()
+}
+
+/// The integrator settings a simulation summary reports.
+#[derive(Debug, Clone, Serialize)]
+pub struct SimSettings {
+    pub t_end: f64,
+    pub dt_out: f64,
+    pub rtol: f64,
+    pub atol: f64,
+}
+
+/// The last sample of a simulation.
+#[derive(Debug, Clone, Serialize)]
+pub struct FinalState<'a> {
+    pub t: f64,
+    pub coordinates: Named<'a, f64>,
+}
+
+/// `simulate --json`: provenance, options, step statistics, the final state and the CSV
+/// written.
+#[derive(Debug, Clone, Serialize)]
+pub struct SimulationSummary<'a> {
+    pub provenance: &'a Provenance,
+    pub options: SimSettings,
+    pub stats: &'a SimStats,
+    #[serde(rename = "final")]
+    pub final_state: FinalState<'a>,
+    /// The CSV file written.
+    pub output: &'a str,
+}
+
+impl<'a> SimulationSummary<'a> {
+    pub fn new(
+        provenance: &'a Provenance,
+        opts: &SimOptions,
+        traj: &'a Trajectory,
+        output: &'a str,
+    ) -> Self {
+        let last = traj.q.len() - 1;
+        SimulationSummary {
+            provenance,
+            options: SimSettings {
+                t_end: opts.t_end,
+                dt_out: opts.dt_out,
+                rtol: opts.rtol,
+                atol: opts.atol,
+            },
+            stats: &traj.stats,
+            final_state: FinalState {
+                t: traj.t[last],
+                coordinates: Named::new(&traj.coordinates, &traj.q[last]),
+            },
+            output,
+        }
+    }
+}
+
+/// One equilibrium: coordinates, stability, Newton residual and iterations, ω².
+#[derive(Debug, Clone, Serialize)]
+pub struct EquilibriumJson<'a> {
+    pub coordinates: Named<'a, f64>,
+    pub stable: bool,
+    pub residual: f64,
+    pub iterations: usize,
+    pub undamped_omega2: &'a [f64],
+}
+
+impl<'a> EquilibriumJson<'a> {
+    pub fn new(names: &'a [String], e: &'a Equilibrium) -> Self {
+        EquilibriumJson {
+            coordinates: Named::new(names, &e.q),
+            stable: e.stable,
+            residual: e.residual,
+            iterations: e.iterations,
+            undamped_omega2: &e.omega2,
+        }
+    }
+}
+
+/// `equilibrium --json`: the equilibrium's keys, then the provenance.
+#[derive(Debug, Clone, Serialize)]
+pub struct EquilibriumReport<'a> {
+    #[serde(flatten)]
+    pub equilibrium: EquilibriumJson<'a>,
+    pub provenance: &'a Provenance,
+}
+
+/// `equilibrium --all --json`.
+#[derive(Debug, Clone, Serialize)]
+pub struct EquilibriaReport<'a> {
+    pub equilibria: Vec<EquilibriumJson<'a>>,
+    pub provenance: &'a Provenance,
+}
+
+/// A fold or branch point: no `stable` flag, since the stiffness is singular there (the
+/// point is marginal; stability changes across it).
+#[derive(Debug, Clone, Serialize)]
+pub struct BranchPointJson<'a> {
+    pub value: f64,
+    pub coordinates: Named<'a, f64>,
+}
+
+/// `continue --json`: folds, branch points, the number of points, whether the run
+/// stopped at `--max-steps`.
+#[derive(Debug, Clone, Serialize)]
+pub struct BranchReport<'a> {
+    pub param: &'a str,
+    pub folds: Vec<BranchPointJson<'a>>,
+    pub branch_points: Vec<BranchPointJson<'a>>,
+    pub points: usize,
+    pub truncated: bool,
+    pub provenance: &'a Provenance,
+}
+
+impl<'a> BranchReport<'a> {
+    pub fn new(b: &'a Branch, provenance: &'a Provenance) -> Self {
+        let points = |list: &'a [BranchPoint]| {
+            list.iter()
+                .map(|p| BranchPointJson {
+                    value: p.value,
+                    coordinates: Named::new(&b.coordinates, &p.q),
+                })
+                .collect()
+        };
+        BranchReport {
+            param: &b.param,
+            folds: points(&b.folds),
+            branch_points: points(&b.branch_points),
+            points: b.points.len(),
+            truncated: b.truncated,
+            provenance,
+        }
+    }
+}
+
+/// One mode, its shape by coordinate name.
+#[derive(Debug, Clone, Serialize)]
+pub struct ModeJson<'a> {
+    pub omega_n_rad_s: f64,
+    pub omega_d_rad_s: f64,
+    pub freq_hz: f64,
+    pub damping_ratio: f64,
+    pub eigenvalue: C64,
+    pub shape: Named<'a, C64>,
+    pub normalized_to: &'a str,
+}
+
+/// `modes --json`.
+#[derive(Debug, Clone, Serialize)]
+pub struct ModesReport<'a> {
+    pub equilibrium: Named<'a, f64>,
+    pub stable: bool,
+    pub modes: Vec<ModeJson<'a>>,
+    pub undamped_omega2: &'a [f64],
+    pub normalized_to: &'a str,
+    pub provenance: &'a Provenance,
+}
+
+impl<'a> ModesReport<'a> {
+    pub fn new(a: &'a ModalAnalysis, provenance: &'a Provenance) -> Self {
+        ModesReport {
+            equilibrium: Named::new(&a.coordinates, &a.equilibrium.q),
+            stable: a.equilibrium.stable,
+            modes: a
+                .modes
+                .iter()
+                .map(|m| ModeJson {
+                    omega_n_rad_s: m.omega_n_rad_s,
+                    omega_d_rad_s: m.omega_d_rad_s,
+                    freq_hz: m.freq_hz,
+                    damping_ratio: m.damping_ratio,
+                    eigenvalue: m.eigenvalue,
+                    shape: Named::new(&a.coordinates, &m.shape),
+                    normalized_to: &a.coordinates[m.normalized_to],
+                })
+                .collect(),
+            undamped_omega2: &a.undamped_omega2,
+            normalized_to: &a.coordinates[a.reference],
+            provenance,
+        }
+    }
+}
+
+/// `frf --json`: the equilibrium and one object per frequency, keyed like the CSV.
+#[derive(Debug, Clone, Serialize)]
+pub struct FrfReport<'a> {
+    pub equilibrium: Named<'a, f64>,
+    pub points: Vec<Map<String, Value>>,
+    pub provenance: &'a Provenance,
+}
+
+impl<'a> FrfReport<'a> {
+    pub fn new(fr: &'a FrequencyResponse, provenance: &'a Provenance) -> Self {
+        let header = frf_header(fr);
+        FrfReport {
+            equilibrium: Named::new(&fr.coordinates, &fr.equilibrium.q),
+            points: frf_rows(fr)
+                .iter()
+                .map(|row| row_object(&header, row))
+                .collect(),
+            provenance,
+        }
+    }
+}
+
+/// The equilibrium a run of a `--values` family starts from.
+#[derive(Debug, Clone, Serialize)]
+pub struct RunEquilibrium<'a> {
+    pub coordinates: Named<'a, f64>,
+}
+
+/// `sweep --json`: the equilibrium, the points (the CSV rows as objects), peaks,
+/// hysteresis; with `--values`, each run's equilibrium too (a static load moves it),
+/// and every peak, hysteresis and equilibrium tagged with its run's value.
+#[derive(Debug, Clone, Serialize)]
+pub struct SweepReport<'a> {
+    pub equilibrium: Named<'a, f64>,
+    pub points: Vec<Map<String, Value>>,
+    pub peaks: Vec<Tagged<'a, &'a Peak>>,
+    pub hysteresis: Vec<Tagged<'a, &'a Hysteresis>>,
+    pub complete: bool,
+    pub provenance: &'a Provenance,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub equilibria: Option<Vec<Tagged<'a, RunEquilibrium<'a>>>>,
+}
+
+impl<'a> SweepReport<'a> {
+    pub fn new(runs: &'a [SweepRun], provenance: &'a Provenance) -> Self {
+        let header = sweep_header(runs);
+        let first = &runs[0].sweep;
+        SweepReport {
+            equilibrium: Named::new(&first.coordinates, &first.equilibrium),
+            points: sweep_rows(runs)
+                .iter()
+                .map(|row| row_object(&header, row))
+                .collect(),
+            peaks: runs
+                .iter()
+                .flat_map(|r| {
+                    r.sweep.peaks.iter().map(move |p| Tagged {
+                        item: p,
+                        tag: r.tag(),
+                    })
+                })
+                .collect(),
+            hysteresis: runs
+                .iter()
+                .flat_map(|r| {
+                    r.sweep.hysteresis.iter().map(move |h| Tagged {
+                        item: h,
+                        tag: r.tag(),
+                    })
+                })
+                .collect(),
+            complete: runs.iter().all(|r| r.sweep.complete),
+            provenance,
+            equilibria: runs.iter().any(|r| r.value.is_some()).then(|| {
+                runs.iter()
+                    .map(|r| Tagged {
+                        item: RunEquilibrium {
+                            coordinates: Named::new(&r.sweep.coordinates, &r.sweep.equilibrium),
+                        },
+                        tag: r.tag(),
+                    })
+                    .collect()
+            }),
+        }
+    }
+}
