@@ -63,6 +63,10 @@ pub fn pinv_solve(
 /// Minimum-norm least-squares solution of J x = r (SVD, relative rank tolerance).
 pub fn solve_least_squares(j: DMatrix<f64>, r: &DVector<f64>) -> DVector<f64> {
     let cols = j.ncols();
+    if cols == 0 || j.nrows() == 0 {
+        // nothing to solve for, or no equation (nalgebra's SVD panics on an empty matrix)
+        return DVector::zeros(cols);
+    }
     let svd = j.svd(true, true);
     let eps = RANK_TOL * svd.singular_values.max().max(f64::MIN_POSITIVE);
     svd.solve(r, eps).unwrap_or_else(|_| DVector::zeros(cols))

@@ -528,4 +528,12 @@ fn modes_of_a_mechanism_without_degrees_of_freedom() {
     assert_eq!(code, 0);
     let j: serde_json::Value = serde_json::from_str(&out).unwrap();
     assert!(j["modes"].as_array().unwrap().is_empty());
+    // Regression: `equilibrium --all` swept its fixed coordinates and panicked in
+    // nalgebra's SVD of an empty matrix (no free coordinate to re-assemble)
+    let (code, out, err) = detune(&["equilibrium", model.to_str().unwrap(), "--all", "--json"]);
+    assert_eq!(code, 0, "{err}");
+    let j: serde_json::Value = serde_json::from_str(&out).unwrap();
+    let list = j["equilibria"].as_array().unwrap();
+    assert_eq!(list.len(), 1, "{out}");
+    assert_eq!(list[0]["coordinates"]["a.theta"].as_f64(), Some(0.0));
 }
