@@ -157,6 +157,100 @@ pub struct RawBody {
 /// A vector of values, e.g. a point `["-L1/2", 0]`.
 pub type SVector = Spanned<Vec<SValue>>;
 
+/// A field of a `[[joints]]` or `[[forces]]` table, as given.
+#[derive(Debug, Clone, Copy)]
+pub enum RawField<'a> {
+    /// A body name, or `"ground"`.
+    Body(&'a SString),
+    /// A vector, e.g. a point or an axis.
+    Vector(&'a SVector),
+    /// A number or an expression.
+    Value(&'a SValue),
+}
+
+impl RawField<'_> {
+    /// Byte span of the value in the file.
+    pub fn span(&self) -> std::ops::Range<usize> {
+        match self {
+            RawField::Body(b) => b.span(),
+            RawField::Vector(v) => v.span(),
+            RawField::Value(v) => v.span(),
+        }
+    }
+}
+
+/// A `[[joints]]` or `[[forces]]` table: its `type`, its `name`, and its other fields by
+/// name. What each `type` does with them is in the tables of `src/model/kinds.rs`.
+pub trait RawElement {
+    /// The table, for messages about the program itself: `[[joints]]`.
+    const TABLE: &'static str;
+    /// Every field besides `type` and `name`, in the order of the struct (the order in
+    /// which fields that a `type` does not use are reported).
+    const FIELDS: &'static [&'static str];
+    fn kind(&self) -> &SString;
+    fn name(&self) -> Option<&str>;
+    fn ends(&self) -> RawEnds<'_>;
+    /// A field that is not one of the ends: `None` if `key` is not such a field,
+    /// `Some(None)` if it is but is not given.
+    fn own_field(&self, key: &str) -> Option<Option<RawField<'_>>>;
+    /// The field `key` (one of [`RawElement::FIELDS`]) if it is given.
+    ///
+    /// # Panics
+    /// If `key` is not one of [`RawElement::FIELDS`].
+    fn field(&self, key: &str) -> Option<RawField<'_>> {
+        self.own_field(key)
+            .or_else(|| self.ends().field(key))
+            .unwrap_or_else(|| panic!("`{key}` is not a field of {}", Self::TABLE))
+    }
+}
+
+/// The two ends that joints and forces share: `body1` (alias `body`), `point1` (alias
+/// `point`), `body2`, `point2`. [`RawJoint`] and [`RawForce`] each declare these fields
+/// themselves (with `#[serde(flatten)]` a shared struct would lose the spans of
+/// `toml::Spanned`) and read them through this view.
+#[derive(Debug, Clone, Copy)]
+pub struct RawEnds<'a> {
+    pub body1: &'a Option<SString>,
+    pub point1: &'a Option<SVector>,
+    pub body2: &'a Option<SString>,
+    pub point2: &'a Option<SVector>,
+}
+
+impl<'a> RawEnds<'a> {
+    /// The field `key` if it is one of the ends: `None` if it is not, `Some(None)` if it
+    /// is but is not given.
+    pub fn field(&self, key: &str) -> Option<Option<RawField<'a>>> {
+        Some(match key {
+            "body1" => self.body1.as_ref().map(RawField::Body),
+            "point1" => self.point1.as_ref().map(RawField::Vector),
+            "body2" => self.body2.as_ref().map(RawField::Body),
+            "point2" => self.point2.as_ref().map(RawField::Vector),
+            _ => return None,
+        })
+    }
+}
+
+/// The methods of [`RawElement`] that read `type`, `name` and the ends: the same for
+/// every table that declares these fields.
+macro_rules! type_name_and_ends {
+    () => {
+        fn kind(&self) -> &SString {
+            &self.kind
+        }
+        fn name(&self) -> Option<&str> {
+            self.name.as_deref()
+        }
+        fn ends(&self) -> RawEnds<'_> {
+            RawEnds {
+                body1: &self.body1,
+                point1: &self.point1,
+                body2: &self.body2,
+                point2: &self.point2,
+            }
+        }
+    };
+}
+
 /// `[[joints]]`: `type` = `revolute`, `pin_in_slot`, `prismatic`, `fixed`.
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -174,6 +268,20 @@ pub struct RawJoint {
     pub axis: Option<SVector>,
     /// Relative angle θ1 − θ2 held by prismatic and fixed joints, rad (default 0).
     pub angle: Option<SValue>,
+}
+
+impl RawElement for RawJoint {
+    const TABLE: &'static str = "[[joints]]";
+    const FIELDS: &'static [&'static str] =
+        &["body1", "point1", "body2", "point2", "axis", "angle"];
+    type_name_and_ends!();
+    fn own_field(&self, key: &str) -> Option<Option<RawField<'_>>> {
+        Some(match key {
+            "axis" => self.axis.as_ref().map(RawField::Vector),
+            "angle" => self.angle.as_ref().map(RawField::Value),
+            _ => return None,
+        })
+    }
 }
 
 /// `[[constraints]]`: a custom constraint equation `expr = 0` over coordinates,
@@ -208,6 +316,32 @@ pub struct RawForce {
     pub free_length: Option<SValue>,
     /// point_force: world-frame components, N (expressions of t, parameters, coordinates).
     pub force: Option<SVector>,
+}
+
+impl RawElement for RawForce {
+    const TABLE: &'static str = "[[forces]]";
+    const FIELDS: &'static [&'static str] = &[
+        "acceleration",
+        "body1",
+        "point1",
+        "body2",
+        "point2",
+        "stiffness",
+        "damping",
+        "free_length",
+        "force",
+    ];
+    type_name_and_ends!();
+    fn own_field(&self, key: &str) -> Option<Option<RawField<'_>>> {
+        Some(match key {
+            "acceleration" => self.acceleration.as_ref().map(RawField::Vector),
+            "stiffness" => self.stiffness.as_ref().map(RawField::Value),
+            "damping" => self.damping.as_ref().map(RawField::Value),
+            "free_length" => self.free_length.as_ref().map(RawField::Value),
+            "force" => self.force.as_ref().map(RawField::Vector),
+            _ => return None,
+        })
+    }
 }
 
 /// `[ground]`: the ground frame. `motion = { x = "D0*sin(omega*t)" }` prescribes its
@@ -246,4 +380,63 @@ pub struct RawModel {
     pub constraints: Vec<Spanned<RawConstraint>>,
     #[serde(default)]
     pub forces: Vec<Spanned<RawForce>>,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use serde::de::DeserializeOwned;
+
+    /// `R::FIELDS` are the struct's fields besides `type` and `name` (as serde lists them
+    /// when it refuses an unknown one), and in `text`, which gives every field a value
+    /// that contains its name, `field` finds each where it is.
+    fn check_raw<R: RawElement + DeserializeOwned>(aliases: &[&str], text: &str) {
+        let e = toml::from_str::<R>("type = \"x\"\nzzz = 1")
+            .err()
+            .unwrap()
+            .to_string();
+        let listed = e.split("expected one of ").nth(1).unwrap();
+        let mut got: Vec<&str> = listed
+            .split(',')
+            .map(|f| f.trim().trim_matches('`'))
+            .collect();
+        let mut want = vec!["type", "name"];
+        want.extend(R::FIELDS);
+        want.extend(aliases);
+        got.sort();
+        want.sort();
+        assert_eq!(got, want, "{e}");
+        let raw: R = toml::from_str(text).unwrap();
+        for f in R::FIELDS {
+            let span = raw.field(f).unwrap_or_else(|| panic!("{f}")).span();
+            assert!(text[span].contains(&format!("\"{f}\"")), "{f}");
+        }
+    }
+
+    #[test]
+    fn the_raw_tables_give_each_field_by_its_name() {
+        check_raw::<RawJoint>(
+            &["body", "point"],
+            r#"type = "x"
+               body1 = "body1"
+               point1 = ["point1", 0]
+               body2 = "body2"
+               point2 = ["point2", 0]
+               axis = ["axis", 0]
+               angle = "angle""#,
+        );
+        check_raw::<RawForce>(
+            &["body", "point"],
+            r#"type = "x"
+               acceleration = ["acceleration", 0]
+               body1 = "body1"
+               point1 = ["point1", 0]
+               body2 = "body2"
+               point2 = ["point2", 0]
+               stiffness = "stiffness"
+               damping = "damping"
+               free_length = "free_length"
+               force = ["force", 0]"#,
+        );
+    }
 }

@@ -8,6 +8,7 @@
 
 pub mod expr;
 pub mod file;
+mod kinds;
 pub mod params;
 pub mod units;
 
@@ -525,44 +526,6 @@ impl Builder<'_> {
         }
     }
 
-    fn required(
-        &mut self,
-        v: &Option<SValue>,
-        what: &str,
-        owner: &str,
-        span: &Range<usize>,
-    ) -> Option<Field> {
-        match v {
-            Some(v) => self.field(v),
-            None => {
-                self.diags.push(
-                    Diagnostic::new(format!("{owner} needs `{what}`"))
-                        .at(span.clone())
-                        .label(format!("no `{what}` here"))
-                        .help(format!("add `{what} = ...`")),
-                );
-                None
-            }
-        }
-    }
-
-    /// Fields given that this `type` does not use: an error, not silently ignored.
-    fn unexpected(&mut self, kind: &str, fields: &[(&str, Option<Range<usize>>)]) -> bool {
-        let mut ok = true;
-        for (name, span) in fields {
-            if let Some(span) = span {
-                self.diags.push(
-                    Diagnostic::new(format!("`{name}` is not a field of a `{kind}`"))
-                        .at(span.clone())
-                        .label("not used by this type")
-                        .help(format!("remove `{name}`, or change `type`")),
-                );
-                ok = false;
-            }
-        }
-        ok
-    }
-
     fn vector2(&mut self, v: &SVector, what: &str) -> Option<[Field; 2]> {
         let items = v.get_ref();
         if items.len() != 2 {
@@ -581,24 +544,7 @@ impl Builder<'_> {
         Some([a?, b?])
     }
 
-    fn body_ref(
-        &mut self,
-        name: &Option<SString>,
-        default_ground: bool,
-        owner: &str,
-        span: &Range<usize>,
-    ) -> Option<BodyRef> {
-        let Some(name) = name else {
-            if default_ground {
-                return Some(BodyRef::Ground);
-            }
-            self.diags.push(
-                Diagnostic::new(format!("{owner} needs `body1`"))
-                    .at(span.clone())
-                    .help("name a body, or \"ground\""),
-            );
-            return None;
-        };
+    fn body_ref(&mut self, name: &SString) -> Option<BodyRef> {
         let n = name.get_ref();
         if n == "ground" {
             return Some(BodyRef::Ground);
@@ -618,29 +564,6 @@ impl Builder<'_> {
                 .help(help),
         );
         None
-    }
-
-    fn point(
-        &mut self,
-        body: &Option<SString>,
-        point: &Option<SVector>,
-        default_ground: bool,
-        which: &str,
-        owner: &str,
-        span: &Range<usize>,
-    ) -> Option<PointRef> {
-        let body = self.body_ref(body, default_ground, owner, span);
-        let point = match point {
-            Some(p) => self.vector2(p, which),
-            None => Some([
-                Field::default_value(0.0, span.clone()),
-                Field::default_value(0.0, span.clone()),
-            ]),
-        };
-        Some(PointRef {
-            body: body?,
-            point: point?,
-        })
     }
 
     fn body(&mut self, r: &toml::Spanned<file::RawBody>) -> Option<Body> {
@@ -738,191 +661,28 @@ impl Builder<'_> {
         .filter(|_| span.end >= span.start)
     }
 
+    /// A `[[joints]]` table, read by its type's table of fields ([`kinds::JOINTS`]).
     fn joint(&mut self, i: usize, r: &toml::Spanned<file::RawJoint>) -> Option<Joint> {
-        let raw = r.get_ref();
         let span = r.span();
-        let kind_name = raw.kind.get_ref().as_str();
-        let name = raw
-            .name
-            .clone()
-            .unwrap_or_else(|| format!("joint{}", i + 1));
-        let owner = format!("joint `{name}` ({kind_name})");
-        let p1 = self.point(&raw.body1, &raw.point1, false, "point1", &owner, &span);
-        let p2 = self.point(&raw.body2, &raw.point2, true, "point2", &owner, &span);
-        let axis = |b: &mut Self| match &raw.axis {
-            Some(a) => b.vector2(a, "axis"),
-            None => {
-                b.diags.push(
-                    Diagnostic::new(format!("{owner} needs `axis`"))
-                        .at(span.clone())
-                        .help("add `axis = [1, 0]` (direction of the slot in body2's frame)"),
-                );
-                None
-            }
-        };
-        let angle = |b: &mut Self| match &raw.angle {
-            Some(a) => b.field(a),
-            None => Some(Field::default_value(0.0, span.clone())),
-        };
-        let axis_span = raw.axis.as_ref().map(|a| a.span());
-        let angle_span = raw.angle.as_ref().map(|a| a.span());
-        let fine = match kind_name {
-            "revolute" => self.unexpected(kind_name, &[("axis", axis_span), ("angle", angle_span)]),
-            "pin_in_slot" => self.unexpected(kind_name, &[("angle", angle_span)]),
-            "fixed" => self.unexpected(kind_name, &[("axis", axis_span)]),
-            _ => true,
-        };
-        if !fine {
-            return None;
-        }
-        let kind = match kind_name {
-            "revolute" => JointKind::Revolute,
-            "pin_in_slot" => JointKind::PinInSlot { axis: axis(self)? },
-            "prismatic" => JointKind::Prismatic {
-                axis: axis(self)?,
-                angle: angle(self)?,
-            },
-            "fixed" => JointKind::Fixed {
-                angle: angle(self)?,
-            },
-            other => {
-                let help = suggest(other, ["revolute", "pin_in_slot", "prismatic", "fixed"])
-                    .unwrap_or_else(|| {
-                        "joint types: revolute, pin_in_slot, prismatic, fixed".into()
-                    });
-                self.diags.push(
-                    Diagnostic::new(format!("unknown joint type `{other}`"))
-                        .at(raw.kind.span())
-                        .help(help),
-                );
-                return None;
-            }
-        };
+        let mut e = self.element(&kinds::JOINTS, i, r.get_ref(), span.clone())?;
+        let [p1, p2] = e.values.ends()?;
         Some(Joint {
-            name,
+            name: e.name,
             span,
-            kind,
-            p1: p1?,
-            p2: p2?,
+            kind: e.kind,
+            p1,
+            p2,
         })
     }
 
+    /// A `[[forces]]` table, read by its type's table of fields ([`kinds::FORCES`]).
     fn force(&mut self, i: usize, r: &toml::Spanned<file::RawForce>) -> Option<ForceDef> {
-        let raw = r.get_ref();
         let span = r.span();
-        let kind_name = raw.kind.get_ref().as_str();
-        let name = raw
-            .name
-            .clone()
-            .unwrap_or_else(|| format!("force{}", i + 1));
-        let owner = format!("force `{name}` ({kind_name})");
-        let sp = |v: &Option<SValue>| v.as_ref().map(|x| x.span());
-        let vp = |v: &Option<SVector>| v.as_ref().map(|x| x.span());
-        let bp = |v: &Option<SString>| v.as_ref().map(|x| x.span());
-        let fine = match kind_name {
-            "gravity" => self.unexpected(
-                kind_name,
-                &[
-                    ("body1", bp(&raw.body1)),
-                    ("point1", vp(&raw.point1)),
-                    ("body2", bp(&raw.body2)),
-                    ("point2", vp(&raw.point2)),
-                    ("stiffness", sp(&raw.stiffness)),
-                    ("damping", sp(&raw.damping)),
-                    ("free_length", sp(&raw.free_length)),
-                    ("force", vp(&raw.force)),
-                ],
-            ),
-            "spring_damper" => self.unexpected(
-                kind_name,
-                &[
-                    ("acceleration", vp(&raw.acceleration)),
-                    ("force", vp(&raw.force)),
-                ],
-            ),
-            "point_force" => self.unexpected(
-                kind_name,
-                &[
-                    ("acceleration", vp(&raw.acceleration)),
-                    ("body2", bp(&raw.body2)),
-                    ("point2", vp(&raw.point2)),
-                    ("stiffness", sp(&raw.stiffness)),
-                    ("damping", sp(&raw.damping)),
-                    ("free_length", sp(&raw.free_length)),
-                ],
-            ),
-            _ => true,
-        };
-        if !fine {
-            return None;
-        }
-        let kind = match kind_name {
-            "gravity" => {
-                let acceleration = match &raw.acceleration {
-                    Some(a) => self.vector2(a, "acceleration")?,
-                    None => {
-                        self.diags.push(
-                            Diagnostic::new(format!("{owner} needs `acceleration`"))
-                                .at(span.clone())
-                                .help("add `acceleration = [0, \"-g\"]` (m/s²)"),
-                        );
-                        return None;
-                    }
-                };
-                ForceKind::Gravity { acceleration }
-            }
-            "spring_damper" => {
-                let p1 = self.point(&raw.body1, &raw.point1, false, "point1", &owner, &span);
-                let p2 = self.point(&raw.body2, &raw.point2, true, "point2", &owner, &span);
-                let stiffness = self.required(&raw.stiffness, "stiffness", &owner, &span);
-                let damping = match &raw.damping {
-                    Some(d) => self.field(d),
-                    None => Some(Field::default_value(0.0, span.clone())),
-                };
-                let free_length = self.required(&raw.free_length, "free_length", &owner, &span);
-                ForceKind::SpringDamper {
-                    p1: p1?,
-                    p2: p2?,
-                    stiffness: stiffness?,
-                    damping: damping?,
-                    free_length: free_length?,
-                }
-            }
-            "point_force" => {
-                let at = self.point(&raw.body1, &raw.point1, false, "point", &owner, &span);
-                let force = match &raw.force {
-                    Some(f) => self.vector2(f, "force"),
-                    None => {
-                        self.diags.push(
-                            Diagnostic::new(format!("{owner} needs `force`"))
-                                .at(span.clone())
-                                .help("add `force = [Fx, Fy]` (N, world frame)"),
-                        );
-                        None
-                    }
-                };
-                let at = at?;
-                if at.body == BodyRef::Ground {
-                    self.diags.push(
-                        Diagnostic::new(format!("{owner} acts on the ground, so it does nothing"))
-                            .at(span.clone())
-                            .help("name the body it acts on in `body`"),
-                    );
-                    return None;
-                }
-                ForceKind::PointForce { at, force: force? }
-            }
-            other => {
-                let help = suggest(other, ["gravity", "spring_damper", "point_force"])
-                    .unwrap_or_else(|| "force types: gravity, spring_damper, point_force".into());
-                self.diags.push(
-                    Diagnostic::new(format!("unknown force type `{other}`"))
-                        .at(raw.kind.span())
-                        .help(help),
-                );
-                return None;
-            }
-        };
-        Some(ForceDef { name, span, kind })
+        let e = self.element(&kinds::FORCES, i, r.get_ref(), span.clone())?;
+        Some(ForceDef {
+            name: e.name,
+            span,
+            kind: e.kind,
+        })
     }
 }

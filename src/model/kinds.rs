@@ -1,0 +1,434 @@
+//! What each joint and force `type` reads from its table: one table of fields per type.
+//!
+//! A type's table lists the fields it uses, each [`Rule::Required`] or
+//! [`Rule::Optional`] with its default; every other field of `[[joints]]` (or
+//! `[[forces]]`, see [`RawElement::FIELDS`]) is not used by the type, and giving it is an
+//! error. [`Builder::element`] reads any element by these tables: it reports the unknown
+//! `type`, the fields given that the type does not use, the required fields missing and
+//! the values that cannot be read, fills in the defaults, and hands the values to the
+//! type's constructor. A new type is a table row here and its constructor (and, for a
+//! new field, the field in [`super::file`]).
+
+use super::file::{RawElement, RawField};
+use super::{BodyRef, Builder, Field, ForceKind, JointKind, PointRef, suggest};
+use crate::diag::Diagnostic;
+use std::ops::Range;
+
+/// One field a type uses.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct FieldSpec {
+    /// The field's name in the file (the name the struct in [`super::file`] gives it).
+    pub name: &'static str,
+    /// What messages about its value call it: `point` for the point of a `point_force`,
+    /// otherwise the name.
+    pub called: &'static str,
+    pub rule: Rule,
+}
+
+#[derive(Debug, Clone, Copy)]
+pub(super) enum Rule {
+    /// Must be given. `help` is the hint when it is missing; without one the message
+    /// points at the table ("no `stiffness` here") and says to add it.
+    Required { help: Option<&'static str> },
+    /// May be omitted; then it has this value, located at the element's table.
+    Optional(Omitted),
+}
+
+/// The value of an optional field that is not given.
+#[derive(Debug, Clone, Copy)]
+pub(super) enum Omitted {
+    /// The body `"ground"`.
+    Ground,
+    /// The number 0.
+    Zero,
+    /// The point `[0, 0]`.
+    Origin,
+}
+
+impl FieldSpec {
+    const fn required(name: &'static str, help: Option<&'static str>) -> FieldSpec {
+        FieldSpec {
+            name,
+            called: name,
+            rule: Rule::Required { help },
+        }
+    }
+    const fn optional(name: &'static str, omitted: Omitted) -> FieldSpec {
+        FieldSpec {
+            name,
+            called: name,
+            rule: Rule::Optional(omitted),
+        }
+    }
+    const fn called(self, called: &'static str) -> FieldSpec {
+        FieldSpec { called, ..self }
+    }
+}
+
+/// A `type`: the fields it uses, and what it builds from their values.
+pub(super) struct Kind<K> {
+    pub name: &'static str,
+    pub fields: &'static [FieldSpec],
+    /// Builds the element from the values of `fields`, which have been read (and their
+    /// problems reported). A value that could not be read is `None`: give up (`?`).
+    pub build: fn(&mut Builder<'_>, &mut Values) -> Option<K>,
+}
+
+/// The types of one kind of element (joints, forces).
+pub(super) struct Family<K: 'static> {
+    /// `joint`, `force`: in messages and default names (`joint1`).
+    pub what: &'static str,
+    /// Fields every type uses, read before the `type` is looked at (also when it is
+    /// unknown).
+    pub common: &'static [FieldSpec],
+    pub kinds: &'static [Kind<K>],
+    /// Stop reading a type's own fields at the first that fails (joints: a prismatic
+    /// joint whose `axis` fails says nothing about its `angle`), or read them all and
+    /// report every problem (forces). Both as the loader has always done.
+    pub stop_at_first_failure: bool,
+}
+
+// The two ends: every joint and a spring_damper have both, a point_force the first.
+const BODY1: FieldSpec = FieldSpec::required("body1", Some("name a body, or \"ground\""));
+const POINT1: FieldSpec = FieldSpec::optional("point1", Omitted::Origin); // m
+const BODY2: FieldSpec = FieldSpec::optional("body2", Omitted::Ground);
+const POINT2: FieldSpec = FieldSpec::optional("point2", Omitted::Origin); // m
+
+/// Slot direction in body 2's frame, dimensionless.
+const AXIS: FieldSpec = FieldSpec::required(
+    "axis",
+    Some("add `axis = [1, 0]` (direction of the slot in body2's frame)"),
+);
+/// Relative angle θ1 − θ2, rad.
+const ANGLE: FieldSpec = FieldSpec::optional("angle", Omitted::Zero);
+
+/// `[[joints]]`: every joint joins point 1 on body 1 to point 2 on body 2.
+pub(super) const JOINTS: Family<JointKind> = Family {
+    what: "joint",
+    common: &[BODY1, POINT1, BODY2, POINT2],
+    stop_at_first_failure: true,
+    kinds: &[
+        Kind {
+            name: "revolute",
+            fields: &[],
+            build: |_, _| Some(JointKind::Revolute),
+        },
+        Kind {
+            name: "pin_in_slot",
+            fields: &[AXIS],
+            build: |_, v| {
+                Some(JointKind::PinInSlot {
+                    axis: v.vector("axis")?,
+                })
+            },
+        },
+        Kind {
+            name: "prismatic",
+            fields: &[AXIS, ANGLE],
+            build: |_, v| {
+                Some(JointKind::Prismatic {
+                    axis: v.vector("axis")?,
+                    angle: v.scalar("angle")?,
+                })
+            },
+        },
+        Kind {
+            name: "fixed",
+            fields: &[ANGLE],
+            build: |_, v| {
+                Some(JointKind::Fixed {
+                    angle: v.scalar("angle")?,
+                })
+            },
+        },
+    ],
+};
+
+/// `[[forces]]`.
+pub(super) const FORCES: Family<ForceKind> = Family {
+    what: "force",
+    common: &[],
+    stop_at_first_failure: false,
+    kinds: &[
+        Kind {
+            name: "gravity",
+            fields: &[FieldSpec::required(
+                "acceleration", // m/s²
+                Some("add `acceleration = [0, \"-g\"]` (m/s²)"),
+            )],
+            build: |_, v| {
+                Some(ForceKind::Gravity {
+                    acceleration: v.vector("acceleration")?,
+                })
+            },
+        },
+        Kind {
+            name: "spring_damper",
+            fields: &[
+                BODY1,
+                POINT1,
+                BODY2,
+                POINT2,
+                FieldSpec::required("stiffness", None), // N/m
+                FieldSpec::optional("damping", Omitted::Zero), // N·s/m
+                FieldSpec::required("free_length", None), // m
+            ],
+            build: |_, v| {
+                let [p1, p2] = v.ends()?;
+                Some(ForceKind::SpringDamper {
+                    p1,
+                    p2,
+                    stiffness: v.scalar("stiffness")?,
+                    damping: v.scalar("damping")?,
+                    free_length: v.scalar("free_length")?,
+                })
+            },
+        },
+        Kind {
+            name: "point_force",
+            fields: &[
+                BODY1,
+                POINT1.called("point"),
+                FieldSpec::required("force", Some("add `force = [Fx, Fy]` (N, world frame)")),
+            ],
+            build: point_force,
+        },
+    ],
+};
+
+fn point_force(b: &mut Builder<'_>, v: &mut Values) -> Option<ForceKind> {
+    let at = v.point("body1", "point1")?;
+    if at.body == BodyRef::Ground {
+        b.diags.push(
+            Diagnostic::new(format!(
+                "{} acts on the ground, so it does nothing",
+                v.owner
+            ))
+            .at(v.span.clone())
+            .help("name the body it acts on in `body`"),
+        );
+        return None;
+    }
+    Some(ForceKind::PointForce {
+        at,
+        force: v.vector("force")?,
+    })
+}
+
+/// A field's value, read.
+#[derive(Debug)]
+pub(super) enum Value {
+    Body(BodyRef),
+    Vector([Field; 2]),
+    Scalar(Field),
+}
+
+/// The values of an element's fields, by name.
+#[derive(Debug)]
+pub(super) struct Values {
+    /// The element, in messages: joint `A` (revolute).
+    pub owner: String,
+    /// The element's table in the file.
+    pub span: Range<usize>,
+    /// Every field of the type's tables: `None` if it could not be read, or was not
+    /// read.
+    read: Vec<(&'static str, Option<Value>)>,
+}
+
+impl Values {
+    /// # Panics
+    /// If `name` is not in the type's tables (a mistake in a constructor).
+    fn take(&mut self, name: &str) -> Option<Value> {
+        let (_, v) = self
+            .read
+            .iter_mut()
+            .find(|(n, _)| *n == name)
+            .unwrap_or_else(|| panic!("`{name}` is not in the type's table"));
+        v.take()
+    }
+    pub fn scalar(&mut self, name: &str) -> Option<Field> {
+        match self.take(name)? {
+            Value::Scalar(f) => Some(f),
+            other => panic!("`{name}` is not a number: {other:?}"),
+        }
+    }
+    pub fn vector(&mut self, name: &str) -> Option<[Field; 2]> {
+        match self.take(name)? {
+            Value::Vector(v) => Some(v),
+            other => panic!("`{name}` is not a vector: {other:?}"),
+        }
+    }
+    pub fn body(&mut self, name: &str) -> Option<BodyRef> {
+        match self.take(name)? {
+            Value::Body(b) => Some(b),
+            other => panic!("`{name}` is not a body: {other:?}"),
+        }
+    }
+    /// The point `point` on the body `body`.
+    pub fn point(&mut self, body: &str, point: &str) -> Option<PointRef> {
+        let body = self.body(body);
+        let point = self.vector(point);
+        Some(PointRef {
+            body: body?,
+            point: point?,
+        })
+    }
+    /// The two ends, `body1`/`point1` and `body2`/`point2`.
+    pub fn ends(&mut self) -> Option<[PointRef; 2]> {
+        let p1 = self.point("body1", "point1");
+        let p2 = self.point("body2", "point2");
+        Some([p1?, p2?])
+    }
+}
+
+/// An element read by its type's table.
+pub(super) struct Element<K> {
+    pub name: String,
+    pub kind: K,
+    /// The values the constructor did not take (a joint's ends).
+    pub values: Values,
+}
+
+impl Builder<'_> {
+    /// Read the `i`-th element of a family (0-based) from its table at `span`, reporting
+    /// every problem: see the module's description.
+    pub(super) fn element<K, R: RawElement>(
+        &mut self,
+        family: &Family<K>,
+        i: usize,
+        raw: &R,
+        span: Range<usize>,
+    ) -> Option<Element<K>> {
+        let kind_name = raw.kind().get_ref().as_str();
+        let name = raw
+            .name()
+            .map_or_else(|| format!("{}{}", family.what, i + 1), str::to_string);
+        let mut values = Values {
+            owner: format!("{} `{name}` ({kind_name})", family.what),
+            span,
+            read: Vec::new(),
+        };
+        self.read(family.common, raw, &mut values, false);
+        let Some(kind) = family.kinds.iter().find(|k| k.name == kind_name) else {
+            let names = family.kinds.iter().map(|k| k.name);
+            let help = suggest(kind_name, names.clone()).unwrap_or_else(|| {
+                format!(
+                    "{} types: {}",
+                    family.what,
+                    names.collect::<Vec<_>>().join(", ")
+                )
+            });
+            self.diags.push(
+                Diagnostic::new(format!("unknown {} type `{kind_name}`", family.what))
+                    .at(raw.kind().span())
+                    .help(help),
+            );
+            return None;
+        };
+        let uses = |f: &str| family.common.iter().chain(kind.fields).any(|s| s.name == f);
+        let mut unused = false;
+        for f in R::FIELDS.iter().filter(|f| !uses(f)) {
+            if let Some(given) = raw.field(f) {
+                self.diags.push(
+                    Diagnostic::new(format!("`{f}` is not a field of a `{kind_name}`"))
+                        .at(given.span())
+                        .label("not used by this type")
+                        .help(format!("remove `{f}`, or change `type`")),
+                );
+                unused = true;
+            }
+        }
+        if unused {
+            return None;
+        }
+        self.read(kind.fields, raw, &mut values, family.stop_at_first_failure);
+        let kind = (kind.build)(self, &mut values)?;
+        Some(Element { name, kind, values })
+    }
+
+    /// Read `fields` in order into `values`.
+    fn read<R: RawElement>(
+        &mut self,
+        fields: &[FieldSpec],
+        raw: &R,
+        values: &mut Values,
+        stop_at_first_failure: bool,
+    ) {
+        let mut failed = false;
+        for spec in fields {
+            let value = if failed && stop_at_first_failure {
+                None
+            } else {
+                self.read_field(spec, raw.field(spec.name), values)
+            };
+            failed |= value.is_none();
+            values.read.push((spec.name, value));
+        }
+    }
+
+    fn read_field(
+        &mut self,
+        spec: &FieldSpec,
+        given: Option<RawField<'_>>,
+        values: &Values,
+    ) -> Option<Value> {
+        match (given, spec.rule) {
+            (Some(RawField::Body(b)), _) => self.body_ref(b).map(Value::Body),
+            (Some(RawField::Vector(v)), _) => self.vector2(v, spec.called).map(Value::Vector),
+            (Some(RawField::Value(v)), _) => self.field(v).map(Value::Scalar),
+            (None, Rule::Optional(omitted)) => Some(match omitted {
+                Omitted::Ground => Value::Body(BodyRef::Ground),
+                Omitted::Zero => Value::Scalar(Field::default_value(0.0, values.span.clone())),
+                Omitted::Origin => Value::Vector([
+                    Field::default_value(0.0, values.span.clone()),
+                    Field::default_value(0.0, values.span.clone()),
+                ]),
+            }),
+            (None, Rule::Required { help }) => {
+                let (owner, called) = (&values.owner, spec.called);
+                let d =
+                    Diagnostic::new(format!("{owner} needs `{called}`")).at(values.span.clone());
+                self.diags.push(match help {
+                    Some(help) => d.help(help),
+                    None => d
+                        .label(format!("no `{called}` here"))
+                        .help(format!("add `{called} = ...`")),
+                });
+                None
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::file::{RawForce, RawJoint};
+
+    /// Every field of every type's table is a field of the raw table, and each type's
+    /// fields and the types' names are distinct.
+    fn check_tables<K, R: RawElement>(family: &Family<K>) {
+        for kind in family.kinds {
+            let fields: Vec<&str> = family
+                .common
+                .iter()
+                .chain(kind.fields)
+                .map(|f| f.name)
+                .collect();
+            for (i, f) in fields.iter().enumerate() {
+                assert!(R::FIELDS.contains(f), "{}: `{f}`", kind.name);
+                assert!(!fields[..i].contains(f), "{}: `{f}` twice", kind.name);
+            }
+        }
+        let names: Vec<&str> = family.kinds.iter().map(|k| k.name).collect();
+        for (i, n) in names.iter().enumerate() {
+            assert!(!names[..i].contains(n), "type `{n}` twice");
+        }
+    }
+
+    #[test]
+    fn the_tables_name_fields_of_the_raw_tables() {
+        check_tables::<_, RawJoint>(&JOINTS);
+        check_tables::<_, RawForce>(&FORCES);
+    }
+}
