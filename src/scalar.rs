@@ -42,7 +42,7 @@ impl<D: Scalar> Env<D> for Plain<'_> {
     }
 }
 
-/// Values carrying derivatives (see [`crate::system::System::seeded`]).
+/// Values carrying derivatives (see `System::seeded`).
 #[derive(Debug, Clone, Copy)]
 pub struct Seeded<'a, D> {
     pub params: &'a [D],

@@ -20,12 +20,13 @@ fn shipped_text() -> String {
     .unwrap()
 }
 
-/// The error of loading the shipped model with its first `from` replaced by `to`.
+/// The error of loading and compiling the shipped model with its first `from` replaced
+/// by `to`.
 fn load_error(from: &str, to: &str) -> String {
     let text = shipped_text();
     assert!(text.contains(from), "{from}");
     Model::from_str("t.toml", &text.replacen(from, to, 1))
-        .map(|_| ())
+        .and_then(|m| System::check(&m))
         .unwrap_err()
         .to_string()
 }
@@ -35,7 +36,9 @@ fn with(sets: &[(&str, &str)]) -> detune::Result<Model> {
         .iter()
         .map(|(a, b)| (a.to_string(), b.to_string()))
         .collect();
-    model().with_overrides(&sets)
+    model()
+        .with_overrides(&sets)
+        .and_then(|m| System::check(&m).map(|_| m))
 }
 
 #[test]

@@ -3,6 +3,7 @@
 
 use clap::Args;
 use detune::Model;
+use detune::System;
 use detune::diag::{Error, Result};
 
 #[derive(Args)]
@@ -16,11 +17,14 @@ pub struct ModelArgs {
 }
 
 impl ModelArgs {
-    /// The model file with the `--set` overrides applied.
-    pub fn load(&self) -> Result<Model> {
+    /// The model file with the `--set` overrides applied, and compiled (names,
+    /// dimensions and values checked).
+    pub fn load(&self) -> Result<(Model, System)> {
         let model = Model::load(&self.model)?;
         let overrides = parse_sets(&self.set)?;
-        model.with_overrides(&overrides)
+        let model = model.with_overrides(&overrides)?;
+        let sys = System::new(&model)?;
+        Ok((model, sys))
     }
 }
 

@@ -2,7 +2,6 @@
 
 use super::args::ModelArgs;
 use clap::Args;
-use detune::System;
 use detune::check::CheckReport;
 use detune::diag::Result;
 
@@ -16,8 +15,7 @@ pub struct CheckArgs {
 /// Print the report; a pose that cannot be assembled ends it after the constraints, and
 /// is the error.
 pub fn run(a: CheckArgs) -> Result<()> {
-    let model = a.model.load()?;
-    let sys = System::new(&model)?;
+    let (model, sys) = a.model.load()?;
     let report = CheckReport::new(&model, &sys);
     print!("{report}");
     report.assembly.map(|_| ())

@@ -48,7 +48,7 @@ pub struct ContinueArgs {
 }
 
 pub fn run(a: ContinueArgs) -> Result<()> {
-    let model = a.model.load()?;
+    let (model, sys) = a.model.load()?;
     check_outputs(
         &model.source.path,
         &[a.output.as_deref(), a.plot.as_deref()],
@@ -61,7 +61,6 @@ pub fn run(a: ContinueArgs) -> Result<()> {
         max_steps: a.max_steps,
     };
     // Every request is checked before the work, so a bad one leaves no file behind.
-    let sys = System::new(&model)?;
     let idx = match &a.plot_coordinate {
         Some(name) => detune::linear::coordinate(&sys, name, "--plot-coordinate")?,
         None => detune::linear::default_reference(&sys),

@@ -4,7 +4,6 @@
 use super::args::ModelArgs;
 use super::print_json;
 use clap::Args;
-use detune::System;
 use detune::diag::Result;
 use detune::dynamics::assemble;
 use detune::output::Provenance;
@@ -24,8 +23,7 @@ pub struct EquilibriumArgs {
 }
 
 pub fn run(a: EquilibriumArgs) -> Result<()> {
-    let model = a.model.load()?;
-    let sys = System::new(&model)?;
+    let (model, sys) = a.model.load()?;
     let start = assemble(&sys)?;
     let st = Statics::new(&sys, &start.q)?;
     let list = if a.all {

@@ -4,7 +4,6 @@
 use super::args::{FrequencyGrid, ModelArgs};
 use super::print_json;
 use clap::Args;
-use detune::System;
 use detune::diag::Result;
 use detune::linear::frequency_response;
 use detune::output::json::FrfReport;
@@ -26,10 +25,10 @@ pub struct FrfArgs {
 }
 
 pub fn run(a: FrfArgs) -> Result<()> {
-    let model = a.model.load()?;
+    let (model, sys) = a.model.load()?;
     check_outputs(&model.source.path, &[a.output.as_deref()])?;
     let (values, responses) = a.grid.resolve(&model)?;
-    let fr = frequency_response(&System::new(&model)?, &a.grid.param, &values, &responses)?;
+    let fr = frequency_response(&sys, &a.grid.param, &values, &responses)?;
     if let Some(o) = &a.output {
         write_frf_csv(o, &fr)?;
         eprintln!("wrote {o}");

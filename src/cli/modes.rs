@@ -4,7 +4,6 @@
 use super::args::ModelArgs;
 use super::print_json;
 use clap::Args;
-use detune::System;
 use detune::diag::Result;
 use detune::linear::modal_analysis;
 use detune::output::Provenance;
@@ -23,8 +22,8 @@ pub struct ModesArgs {
 }
 
 pub fn run(a: ModesArgs) -> Result<()> {
-    let model = a.model.load()?;
-    let m = modal_analysis(&System::new(&model)?, a.normalize.as_deref())?;
+    let (model, sys) = a.model.load()?;
+    let m = modal_analysis(&sys, a.normalize.as_deref())?;
     if a.json {
         print_json(&ModesReport::new(&m, &Provenance::of(&model)));
         return Ok(());

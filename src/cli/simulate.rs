@@ -4,7 +4,6 @@
 use super::args::{ModelArgs, Tolerances};
 use super::progress_bar;
 use clap::Args;
-use detune::System;
 use detune::diag::Result;
 use detune::dynamics::assemble;
 use detune::dynamics::simulate::{SimOptions, simulate};
@@ -50,12 +49,11 @@ pub struct SimulateArgs {
 }
 
 pub fn run(a: SimulateArgs) -> Result<()> {
-    let model = a.model.load()?;
+    let (model, sys) = a.model.load()?;
     check_outputs(
         &model.source.path,
         &[Some(&a.output), a.plot.as_deref(), a.json.as_deref()],
     )?;
-    let sys = System::new(&model)?;
     let start = assemble(&sys)?;
     let opts = SimOptions {
         t_end: a.t_end,

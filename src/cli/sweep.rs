@@ -65,7 +65,7 @@ pub struct SweepArgs {
 }
 
 pub fn run(a: SweepArgs) -> Result<()> {
-    let model = a.model.load()?;
+    let (model, _compiled) = a.model.load()?;
     check_outputs(
         &model.source.path,
         &[a.output.as_deref(), a.plot.as_deref()],

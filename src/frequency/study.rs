@@ -85,6 +85,7 @@ pub fn family(model: &Model, spec: &str, swept: &str) -> Result<Vec<(String, f64
         }
         let m = model
             .with_overrides(&[(name.to_string(), v.trim().to_string())])
+            .and_then(|m| System::check(&m).map(|_| m))
             .map_err(|e| match e {
                 Error::Request { message, help } => Error::Request {
                     message: message.replace("--set ", "--values "),

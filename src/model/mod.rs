@@ -4,7 +4,8 @@
 //! expression and checks names, dimensions and signs, collecting every problem with its
 //! location. A [`Model`] is immutable; [`Model::with_overrides`] makes a copy with some
 //! parameters replaced (`--set`), re-evaluating the parameters defined from them.
-//! [`crate::system::System::new`] compiles a model into fast equations.
+//! `System::new` (module `system`) compiles a model into fast equations (this module does
+//! not depend on it: the data flows one way).
 
 pub mod expr;
 pub mod file;
@@ -435,8 +436,8 @@ impl Model {
             );
         }
         if diags.is_empty() {
-            // Names, dimensions and signs are checked by compiling once.
-            crate::system::System::check(&model)?;
+            // Names, dimensions and signs are checked when the model is compiled
+            // (`System::new`): this layer knows nothing of the compiled system.
             Ok(model)
         } else {
             Err(Error::Model {
@@ -457,21 +458,6 @@ impl Model {
         let mut m = self.clone();
         m.parameters = Arc::new(parameters);
         m.overrides.extend(overrides.iter().cloned());
-        crate::system::System::check(&m)?;
-        Ok(m)
-    }
-
-    /// The model with parameter `name` at `value` (SI) as an analysis varies it (the
-    /// parameter of a continuation, a sweep's frequency). Unlike [`Model::with_overrides`]
-    /// it is not recorded among the user's `--set`s, so messages ("with --set ...") and
-    /// provenance name only what the user asked for.
-    pub fn at_parameter(&self, name: &str, value: f64) -> Result<Model> {
-        let parameters = self
-            .parameters
-            .with_overrides(&self.source, &[(name.to_string(), format!("{value:?}"))])?;
-        let mut m = self.clone();
-        m.parameters = Arc::new(parameters);
-        crate::system::System::check(&m)?;
         Ok(m)
     }
 
