@@ -6,11 +6,13 @@ use super::progress_bar;
 use clap::Args;
 use detune::diag::Result;
 use detune::dynamics::assemble;
-use detune::dynamics::simulate::{SimOptions, simulate};
+use detune::dynamics::simulate::{SimOptions, Trajectory, simulate_with};
 use detune::output::figures::trajectory_figure;
 use detune::output::json::SimulationSummary;
 use detune::output::plot::write_line_plot;
-use detune::output::{Provenance, check_outputs, write_json, write_trajectory_csv};
+use detune::output::{
+    Provenance, check_outputs, trajectory_header, trajectory_row, write_atomic, write_json,
+};
 
 #[derive(Args)]
 pub struct SimulateArgs {
@@ -67,15 +69,64 @@ pub fn run(a: SimulateArgs) -> Result<()> {
         "simulating {bar:40} {percent:>3}% {elapsed} (eta {eta})",
     );
     let began = std::time::Instant::now();
-    let traj = simulate(&sys, &start, &opts, &mut |f| {
-        if began.elapsed().as_millis() > 300 {
-            bar.set_position((f * 1000.0) as u64);
+    // The CSV streams as the samples come (written to a temporary file, kept only if the
+    // run succeeds): memory stays flat in the run's length. Kept in memory: the whole
+    // trajectory only for a plot, else the last sample (the JSON's final state).
+    let keep_all = a.plot.is_some();
+    let mut traj = Trajectory {
+        coordinates: sys.coordinates.clone(),
+        angles: (0..sys.nq()).map(|i| sys.is_angle(i)).collect(),
+        t: Vec::new(),
+        q: Vec::new(),
+        v: Vec::new(),
+        stats: Default::default(),
+    };
+    let mut outcome = None;
+    let written = write_atomic(&a.output, |w| {
+        trajectory_header(w, &sys.coordinates, a.velocities)?;
+        let mut io_error = None;
+        let run = simulate_with(
+            &sys,
+            &start,
+            &opts,
+            &mut |t, q, v| {
+                if let Err(e) = trajectory_row(w, t, q, v, a.velocities) {
+                    io_error = Some(e);
+                    return false;
+                }
+                if !keep_all {
+                    traj.t.clear();
+                    traj.q.clear();
+                    traj.v.clear();
+                }
+                traj.t.push(t);
+                traj.q.push(q.to_vec());
+                traj.v.push(v.to_vec());
+                true
+            },
+            &mut |f| {
+                if began.elapsed().as_millis() > 300 {
+                    bar.set_position((f * 1000.0) as u64);
+                }
+                true
+            },
+        );
+        let failed = run.is_err();
+        outcome = Some(run);
+        match io_error {
+            Some(e) => Err(e),
+            // no file is kept for a failed run
+            None if failed => Err(std::io::Error::other("the simulation failed")),
+            None => Ok(()),
         }
-        true
     });
     bar.finish_and_clear();
-    let traj = traj?;
-    write_trajectory_csv(&a.output, &traj, a.velocities)?;
+    match outcome {
+        Some(Err(e)) => return Err(e),
+        Some(Ok(stats)) => traj.stats = stats,
+        None => {}
+    }
+    written?;
     if let Some(p) = &a.plot {
         write_line_plot(p, &trajectory_figure(&model.name, &traj))?;
     }

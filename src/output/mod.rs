@@ -140,26 +140,46 @@ pub fn num(x: f64) -> String {
 /// CSV of a trajectory: `t,<coordinates>...[,<coordinate>_dot...]`, SI units.
 pub fn write_trajectory_csv(path: &str, traj: &Trajectory, velocities: bool) -> Result<()> {
     write_atomic(path, |w| {
-        let mut header = vec!["t".to_string()];
-        header.extend(traj.coordinates.iter().cloned());
-        if velocities {
-            header.extend(traj.coordinates.iter().map(|c| format!("{c}_dot")));
-        }
-        writeln!(w, "{}", header.join(","))?;
+        trajectory_header(w, &traj.coordinates, velocities)?;
         for (k, t) in traj.t.iter().enumerate() {
-            write!(w, "{}", num(*t))?;
-            for x in &traj.q[k] {
-                write!(w, ",{}", num(*x))?;
-            }
-            if velocities {
-                for x in &traj.v[k] {
-                    write!(w, ",{}", num(*x))?;
-                }
-            }
-            writeln!(w)?;
+            trajectory_row(w, *t, &traj.q[k], &traj.v[k], velocities)?;
         }
         Ok(())
     })
+}
+
+/// The header of a trajectory CSV: `t,<coordinates>...[,<coordinate>_dot...]`.
+pub fn trajectory_header(
+    w: &mut dyn Write,
+    coordinates: &[String],
+    velocities: bool,
+) -> std::io::Result<()> {
+    let mut header = vec!["t".to_string()];
+    header.extend(coordinates.iter().cloned());
+    if velocities {
+        header.extend(coordinates.iter().map(|c| format!("{c}_dot")));
+    }
+    writeln!(w, "{}", header.join(","))
+}
+
+/// One row of a trajectory CSV (see [`trajectory_header`]): streamed as the samples come.
+pub fn trajectory_row(
+    w: &mut dyn Write,
+    t: f64,
+    q: &[f64],
+    v: &[f64],
+    velocities: bool,
+) -> std::io::Result<()> {
+    write!(w, "{}", num(t))?;
+    for x in q {
+        write!(w, ",{}", num(*x))?;
+    }
+    if velocities {
+        for x in v {
+            write!(w, ",{}", num(*x))?;
+        }
+    }
+    writeln!(w)
 }
 
 /// Write a JSON document atomically, pretty-printed.
