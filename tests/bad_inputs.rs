@@ -4,13 +4,9 @@
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-fn shipped() -> String {
-    std::fs::read_to_string(format!(
-        "{}/models/overcentre.toml",
-        env!("CARGO_MANIFEST_DIR")
-    ))
-    .unwrap()
-}
+mod common;
+
+use common::overcentre_text as shipped;
 
 struct Outcome {
     code: Option<i32>,

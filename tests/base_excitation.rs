@@ -42,14 +42,7 @@ fn text() -> String {
 }
 
 fn model(text: &str, sets: &[(&str, &str)]) -> Model {
-    let sets: Vec<(String, String)> = sets
-        .iter()
-        .map(|(a, b)| (a.to_string(), b.to_string()))
-        .collect();
-    Model::from_str("shaken_pendulum.toml", text)
-        .unwrap()
-        .with_overrides(&sets)
-        .unwrap()
+    common::from_text("shaken_pendulum.toml", text, sets)
 }
 
 fn pendulum(sets: &[(&str, &str)]) -> System {

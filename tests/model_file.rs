@@ -1,23 +1,13 @@
 //! The model file and `--set`: units, dependent parameters, assembly branches.
 
+mod common;
+
+use common::overcentre_text as shipped_text;
 use detune::{Model, System, assemble};
 use std::f64::consts::PI;
 
 fn model() -> Model {
-    Model::load(&format!(
-        "{}/models/overcentre.toml",
-        env!("CARGO_MANIFEST_DIR")
-    ))
-    .unwrap()
-}
-
-/// The shipped model file's text.
-fn shipped_text() -> String {
-    std::fs::read_to_string(format!(
-        "{}/models/overcentre.toml",
-        env!("CARGO_MANIFEST_DIR")
-    ))
-    .unwrap()
+    common::overcentre(&[])
 }
 
 /// The error of loading and compiling the shipped model with its first `from` replaced

@@ -9,17 +9,8 @@ use detune::dynamics::{DynWorkspace, constraint_rank};
 use detune::{Model, SimOptions, State, System, Trajectory, assemble, simulate};
 use nalgebra::{DMatrix, DVector};
 
-fn model_path() -> String {
-    format!("{}/models/overcentre.toml", env!("CARGO_MANIFEST_DIR"))
-}
-
 fn load(sets: &[(&str, &str)]) -> (Model, System, State) {
-    let model = Model::load(&model_path()).expect("shipped model loads");
-    let sets: Vec<(String, String)> = sets
-        .iter()
-        .map(|(a, b)| (a.to_string(), b.to_string()))
-        .collect();
-    let model = model.with_overrides(&sets).expect("overrides apply");
+    let model = common::overcentre(sets);
     let sys = System::new(&model).expect("compiles");
     let state = assemble(&sys).expect("assembles");
     (model, sys, state)
@@ -207,7 +198,7 @@ fn asymmetric_variants_match_reduced_lagrange_model() {
 /// right-hand side goes through the SVD pseudoinverse; the motion must not change.
 #[test]
 fn redundant_constraint_gives_the_same_motion() {
-    let text = std::fs::read_to_string(model_path()).unwrap()
+    let text = common::overcentre_text()
         + "\n[[constraints]]\nname = \"slot again\"\nexpr = \"bar2.y - L2/2*sin(bar2.theta)\"\n";
     let model = Model::from_str("redundant.toml", &text).unwrap();
     let sets = vec![

@@ -7,19 +7,13 @@ use detune::frequency::{Direction, SteadyOptions, Sweep, SweepMode, SweepOptions
 use detune::linear::{frequency_response, modal_analysis};
 use std::sync::atomic::AtomicBool;
 
+mod common;
+
+/// The overcentre in its lower well with c = 1, and `sets`.
 fn model(sets: &[(&str, &str)]) -> Model {
-    let m = Model::load(&format!(
-        "{}/models/overcentre.toml",
-        env!("CARGO_MANIFEST_DIR")
-    ))
-    .unwrap();
     let mut all = vec![("theta1_0", "-0.85"), ("c", "1")];
     all.extend_from_slice(sets);
-    let sets: Vec<(String, String)> = all
-        .iter()
-        .map(|(a, b)| (a.to_string(), b.to_string()))
-        .collect();
-    m.with_overrides(&sets).unwrap()
+    common::overcentre(&all)
 }
 
 fn grid(from: f64, to: f64, step: f64) -> Vec<f64> {

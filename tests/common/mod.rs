@@ -58,16 +58,28 @@ pub fn overcentre_text() -> String {
 
 /// The shipped overcentre model with `--set`-style overrides.
 pub fn overcentre(sets: &[(&str, &str)]) -> detune::Model {
-    let m = detune::Model::load(&format!(
-        "{}/models/overcentre.toml",
-        env!("CARGO_MANIFEST_DIR")
-    ))
-    .unwrap();
+    with_sets(
+        detune::Model::load(&format!(
+            "{}/models/overcentre.toml",
+            env!("CARGO_MANIFEST_DIR")
+        ))
+        .unwrap(),
+        sets,
+    )
+}
+
+/// A model from its text (`name` used in messages) with `--set`-style overrides.
+pub fn from_text(name: &str, text: &str, sets: &[(&str, &str)]) -> detune::Model {
+    with_sets(detune::Model::from_str(name, text).unwrap(), sets)
+}
+
+/// `model` with `--set`-style overrides (panics on a bad one: test code).
+pub fn with_sets(model: detune::Model, sets: &[(&str, &str)]) -> detune::Model {
     let sets: Vec<(String, String)> = sets
         .iter()
         .map(|(a, b)| (a.to_string(), b.to_string()))
         .collect();
-    m.with_overrides(&sets).unwrap()
+    model.with_overrides(&sets).unwrap()
 }
 
 /// The shared reference values (`reference.json`).
