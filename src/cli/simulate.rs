@@ -73,14 +73,7 @@ pub fn run(a: SimulateArgs) -> Result<()> {
     // run succeeds): memory stays flat in the run's length. Kept in memory: the whole
     // trajectory only for a plot, else the last sample (the JSON's final state).
     let keep_all = a.plot.is_some();
-    let mut traj = Trajectory {
-        coordinates: sys.coordinates.clone(),
-        angles: (0..sys.nq()).map(|i| sys.is_angle(i)).collect(),
-        t: Vec::new(),
-        q: Vec::new(),
-        v: Vec::new(),
-        stats: Default::default(),
-    };
+    let mut traj = Trajectory::empty(&sys);
     let mut outcome = None;
     let written = write_atomic(&a.output, |w| {
         trajectory_header(w, &sys.coordinates, a.velocities)?;

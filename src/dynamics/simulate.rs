@@ -79,6 +79,18 @@ pub struct Trajectory {
 }
 
 impl Trajectory {
+    /// No samples yet, for the coordinates of `sys`.
+    pub fn empty(sys: &System) -> Trajectory {
+        Trajectory {
+            coordinates: sys.coordinates.clone(),
+            angles: (0..sys.nq()).map(|i| sys.is_angle(i)).collect(),
+            t: Vec::new(),
+            q: Vec::new(),
+            v: Vec::new(),
+            stats: SimStats::default(),
+        }
+    }
+
     /// Time history of one coordinate.
     pub fn coordinate(&self, name: &str) -> Option<Vec<f64>> {
         let i = self.coordinates.iter().position(|c| c == name)?;
@@ -122,14 +134,7 @@ pub fn simulate(
     opts: &SimOptions,
     progress: &mut dyn FnMut(f64) -> bool,
 ) -> Result<Trajectory> {
-    let mut traj = Trajectory {
-        coordinates: sys.coordinates.clone(),
-        angles: (0..sys.nq()).map(|i| sys.is_angle(i)).collect(),
-        t: Vec::new(),
-        q: Vec::new(),
-        v: Vec::new(),
-        stats: SimStats::default(),
-    };
+    let mut traj = Trajectory::empty(sys);
     traj.stats = simulate_with(
         sys,
         start,

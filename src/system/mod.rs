@@ -356,19 +356,32 @@ impl System {
         self.phi_in(q, t, self.env(), out)
     }
 
-    /// Constraint function Φ(q, t) with parameters from `env`.
-    pub fn phi_in<D: Scalar, E: Env<D>>(&self, q: &[D], t: D, env: E, out: &mut [D]) {
+    /// Call `f` with the frames at (q, t): the ground's pose and every body's pose,
+    /// computed once for all the elements that read them.
+    fn with_frames<D: Scalar, E: Env<D>, R>(
+        &self,
+        q: &[D],
+        t: D,
+        env: E,
+        f: impl FnOnce(&Frames<'_, D, E>) -> R,
+    ) -> R {
         let ground = GroundPose::at(&self.ground, t, env);
         with_poses(q, &self.offsets, |poses| {
-            let fr = Frames {
+            f(&Frames {
                 q,
                 poses,
                 offsets: &self.offsets,
                 ground,
                 env,
-            };
+            })
+        })
+    }
+
+    /// Constraint function Φ(q, t) with parameters from `env`.
+    pub fn phi_in<D: Scalar, E: Env<D>>(&self, q: &[D], t: D, env: E, out: &mut [D]) {
+        self.with_frames(q, t, env, |fr| {
             for (c, b) in self.constraints.iter().zip(&self.blocks) {
-                c.phi(&fr, t, &mut out[b.row0..b.row0 + b.rows]);
+                c.phi(fr, t, &mut out[b.row0..b.row0 + b.rows]);
             }
         })
     }
@@ -561,17 +574,9 @@ impl System {
         if self.forces.is_empty() {
             return;
         }
-        let ground = GroundPose::at(&self.ground, t, env);
-        with_poses(q, &self.offsets, |poses| {
-            let fr = Frames {
-                q,
-                poses,
-                offsets: &self.offsets,
-                ground,
-                env,
-            };
+        self.with_frames(q, t, env, |fr| {
             for force in &self.forces {
-                force.add(&fr, v, t, f);
+                force.add(fr, v, t, f);
             }
         })
     }
@@ -625,18 +630,9 @@ impl System {
         for b in &self.bodies {
             e -= b.mass * (self.gravity[0] * q[b.offset] + self.gravity[1] * q[b.offset + 1]);
         }
-        let env = self.env();
-        let ground = GroundPose::at(&self.ground, t, env);
-        with_poses(q, &self.offsets, |poses| {
-            let fr = Frames {
-                q,
-                poses,
-                offsets: &self.offsets,
-                ground,
-                env,
-            };
+        self.with_frames(q, t, self.env(), |fr| {
             for force in &self.forces {
-                e += force.potential(&fr);
+                e += force.potential(fr);
             }
         });
         e
