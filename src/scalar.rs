@@ -22,6 +22,8 @@ impl<T: DualNum<Primitive = f64> + Copy> Scalar for T {}
 pub trait Env<D>: Copy {
     fn param(self, i: usize) -> D;
     fn coef(self, i: usize) -> D;
+    /// x · coefficient i (an `f64` product where the coefficient carries no derivative).
+    fn mul_coef(self, i: usize, x: D) -> D;
 }
 
 /// Current values, as `f64`.
@@ -40,6 +42,10 @@ impl<D: Scalar> Env<D> for Plain<'_> {
     fn coef(self, i: usize) -> D {
         D::from(self.coefs[i])
     }
+    #[inline(always)]
+    fn mul_coef(self, i: usize, x: D) -> D {
+        x * self.coefs[i]
+    }
 }
 
 /// Values carrying derivatives (see `System::seeded`).
@@ -57,6 +63,10 @@ impl<D: Scalar> Env<D> for Seeded<'_, D> {
     #[inline(always)]
     fn coef(self, i: usize) -> D {
         self.coefs[i]
+    }
+    #[inline(always)]
+    fn mul_coef(self, i: usize, x: D) -> D {
+        x * self.coefs[i]
     }
 }
 

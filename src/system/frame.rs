@@ -57,6 +57,10 @@ impl<D: Scalar, E: Env<D>> Env<Dual<D>> for Lifted<E> {
     fn coef(self, i: usize) -> Dual<D> {
         Dual::from_re(self.0.coef(i))
     }
+    #[inline]
+    fn mul_coef(self, i: usize, x: Dual<D>) -> Dual<D> {
+        x * self.coef(i)
+    }
 }
 
 /// The pose and velocity of the ground at one time: position r, rotation (sin, cos),
@@ -252,23 +256,41 @@ impl<D: Scalar, E: Env<D>> Frames<'_, D, E> {
         [self.env.coef(pt.p[0]), self.env.coef(pt.p[1])]
     }
 
+    /// R v for a body-frame vector given by two coefficients (a point, a slot normal):
+    /// products with the coefficients' values, not dual-by-dual.
+    #[inline]
+    pub fn rotate_coefs(&self, body: Option<usize>, v: [usize; 2]) -> [D; 2] {
+        let e = self.env;
+        match self.rotation(body) {
+            Some((s, c)) => [
+                e.mul_coef(v[0], c) - e.mul_coef(v[1], s),
+                e.mul_coef(v[0], s) + e.mul_coef(v[1], c),
+            ],
+            None => [e.coef(v[0]), e.coef(v[1])],
+        }
+    }
+
     /// World offset R p of a point from its frame's origin.
     #[inline]
     pub fn arm(&self, pt: &SysPoint) -> [D; 2] {
-        self.rotate(pt.body, self.local(pt))
+        self.rotate_coefs(pt.body, pt.p)
     }
 
     /// World position r + R p.
     #[inline]
     pub fn position(&self, pt: &SysPoint) -> [D; 2] {
-        let p = self.local(pt);
         let r = match pt.body {
             Some(k) => self.poses[k].r,
             None => self.ground.r,
         };
+        let e = self.env;
+        let p = pt.p;
         match self.rotation(pt.body) {
-            Some((s, c)) => [r[0] + c * p[0] - s * p[1], r[1] + s * p[0] + c * p[1]],
-            None => [r[0] + p[0], r[1] + p[1]],
+            Some((s, c)) => [
+                r[0] + e.mul_coef(p[0], c) - e.mul_coef(p[1], s),
+                r[1] + e.mul_coef(p[0], s) + e.mul_coef(p[1], c),
+            ],
+            None => [r[0] + e.coef(p[0]), r[1] + e.coef(p[1])],
         }
     }
 

@@ -104,7 +104,7 @@ impl Joint {
                 2
             }
             Translation::Normal { n } => {
-                let n = fr.rotate(self.b.body, [fr.env.coef(n[0]), fr.env.coef(n[1])]);
+                let n = fr.rotate_coefs(self.b.body, n);
                 out[0] = (pa[0] - pb[0]) * n[0] + (pa[1] - pb[1]) * n[1];
                 1
             }
