@@ -1455,3 +1455,42 @@ sx = "ax + sqrt(l^2 - ay^2)"
         cases.len()
     );
 }
+
+// ---- configuration and tangent --------------------------------------------------------
+
+/// The retraction q ⊕ s·δ is the motion with velocities δ to second order: its rate at
+/// s = 0 is q̇ = N(q) δ (`qdot`), its second derivative that of q̇ along the motion (zero
+/// for planar bodies, whose q̇ does not depend on q), and `difference` inverts it. Checked
+/// by differences in s, so a body kind whose ⊕ is not + is held to the same.
+#[test]
+fn retraction_is_the_motion_to_second_order() {
+    let sys = system(&bodies(&["a", "b"]));
+    let h = 1e-4;
+    let mut worst = [0.0f64; 3];
+    for s in states(&sys, 29) {
+        let at = |x: f64| {
+            let mut q = s.q.clone();
+            sys.retract(&mut q, &s.v, x);
+            q
+        };
+        let (qp, q0, qm) = (at(h), at(0.0), at(-h));
+        assert_eq!(q0, s.q, "q ⊕ 0 = q");
+        let mut qdot = vec![0.0; sys.nq()];
+        sys.qdot(&s.q, &s.v, &mut qdot);
+        let rate: Vec<f64> = (0..sys.nq()).map(|i| (qp[i] - qm[i]) / (2.0 * h)).collect();
+        let curv: Vec<f64> = (0..sys.nq())
+            .map(|i| (qp[i] - 2.0 * q0[i] + qm[i]) / (h * h))
+            .collect();
+        worst[0] = worst[0].max(err(&rate, &qdot));
+        // (a planar q̇ is constant along the motion: the second derivative is zero)
+        worst[1] = worst[1].max(err(&curv, &vec![0.0; sys.nq()]));
+        let mut back = vec![0.0; sys.nv()];
+        sys.difference(&at(1.0), &s.q, &mut back);
+        worst[2] = worst[2].max(err(&back, &s.v));
+    }
+    // central differences of a motion linear in s: rounding only, ε|q|/h ≈ 1e-12
+    assert!(worst[0] <= 1e-9, "d/ds (q ⊕ sδ) vs q̇: {:e}", worst[0]);
+    // second difference: ε|q|/h² ≈ 1e-8
+    assert!(worst[1] <= 1e-6, "d²/ds² (q ⊕ sδ): {:e}", worst[1]);
+    assert!(worst[2] <= 1e-15, "(q ⊕ δ) ⊖ q vs δ: {:e}", worst[2]);
+}
