@@ -139,8 +139,19 @@ pub fn accelerations(
             ws.r[b.row0 + r] = ws.b[b.row0 + r] - aa;
         }
     }
-    // Sparse path: A M⁻¹ Aᵀ y = r by an envelope Cholesky, v̇ = a + M⁻¹ Aᵀ y (the same
-    // as the pseudoinverse when A has full row rank and is well conditioned).
+    // v̇ = a + M⁻¹ Aᵀ (A M⁻¹ Aᵀ)⁺ r
+    weighted_solve(sys, ws, q, t, vdot);
+    for i in 0..vdot.len() {
+        vdot[i] += ws.acc[i];
+    }
+}
+
+/// `out = M⁻¹ Aᵀ (A M⁻¹ Aᵀ)⁺ r = M^-½ (A M^-½)⁺ r` for `r = ws.r`, with A at (q, t)
+/// already in `ws.sys.vals` by blocks: the M-weighted minimum-norm solution of A x = r.
+/// Sparse path: A M⁻¹ Aᵀ from the blocks, factored by an envelope Cholesky (no
+/// allocation); when a pivot is too small (A rank-deficient or ill-conditioned), the dense
+/// SVD pseudoinverse.
+fn weighted_solve(sys: &System, ws: &mut DynWorkspace, q: &[f64], t: f64, out: &mut [f64]) {
     ws.gram_env.clear();
     for (j, entries) in ws.col_entries.iter().enumerate() {
         for (k, &(ra, ia)) in entries.iter().enumerate() {
@@ -154,33 +165,45 @@ pub fn accelerations(
     if ws.gram_env.factor(CHOL_TOL) {
         ws.y.copy_from_slice(ws.r.as_slice());
         ws.gram_env.solve(&mut ws.y);
-        vdot.copy_from_slice(ws.acc.as_slice());
+        out.fill(0.0);
         for b in sys.blocks() {
             let nc = b.cols.len();
             for r in 0..b.rows {
                 let yr = ws.y[b.row0 + r];
                 for (ci, &j) in b.cols.iter().enumerate() {
-                    vdot[j] += sys.mass_inv_diag[j] * ws.sys.vals[b.val0 + r * nc + ci] * yr;
+                    out[j] += sys.mass_inv_diag[j] * ws.sys.vals[b.val0 + r * nc + ci] * yr;
                 }
             }
         }
         return;
     }
-    // Rank-deficient or ill-conditioned: the dense pseudoinverse.
+    // Rank-deficient or ill-conditioned: the dense pseudoinverse of B = A M^-½.
     sys.jacobian(&mut ws.sys, q, t, &mut ws.a);
-    // B = A M^-½
     ws.a.mul_to(&sys.mass_inv_sqrt, &mut ws.bm);
     let (x, _) = pinv_solve(&ws.bm, &ws.r, &mut ws.gram, &mut ws.svd_solves);
-    // v̇ = a + M^-½ x
     let corr = &sys.mass_inv_sqrt * x;
-    for i in 0..vdot.len() {
-        vdot[i] = ws.acc[i] + corr[i];
-    }
+    out.copy_from_slice(corr.as_slice());
 }
 
-/// Largest |Φ| at q.
+/// Largest |Φ| at q (on the stack up to 64 rows: it is checked at every written sample).
 pub fn residual_norm(sys: &System, q: &[f64], t: f64) -> f64 {
-    sys.residual(q, t).amax()
+    let m = sys.m();
+    let amax = |p: &[f64]| {
+        p.iter().fold(0.0f64, |a, x| {
+            if x.is_nan() || a.is_nan() {
+                f64::NAN
+            } else {
+                a.max(x.abs())
+            }
+        })
+    };
+    if m <= 64 {
+        let mut buf = [0.0; 64];
+        sys.phi(q, t, &mut buf[..m]);
+        amax(&buf[..m])
+    } else {
+        amax(sys.residual(q, t).as_slice())
+    }
 }
 
 /// Newton projection of q onto Φ(q, t) = 0 with the M-weighted minimum-norm correction
@@ -195,15 +218,15 @@ pub fn project_position(
 ) -> f64 {
     let mut phi = sys.residual(q, t);
     let mut norm = phi.amax();
+    let mut dq = vec![0.0; sys.nv()];
     for _ in 0..max_iter {
         if norm <= tol {
             break;
         }
-        sys.jacobian(&mut ws.sys, q, t, &mut ws.a);
-        ws.a.mul_to(&sys.mass_inv_sqrt, &mut ws.bm);
-        let (x, _) = pinv_solve(&ws.bm, &phi, &mut ws.gram, &mut ws.svd_solves);
-        let dq = &sys.mass_inv_sqrt * x;
-        sys.retract(q, dq.as_slice(), -1.0);
+        sys.jacobian_blocks(&mut ws.sys, q, t);
+        ws.r.copy_from(&phi);
+        weighted_solve(sys, ws, q, t, &mut dq);
+        sys.retract(q, &dq, -1.0);
         let new_phi = sys.residual(q, t);
         let new_norm = new_phi.amax();
         if !(new_norm < norm) {
@@ -238,18 +261,36 @@ pub fn project_velocity(
     v: &mut [f64],
     t: f64,
 ) -> f64 {
-    let psi = velocity_residual(sys, ws, q, v, t);
-    let before = psi.amax();
+    let before = velocity_residual_blocks(sys, ws, q, v, t);
     if sys.m() == 0 {
         return before;
     }
-    ws.a.mul_to(&sys.mass_inv_sqrt, &mut ws.bm);
-    let (x, _) = pinv_solve(&ws.bm, &psi, &mut ws.gram, &mut ws.svd_solves);
-    let dv = &sys.mass_inv_sqrt * x;
+    let mut dv = vec![0.0; v.len()];
+    weighted_solve(sys, ws, q, t, &mut dv);
     for i in 0..v.len() {
         v[i] -= dv[i];
     }
     before
+}
+
+/// ψ = A v + ∂Φ/∂t into `ws.r`, with A by blocks (left in `ws.sys.vals`); returns |ψ|∞.
+pub fn velocity_residual_blocks(
+    sys: &System,
+    ws: &mut DynWorkspace,
+    q: &[f64],
+    v: &[f64],
+    t: f64,
+) -> f64 {
+    sys.jacobian_blocks(&mut ws.sys, q, t);
+    sys.phi_t(&mut ws.sys, q, t, &mut ws.r);
+    for b in sys.blocks() {
+        let nc = b.cols.len();
+        for r in 0..b.rows {
+            let row = &ws.sys.vals[b.val0 + r * nc..b.val0 + (r + 1) * nc];
+            ws.r[b.row0 + r] += row.iter().zip(&b.cols).map(|(x, &j)| x * v[j]).sum::<f64>();
+        }
+    }
+    ws.r.amax()
 }
 
 /// The correction of the coordinates `cols` that solves A_cols Δ = r with the least

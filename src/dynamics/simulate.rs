@@ -6,7 +6,7 @@
 use super::integrator::{IntegratorOptions, integrate};
 use super::{
     DynWorkspace, State, accelerations, project_position, project_velocity, residual_norm,
-    velocity_residual,
+    velocity_residual_blocks,
 };
 use crate::diag::{Error, Result};
 use crate::failure::Failure;
@@ -214,7 +214,7 @@ pub fn simulate_with(
             let pos = residual_norm(sys, q, t);
             drift.set(drift.get().max(pos));
             let mut ws = proj_ws.borrow_mut();
-            let vel = velocity_residual(sys, &mut ws, q, v, t).amax();
+            let vel = velocity_residual_blocks(sys, &mut ws, q, v, t);
             if pos > opts.projection_tol || vel > opts.projection_tol {
                 project_position(sys, &mut ws, q, t, opts.projection_tol * 1e-2, 5);
                 project_velocity(sys, &mut ws, q, v, t);
