@@ -76,7 +76,9 @@ pub struct SteadyState {
     pub end: State,
 }
 
-/// Steady response at ω from `start` (t = 0 at forcing phase 0).
+/// Steady response from `start` (t = 0 at forcing phase 0) at the system's forcing
+/// frequency ω (its live `forcing_frequency` parameter: the one value the loads and the
+/// sampling both read).
 ///
 /// The motion is integrated continuously across periods (one integration, sampled
 /// `opts.samples` times a period); a run is restarted only where the Poincaré sequence is
@@ -84,11 +86,16 @@ pub struct SteadyState {
 pub fn steady_state(
     sys: &System,
     start: &State,
-    omega: f64,
     responses: &[usize],
     opts: &SteadyOptions,
     cancel: &AtomicBool,
 ) -> Result<SteadyState> {
+    let omega = sys.forcing_frequency().ok_or_else(|| {
+        Error::request(
+            "the model does not say which parameter is its forcing frequency",
+            "add `forcing_frequency = \"omega\"` to [model]",
+        )
+    })?;
     let period = 2.0 * std::f64::consts::PI / omega;
     let per = opts.samples;
     let dof = sys
@@ -553,7 +560,7 @@ pub fn sweep(
     // and the integration reads ω from it: one source of truth
     let eval = |omega: f64, from: &State| -> Result<SteadyState> {
         let s = sys0.with_param(index, omega)?;
-        let r = steady_state(&s, from, omega, &responses, &opts.steady, cancel);
+        let r = steady_state(&s, from, &responses, &opts.steady, cancel);
         tick();
         r
     };
