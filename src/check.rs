@@ -44,6 +44,8 @@ pub struct CheckReport {
     /// Coordinates held during assembly.
     pub fixed: Vec<bool>,
     pub constraints: Vec<String>,
+    /// The ground's prescribed motion as written (`x = ...`), if it moves.
+    pub ground_motion: Vec<String>,
     /// The assembled initial pose, or why it could not be assembled (the rest of the
     /// report stands without it).
     pub assembly: Result<CheckedAssembly>,
@@ -80,6 +82,13 @@ impl CheckReport {
             coordinates: sys.coordinates.clone(),
             fixed: sys.initial.fixed.clone(),
             constraints: sys.constraint_names.clone(),
+            ground_motion: {
+                let g = &model.ground;
+                [("x", &g.x), ("y", &g.y), ("theta", &g.theta)]
+                    .into_iter()
+                    .filter_map(|(c, f)| f.as_ref().map(|f| format!("{c} = {}", f.expr)))
+                    .collect()
+            },
             assembly,
         }
     }
@@ -121,6 +130,9 @@ impl fmt::Display for CheckReport {
         writeln!(f, "\nconstraints ({m} equations):")?;
         for c in &self.constraints {
             writeln!(f, "  {c}")?;
+        }
+        if !self.ground_motion.is_empty() {
+            writeln!(f, "\nground motion: {}", self.ground_motion.join(", "))?;
         }
         let Ok(a) = &self.assembly else {
             return Ok(());

@@ -196,3 +196,18 @@ fn a_moving_ground_equals_the_same_motion_written_as_a_custom_constraint() {
     assert!(swing > 0.05, "the pendulum swings ({swing})");
     assert!(worst <= 1e-10, "θ(t) differs by {worst:e} rad");
 }
+
+#[test]
+fn check_reports_the_ground_motion() {
+    let m = model(&text(), &[]);
+    let sys = System::new(&m).unwrap();
+    let report = detune::check::CheckReport::new(&m, &sys).to_string();
+    assert!(
+        report.contains("ground motion: x = D0*sin(omega*t)"),
+        "{report}"
+    );
+    // and says nothing of one where the ground is fixed
+    let fixed = common::overcentre(&[]);
+    let report = detune::check::CheckReport::new(&fixed, &System::new(&fixed).unwrap()).to_string();
+    assert!(!report.contains("ground motion"), "{report}");
+}
