@@ -75,7 +75,8 @@ pub enum Error {
         source: SourceFile,
         diagnostics: Vec<Diagnostic>,
     },
-    /// A bad request on the command line or through the API (unknown parameter, bad range).
+    /// A bad request, in words (a `--set` value, an output file name); the typed ones are
+    /// [`Error::Invalid`].
     Request {
         message: String,
         help: Option<String>,
@@ -92,8 +93,24 @@ pub enum Error {
         failure: crate::failure::Failure,
         context: Vec<String>,
     },
+    /// An invalid request (an argument out of its range, a name the model does not have),
+    /// with what was asked (typed, naming the argument as the library's API does), and
+    /// what the library was doing (`context`, outermost first).
+    Invalid {
+        invalid: crate::request::Invalid,
+        context: Vec<String>,
+    },
     /// Reading or writing a file.
     Io { path: String, message: String },
+}
+
+impl From<crate::request::Invalid> for Error {
+    fn from(invalid: crate::request::Invalid) -> Self {
+        Error::Invalid {
+            invalid,
+            context: Vec::new(),
+        }
+    }
 }
 
 impl From<crate::failure::Failure> for Error {
@@ -145,6 +162,13 @@ impl Error {
                 context.insert(0, what.to_string());
                 Error::Failed { failure, context }
             }
+            Error::Invalid {
+                invalid,
+                mut context,
+            } => {
+                context.insert(0, what.to_string());
+                Error::Invalid { invalid, context }
+            }
             other => other,
         }
     }
@@ -153,6 +177,14 @@ impl Error {
     pub fn failure(&self) -> Option<&crate::failure::Failure> {
         match self {
             Error::Failed { failure, .. } => Some(failure),
+            _ => None,
+        }
+    }
+
+    /// The typed invalid request, if this is one.
+    pub fn invalid(&self) -> Option<&crate::request::Invalid> {
+        match self {
+            Error::Invalid { invalid, .. } => Some(invalid),
             _ => None,
         }
     }
@@ -173,25 +205,25 @@ impl Error {
     /// The full human-readable report: for model errors, `file:line:col`, the source line
     /// with the span marked, and the help line.
     pub fn render(&self, color: bool) -> String {
-        self.render_with(color, &|_| None)
+        self.render_with(color, &LibraryWording)
     }
 
-    /// [`Error::render`], with `advice` giving the help line of a typed failure (the
-    /// command line names its flags there); where it gives none, the failure's own hint.
-    pub fn render_with(
-        &self,
-        color: bool,
-        advice: &dyn Fn(&crate::failure::Failure) -> Option<String>,
-    ) -> String {
+    /// [`Error::render`], with `advice` wording the typed errors in the front end's terms
+    /// (the command line names its flags): the help line of a failure, the message and
+    /// help line of an invalid request; where it gives none, the library's own.
+    pub fn render_with(&self, color: bool, advice: &dyn Advice) -> String {
         match self {
             Error::Failed { failure, context } => {
-                let mut message = String::new();
-                for c in context {
-                    message.push_str(c);
-                    message.push_str(": ");
-                }
-                let help = advice(failure).unwrap_or_else(|| failure.hint());
-                format!("error: {message}{failure}\nhelp: {help}\n")
+                let help = advice.failure(failure).unwrap_or_else(|| failure.hint());
+                report(context, &failure.to_string(), &help)
+            }
+            Error::Invalid { invalid, context } => {
+                let Wording { message, help } =
+                    advice.invalid(invalid).unwrap_or_else(|| Wording {
+                        message: invalid.to_string(),
+                        help: invalid.hint(),
+                    });
+                report(context, &message, &help)
             }
             Error::Model {
                 source,
@@ -221,6 +253,41 @@ impl Error {
         }
     }
 }
+
+/// `error:` with the context (outermost first) and the message, then `help:`.
+fn report(context: &[String], message: &str, help: &str) -> String {
+    let mut out = String::from("error: ");
+    for c in context {
+        out.push_str(c);
+        out.push_str(": ");
+    }
+    format!("{out}{message}\nhelp: {help}\n")
+}
+
+/// How a front end words what the library reports, in its own terms (a command line
+/// names its flags). `None`: the library's own, flag-free wording.
+pub trait Advice {
+    /// The help line of a failure.
+    fn failure(&self, _failure: &crate::failure::Failure) -> Option<String> {
+        None
+    }
+    /// The message and help line of an invalid request.
+    fn invalid(&self, _invalid: &crate::request::Invalid) -> Option<Wording> {
+        None
+    }
+}
+
+/// A message and its help line.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Wording {
+    pub message: String,
+    pub help: String,
+}
+
+/// The library's own wording: the typed errors' messages and hints.
+pub struct LibraryWording;
+
+impl Advice for LibraryWording {}
 
 impl fmt::Display for Error {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
