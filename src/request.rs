@@ -146,6 +146,32 @@ pub enum Invalid {
     FamilyEmptyEntry { spec: String },
 }
 
+/// The index of parameter `name` among a model's parameter `names` (in index order), or
+/// the invalid request: `argument` names no parameter.
+pub fn parameter(names: &[String], name: &str, argument: Argument) -> Result<usize, Invalid> {
+    names
+        .iter()
+        .position(|n| n == name)
+        .ok_or_else(|| Invalid::UnknownParameter {
+            argument,
+            name: name.to_string(),
+            known: names.to_vec(),
+        })
+}
+
+/// The index of coordinate `name` among a model's coordinate `names`, or the invalid
+/// request: `argument` names no coordinate.
+pub fn coordinate(names: &[String], name: &str, argument: Argument) -> Result<usize, Invalid> {
+    names
+        .iter()
+        .position(|n| n == name)
+        .ok_or_else(|| Invalid::UnknownCoordinate {
+            argument,
+            name: name.to_string(),
+            known: names.to_vec(),
+        })
+}
+
 impl Invalid {
     /// What to do about it, without naming any command-line flag.
     pub fn hint(&self) -> String {
