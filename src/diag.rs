@@ -100,6 +100,15 @@ pub enum Error {
         invalid: crate::request::Invalid,
         context: Vec<String>,
     },
+    /// `error`, in one run of a family over the values of a parameter: `param` at `value`
+    /// (as given, or in SI). The front end words which run (the command line quotes its
+    /// flag); `context` is what the library was doing around the run, outermost first.
+    Run {
+        param: String,
+        value: String,
+        error: Box<Error>,
+        context: Vec<String>,
+    },
     /// Reading or writing a file.
     Io { path: String, message: String },
 }
@@ -169,7 +178,31 @@ impl Error {
                 context.insert(0, what.to_string());
                 Error::Invalid { invalid, context }
             }
+            Error::Run {
+                param,
+                value,
+                error,
+                mut context,
+            } => {
+                context.insert(0, what.to_string());
+                Error::Run {
+                    param,
+                    value,
+                    error,
+                    context,
+                }
+            }
             other => other,
+        }
+    }
+
+    /// The same error, in the run of a family with `param` at `value` ([`Error::Run`]).
+    pub fn in_run(self, param: &str, value: impl ToString) -> Self {
+        Error::Run {
+            param: param.to_string(),
+            value: value.to_string(),
+            error: Box::new(self),
+            context: Vec::new(),
         }
     }
 
@@ -177,6 +210,7 @@ impl Error {
     pub fn failure(&self) -> Option<&crate::failure::Failure> {
         match self {
             Error::Failed { failure, .. } => Some(failure),
+            Error::Run { error, .. } => error.failure(),
             _ => None,
         }
     }
@@ -185,6 +219,7 @@ impl Error {
     pub fn invalid(&self) -> Option<&crate::request::Invalid> {
         match self {
             Error::Invalid { invalid, .. } => Some(invalid),
+            Error::Run { error, .. } => error.invalid(),
             _ => None,
         }
     }
@@ -224,6 +259,23 @@ impl Error {
                         help: invalid.hint(),
                     });
                 report(context, &message, &help)
+            }
+            Error::Run {
+                param,
+                value,
+                error,
+                context,
+            } => {
+                // the run's words, then the context around it, applied now that the
+                // front end has chosen them
+                let run = advice
+                    .run(param, value)
+                    .unwrap_or_else(|| format!("with {param} = {value}"));
+                let mut e = error.as_ref().clone().context(&run);
+                for c in context.iter().rev() {
+                    e = e.context(c);
+                }
+                e.render_with(color, advice)
             }
             Error::Model {
                 source,
@@ -273,6 +325,10 @@ pub trait Advice {
     }
     /// The message and help line of an invalid request.
     fn invalid(&self, _invalid: &crate::request::Invalid) -> Option<Wording> {
+        None
+    }
+    /// Which run of a family an error belongs to: `param` at `value`.
+    fn run(&self, _param: &str, _value: &str) -> Option<String> {
         None
     }
 }
@@ -330,5 +386,55 @@ fn render_diagnostic(source: &SourceFile, d: &Diagnostic, color: bool) -> String
         // "error:" as in every other message of detune (ariadne writes "Error:").
         Ok(()) => String::from_utf8_lossy(&buf).replacen("Error:", "error:", 1),
         Err(_) => format!("error: {header}\n"),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::request::{Argument, Invalid};
+
+    /// Words a run as a command line might.
+    struct Flags;
+    impl Advice for Flags {
+        fn invalid(&self, i: &Invalid) -> Option<Wording> {
+            Some(Wording {
+                message: format!("FLAG: {i}"),
+                help: "HELP".into(),
+            })
+        }
+        fn run(&self, param: &str, value: &str) -> Option<String> {
+            Some(format!("--values {param}={value}"))
+        }
+    }
+
+    #[test]
+    fn an_invalid_request_keeps_its_context_and_its_run_is_worded_by_the_front_end() {
+        let e = Error::from(Invalid::Zero {
+            argument: Argument::MaxPeriods,
+        })
+        .context("inner")
+        .in_run("F0", 0.5)
+        .context("outer");
+        assert_eq!(
+            e.invalid(),
+            Some(&Invalid::Zero {
+                argument: Argument::MaxPeriods
+            })
+        );
+        assert_eq!(
+            e.render(false),
+            "error: outer: with F0 = 0.5: inner: the most periods per frequency is 0: no period would be simulated\nhelp: give at least 1 (the default is 600)\n"
+        );
+        assert_eq!(
+            e.render_with(false, &Flags),
+            "error: outer: --values F0=0.5: inner: FLAG: the most periods per frequency is 0: no period would be simulated\nhelp: HELP\n"
+        );
+        // an untyped error takes the run's words as context too
+        let e = Error::request("zero forcing", "give an amplitude").in_run("F0", "0");
+        assert_eq!(
+            e.render_with(false, &Flags),
+            "error: --values F0=0: zero forcing\nhelp: give an amplitude\n"
+        );
     }
 }

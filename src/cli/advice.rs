@@ -17,6 +17,10 @@ impl Advice for Cli {
     fn invalid(&self, invalid: &Invalid) -> Option<Wording> {
         wording(invalid)
     }
+    /// A family's runs are the `--values` entries.
+    fn run(&self, param: &str, value: &str) -> Option<String> {
+        Some(format!("--values {param}={value}"))
+    }
 }
 
 /// The help line for a failure, where the command line has better advice than the
