@@ -142,58 +142,22 @@ impl Error {
     }
     /// The same error with `what: ` before its message(s) (an I/O error already says
     /// which file).
-    pub fn context(self, what: &str) -> Self {
-        match self {
-            Error::Request { message, help } => Error::Request {
-                message: format!("{what}: {message}"),
-                help,
-            },
-            Error::Numerical { message, help } => Error::Numerical {
-                message: format!("{what}: {message}"),
-                help,
-            },
-            Error::Model {
-                source,
-                mut diagnostics,
-            } => {
-                for d in &mut diagnostics {
+    pub fn context(mut self, what: &str) -> Self {
+        match &mut self {
+            Error::Request { message, .. } | Error::Numerical { message, .. } => {
+                *message = format!("{what}: {message}");
+            }
+            Error::Model { diagnostics, .. } => {
+                for d in diagnostics {
                     d.message = format!("{what}: {}", d.message);
                 }
-                Error::Model {
-                    source,
-                    diagnostics,
-                }
             }
-            Error::Failed {
-                failure,
-                mut context,
-            } => {
-                context.insert(0, what.to_string());
-                Error::Failed { failure, context }
-            }
-            Error::Invalid {
-                invalid,
-                mut context,
-            } => {
-                context.insert(0, what.to_string());
-                Error::Invalid { invalid, context }
-            }
-            Error::Run {
-                param,
-                value,
-                error,
-                mut context,
-            } => {
-                context.insert(0, what.to_string());
-                Error::Run {
-                    param,
-                    value,
-                    error,
-                    context,
-                }
-            }
-            other => other,
+            Error::Failed { context, .. }
+            | Error::Invalid { context, .. }
+            | Error::Run { context, .. } => context.insert(0, what.to_string()),
+            Error::Io { .. } => {}
         }
+        self
     }
 
     /// The same error, in the run of a family with `param` at `value` ([`Error::Run`]).

@@ -6,73 +6,68 @@
 
 use std::fmt;
 
-/// The argument of a library function (or a field of its options) that a request got
-/// wrong.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Argument {
-    /// The forcing-frequency parameter of a frequency response or a sweep (`param`).
-    FrequencyParameter,
-    /// The parameter a continuation varies (`ContinuationOptions::param`).
-    ContinuationParameter,
-    /// A coordinate whose response is reported (`responses`).
-    Response,
-    /// The coordinate the mode shapes are normalized to (`normalize`).
-    Normalize,
-    /// The coordinate a branch figure draws against the parameter.
-    PlotCoordinate,
-    /// The frequencies of a grid, `from` to `to` ([`crate::linear::grid`]).
-    Frequencies,
-    /// The parameter range of a continuation (`from`, `to`).
-    ContinuationRange,
-    /// The step of a frequency grid ([`crate::linear::grid`]).
-    FrequencyStep,
-    /// The largest arclength step of a continuation (`ContinuationOptions::step`).
-    ArclengthStep,
-    /// The most steps of a continuation (`ContinuationOptions::max_steps`).
-    MaxSteps,
-    /// The resolution to which a sweep locates its peaks (`SweepOptions::refine`).
-    Refine,
-    /// The most periods simulated per frequency (`SteadyOptions::max_periods`).
-    MaxPeriods,
-    /// The fixed number of periods per frequency (`SteadyOptions::fixed_periods`).
-    FixedPeriods,
-    /// The settling tolerance of a steady state (`SteadyOptions::settle_tol`).
-    SettleTol,
-    /// The length of a simulation, s (`SimOptions::t_end`).
-    Duration,
-    /// The output interval of a simulation, s (`SimOptions::dt_out`).
-    OutputInterval,
-    /// The integrator's relative tolerance (`rtol`).
-    RelativeTolerance,
-    /// The integrator's absolute tolerance (`atol`).
-    AbsoluteTolerance,
+/// `Argument`, each variant with the words a message names it by, and
+/// [`Argument::ALL`]: one list, so that none is left out of either.
+macro_rules! arguments {
+    ($($(#[$doc:meta])* $name:ident => $words:literal,)*) => {
+        /// The argument of a library function (or a field of its options) that a request
+        /// got wrong.
+        #[derive(Debug, Clone, Copy, PartialEq, Eq)]
+        pub enum Argument {
+            $($(#[$doc])* $name,)*
+        }
+
+        impl Argument {
+            /// Every argument.
+            pub const ALL: &[Argument] = &[$(Argument::$name),*];
+
+            /// The argument in words, as a message names it.
+            pub fn describe(self) -> &'static str {
+                match self {
+                    $(Argument::$name => $words,)*
+                }
+            }
+        }
+    };
 }
 
-impl Argument {
-    /// The argument in words, as a message names it.
-    pub fn describe(self) -> &'static str {
-        use Argument::*;
-        match self {
-            FrequencyParameter => "the frequency parameter",
-            ContinuationParameter => "the parameter of a continuation",
-            Response => "the response coordinate",
-            Normalize => "the shapes' reference coordinate",
-            PlotCoordinate => "the plotted coordinate",
-            Frequencies => "the frequency range",
-            ContinuationRange => "the continuation range",
-            FrequencyStep => "the frequency step",
-            ArclengthStep => "the arclength step",
-            MaxSteps => "the most continuation steps",
-            Refine => "the refinement resolution",
-            MaxPeriods => "the most periods per frequency",
-            FixedPeriods => "the fixed number of periods per frequency",
-            SettleTol => "the settling tolerance",
-            Duration => "the duration",
-            OutputInterval => "the output interval",
-            RelativeTolerance => "the relative tolerance",
-            AbsoluteTolerance => "the absolute tolerance",
-        }
-    }
+arguments! {
+    /// The forcing-frequency parameter of a frequency response or a sweep (`param`).
+    FrequencyParameter => "the frequency parameter",
+    /// The parameter a continuation varies (`ContinuationOptions::param`).
+    ContinuationParameter => "the parameter of a continuation",
+    /// A coordinate whose response is reported (`responses`).
+    Response => "the response coordinate",
+    /// The coordinate the mode shapes are normalized to (`normalize`).
+    Normalize => "the shapes' reference coordinate",
+    /// The coordinate a branch figure draws against the parameter.
+    PlotCoordinate => "the plotted coordinate",
+    /// The frequencies of a grid, `from` to `to` ([`crate::linear::grid`]).
+    Frequencies => "the frequency range",
+    /// The parameter range of a continuation (`from`, `to`).
+    ContinuationRange => "the continuation range",
+    /// The step of a frequency grid ([`crate::linear::grid`]).
+    FrequencyStep => "the frequency step",
+    /// The largest arclength step of a continuation (`ContinuationOptions::step`).
+    ArclengthStep => "the arclength step",
+    /// The most steps of a continuation (`ContinuationOptions::max_steps`).
+    MaxSteps => "the most continuation steps",
+    /// The resolution to which a sweep locates its peaks (`SweepOptions::refine`).
+    Refine => "the refinement resolution",
+    /// The most periods simulated per frequency (`SteadyOptions::max_periods`).
+    MaxPeriods => "the most periods per frequency",
+    /// The fixed number of periods per frequency (`SteadyOptions::fixed_periods`).
+    FixedPeriods => "the fixed number of periods per frequency",
+    /// The settling tolerance of a steady state (`SteadyOptions::settle_tol`).
+    SettleTol => "the settling tolerance",
+    /// The length of a simulation, s (`SimOptions::t_end`).
+    Duration => "the duration",
+    /// The output interval of a simulation, s (`SimOptions::dt_out`).
+    OutputInterval => "the output interval",
+    /// The integrator's relative tolerance (`rtol`).
+    RelativeTolerance => "the relative tolerance",
+    /// The integrator's absolute tolerance (`atol`).
+    AbsoluteTolerance => "the absolute tolerance",
 }
 
 impl fmt::Display for Argument {
@@ -241,30 +236,6 @@ impl Invalid {
 mod tests {
     use super::*;
 
-    const ARGUMENTS: [Argument; 18] = {
-        use Argument::*;
-        [
-            FrequencyParameter,
-            ContinuationParameter,
-            Response,
-            Normalize,
-            PlotCoordinate,
-            Frequencies,
-            ContinuationRange,
-            FrequencyStep,
-            ArclengthStep,
-            MaxSteps,
-            Refine,
-            MaxPeriods,
-            FixedPeriods,
-            SettleTol,
-            Duration,
-            OutputInterval,
-            RelativeTolerance,
-            AbsoluteTolerance,
-        ]
-    };
-
     /// Every kind of invalid request, with every argument where it carries one.
     fn all() -> Vec<Invalid> {
         use Invalid::*;
@@ -297,7 +268,7 @@ mod tests {
                 spec: "F0=1,,2".into(),
             },
         ];
-        for argument in ARGUMENTS {
+        for &argument in Argument::ALL {
             for name in ["Fz", "zzz"] {
                 all.push(UnknownParameter {
                     argument,
