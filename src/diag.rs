@@ -75,7 +75,8 @@ pub enum Error {
         source: SourceFile,
         diagnostics: Vec<Diagnostic>,
     },
-    /// A bad request on the command line or through the API (unknown parameter, bad range).
+    /// A bad request, in words (a `--set` value, an output file name); the typed ones are
+    /// [`Error::Invalid`].
     Request {
         message: String,
         help: Option<String>,
@@ -92,8 +93,33 @@ pub enum Error {
         failure: crate::failure::Failure,
         context: Vec<String>,
     },
+    /// An invalid request (an argument out of its range, a name the model does not have),
+    /// with what was asked (typed, naming the argument as the library's API does), and
+    /// what the library was doing (`context`, outermost first).
+    Invalid {
+        invalid: crate::request::Invalid,
+        context: Vec<String>,
+    },
+    /// `error`, in one run of a family over the values of a parameter: `param` at `value`
+    /// (as given, or in SI). The front end words which run (the command line quotes its
+    /// flag); `context` is what the library was doing around the run, outermost first.
+    Run {
+        param: String,
+        value: String,
+        error: Box<Error>,
+        context: Vec<String>,
+    },
     /// Reading or writing a file.
     Io { path: String, message: String },
+}
+
+impl From<crate::request::Invalid> for Error {
+    fn from(invalid: crate::request::Invalid) -> Self {
+        Error::Invalid {
+            invalid,
+            context: Vec::new(),
+        }
+    }
 }
 
 impl From<crate::failure::Failure> for Error {
@@ -116,36 +142,31 @@ impl Error {
     }
     /// The same error with `what: ` before its message(s) (an I/O error already says
     /// which file).
-    pub fn context(self, what: &str) -> Self {
-        match self {
-            Error::Request { message, help } => Error::Request {
-                message: format!("{what}: {message}"),
-                help,
-            },
-            Error::Numerical { message, help } => Error::Numerical {
-                message: format!("{what}: {message}"),
-                help,
-            },
-            Error::Model {
-                source,
-                mut diagnostics,
-            } => {
-                for d in &mut diagnostics {
+    pub fn context(mut self, what: &str) -> Self {
+        match &mut self {
+            Error::Request { message, .. } | Error::Numerical { message, .. } => {
+                *message = format!("{what}: {message}");
+            }
+            Error::Model { diagnostics, .. } => {
+                for d in diagnostics {
                     d.message = format!("{what}: {}", d.message);
                 }
-                Error::Model {
-                    source,
-                    diagnostics,
-                }
             }
-            Error::Failed {
-                failure,
-                mut context,
-            } => {
-                context.insert(0, what.to_string());
-                Error::Failed { failure, context }
-            }
-            other => other,
+            Error::Failed { context, .. }
+            | Error::Invalid { context, .. }
+            | Error::Run { context, .. } => context.insert(0, what.to_string()),
+            Error::Io { .. } => {}
+        }
+        self
+    }
+
+    /// The same error, in the run of a family with `param` at `value` ([`Error::Run`]).
+    pub fn in_run(self, param: &str, value: impl ToString) -> Self {
+        Error::Run {
+            param: param.to_string(),
+            value: value.to_string(),
+            error: Box::new(self),
+            context: Vec::new(),
         }
     }
 
@@ -153,6 +174,16 @@ impl Error {
     pub fn failure(&self) -> Option<&crate::failure::Failure> {
         match self {
             Error::Failed { failure, .. } => Some(failure),
+            Error::Run { error, .. } => error.failure(),
+            _ => None,
+        }
+    }
+
+    /// The typed invalid request, if this is one.
+    pub fn invalid(&self) -> Option<&crate::request::Invalid> {
+        match self {
+            Error::Invalid { invalid, .. } => Some(invalid),
+            Error::Run { error, .. } => error.invalid(),
             _ => None,
         }
     }
@@ -173,25 +204,42 @@ impl Error {
     /// The full human-readable report: for model errors, `file:line:col`, the source line
     /// with the span marked, and the help line.
     pub fn render(&self, color: bool) -> String {
-        self.render_with(color, &|_| None)
+        self.render_with(color, &LibraryWording)
     }
 
-    /// [`Error::render`], with `advice` giving the help line of a typed failure (the
-    /// command line names its flags there); where it gives none, the failure's own hint.
-    pub fn render_with(
-        &self,
-        color: bool,
-        advice: &dyn Fn(&crate::failure::Failure) -> Option<String>,
-    ) -> String {
+    /// [`Error::render`], with `advice` wording the typed errors in the front end's terms
+    /// (the command line names its flags): the help line of a failure, the message and
+    /// help line of an invalid request; where it gives none, the library's own.
+    pub fn render_with(&self, color: bool, advice: &dyn Advice) -> String {
         match self {
             Error::Failed { failure, context } => {
-                let mut message = String::new();
-                for c in context {
-                    message.push_str(c);
-                    message.push_str(": ");
+                let help = advice.failure(failure).unwrap_or_else(|| failure.hint());
+                report(context, &failure.to_string(), &help)
+            }
+            Error::Invalid { invalid, context } => {
+                let Wording { message, help } =
+                    advice.invalid(invalid).unwrap_or_else(|| Wording {
+                        message: invalid.to_string(),
+                        help: invalid.hint(),
+                    });
+                report(context, &message, &help)
+            }
+            Error::Run {
+                param,
+                value,
+                error,
+                context,
+            } => {
+                // the run's words, then the context around it, applied now that the
+                // front end has chosen them
+                let run = advice
+                    .run(param, value)
+                    .unwrap_or_else(|| format!("with {param} = {value}"));
+                let mut e = error.as_ref().clone().context(&run);
+                for c in context.iter().rev() {
+                    e = e.context(c);
                 }
-                let help = advice(failure).unwrap_or_else(|| failure.hint());
-                format!("error: {message}{failure}\nhelp: {help}\n")
+                e.render_with(color, advice)
             }
             Error::Model {
                 source,
@@ -221,6 +269,45 @@ impl Error {
         }
     }
 }
+
+/// `error:` with the context (outermost first) and the message, then `help:`.
+fn report(context: &[String], message: &str, help: &str) -> String {
+    let mut out = String::from("error: ");
+    for c in context {
+        out.push_str(c);
+        out.push_str(": ");
+    }
+    format!("{out}{message}\nhelp: {help}\n")
+}
+
+/// How a front end words what the library reports, in its own terms (a command line
+/// names its flags). `None`: the library's own, flag-free wording.
+pub trait Advice {
+    /// The help line of a failure.
+    fn failure(&self, _failure: &crate::failure::Failure) -> Option<String> {
+        None
+    }
+    /// The message and help line of an invalid request.
+    fn invalid(&self, _invalid: &crate::request::Invalid) -> Option<Wording> {
+        None
+    }
+    /// Which run of a family an error belongs to: `param` at `value`.
+    fn run(&self, _param: &str, _value: &str) -> Option<String> {
+        None
+    }
+}
+
+/// A message and its help line.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Wording {
+    pub message: String,
+    pub help: String,
+}
+
+/// The library's own wording: the typed errors' messages and hints.
+pub struct LibraryWording;
+
+impl Advice for LibraryWording {}
 
 impl fmt::Display for Error {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
@@ -263,5 +350,55 @@ fn render_diagnostic(source: &SourceFile, d: &Diagnostic, color: bool) -> String
         // "error:" as in every other message of detune (ariadne writes "Error:").
         Ok(()) => String::from_utf8_lossy(&buf).replacen("Error:", "error:", 1),
         Err(_) => format!("error: {header}\n"),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::request::{Argument, Invalid};
+
+    /// Words a run as a command line might.
+    struct Flags;
+    impl Advice for Flags {
+        fn invalid(&self, i: &Invalid) -> Option<Wording> {
+            Some(Wording {
+                message: format!("FLAG: {i}"),
+                help: "HELP".into(),
+            })
+        }
+        fn run(&self, param: &str, value: &str) -> Option<String> {
+            Some(format!("--values {param}={value}"))
+        }
+    }
+
+    #[test]
+    fn an_invalid_request_keeps_its_context_and_its_run_is_worded_by_the_front_end() {
+        let e = Error::from(Invalid::Zero {
+            argument: Argument::MaxPeriods,
+        })
+        .context("inner")
+        .in_run("F0", 0.5)
+        .context("outer");
+        assert_eq!(
+            e.invalid(),
+            Some(&Invalid::Zero {
+                argument: Argument::MaxPeriods
+            })
+        );
+        assert_eq!(
+            e.render(false),
+            "error: outer: with F0 = 0.5: inner: the most periods per frequency is 0: no period would be simulated\nhelp: give at least 1 (the default is 600)\n"
+        );
+        assert_eq!(
+            e.render_with(false, &Flags),
+            "error: outer: --values F0=0.5: inner: FLAG: the most periods per frequency is 0: no period would be simulated\nhelp: HELP\n"
+        );
+        // an untyped error takes the run's words as context too
+        let e = Error::request("zero forcing", "give an amplitude").in_run("F0", "0");
+        assert_eq!(
+            e.render_with(false, &Flags),
+            "error: --values F0=0: zero forcing\nhelp: give an amplitude\n"
+        );
     }
 }

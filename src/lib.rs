@@ -23,6 +23,7 @@ pub mod linalg;
 pub mod linear;
 pub mod model;
 pub mod output;
+pub mod request;
 pub mod scalar;
 pub mod statics;
 pub mod system;

@@ -73,7 +73,7 @@ fn main() {
     if let Err(e) = result {
         eprint!(
             "{}",
-            e.render_with(std::io::stderr().is_terminal(), &cli::advice::advice)
+            e.render_with(std::io::stderr().is_terminal(), &cli::advice::Cli)
         );
         std::process::exit(1);
     }

@@ -8,6 +8,8 @@
 //!   by one (the layout of the lines, their words and their order);
 //! * `*.svg.labels`: the SVG's texts (titles, axis labels, legend), tick labels left out
 //!   and numbers replaced by `#`.
+//! * `request_errors.txt`: the exact stderr and exit code of each kind of invalid
+//!   request (numbers kept: they are what the messages are about).
 //!
 //! Values that vary (numbers, the model path, the SHA) are not pinned, except a few
 //! stable numbers checked here directly. The expected files are in `tests/snapshots/`;
@@ -374,4 +376,83 @@ fn sweep_both_directions_and_a_static_load_in_values() {
     let run = detune(&line, &["-o", &csv, "--plot", &svg]);
     text_snapshot("sweep_static_values", &run, Some(dir.path()));
     svg_snapshot("sweep_static_values", Path::new(&svg));
+}
+
+/// Every kind of invalid request the command line can make, with its exact stderr and
+/// exit code (numbers not masked: they are what the message is about): the library's
+/// typed requests worded with the flags (`cli::advice`), in a `--values` run too.
+#[test]
+fn request_errors() {
+    let fit = "--param omega --from 3 --to 4 --step 0.5";
+    let lines = [
+        "frf MODEL --param omega --from 3 --to 1 --step 0.5".to_string(),
+        "frf MODEL --param omega --from inf --to inf --step 0.5".into(),
+        "frf MODEL --param omega --from 1 --to 2 --step 0".into(),
+        "frf MODEL --param omega --from 1 --to 2 --step nan".into(),
+        "frf MODEL --param omega --from 0 --to 100 --step 1e-9".into(),
+        "frf MODEL --param k --from 1 --to 2 --step 0.5".into(),
+        "frf MODEL --param omegaa --from 1 --to 2 --step 0.5".into(),
+        "frf MODEL --param zzzzz --from 1 --to 2 --step 0.5".into(),
+        "frf MODEL --param omega --from -1 --to 1 --step 0.5".into(),
+        "frf MODEL --set F0=1 --param omega --from 1 --to 2 --step 0.5 --response bar3.theta"
+            .into(),
+        "frf MODEL --set F0=1 --param omega --from 1 --to 2 --step 0.5 --response xyz".into(),
+        format!("sweep MODEL --set F0=1 {fit} --refine 0"),
+        format!("sweep MODEL --set F0=1 {fit} --refine inf"),
+        format!("sweep MODEL --set F0=1 {fit} --refine 1"),
+        format!("sweep MODEL --set F0=1 {fit} --max-periods 0"),
+        format!("sweep MODEL --set F0=1 {fit} --settle-tol 1"),
+        format!("sweep MODEL --set F0=1 {fit} --settle-tol nan"),
+        format!("sweep MODEL {fit} --values F0"),
+        format!("sweep MODEL {fit} --values =1,2"),
+        format!("sweep MODEL {fit} --values omega=1,2"),
+        format!("sweep MODEL {fit} --values F0=1,,2"),
+        format!("sweep MODEL {fit} --values zz=1"),
+        format!("sweep MODEL --set F0=1 {fit} --values m1=1,-1"),
+        format!("sweep MODEL {fit} --values F0=0,1"),
+        format!("sweep MODEL {fit} --values F0=1,2 --refine 5"),
+        format!("sweep MODEL {fit} --values F0=1,2 --max-periods 0"),
+        format!("sweep MODEL {fit} --values F0=1 --response bar3.theta"),
+        format!("sweep MODEL {fit} --values L2=2.8,1 --set F0=1"),
+        format!("sweep MODEL {fit} --values Fs=0,1e6 --set F0=1"),
+        "sweep MODEL --param omegz --from 3 --to 4 --step 0.5 --values F0=1,2".into(),
+        "sweep MODEL --param k --from 3 --to 4 --step 0.5 --values F0=1,2".into(),
+        "sweep MODEL --param omega --from 0 --to 4 --step 1 --values F0=1,2".into(),
+        "continue MODEL --param Fz --from 0 --to 1".into(),
+        "continue MODEL --param Fs --from 1 --to 1".into(),
+        "continue MODEL --param Fs --from 0 --to nan".into(),
+        "continue MODEL --param Fs --from 0 --to 1 --step -1".into(),
+        "continue MODEL --param Fs --from 0 --to 1 --max-steps 0".into(),
+        "continue MODEL --param Fs --from 0 --to 1 --plot-coordinate qq".into(),
+        "modes MODEL --normalize bar3.theta".into(),
+        "simulate MODEL -o never.csv --t-end -1".into(),
+        "simulate MODEL -o never.csv --dt-out 0".into(),
+        "simulate MODEL -o never.csv --rtol 1".into(),
+        "simulate MODEL -o never.csv --atol -1e-3".into(),
+        "simulate MODEL -o never.csv --t-end 1e6 --dt-out 1e-5".into(),
+    ];
+    let mut text = String::new();
+    for line in &lines {
+        let args: Vec<&str> = line
+            .split_whitespace()
+            .map(|w| if w == "MODEL" { MODEL } else { w })
+            .collect();
+        let o = Command::new(env!("CARGO_BIN_EXE_detune"))
+            .current_dir(env!("CARGO_MANIFEST_DIR"))
+            .args(&args)
+            .output()
+            .unwrap();
+        assert!(o.stdout.is_empty(), "{line}");
+        text.push_str(&format!(
+            "$ detune {line}\n[exit {:?}]\n{}",
+            o.status.code(),
+            String::from_utf8_lossy(&o.stderr)
+        ));
+    }
+    assert!(
+        !Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("never.csv")
+            .exists()
+    );
+    snapshot("request_errors.txt", &text);
 }

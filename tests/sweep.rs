@@ -252,7 +252,7 @@ fn bad_sweep_requests_are_refused() {
     let e = sweep(&System::new(&m).unwrap(), &o, &|_| {}, &no)
         .unwrap_err()
         .to_string();
-    assert!(e.contains("--max-periods 0"), "{e}");
+    assert!(e.contains("the most periods per frequency is 0"), "{e}");
     let mut o = opts("omega", vec![3.0, 3.5, 4.0]);
     o.refine = Some(1.0);
     let e = sweep(&System::new(&m).unwrap(), &o, &|_| {}, &no)

@@ -1,8 +1,27 @@
-//! What to do about a failure, with this command line's flags: the library's failures
-//! carry their numbers and a flag-free hint ([`detune::failure::Failure::hint`]); here
-//! the hint names the flag that changes the outcome.
+//! The library's typed errors in this command line's terms. A failure carries its
+//! numbers and a flag-free hint ([`detune::failure::Failure::hint`]); here the hint names
+//! the flag that changes the outcome. An invalid request names the library's argument
+//! ([`detune::request::Argument`]); here it names the flag that gave it.
 
+use detune::diag::{Advice, Wording};
 use detune::failure::Failure;
+use detune::request::{Argument, Invalid};
+
+/// The command line's wording of the library's errors (`Error::render_with`).
+pub struct Cli;
+
+impl Advice for Cli {
+    fn failure(&self, failure: &Failure) -> Option<String> {
+        advice(failure)
+    }
+    fn invalid(&self, invalid: &Invalid) -> Option<Wording> {
+        wording(invalid)
+    }
+    /// A family's runs are the `--values` entries.
+    fn run(&self, param: &str, value: &str) -> Option<String> {
+        Some(format!("--values {param}={value}"))
+    }
+}
 
 /// The help line for a failure, where the command line has better advice than the
 /// library's hint.
@@ -21,5 +40,134 @@ pub fn advice(f: &Failure) -> Option<String> {
         SingularStart => "start away from it: --set the initial value of the coordinate the model fixes for assembly to another value".into(),
         NoEquilibrium { .. } => "start closer to an equilibrium (e.g. --set the initial angle), or check that one exists for these loads".into(),
         _ => return None,
+    })
+}
+
+/// The flag that gives an argument, if one does.
+fn flag(argument: Argument) -> Option<&'static str> {
+    use Argument::*;
+    Some(match argument {
+        FrequencyParameter | ContinuationParameter => "--param",
+        Response => "--response",
+        Normalize => "--normalize",
+        PlotCoordinate => "--plot-coordinate",
+        FrequencyStep | ArclengthStep => "--step",
+        MaxSteps => "--max-steps",
+        Refine => "--refine",
+        MaxPeriods => "--max-periods",
+        SettleTol => "--settle-tol",
+        Duration => "--t-end",
+        OutputInterval => "--dt-out",
+        RelativeTolerance => "--rtol",
+        AbsoluteTolerance => "--atol",
+        Frequencies | ContinuationRange | FixedPeriods => return None,
+    })
+}
+
+/// An invalid request's message and help, naming the flags; `None` where the library's
+/// wording names no argument a flag gives.
+pub fn wording(invalid: &Invalid) -> Option<Wording> {
+    use Invalid::*;
+    let said = |message: String, help: &str| {
+        Some(Wording {
+            message,
+            help: help.to_string(),
+        })
+    };
+    let hint = invalid.hint();
+    match invalid {
+        UnknownParameter { argument, name, .. } => said(
+            format!(
+                "{} {name}: the model has no parameter `{name}`",
+                flag(*argument)?
+            ),
+            &hint,
+        ),
+        UnknownCoordinate { argument, name, .. } => said(
+            format!(
+                "{} {name}: the model has no coordinate `{name}`",
+                flag(*argument)?
+            ),
+            &hint,
+        ),
+        NotForcingFrequency { name, forcing } => said(
+            format!(
+                "--param {name}: the forcing of this model does not depend on `{name}`; it turns at `{forcing}`"
+            ),
+            &format!("use --param {forcing}"),
+        ),
+        BadFrequencies { param, .. } => said(
+            format!("--param {param}: the frequencies must be positive and finite (rad/s)"),
+            "give --from > 0",
+        ),
+        Range { what, from, to } => said(
+            format!("empty range: --from {from} --to {to}"),
+            match what {
+                Argument::Frequencies => {
+                    "give --from below --to (or equal to it for one frequency)"
+                }
+                _ => &hint,
+            },
+        ),
+        NotPositive { argument, value }
+        | Negative { argument, value }
+        | NotFraction { argument, value } => said(not_valid(*argument, *value)?, &hint),
+        Zero { argument } => said(
+            match argument {
+                Argument::MaxPeriods => "--max-periods 0: no period would be simulated".into(),
+                _ => format!("{} 0 computes nothing", flag(*argument)?),
+            },
+            &hint,
+        ),
+        TooManyPoints {
+            argument,
+            value,
+            points,
+            ..
+        } => match argument {
+            Argument::OutputInterval => said(
+                not_valid(*argument, *value)?,
+                "that is more than 50 million samples; use a larger --dt-out",
+            ),
+            _ => said(
+                format!("{} {value} gives {points} points", flag(*argument)?),
+                &hint,
+            ),
+        },
+        RefineTooCoarse { refine, step } => said(
+            format!(
+                "--refine {refine} is not finer than a peak's bracket (2 × the step {step}): nothing would be refined"
+            ),
+            "give --refine below --step (e.g. --step / 100), or leave it out",
+        ),
+        FamilySyntax { spec } => said(
+            format!("--values {spec}: expected PARAM=v1,v2,..."),
+            "for example --values F0=0.1,1,2,3,4",
+        ),
+        FamilyUnnamed { spec } => said(
+            format!("--values {spec}: no parameter named before `=`"),
+            "for example --values F0=0.1,1,2,3,4",
+        ),
+        FamilyVariesSwept { spec, name } => said(
+            format!("--values {spec}: `{name}` is the swept parameter (--param)"),
+            "give --values a different parameter, e.g. the forcing amplitude F0",
+        ),
+        FamilyEmptyEntry { spec } => said(
+            format!("--values {spec}: an empty entry"),
+            "separate the values by single commas: --values F0=0.1,1,2",
+        ),
+        NoForcingFrequency => None,
+    }
+}
+
+/// `--step 0 is not valid`; `simulate`'s options say `--t-end = -1 is not valid`.
+fn not_valid(argument: Argument, value: f64) -> Option<String> {
+    let flag = flag(argument)?;
+    Some(match argument {
+        Argument::Duration
+        | Argument::OutputInterval
+        | Argument::RelativeTolerance
+        | Argument::AbsoluteTolerance => format!("{flag} = {value} is not valid"),
+        _ => format!("{flag} {value} is not valid"),
     })
 }

@@ -11,6 +11,7 @@ use detune::output::json::BranchReport;
 use detune::output::plot::write_line_plot;
 use detune::output::results::write_branch_csv;
 use detune::output::{Provenance, check_outputs};
+use detune::request::Argument;
 use detune::statics::continuation::{ContinuationOptions, continue_equilibria};
 
 #[derive(Args)]
@@ -62,7 +63,7 @@ pub fn run(a: ContinueArgs) -> Result<()> {
     };
     // Every request is checked before the work, so a bad one leaves no file behind.
     let idx = match &a.plot_coordinate {
-        Some(name) => detune::linear::coordinate(&sys, name, "--plot-coordinate")?,
+        Some(name) => detune::linear::coordinate(&sys, name, Argument::PlotCoordinate)?,
         None => detune::linear::default_reference(&sys),
     };
     let branch = continue_equilibria(&sys, &opts)?;

@@ -8,7 +8,7 @@ use super::{
     DynWorkspace, State, accelerations, project_position, project_velocity, residual_norm,
     velocity_residual_blocks,
 };
-use crate::diag::{Error, Result};
+use crate::diag::Result;
 use crate::failure::Failure;
 use crate::system::System;
 use differential_equations::ode::ODE;
@@ -248,38 +248,39 @@ pub fn simulate_with(
 }
 
 fn check_options(o: &SimOptions) -> Result<()> {
-    let bad = |what: &str, v: f64, hint: &str| {
-        Err(Error::request(
-            format!("{what} = {v} is not valid"),
-            hint.to_string(),
-        ))
+    use crate::request::{Argument, Invalid};
+    let invalid = if !(o.t_end >= 0.0) || !o.t_end.is_finite() {
+        Invalid::Negative {
+            argument: Argument::Duration,
+            value: o.t_end,
+        }
+    } else if !(o.dt_out > 0.0) || !o.dt_out.is_finite() {
+        Invalid::NotPositive {
+            argument: Argument::OutputInterval,
+            value: o.dt_out,
+        }
+    } else if !(o.rtol > 0.0 && o.rtol < 1.0) {
+        Invalid::NotFraction {
+            argument: Argument::RelativeTolerance,
+            value: o.rtol,
+        }
+    } else if !(o.atol > 0.0) || !o.atol.is_finite() {
+        Invalid::NotPositive {
+            argument: Argument::AbsoluteTolerance,
+            value: o.atol,
+        }
+    } else if o.t_end / o.dt_out > MAX_SAMPLES as f64 {
+        Invalid::TooManyPoints {
+            argument: Argument::OutputInterval,
+            value: o.dt_out,
+            points: (o.t_end / o.dt_out) as usize,
+            limit: MAX_SAMPLES,
+        }
+    } else {
+        return Ok(());
     };
-    if !(o.t_end >= 0.0) || !o.t_end.is_finite() {
-        return bad("--t-end", o.t_end, "give a duration ≥ 0 s");
-    }
-    if !(o.dt_out > 0.0) || !o.dt_out.is_finite() {
-        return bad("--dt-out", o.dt_out, "give an output interval > 0 s");
-    }
-    if !(o.rtol > 0.0 && o.rtol < 1.0) {
-        return bad(
-            "--rtol",
-            o.rtol,
-            "give a relative tolerance between 0 and 1, e.g. 1e-10",
-        );
-    }
-    if !(o.atol > 0.0) || !o.atol.is_finite() {
-        return bad(
-            "--atol",
-            o.atol,
-            "give an absolute tolerance > 0, e.g. 1e-12",
-        );
-    }
-    if o.t_end / o.dt_out > 5e7 {
-        return bad(
-            "--dt-out",
-            o.dt_out,
-            "that is more than 50 million samples; use a larger --dt-out",
-        );
-    }
-    Ok(())
+    Err(invalid.into())
 }
+
+/// The most output samples of a simulation (t_end / dt_out).
+const MAX_SAMPLES: usize = 50_000_000;

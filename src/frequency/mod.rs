@@ -17,10 +17,11 @@
 pub mod measure;
 pub mod study;
 
-use crate::diag::{Error, Result};
+use crate::diag::Result;
 use crate::dynamics::simulate::SimOptions;
 use crate::dynamics::{DynWorkspace, State, project_position, project_velocity};
 use crate::failure::Failure;
+use crate::request::{Argument, Invalid};
 use crate::statics::{Equilibrium, Statics};
 use crate::system::System;
 use measure::Measures;
@@ -491,34 +492,33 @@ fn check_request(sys: &System, opts: &SweepOptions) -> Result<usize> {
     if let Some(r) = opts.refine
         && (!(r > 0.0) || !r.is_finite())
     {
-        return Err(Error::request(
-            format!("--refine {r} is not valid"),
-            "give a positive resolution, e.g. 1e-3",
-        ));
+        return Err(Invalid::NotPositive {
+            argument: Argument::Refine,
+            value: r,
+        }
+        .into());
     }
     // A peak's bracket is its two neighbours, 2 steps wide.
     if let (Some(r), [w0, w1, ..]) = (opts.refine, opts.values.as_slice())
         && r >= 2.0 * (w1 - w0).abs()
     {
-        return Err(Error::request(
-            format!(
-                "--refine {r} is not finer than a peak's bracket (2 × the step {}): nothing would be refined",
-                (w1 - w0).abs()
-            ),
-            "give --refine below --step (e.g. --step / 100), or leave it out",
-        ));
+        return Err(Invalid::RefineTooCoarse {
+            refine: r,
+            step: (w1 - w0).abs(),
+        }
+        .into());
     }
     if opts.steady.max_periods == 0 {
-        return Err(Error::request(
-            "--max-periods 0: no period would be simulated",
-            "give at least 1 (the default is 600)",
-        ));
+        return Err(Invalid::Zero {
+            argument: Argument::MaxPeriods,
+        }
+        .into());
     }
     if opts.steady.fixed_periods == Some(0) {
-        return Err(Error::request(
-            "fixed_periods = 0: no period would be simulated",
-            "give at least 1, or None to detect the steady state",
-        ));
+        return Err(Invalid::Zero {
+            argument: Argument::FixedPeriods,
+        }
+        .into());
     }
     Ok(index)
 }
@@ -533,7 +533,7 @@ pub fn prepare(sys: &System, opts: &SweepOptions) -> Result<(System, Vec<usize>,
     let responses: Vec<usize> = opts
         .responses
         .iter()
-        .map(|r| crate::linear::coordinate(&sys0, r, "--response"))
+        .map(|r| crate::linear::coordinate(&sys0, r, Argument::Response))
         .collect::<Result<_>>()?;
     let start = crate::dynamics::assemble(&sys0)?;
     let st = Statics::new(&sys0, &start.q)?;

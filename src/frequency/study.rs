@@ -7,6 +7,7 @@ use super::{Sweep, SweepMode, SweepOptions, prepare, sweep};
 use crate::diag::{Error, Result};
 use crate::linear::{at_frequency, modal_analysis};
 use crate::model::Model;
+use crate::request::{Argument, Invalid, parameter};
 use crate::system::System;
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 
@@ -56,42 +57,36 @@ pub struct NaturalFrequency {
 /// a number (SI), a quantity or an expression, as with `--set`; `swept` is the swept
 /// parameter, which the family may not vary.
 pub fn family(model: &Model, spec: &str, swept: &str) -> Result<Vec<(String, f64, Model)>> {
-    let (name, list) = spec.split_once('=').ok_or_else(|| {
-        Error::request(
-            format!("--values {spec}: expected PARAM=v1,v2,..."),
-            "for example --values F0=0.1,1,2,3,4",
-        )
-    })?;
+    let (name, list) = spec
+        .split_once('=')
+        .ok_or_else(|| Invalid::FamilySyntax { spec: spec.into() })?;
     let name = name.trim();
     if name.is_empty() {
-        return Err(Error::request(
-            format!("--values {spec}: no parameter named before `=`"),
-            "for example --values F0=0.1,1,2,3,4",
-        ));
+        return Err(Invalid::FamilyUnnamed { spec: spec.into() }.into());
     }
     if name == swept {
-        return Err(Error::request(
-            format!("--values {spec}: `{name}` is the swept parameter (--param)"),
-            "give --values a different parameter, e.g. the forcing amplitude F0",
-        ));
+        return Err(Invalid::FamilyVariesSwept {
+            spec: spec.into(),
+            name: name.to_string(),
+        }
+        .into());
     }
     let mut out = Vec::new();
     for v in list.split(',') {
         if v.trim().is_empty() {
-            return Err(Error::request(
-                format!("--values {spec}: an empty entry"),
-                "separate the values by single commas: --values F0=0.1,1,2",
-            ));
+            return Err(Invalid::FamilyEmptyEntry { spec: spec.into() }.into());
         }
         let m = model
             .with_overrides(&[(name.to_string(), v.trim().to_string())])
             .and_then(|m| System::check(&m).map(|_| m))
             .map_err(|e| match e {
+                // a bad value quotes the override it was given as (`--set NAME=VALUE`):
+                // here, the family's entry
                 Error::Request { message, help } => Error::Request {
                     message: message.replace("--set ", "--values "),
                     help,
                 },
-                other => other.context(&format!("--values {name}={}", v.trim())),
+                other => other.in_run(name, v.trim()),
             })?;
         let value = m.parameters.value(name).unwrap_or(f64::NAN);
         out.push((name.to_string(), value, m));
@@ -113,10 +108,11 @@ impl SweepStudy {
         };
         let settle = options.steady.settle_tol;
         if !(settle > 0.0 && settle < 1.0) {
-            return Err(Error::request(
-                format!("--settle-tol {settle} is not valid"),
-                "give a fraction such as 1e-8",
-            ));
+            return Err(Invalid::NotFraction {
+                argument: Argument::SettleTol,
+                value: settle,
+            }
+            .into());
         }
         // One compiled system per run.
         let systems: Vec<System> = models
@@ -134,7 +130,7 @@ impl SweepStudy {
             .collect();
         for run in &runs {
             prepare(&run.system, &options).map_err(|e| match &run.value {
-                Some((name, v)) => e.context(&format!("--values {name}={v}")),
+                Some((name, v)) => e.in_run(name, v),
                 None => e,
             })?;
         }
@@ -195,7 +191,11 @@ impl SweepStudy {
     pub fn natural_frequencies(&self, count: usize) -> Result<Vec<NaturalFrequency>> {
         let mut per_run: Vec<(Vec<f64>, &StudyRun)> = Vec::new();
         for run in self.runs.iter().take(count) {
-            let index = run.system.require_param(&self.options.param, "--param")?;
+            let index = parameter(
+                run.system.param_names(),
+                &self.options.param,
+                Argument::FrequencyParameter,
+            )?;
             let at = at_frequency(&run.system, index, self.options.values[0])?;
             let Ok(ma) = modal_analysis(&at, None) else {
                 continue;

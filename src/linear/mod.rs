@@ -28,6 +28,7 @@
 
 use crate::diag::{Error, Result};
 use crate::failure::Failure;
+use crate::request::{Argument, Invalid, parameter};
 use crate::statics::{Equilibrium, Statics, generalized_eigenvalues};
 use crate::system::System;
 use nalgebra::{Complex, DMatrix, DVector};
@@ -332,15 +333,13 @@ pub struct ModalAnalysis {
     pub reference: usize,
 }
 
-/// Index of a coordinate by name, with a helpful error.
-pub fn coordinate(sys: &System, name: &str, flag: &str) -> Result<usize> {
-    sys.coordinate_index(name).ok_or_else(|| {
-        Error::request(
-            format!("{flag} {name}: the model has no coordinate `{name}`"),
-            crate::model::suggest(name, sys.coordinates.iter().map(|s| s.as_str()))
-                .unwrap_or_else(|| format!("coordinates: {}", sys.coordinates.join(", "))),
-        )
-    })
+/// Index of a coordinate by name, or the invalid request: `argument` names no coordinate.
+pub fn coordinate(sys: &System, name: &str, argument: Argument) -> Result<usize> {
+    Ok(crate::request::coordinate(
+        &sys.coordinates,
+        name,
+        argument,
+    )?)
 }
 
 /// The first angle coordinate (by its dimension), else the first.
@@ -351,7 +350,7 @@ pub fn default_reference(sys: &System) -> usize {
 /// Equilibrium nearest the initial pose, linearization, modes.
 pub fn modal_analysis(sys: &System, normalize: Option<&str>) -> Result<ModalAnalysis> {
     let reference = match normalize {
-        Some(name) => coordinate(sys, name, "--normalize")?,
+        Some(name) => coordinate(sys, name, Argument::Normalize)?,
         None => default_reference(sys),
     };
     let start = crate::dynamics::assemble(sys)?;
@@ -374,30 +373,25 @@ pub fn modal_analysis(sys: &System, normalize: Option<&str>) -> Result<ModalAnal
 /// the model's forcing frequency, and the frequencies positive and finite (rad/s).
 /// Returns the parameter's index.
 pub fn check_frequencies(sys: &System, param: &str, values: &[f64]) -> Result<usize> {
-    let index = sys.require_param(param, &format!("--param {param}"))?;
+    let index = parameter(sys.param_names(), param, Argument::FrequencyParameter)?;
     match sys.forcing_param() {
         Some(f) if f != index => {
-            let f = &sys.param_names()[f];
-            return Err(Error::request(
-                format!(
-                    "--param {param}: the forcing of this model does not depend on `{param}`; it turns at `{f}`"
-                ),
-                format!("use --param {f}"),
-            ));
+            return Err(Invalid::NotForcingFrequency {
+                name: param.to_string(),
+                forcing: sys.param_names()[f].clone(),
+            }
+            .into());
         }
-        None => {
-            return Err(Error::request(
-                "the model does not say which parameter is its forcing frequency",
-                "add `forcing_frequency = \"omega\"` to [model]",
-            ));
-        }
+        None => return Err(Invalid::NoForcingFrequency.into()),
         _ => {}
     }
-    if values.is_empty() || values.iter().any(|w| !(*w > 0.0) || !w.is_finite()) {
-        return Err(Error::request(
-            format!("--param {param}: the frequencies must be positive and finite (rad/s)"),
-            "give --from > 0",
-        ));
+    let bad = values.iter().find(|w| !(**w > 0.0) || !w.is_finite());
+    if values.is_empty() || bad.is_some() {
+        return Err(Invalid::BadFrequencies {
+            param: param.to_string(),
+            value: bad.copied(),
+        }
+        .into());
     }
     Ok(index)
 }
@@ -462,7 +456,7 @@ pub fn frequency_response(
     let mut at = at_frequency(sys, index, values[0])?;
     let idx: Vec<usize> = responses
         .iter()
-        .map(|r| coordinate(&at, r, "--response"))
+        .map(|r| coordinate(&at, r, Argument::Response))
         .collect::<Result<_>>()?;
     let modal = modal_analysis(&at, None)?;
     let start = crate::dynamics::assemble(&at)?;
@@ -488,26 +482,35 @@ pub fn frequency_response(
     })
 }
 
+/// The largest frequency grid, in steps.
+const MAX_POINTS: usize = 10_000_000;
+
 /// `from, from + step, ..., to` (to included when it falls on the grid within rounding).
 pub fn grid(from: f64, to: f64, step: f64) -> Result<Vec<f64>> {
     if !(from.is_finite() && to.is_finite()) || to < from {
-        return Err(Error::request(
-            format!("empty range: --from {from} --to {to}"),
-            "give --from below --to (or equal to it for one frequency)",
-        ));
+        return Err(Invalid::Range {
+            what: Argument::Frequencies,
+            from,
+            to,
+        }
+        .into());
     }
     if !(step > 0.0) || !step.is_finite() {
-        return Err(Error::request(
-            format!("--step {step} is not valid"),
-            "give a positive step",
-        ));
+        return Err(Invalid::NotPositive {
+            argument: Argument::FrequencyStep,
+            value: step,
+        }
+        .into());
     }
     let n = ((to - from) / step + 1e-9).floor() as usize;
-    if n > 10_000_000 {
-        return Err(Error::request(
-            format!("--step {step} gives {n} points"),
-            "give a larger step",
-        ));
+    if n > MAX_POINTS {
+        return Err(Invalid::TooManyPoints {
+            argument: Argument::FrequencyStep,
+            value: step,
+            points: n,
+            limit: MAX_POINTS,
+        }
+        .into());
     }
     // from + k·step rounded to the step's decimals, so 0.5 + 7·0.1 is written 1.2, not
     // 1.2000000000000002.

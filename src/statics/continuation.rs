@@ -17,7 +17,7 @@
 //! arclength between the two points that bracket them.
 
 use super::{Statics, solve_least_squares};
-use crate::diag::{Error, Result};
+use crate::diag::Result;
 use crate::failure::Failure;
 use crate::system::System;
 use nalgebra::{DMatrix, DVector};
@@ -424,24 +424,32 @@ pub fn continue_equilibria(sys: &System, opts: &ContinuationOptions) -> Result<B
 }
 
 fn check(sys: &System, opts: &ContinuationOptions) -> Result<usize> {
-    let index = sys.require_param(&opts.param, &format!("--param {}", opts.param))?;
+    use crate::request::{Argument, Invalid, parameter};
+    let index = parameter(
+        sys.param_names(),
+        &opts.param,
+        Argument::ContinuationParameter,
+    )?;
     if !(opts.from.is_finite() && opts.to.is_finite()) || opts.from == opts.to {
-        return Err(Error::request(
-            format!("empty range: --from {} --to {}", opts.from, opts.to),
-            "give two different finite values",
-        ));
+        return Err(Invalid::Range {
+            what: Argument::ContinuationRange,
+            from: opts.from,
+            to: opts.to,
+        }
+        .into());
     }
     if !(opts.step > 0.0) || !opts.step.is_finite() {
-        return Err(Error::request(
-            format!("--step {} is not valid", opts.step),
-            "give a positive arclength step",
-        ));
+        return Err(Invalid::NotPositive {
+            argument: Argument::ArclengthStep,
+            value: opts.step,
+        }
+        .into());
     }
     if opts.max_steps == 0 {
-        return Err(Error::request(
-            "--max-steps 0 computes nothing",
-            "give at least 1",
-        ));
+        return Err(Invalid::Zero {
+            argument: Argument::MaxSteps,
+        }
+        .into());
     }
     Ok(index)
 }

@@ -1,0 +1,358 @@
+//! Invalid requests as typed values that carry what was asked: an argument out of its
+//! range, a name the model does not have. The library names the argument as its API does
+//! ([`Argument`]); which command-line flag gave it, and the advice in the flags' terms,
+//! is the CLI's business (`cli::advice`). [`Invalid::hint`] is the flag-free hint a
+//! library user gets. (The numerical failures are [`crate::failure::Failure`].)
+
+use std::fmt;
+
+/// `Argument`, each variant with the words a message names it by, and
+/// [`Argument::ALL`]: one list, so that none is left out of either.
+macro_rules! arguments {
+    ($($(#[$doc:meta])* $name:ident => $words:literal,)*) => {
+        /// The argument of a library function (or a field of its options) that a request
+        /// got wrong.
+        #[derive(Debug, Clone, Copy, PartialEq, Eq)]
+        pub enum Argument {
+            $($(#[$doc])* $name,)*
+        }
+
+        impl Argument {
+            /// Every argument.
+            pub const ALL: &[Argument] = &[$(Argument::$name),*];
+
+            /// The argument in words, as a message names it.
+            pub fn describe(self) -> &'static str {
+                match self {
+                    $(Argument::$name => $words,)*
+                }
+            }
+        }
+    };
+}
+
+arguments! {
+    /// The forcing-frequency parameter of a frequency response or a sweep (`param`).
+    FrequencyParameter => "the frequency parameter",
+    /// The parameter a continuation varies (`ContinuationOptions::param`).
+    ContinuationParameter => "the parameter of a continuation",
+    /// A coordinate whose response is reported (`responses`).
+    Response => "the response coordinate",
+    /// The coordinate the mode shapes are normalized to (`normalize`).
+    Normalize => "the shapes' reference coordinate",
+    /// The coordinate a branch figure draws against the parameter.
+    PlotCoordinate => "the plotted coordinate",
+    /// The frequencies of a grid, `from` to `to` ([`crate::linear::grid`]).
+    Frequencies => "the frequency range",
+    /// The parameter range of a continuation (`from`, `to`).
+    ContinuationRange => "the continuation range",
+    /// The step of a frequency grid ([`crate::linear::grid`]).
+    FrequencyStep => "the frequency step",
+    /// The largest arclength step of a continuation (`ContinuationOptions::step`).
+    ArclengthStep => "the arclength step",
+    /// The most steps of a continuation (`ContinuationOptions::max_steps`).
+    MaxSteps => "the most continuation steps",
+    /// The resolution to which a sweep locates its peaks (`SweepOptions::refine`).
+    Refine => "the refinement resolution",
+    /// The most periods simulated per frequency (`SteadyOptions::max_periods`).
+    MaxPeriods => "the most periods per frequency",
+    /// The fixed number of periods per frequency (`SteadyOptions::fixed_periods`).
+    FixedPeriods => "the fixed number of periods per frequency",
+    /// The settling tolerance of a steady state (`SteadyOptions::settle_tol`).
+    SettleTol => "the settling tolerance",
+    /// The length of a simulation, s (`SimOptions::t_end`).
+    Duration => "the duration",
+    /// The output interval of a simulation, s (`SimOptions::dt_out`).
+    OutputInterval => "the output interval",
+    /// The integrator's relative tolerance (`rtol`).
+    RelativeTolerance => "the relative tolerance",
+    /// The integrator's absolute tolerance (`atol`).
+    AbsoluteTolerance => "the absolute tolerance",
+}
+
+impl fmt::Display for Argument {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.describe())
+    }
+}
+
+/// A request the library cannot carry out as asked, with what was asked.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum Invalid {
+    #[error("{argument} `{name}` is not a parameter of this model")]
+    UnknownParameter {
+        argument: Argument,
+        name: String,
+        /// The model's parameters.
+        known: Vec<String>,
+    },
+    #[error("{argument} `{name}` is not a coordinate of this model")]
+    UnknownCoordinate {
+        argument: Argument,
+        name: String,
+        /// The model's coordinates.
+        known: Vec<String>,
+    },
+    #[error(
+        "the forcing of this model does not depend on `{name}` (the frequency parameter); it turns at `{forcing}`"
+    )]
+    NotForcingFrequency { name: String, forcing: String },
+    #[error("the model does not say which parameter is its forcing frequency")]
+    NoForcingFrequency,
+    /// A frequency ≤ 0 or not finite (`value`), or none at all (`None`).
+    #[error("the frequencies of `{param}` must be positive and finite (rad/s){}", match .value {
+        Some(v) => format!(", not {v}"),
+        None => ": none given".to_string(),
+    })]
+    BadFrequencies { param: String, value: Option<f64> },
+    #[error("{what} {from} to {to} is {}", if .from.is_finite() && .to.is_finite() { "empty" } else { "not finite" })]
+    Range { what: Argument, from: f64, to: f64 },
+    #[error("{argument} {value} is not positive and finite")]
+    NotPositive { argument: Argument, value: f64 },
+    #[error("{argument} {value} is negative or not finite")]
+    Negative { argument: Argument, value: f64 },
+    #[error("{argument} {value} is not between 0 and 1")]
+    NotFraction { argument: Argument, value: f64 },
+    #[error("{argument} is 0: {}", match .argument {
+        Argument::MaxPeriods | Argument::FixedPeriods => "no period would be simulated",
+        _ => "nothing would be computed",
+    })]
+    Zero { argument: Argument },
+    #[error("{argument} {value} gives {points} points, more than {limit}")]
+    TooManyPoints {
+        argument: Argument,
+        value: f64,
+        points: usize,
+        limit: usize,
+    },
+    /// A peak's bracket is its two neighbours, 2 steps wide.
+    #[error(
+        "the refinement resolution {refine} is not finer than a peak's bracket (2 × the frequency step {step}): nothing would be refined"
+    )]
+    RefineTooCoarse { refine: f64, step: f64 },
+    /// A family's values (`PARAM=v1,v2,...`) without `=`.
+    #[error("the family of values `{spec}` is not of the form PARAM=v1,v2,...")]
+    FamilySyntax { spec: String },
+    #[error("the family of values `{spec}` names no parameter before `=`")]
+    FamilyUnnamed { spec: String },
+    #[error("the family of values `{spec}` varies `{name}`, the swept frequency parameter")]
+    FamilyVariesSwept { spec: String, name: String },
+    #[error("the family of values `{spec}` has an empty entry")]
+    FamilyEmptyEntry { spec: String },
+}
+
+/// The index of parameter `name` among a model's parameter `names` (in index order), or
+/// the invalid request: `argument` names no parameter.
+pub fn parameter(names: &[String], name: &str, argument: Argument) -> Result<usize, Invalid> {
+    names
+        .iter()
+        .position(|n| n == name)
+        .ok_or_else(|| Invalid::UnknownParameter {
+            argument,
+            name: name.to_string(),
+            known: names.to_vec(),
+        })
+}
+
+/// The index of coordinate `name` among a model's coordinate `names`, or the invalid
+/// request: `argument` names no coordinate.
+pub fn coordinate(names: &[String], name: &str, argument: Argument) -> Result<usize, Invalid> {
+    names
+        .iter()
+        .position(|n| n == name)
+        .ok_or_else(|| Invalid::UnknownCoordinate {
+            argument,
+            name: name.to_string(),
+            known: names.to_vec(),
+        })
+}
+
+impl Invalid {
+    /// What to do about it, without naming any command-line flag.
+    pub fn hint(&self) -> String {
+        use Argument as A;
+        use Invalid::*;
+        match self {
+            UnknownParameter { name, known, .. } => {
+                crate::model::suggest(name, known.iter().map(|s| s.as_str()))
+                    .unwrap_or_else(|| format!("parameters of this model: {}", known.join(", ")))
+            }
+            UnknownCoordinate { name, known, .. } => {
+                crate::model::suggest(name, known.iter().map(|s| s.as_str()))
+                    .unwrap_or_else(|| format!("coordinates: {}", known.join(", ")))
+            }
+            NotForcingFrequency { forcing, .. } => format!("use `{forcing}`"),
+            NoForcingFrequency => "add `forcing_frequency = \"omega\"` to [model]".into(),
+            BadFrequencies { .. } => "give frequencies > 0".into(),
+            Range {
+                what: A::Frequencies,
+                ..
+            } => "give a start below the end (or equal to it for one frequency)".into(),
+            Range { .. } => "give two different finite values".into(),
+            NotPositive { argument, .. } => match argument {
+                A::FrequencyStep => "give a positive step",
+                A::ArclengthStep => "give a positive arclength step",
+                A::Refine => "give a positive resolution, e.g. 1e-3",
+                A::OutputInterval => "give an output interval > 0 s",
+                A::AbsoluteTolerance => "give an absolute tolerance > 0, e.g. 1e-12",
+                _ => "give a positive value",
+            }
+            .into(),
+            Negative { argument, .. } => match argument {
+                A::Duration => "give a duration ≥ 0 s",
+                _ => "give a value ≥ 0",
+            }
+            .into(),
+            NotFraction { argument, .. } => match argument {
+                A::RelativeTolerance => "give a relative tolerance between 0 and 1, e.g. 1e-10",
+                A::SettleTol => "give a fraction such as 1e-8",
+                _ => "give a value between 0 and 1",
+            }
+            .into(),
+            Zero { argument } => match argument {
+                A::MaxPeriods => "give at least 1 (the default is 600)",
+                A::FixedPeriods => "give at least 1, or None to detect the steady state",
+                _ => "give at least 1",
+            }
+            .into(),
+            TooManyPoints { argument, .. } => match argument {
+                A::OutputInterval => "use a larger output interval",
+                _ => "give a larger step",
+            }
+            .into(),
+            RefineTooCoarse { .. } => {
+                "give a resolution below the frequency step (e.g. the step / 100), or none".into()
+            }
+            FamilySyntax { .. } | FamilyUnnamed { .. } => "for example F0=0.1,1,2,3,4".into(),
+            FamilyVariesSwept { .. } => {
+                "vary a different parameter, e.g. the forcing amplitude F0".into()
+            }
+            FamilyEmptyEntry { .. } => "separate the values by single commas: F0=0.1,1,2".into(),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Every kind of invalid request, with every argument where it carries one.
+    fn all() -> Vec<Invalid> {
+        use Invalid::*;
+        let known = vec!["F0".to_string(), "Fs".into(), "omega".into()];
+        let mut all = vec![
+            NotForcingFrequency {
+                name: "k".into(),
+                forcing: "omega".into(),
+            },
+            NoForcingFrequency,
+            BadFrequencies {
+                param: "omega".into(),
+                value: Some(-1.0),
+            },
+            BadFrequencies {
+                param: "omega".into(),
+                value: None,
+            },
+            RefineTooCoarse {
+                refine: 1.0,
+                step: 0.5,
+            },
+            FamilySyntax { spec: "F0".into() },
+            FamilyUnnamed { spec: "=1".into() },
+            FamilyVariesSwept {
+                spec: "omega=1".into(),
+                name: "omega".into(),
+            },
+            FamilyEmptyEntry {
+                spec: "F0=1,,2".into(),
+            },
+        ];
+        for &argument in Argument::ALL {
+            for name in ["Fz", "zzz"] {
+                all.push(UnknownParameter {
+                    argument,
+                    name: name.into(),
+                    known: known.clone(),
+                });
+                all.push(UnknownCoordinate {
+                    argument,
+                    name: name.into(),
+                    known: known.clone(),
+                });
+            }
+            for (from, to) in [(3.0, 1.0), (f64::INFINITY, 1.0)] {
+                all.push(Range {
+                    what: argument,
+                    from,
+                    to,
+                });
+            }
+            all.extend([
+                NotPositive {
+                    argument,
+                    value: -1.0,
+                },
+                Negative {
+                    argument,
+                    value: -1.0,
+                },
+                NotFraction {
+                    argument,
+                    value: 2.0,
+                },
+                Zero { argument },
+                TooManyPoints {
+                    argument,
+                    value: 1e-9,
+                    points: 100_000_000_000,
+                    limit: 10_000_000,
+                },
+            ]);
+        }
+        all
+    }
+
+    #[test]
+    fn library_messages_and_hints_name_no_flag() {
+        for i in all() {
+            let (m, h) = (i.to_string(), i.hint());
+            assert!(!m.contains("--") && !h.contains("--"), "{m} / {h}");
+            assert!(!m.is_empty() && !h.is_empty());
+        }
+    }
+
+    #[test]
+    fn messages_carry_the_values_and_name_the_argument() {
+        let i = Invalid::Range {
+            what: Argument::Frequencies,
+            from: 3.0,
+            to: 1.0,
+        };
+        assert_eq!(i.to_string(), "the frequency range 3 to 1 is empty");
+        let i = Invalid::UnknownParameter {
+            argument: Argument::ContinuationParameter,
+            name: "Fz".into(),
+            known: vec!["F0".into(), "Fs".into(), "k".into()],
+        };
+        assert_eq!(
+            i.to_string(),
+            "the parameter of a continuation `Fz` is not a parameter of this model"
+        );
+        assert_eq!(i.hint(), "did you mean `F0` or `Fs`?");
+        let i = Invalid::UnknownCoordinate {
+            argument: Argument::Response,
+            name: "xyz".into(),
+            known: vec!["bar1.x".into(), "bar1.theta".into()],
+        };
+        assert_eq!(i.hint(), "coordinates: bar1.x, bar1.theta");
+        let i = Invalid::NotPositive {
+            argument: Argument::FrequencyStep,
+            value: f64::NAN,
+        };
+        assert_eq!(
+            i.to_string(),
+            "the frequency step NaN is not positive and finite"
+        );
+    }
+}
