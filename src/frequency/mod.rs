@@ -91,12 +91,7 @@ pub fn steady_state(
     opts: &SteadyOptions,
     cancel: &AtomicBool,
 ) -> Result<SteadyState> {
-    let omega = sys.forcing_frequency().ok_or_else(|| {
-        Error::request(
-            "the model does not say which parameter is its forcing frequency",
-            "add `forcing_frequency = \"omega\"` to [model]",
-        )
-    })?;
+    let omega = sys.forcing_frequency().ok_or(Invalid::NoForcingFrequency)?;
     let period = 2.0 * std::f64::consts::PI / omega;
     let per = opts.samples;
     let dof = sys

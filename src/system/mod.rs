@@ -250,24 +250,6 @@ impl System {
         self.live.index(name)
     }
 
-    /// The index of parameter `name`, or an error saying that `request` (the flag that
-    /// named it, e.g. `--param k`) names no parameter, with a suggestion or the list.
-    pub fn require_param(&self, name: &str, request: &str) -> Result<usize> {
-        self.param_index(name).ok_or_else(|| {
-            let names = self.live.names.iter().map(|s| s.as_str());
-            let help = crate::model::suggest(name, names.clone()).unwrap_or_else(|| {
-                format!(
-                    "parameters of this model: {}",
-                    names.collect::<Vec<_>>().join(", ")
-                )
-            });
-            Error::request(
-                format!("{request}: the model has no parameter `{name}`"),
-                help,
-            )
-        })
-    }
-
     /// Current SI value of parameter `i`.
     pub fn param(&self, i: usize) -> f64 {
         self.live.values[i]
