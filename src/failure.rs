@@ -77,6 +77,10 @@ pub enum Failure {
         iterations: usize,
         pose: String,
     },
+    #[error(
+        "no equilibrium found: the equilibrium equations are undefined (NaN) after {iterations} iterations, at the pose {pose}"
+    )]
+    UndefinedEquilibrium { iterations: usize, pose: String },
     #[error("no equilibrium found on the assembly branch of the initial pose")]
     NoEquilibriumOnBranch,
     #[error(
@@ -120,6 +124,7 @@ impl Failure {
             BranchTurns { .. } => "the branch may end here (a singular pose); try a smaller step".into(),
             SingularStart => "start away from it: change the coordinate the model fixes for assembly".into(),
             NoEquilibrium { .. } => "start closer to an equilibrium (another initial pose), or check that one exists for these loads".into(),
+            UndefinedEquilibrium { .. } => "a load or a moving constraint is undefined there at some time of the forcing period (statics averages them over it): sqrt or ln of a negative number, or a division by zero".into(),
             NoEquilibriumOnBranch => "check the loads: the mechanism may have no static equilibrium (e.g. a force larger than any spring can hold)".into(),
             UndampedResonance { .. } => "add damping or step around that frequency".into(),
         }
@@ -177,6 +182,10 @@ mod tests {
                 pose: "b.x = 1".into(),
             },
             Failure::NoEquilibriumOnBranch,
+            Failure::UndefinedEquilibrium {
+                iterations: 0,
+                pose: "b.x = 1".into(),
+            },
             Failure::UndampedResonance { omega: 4.0 },
         ];
         for f in &all {

@@ -17,6 +17,17 @@ pub const RANK_TOL: f64 = 1e-10;
 /// Cholesky pivots below `CHOL_TOL · max diag(B Bᵀ)` send the solve to the SVD.
 pub const CHOL_TOL: f64 = 1e-10;
 
+/// The largest |x_i|, NaN if any x_i is NaN (nalgebra's `amax` passes over a NaN).
+pub fn amax(x: &[f64]) -> f64 {
+    x.iter().fold(0.0f64, |a, v| {
+        if v.is_nan() || a.is_nan() {
+            f64::NAN
+        } else {
+            a.max(v.abs())
+        }
+    })
+}
+
 pub fn all_finite(x: &[f64]) -> bool {
     x.iter().all(|v| v.is_finite())
 }
@@ -66,6 +77,10 @@ pub fn solve_least_squares(j: DMatrix<f64>, r: &DVector<f64>) -> DVector<f64> {
     if cols == 0 || j.nrows() == 0 {
         // nothing to solve for, or no equation (nalgebra's SVD panics on an empty matrix)
         return DVector::zeros(cols);
+    }
+    if !all_finite(j.as_slice()) || !all_finite(r.as_slice()) {
+        // undefined (nalgebra's SVD panics or never returns on NaN): pass the NaN on
+        return DVector::from_element(cols, f64::NAN);
     }
     let svd = j.svd(true, true);
     let eps = RANK_TOL * svd.singular_values.max().max(f64::MIN_POSITIVE);

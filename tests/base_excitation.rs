@@ -211,3 +211,24 @@ fn check_reports_the_ground_motion() {
     let report = detune::check::CheckReport::new(&fixed, &System::new(&fixed).unwrap()).to_string();
     assert!(!report.contains("ground motion"), "{report}");
 }
+
+#[test]
+fn a_ground_motion_undefined_during_the_period_is_a_clean_error() {
+    // sqrt(1 - t) is NaN for t > 1 s, inside the 2.09 s period statics averages over:
+    // a clear failure, not a panic in an SVD of NaN
+    let text = text().replace("D0*sin(omega*t)", "D0*sqrt(1-t)");
+    let sys = System::new(&model(&text, &[])).unwrap();
+    let s = assemble(&sys).unwrap();
+    let e = Statics::new(&sys, &s.q)
+        .and_then(|st| st.solve(&s.q))
+        .unwrap_err();
+    assert!(
+        matches!(
+            e.failure(),
+            Some(detune::failure::Failure::UndefinedEquilibrium { .. })
+        ),
+        "{e}"
+    );
+    let e = modal_analysis(&sys, None).unwrap_err().to_string();
+    assert!(e.contains("undefined (NaN)"), "{e}");
+}

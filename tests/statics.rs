@@ -233,3 +233,20 @@ fn a_start_at_the_singular_pose_is_refused_not_answered_absurdly() {
     let e = Statics::new(&sys, &s.q).unwrap().nearest(&s).unwrap();
     assert!((e.q[THETA1] - 36.9265879665f64.to_radians()).abs() < 1e-9);
 }
+
+/// Regression: continuing in L1 past 4 m, where bar 2's initial guess
+/// asin(L1 sin θ1_0 / L2) is undefined, looped for ever in an SVD of the NaN guess (each
+/// corrector step chose the constraint rows at the model's guess). The branch does not
+/// depend on the guess: it must go on to the end of the range.
+#[test]
+fn continuation_goes_past_a_parameter_where_the_initial_guess_is_undefined() {
+    let opts = ContinuationOptions {
+        param: "L1".into(),
+        from: 2.8,
+        to: 4.2,
+        step: 0.028,
+        max_steps: 1000,
+    };
+    let b = continue_equilibria(&System::new(&model(&[])).unwrap(), &opts).unwrap();
+    assert_eq!(b.points.last().unwrap().value, 4.2);
+}

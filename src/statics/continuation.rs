@@ -262,15 +262,6 @@ impl Family<'_> {
     }
 }
 
-impl Statics<'_> {
-    /// A static problem with given independent rows.
-    pub fn with_rows(sys: &System, rows: Vec<usize>) -> Result<Statics<'_>> {
-        let mut st = Statics::new(sys, &sys.initial.q)?;
-        st.rows = rows;
-        Ok(st)
-    }
-}
-
 /// Follow the equilibrium branch through the equilibrium nearest the model's initial pose
 /// at p = `from`, until p leaves [from, to] or `max_steps` points were computed.
 pub fn continue_equilibria(sys: &System, opts: &ContinuationOptions) -> Result<Branch> {

@@ -26,6 +26,7 @@ use crate::diag::{Error, Result};
 use crate::dynamics::{DynWorkspace, State};
 use crate::failure::Failure;
 pub use crate::linalg::{RANK_TOL, generalized_eigenvalues, null_space_of, solve_least_squares};
+use crate::linalg::{all_finite, amax};
 use crate::scalar::{Env, Scalar};
 use crate::system::System;
 use nalgebra::{DMatrix, DVector};
@@ -63,7 +64,25 @@ pub struct Equilibrium {
 impl<'a> Statics<'a> {
     /// Set up the static problem; independent rows are chosen at `q_ref`.
     pub fn new(sys: &'a System, q_ref: &[f64]) -> Result<Statics<'a>> {
-        let times = if sys.depends_on_time() {
+        let times = Statics::averaging_times(sys)?;
+        let rows = independent_rows(sys, q_ref);
+        Ok(Statics { sys, rows, times })
+    }
+
+    /// A static problem with given independent rows (none are chosen: a continuation
+    /// keeps the rows of its start, whatever the model's initial guess at p).
+    pub fn with_rows(sys: &'a System, rows: Vec<usize>) -> Result<Statics<'a>> {
+        Ok(Statics {
+            sys,
+            rows,
+            times: Statics::averaging_times(sys)?,
+        })
+    }
+
+    /// The times at which time-dependent loads and constraints are averaged: one period
+    /// of the forcing frequency, or t = 0 when nothing depends on time.
+    fn averaging_times(sys: &System) -> Result<Vec<f64>> {
+        Ok(if sys.depends_on_time() {
             match sys.forcing_frequency() {
                 Some(w) if w != 0.0 => {
                     let period = 2.0 * std::f64::consts::PI / w.abs();
@@ -72,20 +91,19 @@ impl<'a> Statics<'a> {
                         .collect()
                 }
                 Some(_) => vec![0.0],
-                // a time-dependent constraint of an unforced model: taken at t = 0
-                None if !sys.forces_depend_on_time() => vec![0.0],
+                // a time-dependent custom constraint of an unforced model (a prescribed
+                // drive): taken at t = 0
+                None if !sys.forces_depend_on_time() && !sys.ground.is_moving() => vec![0.0],
                 None => {
                     return Err(Error::request(
-                        "the loads depend on time, but the model does not say over which period to average them for statics",
+                        "the loads or the ground move with time, but the model does not say over which period to average them for statics",
                         "add `forcing_frequency = \"omega\"` (the parameter holding the forcing's angular frequency, rad/s) to [model]",
                     ));
                 }
             }
         } else {
             vec![0.0]
-        };
-        let rows = independent_rows(sys, q_ref);
-        Ok(Statics { sys, rows, times })
+        })
     }
 
     /// x ⊕ s·dx for x = (q, λ, …) (see [`advance`]).
@@ -325,6 +343,11 @@ impl<'a> Statics<'a> {
         if ar.nrows() == 0 {
             return Vec::new();
         }
+        if !all_finite(ar.as_slice()) || !all_finite(&f) {
+            // undefined there (nalgebra's SVD would panic or never return): NaN multipliers,
+            // which the Newton solve reports as an undefined residual
+            return vec![f64::NAN; self.rows.len()];
+        }
         let svd = ar.transpose().svd(true, true);
         let eps = RANK_TOL * svd.singular_values.max();
         let l = svd
@@ -439,10 +462,18 @@ impl<'a> Statics<'a> {
                     .zip(&x)
                     .map(|(c, v)| format!("{c} = {v:.6}"))
                     .collect();
-                return Err(Failure::NoEquilibrium {
-                    residual: r.amax(),
-                    iterations: it,
-                    pose: pose.join(", "),
+                let residual = amax(r.as_slice());
+                return Err(if residual.is_finite() {
+                    Failure::NoEquilibrium {
+                        residual,
+                        iterations: it,
+                        pose: pose.join(", "),
+                    }
+                } else {
+                    Failure::UndefinedEquilibrium {
+                        iterations: it,
+                        pose: pose.join(", "),
+                    }
                 }
                 .into());
             }
@@ -645,6 +676,10 @@ fn assemble_at(sys: &System, ws: &mut DynWorkspace, q: &mut [f64]) -> bool {
 pub fn independent_rows(sys: &System, q: &[f64]) -> Vec<usize> {
     let mut ws = DynWorkspace::new(sys);
     sys.jacobian(&mut ws.sys, q, 0.0, &mut ws.a);
+    if !all_finite(ws.a.as_slice()) {
+        // undefined at q (a NaN guess): keep every row (nalgebra's SVD never returns on NaN)
+        return (0..sys.m()).collect();
+    }
     let mut rows: Vec<usize> = Vec::new();
     let mut rank = 0;
     for i in 0..sys.m() {
