@@ -232,3 +232,38 @@ fn a_ground_motion_undefined_during_the_period_is_a_clean_error() {
     let e = modal_analysis(&sys, None).unwrap_err().to_string();
     assert!(e.contains("undefined (NaN)"), "{e}");
 }
+
+#[test]
+fn each_frequency_of_a_sweep_starts_at_rest_relative_to_its_own_shaking() {
+    // Regression: every frequency started with the ground velocity D0·ω of the first
+    // one, so an undamped sweep's answer at ω depended on the grid.
+    let sys = pendulum(&[("c", "0")]);
+    let run = |values: Vec<f64>| {
+        let opts = SweepOptions {
+            param: "omega".into(),
+            values,
+            mode: SweepMode::Independent,
+            responses: vec!["bob.theta".into()],
+            refine: None,
+            steady: SteadyOptions::default(),
+        };
+        let s = sweep(&sys, &opts, &|_| {}, &AtomicBool::new(false)).unwrap();
+        s.points.last().unwrap().steady.measures[0].amplitude
+    };
+    let alone = run(vec![6.0]);
+    let after = run(vec![3.0, 6.0]);
+    assert_eq!(alone, after);
+    // and a down sweep with a large base motion, whose Poincaré extrapolation can leave
+    // the constraints, settles instead of failing
+    let sys = pendulum(&[("D0", "0.05"), ("c", "0.1")]);
+    let opts = SweepOptions {
+        param: "omega".into(),
+        values: vec![4.0, 4.2, 4.4],
+        mode: SweepMode::Down,
+        responses: vec!["bob.theta".into()],
+        refine: None,
+        steady: SteadyOptions::default(),
+    };
+    let s = sweep(&sys, &opts, &|_| {}, &AtomicBool::new(false)).unwrap();
+    assert!(s.points.iter().all(|p| p.steady.settled));
+}

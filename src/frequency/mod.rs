@@ -19,8 +19,11 @@ pub mod study;
 
 use crate::diag::Result;
 use crate::dynamics::simulate::SimOptions;
-use crate::dynamics::{DynWorkspace, State, project_position, project_velocity};
+use crate::dynamics::{
+    DynWorkspace, State, project_position, project_velocity, velocity_residual_blocks,
+};
 use crate::failure::Failure;
+use crate::linalg::amax;
 use crate::request::{Argument, Invalid};
 use crate::statics::{Equilibrium, Statics};
 use crate::system::System;
@@ -298,9 +301,13 @@ impl Poincare<'_> {
         {
             let sys = self.sys;
             let mut guess = unpack(sys, &self.q_ref, &s);
-            project_position(sys, &mut self.ws, &mut guess.q, 0.0, 1e-14, 10);
+            let pos = project_position(sys, &mut self.ws, &mut guess.q, 0.0, 1e-14, 10);
             project_velocity(sys, &mut self.ws, &guess.q, &mut guess.v, 0.0);
-            if guess.q.iter().chain(&guess.v).all(|x| x.is_finite()) {
+            let vel = velocity_residual_blocks(sys, &mut self.ws, &guess.q, &guess.v, 0.0);
+            // only a guess that lies on the constraints (an extrapolation far off the
+            // manifold may not project back: the run would then fail on it)
+            let size = 1.0 + amax(&guess.q) + amax(&guess.v);
+            if pos <= 1e-10 * size && vel <= 1e-9 * size {
                 self.pending_check = Some((change, end.clone()));
                 self.points = vec![self.pack(&guess)];
                 action = Action::Restart(guess);
@@ -548,17 +555,28 @@ pub fn sweep(
 ) -> Result<Sweep> {
     let (sys0, responses, eq) = prepare(sys, opts)?;
     let index = sys0.forcing_param().expect("checked by prepare");
-    let rest = rest_state(&sys0, &eq.q);
+    // Start states are kept relative to the ground (which may move with the forcing):
+    // each frequency starts from one with the ground's velocity at that frequency.
+    let rest = State {
+        t: 0.0,
+        q: eq.q.clone(),
+        v: vec![0.0; sys0.nv()],
+    };
     let done = AtomicUsize::new(0);
     let tick = || progress(done.fetch_add(1, Ordering::Relaxed) + 1);
+    let at = |omega: f64| sys0.with_param(index, omega);
     // one compiled system; each frequency sets its parameter on a copy (no recompiling),
     // and the integration reads ω from it: one source of truth
     let eval = |omega: f64, from: &State| -> Result<SteadyState> {
-        let s = sys0.with_param(index, omega)?;
-        let r = steady_state(&s, from, &responses, &opts.steady, cancel);
+        let s = at(omega)?;
+        let start = absolute(&s, from);
+        let r = steady_state(&s, &start, &responses, &opts.steady, cancel)
+            .map_err(|e| e.context(&format!("{} = {omega}", opts.param)));
         tick();
         r
     };
+    // the end of a steady state at ω, relative to the ground
+    let relative_end = |s: &SteadyState| -> Result<State> { Ok(relative(&at(s.omega)?, &s.end)) };
     let mut points: Vec<SweepPoint> = Vec::new();
     let mut complete = true;
     let directions: Vec<Direction> = match opts.mode {
@@ -584,7 +602,7 @@ pub fn sweep(
                 for w in order {
                     let r = eval(w, &from);
                     if let Ok(s) = &r {
-                        from = s.end.clone();
+                        from = relative_end(s)?;
                     }
                     let stop = r.is_err();
                     results.push(r);
@@ -620,8 +638,8 @@ pub fn sweep(
                         // start state on the branch: the neighbour before it in the sweep
                         let from = match dir {
                             Direction::Independent => rest.clone(),
-                            Direction::Up => line[i - 1].steady.end.clone(),
-                            Direction::Down => line[i + 1].steady.end.clone(),
+                            Direction::Up => relative_end(&line[i - 1].steady)?,
+                            Direction::Down => relative_end(&line[i + 1].steady)?,
                         };
                         jobs.push((
                             dir,
@@ -691,18 +709,31 @@ pub fn sweep(
     })
 }
 
-/// At rest at the equilibrium q: relative to the ground, which may move (base
-/// excitation), with the velocities made consistent with the constraints at t = 0.
-fn rest_state(sys: &System, q: &[f64]) -> State {
-    let mut v = sys.ground_velocity(q, 0.0);
+/// A start state at t = 0 (forcing phase 0) of `sys` from one whose velocities are
+/// relative to the ground: the ground's velocity at this frequency added (at rest relative
+/// to a shaking ground, for `relative.v = 0`), made consistent with the constraints.
+fn absolute(sys: &System, relative: &State) -> State {
+    let g = sys.ground_velocity(&relative.q, 0.0);
+    let mut v: Vec<f64> = relative.v.iter().zip(&g).map(|(a, b)| a + b).collect();
     if sys.rheonomic {
         let mut ws = DynWorkspace::new(sys);
-        project_velocity(sys, &mut ws, q, &mut v, 0.0);
+        project_velocity(sys, &mut ws, &relative.q, &mut v, 0.0);
     }
     State {
         t: 0.0,
-        q: q.to_vec(),
+        q: relative.q.clone(),
         v,
+    }
+}
+
+/// A state at t = 0 (forcing phase 0) of `sys` with its velocities relative to the
+/// ground, which may move: the inverse of [`absolute`].
+fn relative(sys: &System, s: &State) -> State {
+    let g = sys.ground_velocity(&s.q, 0.0);
+    State {
+        t: 0.0,
+        q: s.q.clone(),
+        v: s.v.iter().zip(&g).map(|(a, b)| a - b).collect(),
     }
 }
 
