@@ -267,3 +267,15 @@ fn each_frequency_of_a_sweep_starts_at_rest_relative_to_its_own_shaking() {
     let s = sweep(&sys, &opts, &|_| {}, &AtomicBool::new(false)).unwrap();
     assert!(s.points.iter().all(|p| p.steady.settled));
 }
+
+#[test]
+fn a_ground_motion_undefined_at_the_start_is_named_where_it_is_written() {
+    // it used to surface as "the constraint `pivot.x` is undefined", far from its cause
+    let text = text().replace("D0*sin(omega*t)", "D0/0*sin(omega*t)");
+    let m = Model::from_str("shaken.toml", &text).unwrap();
+    let e = System::new(&m).unwrap_err().to_string();
+    assert!(
+        e.contains("shaken.toml:22:16: the ground's x motion evaluates to NaN at t = 0"),
+        "{e}"
+    );
+}

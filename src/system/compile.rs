@@ -503,9 +503,33 @@ impl Compiler<'_> {
             .map(|(n, v)| format!("{n}={v}"))
             .collect::<Vec<_>>()
             .join(" ");
-        let failures = self
+        let mut failures = self
             .live
             .failures(&self.live.values, &self.live.coefs, &overrides);
+        // The ground's motion must be defined where the motion starts (a NaN there would
+        // surface as an undefined joint, far from its cause).
+        let g = model.ground.clone();
+        let env = crate::scalar::Plain {
+            params: &self.live.values,
+            coefs: &self.live.coefs,
+        };
+        for (c, f, what) in [
+            (&ground.x, &g.x, "x"),
+            (&ground.y, &g.y, "y"),
+            (&ground.theta, &g.theta, "theta"),
+        ] {
+            if let (Some(c), Some(f)) = (c, f) {
+                let v: f64 = c.eval_in(&[], 0.0, env);
+                if !v.is_finite() {
+                    failures.push(
+                        Diagnostic::new(format!("the ground's {what} motion evaluates to {v} at t = 0"))
+                            .at(f.span.clone())
+                            .label("not finite")
+                            .help("check the expression and the parameters it uses (a division by zero, sqrt or ln of a negative number)"),
+                    );
+                }
+            }
+        }
         if !failures.is_empty() {
             self.diags = failures;
             return None;
