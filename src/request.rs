@@ -99,6 +99,12 @@ pub enum Invalid {
     NotForcingFrequency { name: String, forcing: String },
     #[error("the model does not say which parameter is its forcing frequency")]
     NoForcingFrequency,
+    /// The forcing frequency is defined from other parameters (`omega = 2*pi*f`): setting
+    /// it would detach it from them, and a forcing written in them would not follow.
+    #[error(
+        "the forcing frequency `{name}` is defined from other parameters ({definition}): a frequency response sets it, and whatever is written in those would not follow"
+    )]
+    DerivedForcingFrequency { name: String, definition: String },
     /// A frequency ≤ 0 or not finite (`value`), or none at all (`None`).
     #[error("the frequencies of `{param}` must be positive and finite (rad/s){}", match .value {
         Some(v) => format!(", not {v}"),
@@ -183,6 +189,9 @@ impl Invalid {
             }
             NotForcingFrequency { forcing, .. } => format!("use `{forcing}`"),
             NoForcingFrequency => "add `forcing_frequency = \"omega\"` to [model]".into(),
+            DerivedForcingFrequency { name, .. } => format!(
+                "give `{name}` a value of its own and define the others from it (e.g. f = {name}/(2*pi))"
+            ),
             BadFrequencies { .. } => "give frequencies > 0".into(),
             Range {
                 what: A::Frequencies,
@@ -246,6 +255,10 @@ mod tests {
                 forcing: "omega".into(),
             },
             NoForcingFrequency,
+            DerivedForcingFrequency {
+                name: "omega".into(),
+                definition: "2*pi*f".into(),
+            },
             BadFrequencies {
                 param: "omega".into(),
                 value: Some(-1.0),

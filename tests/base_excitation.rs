@@ -279,3 +279,26 @@ fn a_ground_motion_undefined_at_the_start_is_named_where_it_is_written() {
         "{e}"
     );
 }
+
+#[test]
+fn a_forcing_frequency_defined_from_another_parameter_is_refused() {
+    // omega = 2*pi*f with the motion written in f: setting omega for a frequency response
+    // would leave the motion at f's frequency (a silently wrong curve)
+    let text = text()
+        .replace(
+            "omega = { value = 3, unit = \"rad/s\" }",
+            "f = { value = 0.5 }\nomega = { value = \"2*pi*f\", unit = \"rad/s\" }",
+        )
+        .replace("D0*sin(omega*t)", "D0*sin(2*pi*f*t)");
+    let sys = System::new(&model(&text, &[])).unwrap();
+    let e = frequency_response(&sys, "omega", &[1.0], &["bob.theta".into()])
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("is defined from other parameters (2*pi*f)"),
+        "{e}"
+    );
+    // given a value of its own, omega is accepted
+    let sys = System::new(&model(&text, &[("omega", "3")])).unwrap();
+    frequency_response(&sys, "omega", &[1.0], &["bob.theta".into()]).unwrap();
+}

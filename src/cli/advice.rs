@@ -156,7 +156,7 @@ pub fn wording(invalid: &Invalid) -> Option<Wording> {
             format!("--values {spec}: an empty entry"),
             "separate the values by single commas: --values F0=0.1,1,2",
         ),
-        NoForcingFrequency => None,
+        NoForcingFrequency | DerivedForcingFrequency { .. } => None,
     }
 }
 

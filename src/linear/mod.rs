@@ -385,6 +385,13 @@ pub fn check_frequencies(sys: &System, param: &str, values: &[f64]) -> Result<us
         None => return Err(Invalid::NoForcingFrequency.into()),
         _ => {}
     }
+    if let Some(definition) = sys.param_definition(index) {
+        return Err(Invalid::DerivedForcingFrequency {
+            name: param.to_string(),
+            definition,
+        }
+        .into());
+    }
     let bad = values.iter().find(|w| !(**w > 0.0) || !w.is_finite());
     if values.is_empty() || bad.is_some() {
         return Err(Invalid::BadFrequencies {

@@ -70,10 +70,12 @@ fn live_parameters(model: &Model) -> Live {
     for i in 0..n {
         visit(i, &defs, &mut state, &mut order);
     }
+    let texts = (0..n).map(|i| params.definition(i).to_string()).collect();
     Live::new(
         params.names().map(String::from).collect(),
         params.values.clone(),
         defs,
+        texts,
         order,
     )
 }

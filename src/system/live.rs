@@ -42,8 +42,10 @@ pub struct Live {
     pub names: Vec<String>,
     /// SI value of each parameter.
     pub values: Vec<f64>,
-    /// How each parameter follows others (None: a free value).
+    /// How each parameter follows others (None: a free value), and the definitions as
+    /// written.
     defs: Vec<Option<Compiled>>,
+    texts: Vec<String>,
     /// Parameters in dependency order.
     order: Vec<usize>,
     /// Coefficient expressions over the parameters.
@@ -65,15 +67,22 @@ impl Live {
         names: Vec<String>,
         values: Vec<f64>,
         defs: Vec<Option<Compiled>>,
+        texts: Vec<String>,
         order: Vec<usize>,
     ) -> Live {
         Live {
             names,
             values,
             defs,
+            texts,
             order,
             ..Live::default()
         }
+    }
+
+    /// The definition parameter `i` follows, if any, as text.
+    pub fn definition(&self, i: usize) -> Option<String> {
+        self.defs[i].as_ref().map(|_| self.texts[i].clone())
     }
 
     pub fn index(&self, name: &str) -> Option<usize> {

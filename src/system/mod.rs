@@ -250,6 +250,11 @@ impl System {
         self.live.index(name)
     }
 
+    /// How parameter `i` follows others, if it does (`2*pi*f`), as written.
+    pub fn param_definition(&self, i: usize) -> Option<String> {
+        self.live.definition(i)
+    }
+
     /// Current SI value of parameter `i`.
     pub fn param(&self, i: usize) -> f64 {
         self.live.values[i]
