@@ -36,6 +36,7 @@ pub fn advice(f: &Failure) -> Option<String> {
         Integrator { bad_input: true, .. } => "check --t-end, --rtol and --atol".into(),
         ConstraintsNotKept { .. } => "tighten --rtol/--atol (the defaults are 1e-10 and 1e-12); if that does not help, the mechanism may pass a singular pose".into(),
         ContinuationStalled { .. } => "the branch may end here (a singular pose or no equilibrium), or --step is far too large for this model (the default is the range / 50): try a smaller --step".into(),
+        SweepInterrupted => "the frequencies completed were written and marked incomplete".into(),
         BranchTurns { .. } => "the branch may end here (a singular pose); try a smaller --step".into(),
         SingularStart => "start away from it: --set the initial value of the coordinate the model fixes for assembly to another value".into(),
         NoEquilibrium { .. } => "start closer to an equilibrium (e.g. --set the initial angle), or check that one exists for these loads".into(),

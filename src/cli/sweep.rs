@@ -4,7 +4,7 @@
 use super::args::{FrequencyGrid, ModelArgs, Tolerances};
 use super::{INTERRUPTED, interrupt_on_ctrl_c, print_json, progress_bar};
 use clap::Args;
-use detune::diag::{Error, Result};
+use detune::diag::Result;
 use detune::frequency::study::SweepStudy;
 use detune::frequency::{SteadyOptions, SweepMode, SweepOptions};
 use detune::output::figures::sweep_figures;
@@ -169,10 +169,7 @@ pub fn run(a: SweepArgs) -> Result<()> {
         }
     }
     if !complete {
-        return Err(Error::numerical(
-            "the sweep was interrupted",
-            "the frequencies completed were written and marked incomplete",
-        ));
+        return Err(detune::failure::Failure::SweepInterrupted.into());
     }
     Ok(())
 }

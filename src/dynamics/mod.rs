@@ -15,7 +15,7 @@ pub mod simulate;
 
 use crate::diag::Result;
 use crate::failure::Failure;
-use crate::linalg::{CHOL_TOL, Envelope};
+use crate::linalg::{CHOL_TOL, Envelope, amax};
 pub use crate::linalg::{RANK_TOL, all_finite, pinv_solve};
 use crate::system::{System, Workspace};
 use nalgebra::{DMatrix, DVector};
@@ -140,18 +140,18 @@ pub fn accelerations(
         }
     }
     // v̇ = a + M⁻¹ Aᵀ (A M⁻¹ Aᵀ)⁺ r
-    weighted_solve(sys, ws, q, t, vdot);
+    weighted_solve(sys, ws, vdot);
     for i in 0..vdot.len() {
         vdot[i] += ws.acc[i];
     }
 }
 
-/// `out = M⁻¹ Aᵀ (A M⁻¹ Aᵀ)⁺ r = M^-½ (A M^-½)⁺ r` for `r = ws.r`, with A at (q, t)
-/// already in `ws.sys.vals` by blocks: the M-weighted minimum-norm solution of A x = r.
+/// `out = M⁻¹ Aᵀ (A M⁻¹ Aᵀ)⁺ r = M^-½ (A M^-½)⁺ r` for `r = ws.r`, with A already in
+/// `ws.sys.vals` by blocks: the M-weighted minimum-norm solution of A x = r.
 /// Sparse path: A M⁻¹ Aᵀ from the blocks, factored by an envelope Cholesky (no
 /// allocation); when a pivot is too small (A rank-deficient or ill-conditioned), the dense
 /// SVD pseudoinverse.
-fn weighted_solve(sys: &System, ws: &mut DynWorkspace, q: &[f64], t: f64, out: &mut [f64]) {
+fn weighted_solve(sys: &System, ws: &mut DynWorkspace, out: &mut [f64]) {
     ws.gram_env.clear();
     for (j, entries) in ws.col_entries.iter().enumerate() {
         for (k, &(ra, ia)) in entries.iter().enumerate() {
@@ -177,8 +177,9 @@ fn weighted_solve(sys: &System, ws: &mut DynWorkspace, q: &[f64], t: f64, out: &
         }
         return;
     }
-    // Rank-deficient or ill-conditioned: the dense pseudoinverse of B = A M^-½.
-    sys.jacobian(&mut ws.sys, q, t, &mut ws.a);
+    // Rank-deficient or ill-conditioned: the dense pseudoinverse of B = A M^-½ (A from
+    // the blocks already computed).
+    sys.blocks_to_dense(&ws.sys, &mut ws.a);
     ws.a.mul_to(&sys.mass_inv_sqrt, &mut ws.bm);
     let (x, _) = pinv_solve(&ws.bm, &ws.r, &mut ws.gram, &mut ws.svd_solves);
     let corr = &sys.mass_inv_sqrt * x;
@@ -188,15 +189,6 @@ fn weighted_solve(sys: &System, ws: &mut DynWorkspace, q: &[f64], t: f64, out: &
 /// Largest |Φ| at q (on the stack up to 64 rows: it is checked at every written sample).
 pub fn residual_norm(sys: &System, q: &[f64], t: f64) -> f64 {
     let m = sys.m();
-    let amax = |p: &[f64]| {
-        p.iter().fold(0.0f64, |a, x| {
-            if x.is_nan() || a.is_nan() {
-                f64::NAN
-            } else {
-                a.max(x.abs())
-            }
-        })
-    };
     if m <= 64 {
         let mut buf = [0.0; 64];
         sys.phi(q, t, &mut buf[..m]);
@@ -225,7 +217,7 @@ pub fn project_position(
         }
         sys.jacobian_blocks(&mut ws.sys, q, t);
         ws.r.copy_from(&phi);
-        weighted_solve(sys, ws, q, t, &mut dq);
+        weighted_solve(sys, ws, &mut dq);
         sys.retract(q, &dq, -1.0);
         let new_phi = sys.residual(q, t);
         let new_norm = new_phi.amax();
@@ -266,7 +258,7 @@ pub fn project_velocity(
         return before;
     }
     let mut dv = vec![0.0; v.len()];
-    weighted_solve(sys, ws, q, t, &mut dv);
+    weighted_solve(sys, ws, &mut dv);
     for i in 0..v.len() {
         v[i] -= dv[i];
     }

@@ -200,12 +200,7 @@ pub fn simulate_with(
                 pos
             };
             // a NaN residual must not vanish in f64::max
-            let m = max_residual.get();
-            max_residual.set(if r.is_nan() || m.is_nan() {
-                f64::NAN
-            } else {
-                m.max(r)
-            });
+            max_residual.set(crate::linalg::amax(&[max_residual.get(), r]));
             sink(t, &q, &v)
         },
         // Drift: project when the residual exceeds the tolerance.

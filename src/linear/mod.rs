@@ -331,6 +331,8 @@ pub struct ModalAnalysis {
     pub undamped_omega2: Vec<f64>,
     /// Index of the coordinate the shapes are normalized to.
     pub reference: usize,
+    /// The independent constraint rows of the equilibrium (its multipliers' rows).
+    pub rows: Vec<usize>,
 }
 
 /// Index of a coordinate by name, or the invalid request: `argument` names no coordinate.
@@ -366,6 +368,7 @@ pub fn modal_analysis(sys: &System, normalize: Option<&str>) -> Result<ModalAnal
         modes,
         undamped_omega2,
         reference,
+        rows: st.rows.clone(),
     })
 }
 
@@ -466,8 +469,7 @@ pub fn frequency_response(
         .map(|r| coordinate(&at, r, Argument::Response))
         .collect::<Result<_>>()?;
     let modal = modal_analysis(&at, None)?;
-    let start = crate::dynamics::assemble(&at)?;
-    let rows = Statics::new(&at, &start.q)?.rows;
+    let rows = modal.rows.clone();
     let mut out = Vec::with_capacity(values.len());
     for &w in values {
         at.set_param(index, w)?;

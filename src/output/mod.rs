@@ -9,7 +9,6 @@ pub mod plot;
 pub mod results;
 
 use crate::diag::{Error, Result};
-use crate::dynamics::simulate::Trajectory;
 use crate::model::Model;
 use std::io::Write;
 use std::path::Path;
@@ -135,17 +134,6 @@ pub fn num(x: f64) -> String {
     } else {
         format!("{x:e}")
     }
-}
-
-/// CSV of a trajectory: `t,<coordinates>...[,<coordinate>_dot...]`, SI units.
-pub fn write_trajectory_csv(path: &str, traj: &Trajectory, velocities: bool) -> Result<()> {
-    write_atomic(path, |w| {
-        trajectory_header(w, &traj.coordinates, velocities)?;
-        for (k, t) in traj.t.iter().enumerate() {
-            trajectory_row(w, *t, &traj.q[k], &traj.v[k], velocities)?;
-        }
-        Ok(())
-    })
 }
 
 /// The header of a trajectory CSV: `t,<coordinates>...[,<coordinate>_dot...]`.

@@ -695,14 +695,3 @@ pub fn independent_rows(sys: &System, q: &[f64]) -> Vec<usize> {
     }
     rows
 }
-
-/// Orthonormal basis of the null space of A(q, t) (n × (n − rank)), from the SVD.
-pub fn null_space(sys: &System, q: &[f64], t: f64) -> DMatrix<f64> {
-    let n = sys.n();
-    if sys.m() == 0 {
-        return DMatrix::identity(n, n);
-    }
-    let mut ws = DynWorkspace::new(sys);
-    sys.jacobian(&mut ws.sys, q, t, &mut ws.a);
-    null_space_of(&ws.a)
-}

@@ -241,21 +241,6 @@ impl<D: Scalar, E: Env<D>> Frames<'_, D, E> {
         }
     }
 
-    /// R v for a body-frame vector v.
-    #[inline]
-    pub fn rotate(&self, body: Option<usize>, v: [D; 2]) -> [D; 2] {
-        match self.rotation(body) {
-            Some((s, c)) => [c * v[0] - s * v[1], s * v[0] + c * v[1]],
-            None => v,
-        }
-    }
-
-    /// The body-frame position of a point.
-    #[inline]
-    pub fn local(&self, pt: &SysPoint) -> [D; 2] {
-        [self.env.coef(pt.p[0]), self.env.coef(pt.p[1])]
-    }
-
     /// R v for a body-frame vector given by two coefficients (a point, a slot normal):
     /// products with the coefficients' values, not dual-by-dual.
     #[inline]

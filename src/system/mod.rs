@@ -27,7 +27,7 @@ pub mod live;
 use crate::diag::{Error, Result, SourceFile};
 use crate::model::BodyKind;
 use crate::model::units::Dim;
-use crate::scalar::{Env, Plain, Scalar, Seeded};
+use crate::scalar::{Env, Plain, Scalar};
 use frame::{Frames, GroundMotion, GroundPose, Pose, with_poses};
 use nalgebra::{DMatrix, DVector};
 use num_dual::{Dual2_64, Dual64};
@@ -102,12 +102,9 @@ pub struct System {
     pub ground: GroundMotion,
     /// Mass matrix M (n × n), constant for planar bodies.
     pub mass_matrix: DMatrix<f64>,
-    /// M⁻¹ (n × n).
-    pub mass_inv: DMatrix<f64>,
     /// M^-½ (n × n).
     pub mass_inv_sqrt: DMatrix<f64>,
-    /// The diagonal of M (planar bodies: m, m, I), and its inverse.
-    pub mass_diag: Vec<f64>,
+    /// The inverse of M's diagonal (planar bodies: 1/m, 1/m, 1/I).
     pub mass_inv_diag: Vec<f64>,
     pub initial: InitialGuess,
     /// Coefficients of the initial coordinates and of the given velocities.
@@ -317,10 +314,8 @@ impl System {
             mdiag[b.offset + 1] = b.mass;
             mdiag[b.offset + 2] = b.inertia;
         }
-        self.mass_diag = mdiag.iter().copied().collect();
         self.mass_inv_diag = mdiag.iter().map(|x| 1.0 / x).collect();
         self.mass_matrix = DMatrix::from_diagonal(&mdiag);
-        self.mass_inv = DMatrix::from_diagonal(&mdiag.map(|x| 1.0 / x));
         self.mass_inv_sqrt = DMatrix::from_diagonal(&mdiag.map(|x| 1.0 / x.sqrt()));
         self.gravity = [0.0, 0.0];
         for g in &self.gravity_coefs {
@@ -438,6 +433,11 @@ impl System {
     /// Constraint Jacobian A = ∂Φ/∂q (m × n), dense (from [`System::jacobian_blocks`]).
     pub fn jacobian(&self, ws: &mut Workspace, q: &[f64], t: f64, a: &mut DMatrix<f64>) {
         self.jacobian_blocks(ws, q, t);
+        self.blocks_to_dense(ws, a);
+    }
+
+    /// The blocks of A in `ws.vals` (from [`System::jacobian_blocks`]) as a dense m × n A.
+    pub fn blocks_to_dense(&self, ws: &Workspace, a: &mut DMatrix<f64>) {
         a.fill(0.0);
         for b in &self.blocks {
             let ncols = b.cols.len();
@@ -466,11 +466,31 @@ impl System {
 
     /// Bias b = −d²/ds² Φ(q + s·v, t + s)|s=0 (m), so that A v̇ = b.
     pub fn bias(&self, ws: &mut Workspace, q: &[f64], v: &[f64], t: f64, b: &mut DVector<f64>) {
+        self.poses_into(ws, q);
+        self.bias_posed(ws, q, v, t, b);
+    }
+
+    /// [`System::bias`] with the poses already in the workspace: one `Dual2_64` pass along
+    /// the motion, each body's pose along it from its f64 pose by the chain rule.
+    fn bias_posed(&self, ws: &mut Workspace, q: &[f64], v: &[f64], t: f64, b: &mut DVector<f64>) {
         for ((d, &x), &dx) in ws.q2.iter_mut().zip(q).zip(v) {
             *d = Dual2_64::new(x, dx, 0.0);
         }
+        for (k, &o) in self.offsets.iter().enumerate() {
+            ws.pose_2[k] = ws.pose_f[k].along(v, o);
+        }
+        let env = self.env();
         let td = Dual2_64::new(t, 1.0, 0.0);
-        self.phi(&ws.q2, td, &mut ws.phi2);
+        let fr = Frames {
+            q: &ws.q2,
+            poses: &ws.pose_2,
+            offsets: &self.offsets,
+            ground: GroundPose::at(&self.ground, td, env),
+            env,
+        };
+        for (c, blk) in self.constraints.iter().zip(&self.blocks) {
+            c.phi(&fr, td, &mut ws.phi2[blk.row0..blk.row0 + blk.rows]);
+        }
         for i in 0..self.m() {
             b[i] = -ws.phi2[i].v2;
         }
@@ -508,26 +528,7 @@ impl System {
             return;
         }
         self.jacobian_posed(ws, q, t);
-        for ((d, &x), &dx) in ws.q2.iter_mut().zip(q).zip(v) {
-            *d = Dual2_64::new(x, dx, 0.0);
-        }
-        for (k, &o) in self.offsets.iter().enumerate() {
-            ws.pose_2[k] = ws.pose_f[k].along(v, o);
-        }
-        let td = Dual2_64::new(t, 1.0, 0.0);
-        let fr = Frames {
-            q: &ws.q2,
-            poses: &ws.pose_2,
-            offsets: &self.offsets,
-            ground: GroundPose::at(&self.ground, td, env),
-            env,
-        };
-        for (c, blk) in self.constraints.iter().zip(&self.blocks) {
-            c.phi(&fr, td, &mut ws.phi2[blk.row0..blk.row0 + blk.rows]);
-        }
-        for i in 0..self.m() {
-            b[i] = -ws.phi2[i].v2;
-        }
+        self.bias_posed(ws, q, v, t, b);
     }
 
     /// f = gravity (the forces' first term).
@@ -566,18 +567,6 @@ impl System {
                 force.add(fr, v, t, f);
             }
         })
-    }
-
-    /// The diagonal of M with parameters from `env` (for ∂M/∂p).
-    pub fn mass_diagonal_in<D: Scalar, E: Env<D>>(&self, env: E) -> Vec<D> {
-        let mut d = vec![D::from(0.0); self.n()];
-        for b in &self.bodies {
-            let m = env.coef(b.mass_coef);
-            d[b.offset] = m;
-            d[b.offset + 1] = m;
-            d[b.offset + 2] = env.coef(b.inertia_coef);
-        }
-        d
     }
 
     /// Whether any impressed force depends on time explicitly, or through the motion of
@@ -630,9 +619,4 @@ impl System {
         let v = DVector::from_column_slice(v);
         0.5 * (v.transpose() * &self.mass_matrix * &v)[(0, 0)]
     }
-}
-
-/// A system's parameters seeded for ∂/∂p_i, as an environment (see [`System::seeded`]).
-pub fn seeded_env<'a, D: Scalar>(params: &'a [D], coefs: &'a [D]) -> Seeded<'a, D> {
-    Seeded { params, coefs }
 }
