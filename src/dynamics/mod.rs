@@ -49,6 +49,7 @@ pub struct DynWorkspace {
 impl DynWorkspace {
     pub fn new(sys: &System) -> Self {
         let (m, n) = (sys.m(), sys.n());
+        let col_entries = column_entries(sys);
         DynWorkspace {
             sys: Workspace::new(sys),
             a: DMatrix::zeros(m, n),
@@ -59,8 +60,8 @@ impl DynWorkspace {
             acc: DVector::zeros(n),
             r: DVector::zeros(m),
             svd_solves: 0,
-            gram_env: gram_envelope(sys),
-            col_entries: column_entries(sys),
+            gram_env: gram_envelope(sys.m(), &col_entries),
+            col_entries,
             y: vec![0.0; m],
         }
     }
@@ -80,11 +81,11 @@ fn column_entries(sys: &System) -> Vec<Vec<(usize, usize)>> {
 }
 
 /// The envelope of A W Aᵀ: row i starts at the first row sharing a column with it.
-fn gram_envelope(sys: &System) -> Envelope {
-    let mut first: Vec<usize> = (0..sys.m()).collect();
-    for entries in column_entries(sys) {
+fn gram_envelope(m: usize, columns: &[Vec<(usize, usize)>]) -> Envelope {
+    let mut first: Vec<usize> = (0..m).collect();
+    for entries in columns {
         if let Some(lo) = entries.iter().map(|e| e.0).min() {
-            for &(r, _) in &entries {
+            for &(r, _) in entries {
                 first[r] = first[r].min(lo);
             }
         }

@@ -240,9 +240,7 @@ impl Poincare<'_> {
         let opts = self.opts;
         self.record(buf);
         let y = self.pack(end);
-        let qs: Vec<Vec<f64>> = buf.iter().map(|s| s.0.clone()).collect();
-        let vs: Vec<Vec<f64>> = buf.iter().map(|s| s.1.clone()).collect();
-        let scale = amplitude_scale(&qs, &vs);
+        let scale = amplitude_scale(buf);
         let change = relative_change(&y, self.points.last().expect("non-empty"), &scale);
         // An extrapolation that made things worse is undone.
         if let Some((before, fallback)) = self.pending_check.take()
@@ -342,14 +340,14 @@ fn unpack(sys: &System, q_ref: &[f64], y: &DVector<f64>) -> State {
 }
 
 /// Half peak-to-peak of every state component over a period (positions and velocities).
-fn amplitude_scale(q: &[Vec<f64>], v: &[Vec<f64>]) -> DVector<f64> {
-    let n = q[0].len();
+fn amplitude_scale(samples: &[(Vec<f64>, Vec<f64>)]) -> DVector<f64> {
+    let n = samples[0].0.len();
     DVector::from_fn(2 * n, |i, _| {
-        let series = |k: usize| if i < n { q[k][i] } else { v[k][i - n] };
+        let series = |s: &(Vec<f64>, Vec<f64>)| if i < n { s.0[i] } else { s.1[i - n] };
         let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
-        for k in 0..q.len() {
-            lo = lo.min(series(k));
-            hi = hi.max(series(k));
+        for s in samples {
+            lo = lo.min(series(s));
+            hi = hi.max(series(s));
         }
         0.5 * (hi - lo)
     })
