@@ -94,8 +94,8 @@ impl Family<'_> {
         let x = &y.as_slice()[..d];
         let sys = self.system(p)?;
         let st = Statics::with_rows(&sys, self.rows.clone())?;
-        let h = st.residual(x);
-        let jx = st.kkt_jacobian(x);
+        let (h, ar) = st.residual_rows(x);
+        let jx = st.kkt_jacobian_with(x, &ar);
         let hp = st.residual_dp(x, self.index);
         let det = jx.determinant();
         let mut j = DMatrix::zeros(d, d + 1);

@@ -301,6 +301,12 @@ impl<'a> Statics<'a> {
 
     /// R(x) = (f̄ + A_rᵀ λ, Φ_r).
     pub fn residual(&self, x: &[f64]) -> DVector<f64> {
+        self.residual_rows(x).0
+    }
+
+    /// R(x) and the Ā_r it used (which J(x) needs too: computed once, see
+    /// [`Statics::kkt_jacobian_with`]).
+    pub fn residual_rows(&self, x: &[f64]) -> (DVector<f64>, DMatrix<f64>) {
         let n = self.sys.n();
         let (q, lambda) = x.split_at(n);
         let mut f = vec![0.0; n];
@@ -316,15 +322,19 @@ impl<'a> Statics<'a> {
         for (k, &row) in self.rows.iter().enumerate() {
             r[n + k] = phi[row];
         }
-        r
+        (r, ar)
     }
 
     /// J(x) = ∂R/∂x.
     pub fn kkt_jacobian(&self, x: &[f64]) -> DMatrix<f64> {
+        self.kkt_jacobian_with(x, &self.jacobian_rows(&x[..self.sys.n()]))
+    }
+
+    /// J(x) with Ā_r at x already computed (by [`Statics::residual_rows`]).
+    pub fn kkt_jacobian_with(&self, x: &[f64], ar: &DMatrix<f64>) -> DMatrix<f64> {
         let n = self.sys.n();
         let (q, lambda) = x.split_at(n);
         let kq = self.force_jacobian(q) + self.constraint_curvature(q, lambda);
-        let ar = self.jacobian_rows(q);
         let d = self.dim();
         let mut j = DMatrix::zeros(d, d);
         j.view_mut((0, 0), (n, n)).copy_from(&kq);
@@ -451,7 +461,7 @@ impl<'a> Statics<'a> {
     pub fn newton(&self, mut x: Vec<f64>, max_iter: usize) -> Result<(Vec<f64>, usize, f64)> {
         let n = self.sys.n();
         let scale = self.force_scale(&x[..n]);
-        let mut r = self.residual(&x);
+        let (mut r, mut ar) = self.residual_rows(&x);
         let mut it = 0;
         while !self.converged(&r, &x, scale) {
             if it == max_iter || !r.iter().all(|v| v.is_finite()) {
@@ -478,7 +488,7 @@ impl<'a> Statics<'a> {
                 .into());
             }
             it += 1;
-            let j = self.kkt_jacobian(&x);
+            let j = self.kkt_jacobian_with(&x, &ar);
             let dx = solve_least_squares(j, &r);
             let norm0 = r.norm();
             // Trust region: no coordinate moves more than 0.2 (rad, or m scaled by the
@@ -493,10 +503,11 @@ impl<'a> Statics<'a> {
             };
             loop {
                 let trial = self.advance(&x, dx.as_slice(), -step);
-                let rt = self.residual(&trial);
+                let (rt, art) = self.residual_rows(&trial);
                 if rt.norm() < norm0 || step < 1e-6 {
                     x = trial;
                     r = rt;
+                    ar = art;
                     break;
                 }
                 step *= 0.5;
