@@ -83,7 +83,7 @@ impl Trajectory {
     pub fn empty(sys: &System) -> Trajectory {
         Trajectory {
             coordinates: sys.coordinates.clone(),
-            angles: (0..sys.nq()).map(|i| sys.is_angle(i)).collect(),
+            angles: sys.angles(),
             t: Vec::new(),
             q: Vec::new(),
             v: Vec::new(),

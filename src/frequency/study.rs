@@ -172,9 +172,7 @@ impl SweepStudy {
             out.push(SweepRun {
                 value: run.value.clone(),
                 sweep: s,
-                angles: (0..run.system.n())
-                    .map(|i| run.system.is_angle(i))
-                    .collect(),
+                angles: run.system.angles(),
             });
             if !complete {
                 break;

@@ -188,13 +188,7 @@ impl<'a> Statics<'a> {
             qh[j].eps1 = 1.0;
             self.static_phi_in(&qh, envh, &mut phih);
             qh[j].eps1 = 0.0;
-            let cf: f64 = self
-                .rows
-                .iter()
-                .zip(lambda)
-                .map(|(&row, l)| l * phih[row].eps1eps2)
-                .sum();
-            r[j] = f[j].eps + cf;
+            r[j] = f[j].eps + self.reaction_mixed(lambda, &phih);
         }
         for (k, &row) in self.rows.iter().enumerate() {
             r[n + k] = phi[row].eps;
@@ -281,17 +275,22 @@ impl<'a> Statics<'a> {
                 self.static_phi(&qh, &mut phi);
                 qh[j].eps1 = 0.0;
                 qh[k].eps2 = 0.0;
-                let v: f64 = self
-                    .rows
-                    .iter()
-                    .zip(lambda)
-                    .map(|(&r, l)| l * phi[r].eps1eps2)
-                    .sum();
+                let v = self.reaction_mixed(lambda, &phi);
                 h[(j, k)] = v;
                 h[(k, j)] = v;
             }
         }
         h
+    }
+
+    /// Σ λ_r ∂²Φ_r of a hyper-dual pass over the independent rows: the mixed second
+    /// derivative of the constraint reactions' work λ·Φ_r.
+    fn reaction_mixed(&self, lambda: &[f64], phi: &[HyperDual64]) -> f64 {
+        self.rows
+            .iter()
+            .zip(lambda)
+            .map(|(&r, l)| l * phi[r].eps1eps2)
+            .sum()
     }
 
     /// A_r (r × n) of the mean constraints.

@@ -221,6 +221,11 @@ impl System {
         self.coordinates.iter().position(|c| c == name)
     }
 
+    /// Per coordinate, whether it is an angle (rad).
+    pub fn angles(&self) -> Vec<bool> {
+        (0..self.nq()).map(|i| self.is_angle(i)).collect()
+    }
+
     /// Whether coordinate `i` is an angle (rad).
     pub fn is_angle(&self, i: usize) -> bool {
         self.coordinate_dims[i] == Dim::NONE
