@@ -237,8 +237,9 @@ fn redundant_constraint_gives_the_same_motion() {
 fn energy_is_conserved_without_damping() {
     let (model, sys, state) = load(&[("c", "0")]);
     let traj = run(&sys, &state, &SimOptions::default());
-    let energy =
-        |k: usize| sys.kinetic_energy(&traj.v[k]) + sys.potential_energy(&traj.q[k], traj.t[k]);
+    let energy = |k: usize| {
+        sys.kinetic_energy(&traj.q[k], &traj.v[k]) + sys.potential_energy(&traj.q[k], traj.t[k])
+    };
     let e0 = energy(0);
     let drift = (0..traj.t.len())
         .map(|k| (energy(k) - e0).abs())

@@ -44,13 +44,128 @@ pub struct DynWorkspace {
     gram_env: Envelope,
     col_entries: Vec<Vec<(usize, usize)>>,
     y: Vec<f64>,
+    /// Spatial models: M⁻¹ at the current pose by groups of velocities.
+    minv: MassInverse,
+}
+
+/// The inverse of a spatial model's mass matrix by groups: each translation alone
+/// (1/m), each body's angles together (the inverse of `J_bᵀ I J_b`), updated per pose.
+#[derive(Debug, Clone, Default)]
+pub struct MassInverse {
+    /// (first velocity, size, offset into `vals`) of each group.
+    groups: Vec<(usize, usize, usize)>,
+    /// Row-major inverses.
+    vals: Vec<f64>,
+    /// The worst conditioned body's angles at the last update: (body, reciprocal
+    /// condition number of its angles' mass matrix).
+    pub worst: Option<(usize, f64)>,
+    tmp: Vec<f64>,
+}
+
+impl MassInverse {
+    fn new(sys: &System) -> MassInverse {
+        let mut groups = Vec::new();
+        let mut v0 = 0;
+        for g in sys.geoms3() {
+            for i in 0..3 {
+                groups.push((g.offset + i, 1, v0));
+                v0 += 1;
+            }
+            let n = g.axes.len();
+            if n > 0 {
+                groups.push((g.offset + 3, n, v0));
+                v0 += n * n;
+            }
+        }
+        MassInverse {
+            groups,
+            vals: vec![0.0; v0],
+            worst: None,
+            tmp: vec![0.0; sys.nv()],
+        }
+    }
+
+    /// M⁻¹ at q.
+    pub fn update(&mut self, sys: &System, q: &[f64]) {
+        let mut gi = 0;
+        self.worst = None;
+        for (k, (b, g)) in sys.bodies.iter().zip(sys.geoms3()).enumerate() {
+            for _ in 0..3 {
+                let v0 = self.groups[gi].2;
+                self.vals[v0] = 1.0 / b.mass;
+                gi += 1;
+            }
+            let n = g.axes.len();
+            if n == 0 {
+                continue;
+            }
+            let v0 = self.groups[gi].2;
+            gi += 1;
+            let mut m = [0.0; 9];
+            sys.rotational_mass(b, g, q, &mut m);
+            let mm = nalgebra::DMatrix::from_row_slice(n, n, &m[..n * n]);
+            let eig = mm.clone().symmetric_eigen();
+            let (lo, hi) = eig
+                .eigenvalues
+                .iter()
+                .fold((f64::INFINITY, 0.0f64), |(l, h), &x| {
+                    (l.min(x), h.max(x.abs()))
+                });
+            let rcond = if hi > 0.0 { lo / hi } else { 0.0 };
+            if self.worst.is_none_or(|(_, r)| rcond < r) {
+                self.worst = Some((k, rcond));
+            }
+            let inv = eig.eigenvectors.clone()
+                * nalgebra::DMatrix::from_diagonal(&eig.eigenvalues.map(|x| 1.0 / x))
+                * eig.eigenvectors.transpose();
+            for i in 0..n {
+                for j in 0..n {
+                    self.vals[v0 + i * n + j] = inv[(i, j)];
+                }
+            }
+        }
+    }
+
+    /// out = M⁻¹ x.
+    pub fn apply(&self, x: &[f64], out: &mut [f64]) {
+        for &(c0, n, v0) in &self.groups {
+            for i in 0..n {
+                let mut s = 0.0;
+                for j in 0..n {
+                    s += self.vals[v0 + i * n + j] * x[c0 + j];
+                }
+                out[c0 + i] = s;
+            }
+        }
+    }
+
+    /// M^-½ (dense, symmetric) at the last update.
+    fn inv_sqrt(&self, nv: usize) -> DMatrix<f64> {
+        let mut out = DMatrix::zeros(nv, nv);
+        for &(c0, n, v0) in &self.groups {
+            let m = DMatrix::from_row_slice(n, n, &self.vals[v0..v0 + n * n]);
+            let e = m.symmetric_eigen();
+            let r = e.eigenvectors.clone()
+                * DMatrix::from_diagonal(&e.eigenvalues.map(|x| x.max(0.0).sqrt()))
+                * e.eigenvectors.transpose();
+            out.view_mut((c0, c0), (n, n)).copy_from(&r);
+        }
+        out
+    }
 }
 
 impl DynWorkspace {
     pub fn new(sys: &System) -> Self {
         let (m, n) = (sys.m(), sys.n());
         let col_entries = column_entries(sys);
+        let minv = MassInverse::new(sys);
+        let gram_env = if sys.spatial {
+            gram_envelope(sys.m(), &group_entries(&col_entries, &minv))
+        } else {
+            gram_envelope(sys.m(), &col_entries)
+        };
         DynWorkspace {
+            minv,
             sys: Workspace::new(sys),
             a: DMatrix::zeros(m, n),
             b: DVector::zeros(m),
@@ -60,7 +175,7 @@ impl DynWorkspace {
             acc: DVector::zeros(n),
             r: DVector::zeros(m),
             svd_solves: 0,
-            gram_env: gram_envelope(sys.m(), &col_entries),
+            gram_env,
             col_entries,
             y: vec![0.0; m],
         }
@@ -78,6 +193,14 @@ fn column_entries(sys: &System) -> Vec<Vec<(usize, usize)>> {
         }
     }
     cols
+}
+
+/// The entries of A by groups of columns that M⁻¹ couples (for the envelope).
+fn group_entries(cols: &[Vec<(usize, usize)>], minv: &MassInverse) -> Vec<Vec<(usize, usize)>> {
+    minv.groups
+        .iter()
+        .map(|&(c0, n, _)| cols[c0..c0 + n].iter().flatten().copied().collect())
+        .collect()
 }
 
 /// The envelope of A W Aᵀ: row i starts at the first row sharing a column with it.
@@ -100,7 +223,12 @@ pub fn constraint_rank(sys: &System, q: &[f64], t: f64) -> usize {
     if sys.m() == 0 {
         return 0;
     }
-    let bm = &ws.a * &sys.mass_inv_sqrt;
+    let bm = if sys.spatial {
+        ws.minv.update(sys, q);
+        &ws.a * ws.minv.inv_sqrt(sys.nv())
+    } else {
+        &ws.a * &sys.mass_inv_sqrt
+    };
     if !all_finite(bm.as_slice()) {
         return 0;
     }
@@ -124,8 +252,13 @@ pub fn accelerations(
     // f = impressed forces, A (by blocks) and b by automatic differentiation, sharing
     // each body's pose; a = M⁻¹ f (M diagonal)
     sys.rhs_terms(&mut ws.sys, q, v, t, ws.f.as_mut_slice(), &mut ws.b);
-    for i in 0..ws.acc.len() {
-        ws.acc[i] = sys.mass_inv_diag[i] * ws.f[i];
+    if sys.spatial {
+        ws.minv.update(sys, q);
+        ws.minv.apply(ws.f.as_slice(), ws.acc.as_mut_slice());
+    } else {
+        for i in 0..ws.acc.len() {
+            ws.acc[i] = sys.mass_inv_diag[i] * ws.f[i];
+        }
     }
     if sys.m() == 0 {
         vdot.copy_from_slice(ws.acc.as_slice());
@@ -153,6 +286,9 @@ pub fn accelerations(
 /// allocation); when a pivot is too small (A rank-deficient or ill-conditioned), the dense
 /// SVD pseudoinverse.
 fn weighted_solve(sys: &System, ws: &mut DynWorkspace, out: &mut [f64]) {
+    if sys.spatial {
+        return weighted_solve_groups(sys, ws, out);
+    }
     ws.gram_env.clear();
     for (j, entries) in ws.col_entries.iter().enumerate() {
         for (k, &(ra, ia)) in entries.iter().enumerate() {
@@ -187,6 +323,54 @@ fn weighted_solve(sys: &System, ws: &mut DynWorkspace, out: &mut [f64]) {
     out.copy_from_slice(corr.as_slice());
 }
 
+/// [`weighted_solve`] with M⁻¹ by groups (spatial models; `ws.minv` updated at the pose).
+fn weighted_solve_groups(sys: &System, ws: &mut DynWorkspace, out: &mut [f64]) {
+    ws.gram_env.clear();
+    for &(c0, n, v0) in &ws.minv.groups {
+        for jj in 0..n {
+            for kk in 0..n {
+                let w = ws.minv.vals[v0 + jj * n + kk];
+                if w == 0.0 {
+                    continue;
+                }
+                for &(ra, ia) in &ws.col_entries[c0 + jj] {
+                    let wa = ws.sys.vals[ia] * w;
+                    for &(rb, ib) in &ws.col_entries[c0 + kk] {
+                        if ra >= rb {
+                            ws.gram_env.add(ra, rb, wa * ws.sys.vals[ib]);
+                        }
+                    }
+                }
+            }
+        }
+    }
+    if ws.gram_env.factor(CHOL_TOL) {
+        ws.y.copy_from_slice(ws.r.as_slice());
+        ws.gram_env.solve(&mut ws.y);
+        let tmp = &mut ws.minv.tmp;
+        tmp.fill(0.0);
+        for b in sys.blocks() {
+            let nc = b.cols.len();
+            for r in 0..b.rows {
+                let yr = ws.y[b.row0 + r];
+                for (ci, &j) in b.cols.iter().enumerate() {
+                    tmp[j] += ws.sys.vals[b.val0 + r * nc + ci] * yr;
+                }
+            }
+        }
+        let tmp = std::mem::take(&mut ws.minv.tmp);
+        ws.minv.apply(&tmp, out);
+        ws.minv.tmp = tmp;
+        return;
+    }
+    sys.blocks_to_dense(&ws.sys, &mut ws.a);
+    let ms = ws.minv.inv_sqrt(sys.nv());
+    ws.a.mul_to(&ms, &mut ws.bm);
+    let (x, _) = pinv_solve(&ws.bm, &ws.r, &mut ws.gram, &mut ws.svd_solves);
+    let corr = &ms * x;
+    out.copy_from_slice(corr.as_slice());
+}
+
 /// Largest |Φ| at q (on the stack up to 64 rows: it is checked at every written sample).
 pub fn residual_norm(sys: &System, q: &[f64], t: f64) -> f64 {
     let m = sys.m();
@@ -217,6 +401,9 @@ pub fn project_position(
             break;
         }
         sys.jacobian_blocks(&mut ws.sys, q, t);
+        if sys.spatial {
+            ws.minv.update(sys, q);
+        }
         ws.r.copy_from(&phi);
         weighted_solve(sys, ws, &mut dq);
         sys.retract(q, &dq, -1.0);
@@ -258,6 +445,9 @@ pub fn project_velocity(
     if sys.m() == 0 {
         return before;
     }
+    if sys.spatial {
+        ws.minv.update(sys, q);
+    }
     let mut dv = vec![0.0; v.len()];
     weighted_solve(sys, ws, &mut dv);
     for i in 0..v.len() {
@@ -296,7 +486,15 @@ fn weighted_min_norm(
 ) -> DVector<f64> {
     let w: Vec<f64> = cols
         .iter()
-        .map(|&i| 1.0 / sys.mass_matrix[(i, i)].sqrt())
+        .map(|&i| {
+            // (spatial angles: the diagonal at zero angles, a weighting only)
+            let m = sys.mass_matrix[(i, i)];
+            if m > 0.0 && m.is_finite() {
+                1.0 / m.sqrt()
+            } else {
+                1.0
+            }
+        })
         .collect();
     let mut af = a.select_columns(cols.iter());
     for (k, wk) in w.iter().enumerate() {

@@ -124,7 +124,7 @@ impl Linearization {
         let basis = crate::statics::null_space_of(&jacobian);
         let full_stiffness = st.stiffness(&eq.q, &eq.lambda);
         let full_damping = -velocity_jacobian(st, &eq.q);
-        let full_mass = st.sys.mass_matrix.clone();
+        let full_mass = st.sys.mass_matrix_at(&eq.q);
         let stiffness = basis.transpose() * &full_stiffness * &basis;
         let damping = basis.transpose() * &full_damping * &basis;
         let mass = basis.transpose() * &full_mass * &basis;

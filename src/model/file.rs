@@ -142,16 +142,72 @@ pub struct RawBody {
     #[serde(rename = "type")]
     pub kind: Option<SString>,
     pub mass: SValue,
-    pub inertia: SValue,
+    /// Planar: the centroidal moment of inertia (kg·m²). Spatial: the inertia tensor
+    /// about the CG in the body frame, `[Ixx, Iyy, Izz]` (principal) or
+    /// `[Ixx, Iyy, Izz, Ixy, Ixz, Iyz]`.
+    pub inertia: Spanned<RawInertia>,
     pub x: Option<SValue>,
     pub y: Option<SValue>,
+    /// Spatial bodies: the CG's z (m).
+    pub z: Option<SValue>,
     pub theta: Option<SValue>,
+    /// Spatial bodies: the orientation, a sequence of rotations about body axes, each
+    /// `[axis, name]` (`[["z", "phi"]]`, `[["z", "alpha"], ["x", "beta"]]`).
+    pub rotation: Option<Spanned<toml::Value>>,
+    /// Spatial bodies: initial values of the named angles (rad), default 0.
+    #[serde(default)]
+    pub angles: std::collections::BTreeMap<String, SValue>,
+    /// Spatial bodies: the CG in the body frame (m), when the frame's origin is not the
+    /// CG. Points are given from the frame's origin.
+    pub cg: Option<SVector>,
+    /// Named points on the body, body frame (m): for responses and drawings.
+    #[serde(default)]
+    pub points: std::collections::BTreeMap<String, SVector>,
     #[serde(default)]
     pub fix: Vec<SString>,
     /// Initial velocities by coordinate name (`{ theta = 0.5 }`): every velocity given
     /// is held; the others are solved from the velocity constraints (minimum norm).
     #[serde(default)]
     pub velocity: std::collections::BTreeMap<String, SValue>,
+}
+
+/// A body's inertia: one value (planar) or a list (spatial).
+#[derive(Debug, Clone)]
+pub enum RawInertia {
+    Value(RawValue),
+    Vector(Vec<SValue>),
+}
+
+impl<'de> Deserialize<'de> for RawInertia {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct V;
+        impl<'de> Visitor<'de> for V {
+            type Value = RawInertia;
+            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+                f.write_str("a number, an expression string, or a list [Ixx, Iyy, Izz]")
+            }
+            fn visit_i64<E: de::Error>(self, v: i64) -> Result<RawInertia, E> {
+                Ok(RawInertia::Value(RawValue::Number(v as f64)))
+            }
+            fn visit_u64<E: de::Error>(self, v: u64) -> Result<RawInertia, E> {
+                Ok(RawInertia::Value(RawValue::Number(v as f64)))
+            }
+            fn visit_f64<E: de::Error>(self, v: f64) -> Result<RawInertia, E> {
+                Ok(RawInertia::Value(RawValue::Number(v)))
+            }
+            fn visit_str<E: de::Error>(self, v: &str) -> Result<RawInertia, E> {
+                Ok(RawInertia::Value(RawValue::Text(v.to_string())))
+            }
+            fn visit_seq<A: de::SeqAccess<'de>>(self, mut seq: A) -> Result<RawInertia, A::Error> {
+                let mut items = Vec::new();
+                while let Some(x) = seq.next_element::<SValue>()? {
+                    items.push(x);
+                }
+                Ok(RawInertia::Vector(items))
+            }
+        }
+        d.deserialize_any(V)
+    }
 }
 
 /// A vector of values, e.g. a point `["-L1/2", 0]`.
@@ -268,17 +324,24 @@ pub struct RawJoint {
     pub axis: Option<SVector>,
     /// Relative angle θ1 − θ2 held by prismatic and fixed joints, rad (default 0).
     pub angle: Option<SValue>,
+    /// Spatial joints: the axis in body 2's frame (default: `axis`'s components).
+    pub axis2: Option<SVector>,
+    /// distance: the length held between the points, m.
+    pub length: Option<SValue>,
 }
 
 impl RawElement for RawJoint {
     const TABLE: &'static str = "[[joints]]";
-    const FIELDS: &'static [&'static str] =
-        &["body1", "point1", "body2", "point2", "axis", "angle"];
+    const FIELDS: &'static [&'static str] = &[
+        "body1", "point1", "body2", "point2", "axis", "angle", "axis2", "length",
+    ];
     type_name_and_ends!();
     fn own_field(&self, key: &str) -> Option<Option<RawField<'_>>> {
         Some(match key {
             "axis" => self.axis.as_ref().map(RawField::Vector),
             "angle" => self.angle.as_ref().map(RawField::Value),
+            "axis2" => self.axis2.as_ref().map(RawField::Vector),
+            "length" => self.length.as_ref().map(RawField::Value),
             _ => return None,
         })
     }
@@ -316,6 +379,12 @@ pub struct RawForce {
     pub free_length: Option<SValue>,
     /// point_force: world-frame components, N (expressions of t, parameters, coordinates).
     pub force: Option<SVector>,
+    /// torsion: the common axis in body 1's frame.
+    pub axis: Option<SVector>,
+    /// torsion: the twist at which the torque is zero, rad.
+    pub free_angle: Option<SValue>,
+    /// torque: world-frame components, N·m (expressions).
+    pub torque: Option<SVector>,
 }
 
 impl RawElement for RawForce {
@@ -330,6 +399,9 @@ impl RawElement for RawForce {
         "damping",
         "free_length",
         "force",
+        "axis",
+        "free_angle",
+        "torque",
     ];
     type_name_and_ends!();
     fn own_field(&self, key: &str) -> Option<Option<RawField<'_>>> {
@@ -339,6 +411,9 @@ impl RawElement for RawForce {
             "damping" => self.damping.as_ref().map(RawField::Value),
             "free_length" => self.free_length.as_ref().map(RawField::Value),
             "force" => self.force.as_ref().map(RawField::Vector),
+            "axis" => self.axis.as_ref().map(RawField::Vector),
+            "free_angle" => self.free_angle.as_ref().map(RawField::Value),
+            "torque" => self.torque.as_ref().map(RawField::Vector),
             _ => return None,
         })
     }
@@ -359,6 +434,8 @@ pub struct RawGround {
 pub struct RawMotion {
     pub x: Option<SValue>,
     pub y: Option<SValue>,
+    /// Spatial models: the ground's z translation, m.
+    pub z: Option<SValue>,
     pub theta: Option<SValue>,
 }
 
@@ -380,6 +457,17 @@ pub struct RawModel {
     pub constraints: Vec<Spanned<RawConstraint>>,
     #[serde(default)]
     pub forces: Vec<Spanned<RawForce>>,
+    /// Parameters solved so that held coordinates are a static equilibrium.
+    pub trim: Option<Spanned<RawTrim>>,
+}
+
+/// `[trim]`: `solve = ["L0"]` parameters found so that the pose with the coordinates
+/// `hold = ["stick.phi"]` at their initial values is a static equilibrium.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawTrim {
+    pub solve: Vec<SString>,
+    pub hold: Vec<SString>,
 }
 
 #[cfg(test)]
@@ -423,7 +511,9 @@ mod tests {
                body2 = "body2"
                point2 = ["point2", 0]
                axis = ["axis", 0]
-               angle = "angle""#,
+               angle = "angle"
+               axis2 = ["axis2", 0]
+               length = "length""#,
         );
         check_raw::<RawForce>(
             &["body", "point"],
@@ -436,7 +526,10 @@ mod tests {
                stiffness = "stiffness"
                damping = "damping"
                free_length = "free_length"
-               force = ["force", 0]"#,
+               force = ["force", 0]
+               axis = ["axis", 0]
+               free_angle = "free_angle"
+               torque = ["torque", 0]"#,
         );
     }
 }

@@ -10,7 +10,7 @@
 //! new field, the field in [`super::file`]).
 
 use super::file::{RawElement, RawField};
-use super::{BodyRef, Builder, Field, ForceKind, JointKind, PointRef, suggest};
+use super::{BodyRef, Builder, Field, ForceKind, JointKind, PointRef, SpatialJoint, suggest};
 use crate::diag::Diagnostic;
 use std::ops::Range;
 
@@ -41,8 +41,10 @@ pub(super) enum Omitted {
     Ground,
     /// The number 0.
     Zero,
-    /// The point `[0, 0]`.
+    /// The point `[0, 0]` (or `[0, 0, 0]`).
     Origin,
+    /// Nothing: the constructor decides.
+    Absent,
 }
 
 impl FieldSpec {
@@ -144,6 +146,185 @@ pub(super) const JOINTS: Family<JointKind> = Family {
     ],
 };
 
+/// A spatial joint's axis in body 1's frame, dimensionless.
+const AXIS3: FieldSpec = FieldSpec::required(
+    "axis",
+    Some("add `axis = [0, 0, 1]` (the joint's axis in body1's frame)"),
+);
+/// The axis in body 2's frame (default: the same components as `axis`).
+const AXIS2: FieldSpec = FieldSpec::optional("axis2", Omitted::Absent);
+
+fn spatial(kind: SpatialJoint, v: &mut Values, axes: bool) -> Option<JointKind> {
+    let (axis, axis2) = if axes {
+        (Some(v.vector("axis")?), v.optional_vector("axis2"))
+    } else {
+        (None, None)
+    };
+    Some(JointKind::Spatial {
+        kind,
+        axis,
+        axis2,
+        length: None,
+    })
+}
+
+/// `[[joints]]` of a spatial model.
+pub(super) const JOINTS3: Family<JointKind> = Family {
+    what: "joint",
+    common: &[BODY1, POINT1, BODY2, POINT2],
+    stop_at_first_failure: true,
+    kinds: &[
+        Kind {
+            name: "revolute",
+            fields: &[AXIS3, AXIS2],
+            build: |_, v| spatial(SpatialJoint::Revolute, v, true),
+        },
+        Kind {
+            name: "spherical",
+            fields: &[],
+            build: |_, v| spatial(SpatialJoint::Spherical, v, false),
+        },
+        Kind {
+            name: "universal",
+            fields: &[
+                AXIS3,
+                FieldSpec::required(
+                    "axis2",
+                    Some(
+                        "add `axis2 = [...]`: the cross axis in body2's frame, perpendicular to `axis`",
+                    ),
+                ),
+            ],
+            build: |_, v| spatial(SpatialJoint::Universal, v, true),
+        },
+        Kind {
+            name: "prismatic",
+            fields: &[AXIS3, AXIS2],
+            build: |_, v| spatial(SpatialJoint::Prismatic, v, true),
+        },
+        Kind {
+            name: "cylindrical",
+            fields: &[AXIS3, AXIS2],
+            build: |_, v| spatial(SpatialJoint::Cylindrical, v, true),
+        },
+        Kind {
+            name: "fixed",
+            fields: &[],
+            build: |_, v| spatial(SpatialJoint::Fixed, v, false),
+        },
+        Kind {
+            name: "distance",
+            fields: &[FieldSpec::required(
+                "length",
+                Some("add `length = ...` (m): the distance held between the points"),
+            )],
+            build: |_, v| {
+                Some(JointKind::Spatial {
+                    kind: SpatialJoint::Distance,
+                    axis: None,
+                    axis2: None,
+                    length: Some(v.scalar("length")?),
+                })
+            },
+        },
+    ],
+};
+
+/// `[[forces]]` of a spatial model: the planar ones in 3-D, torsion and torque.
+pub(super) const FORCES3: Family<ForceKind> = Family {
+    what: "force",
+    common: &[],
+    stop_at_first_failure: false,
+    kinds: &[
+        Kind {
+            name: "gravity",
+            fields: &[FieldSpec::required(
+                "acceleration", // m/s²
+                Some("add `acceleration = [0, \"-g\", 0]` (m/s²)"),
+            )],
+            build: |_, v| {
+                Some(ForceKind::Gravity {
+                    acceleration: v.vector("acceleration")?,
+                })
+            },
+        },
+        SPRING_DAMPER,
+        Kind {
+            name: "point_force",
+            fields: &[
+                BODY1,
+                POINT1.called("point"),
+                FieldSpec::required("force", Some("add `force = [Fx, Fy, Fz]` (N, world frame)")),
+            ],
+            build: point_force,
+        },
+        Kind {
+            name: "torsion",
+            fields: &[
+                BODY1,
+                BODY2,
+                AXIS3,
+                FieldSpec::optional("stiffness", Omitted::Zero), // N·m/rad
+                FieldSpec::optional("damping", Omitted::Zero),   // N·m·s/rad
+                FieldSpec::optional("free_angle", Omitted::Zero), // rad
+            ],
+            build: |_, v| {
+                let body1 = v.body("body1");
+                let body2 = v.body("body2");
+                let axis = v.vector("axis");
+                Some(ForceKind::Torsion {
+                    body1: body1?,
+                    body2: body2?,
+                    axis: axis?,
+                    stiffness: v.scalar("stiffness")?,
+                    damping: v.scalar("damping")?,
+                    free_angle: v.scalar("free_angle")?,
+                })
+            },
+        },
+        Kind {
+            name: "torque",
+            fields: &[
+                BODY1,
+                FieldSpec::required(
+                    "torque",
+                    Some("add `torque = [Tx, Ty, Tz]` (N·m, world frame)"),
+                ),
+            ],
+            build: |_, v| {
+                let body = v.body("body1")?;
+                Some(ForceKind::Torque {
+                    body,
+                    torque: v.vector("torque")?,
+                })
+            },
+        },
+    ],
+};
+
+const SPRING_DAMPER: Kind<ForceKind> = Kind {
+    name: "spring_damper",
+    fields: &[
+        BODY1,
+        POINT1,
+        BODY2,
+        POINT2,
+        FieldSpec::required("stiffness", None),        // N/m
+        FieldSpec::optional("damping", Omitted::Zero), // N·s/m
+        FieldSpec::required("free_length", None),      // m
+    ],
+    build: |_, v| {
+        let [p1, p2] = v.ends()?;
+        Some(ForceKind::SpringDamper {
+            p1,
+            p2,
+            stiffness: v.scalar("stiffness")?,
+            damping: v.scalar("damping")?,
+            free_length: v.scalar("free_length")?,
+        })
+    },
+};
+
 /// `[[forces]]`.
 pub(super) const FORCES: Family<ForceKind> = Family {
     what: "force",
@@ -162,28 +343,7 @@ pub(super) const FORCES: Family<ForceKind> = Family {
                 })
             },
         },
-        Kind {
-            name: "spring_damper",
-            fields: &[
-                BODY1,
-                POINT1,
-                BODY2,
-                POINT2,
-                FieldSpec::required("stiffness", None), // N/m
-                FieldSpec::optional("damping", Omitted::Zero), // N·s/m
-                FieldSpec::required("free_length", None), // m
-            ],
-            build: |_, v| {
-                let [p1, p2] = v.ends()?;
-                Some(ForceKind::SpringDamper {
-                    p1,
-                    p2,
-                    stiffness: v.scalar("stiffness")?,
-                    damping: v.scalar("damping")?,
-                    free_length: v.scalar("free_length")?,
-                })
-            },
-        },
+        SPRING_DAMPER,
         Kind {
             name: "point_force",
             fields: &[
@@ -219,8 +379,9 @@ fn point_force(b: &mut Builder<'_>, v: &mut Values) -> Option<ForceKind> {
 #[derive(Debug)]
 pub(super) enum Value {
     Body(BodyRef),
-    Vector([Field; 2]),
+    Vector(Vec<Field>),
     Scalar(Field),
+    Absent,
 }
 
 /// The values of an element's fields, by name.
@@ -252,10 +413,17 @@ impl Values {
             other => panic!("`{name}` is not a number: {other:?}"),
         }
     }
-    pub fn vector(&mut self, name: &str) -> Option<[Field; 2]> {
+    pub fn vector(&mut self, name: &str) -> Option<Vec<Field>> {
         match self.take(name)? {
             Value::Vector(v) => Some(v),
             other => panic!("`{name}` is not a vector: {other:?}"),
+        }
+    }
+    /// An optional vector: `None` if absent (or not readable).
+    pub fn optional_vector(&mut self, name: &str) -> Option<Vec<Field>> {
+        match self.take(name)? {
+            Value::Vector(v) => Some(v),
+            _ => None,
         }
     }
     pub fn body(&mut self, name: &str) -> Option<BodyRef> {
@@ -374,15 +542,18 @@ impl Builder<'_> {
     ) -> Option<Value> {
         match (given, spec.rule) {
             (Some(RawField::Body(b)), _) => self.body_ref(b).map(Value::Body),
-            (Some(RawField::Vector(v)), _) => self.vector2(v, spec.called).map(Value::Vector),
+            (Some(RawField::Vector(v)), _) => self.vector(v, spec.called).map(Value::Vector),
             (Some(RawField::Value(v)), _) => self.field(v).map(Value::Scalar),
             (None, Rule::Optional(omitted)) => Some(match omitted {
                 Omitted::Ground => Value::Body(BodyRef::Ground),
                 Omitted::Zero => Value::Scalar(Field::default_value(0.0, values.span.clone())),
-                Omitted::Origin => Value::Vector([
-                    Field::default_value(0.0, values.span.clone()),
-                    Field::default_value(0.0, values.span.clone()),
-                ]),
+                Omitted::Origin => {
+                    Value::Vector(vec![
+                        Field::default_value(0.0, values.span.clone());
+                        self.dim
+                    ])
+                }
+                Omitted::Absent => Value::Absent,
             }),
             (None, Rule::Required { help }) => {
                 let (owner, called) = (&values.owner, spec.called);
@@ -430,5 +601,7 @@ mod tests {
     fn the_tables_name_fields_of_the_raw_tables() {
         check_tables::<_, RawJoint>(&JOINTS);
         check_tables::<_, RawForce>(&FORCES);
+        check_tables::<_, RawJoint>(&JOINTS3);
+        check_tables::<_, RawForce>(&FORCES3);
     }
 }

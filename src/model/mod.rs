@@ -142,7 +142,9 @@ pub fn suggest<'a>(name: &str, candidates: impl IntoIterator<Item = &'a str>) ->
     Some(format!("did you mean {}?", ties.join(" or ")))
 }
 
-/// A planar rigid body: coordinates `x`, `y` (centre of gravity, m), `theta` (rad).
+/// A rigid body. Planar: coordinates `x`, `y` (centre of gravity, m), `theta` (rad).
+/// Spatial: `x`, `y`, `z` (centre of gravity, m) and the named angles of its rotation
+/// sequence (rad).
 #[derive(Debug, Clone)]
 pub struct Body {
     pub name: String,
@@ -150,34 +152,41 @@ pub struct Body {
     pub kind: BodyKind,
     /// kg.
     pub mass: Field,
-    /// Centroidal moment of inertia, kg·m².
-    pub inertia: Field,
+    /// Planar: the centroidal moment of inertia (1 value). Spatial: the inertia tensor
+    /// about the CG in the body frame, `Ixx, Iyy, Izz, Ixy, Ixz, Iyz` (kg·m²).
+    pub inertia: Vec<Field>,
+    /// Where the inertia is written.
+    pub inertia_span: Range<usize>,
+    /// Spatial: the CG in the body frame, from the frame's origin (m); planar: empty.
+    pub cg: Vec<Field>,
+    /// Coordinate names (without the body's prefix), in order.
+    pub coords: Vec<String>,
+    /// Dimension of each coordinate.
+    pub dims: Vec<Dim>,
     /// Initial pose, one per coordinate (in the body kind's coordinate order).
     pub initial: Vec<Field>,
     /// Which coordinates are held at their initial value during assembly.
     pub fixed: Vec<bool>,
     /// Given initial velocities (m/s or rad/s), per coordinate.
     pub velocity: Vec<Option<Field>>,
+    /// Named points (body frame, from the frame's origin, m).
+    pub points: Vec<(String, Vec<Field>)>,
 }
 
-/// The kinds of body; each names its own coordinates.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+/// The kinds of body.
+#[derive(Debug, Clone, PartialEq, Eq)]
 pub enum BodyKind {
     Planar,
+    /// A spatial body whose orientation is a sequence of rotations about body axes
+    /// (0 = x, 1 = y, 2 = z): `R = R_a1(θ1) R_a2(θ2) …`.
+    Spatial {
+        axes: Vec<usize>,
+    },
 }
 
 impl BodyKind {
-    /// Coordinate names, in order.
-    pub fn coordinates(self) -> &'static [&'static str] {
-        match self {
-            BodyKind::Planar => &["x", "y", "theta"],
-        }
-    }
-    /// Dimension of each coordinate.
-    pub fn coordinate_dims(self) -> &'static [Dim] {
-        match self {
-            BodyKind::Planar => &[Dim::LENGTH, Dim::LENGTH, Dim::NONE],
-        }
+    pub fn is_spatial(&self) -> bool {
+        !matches!(self, BodyKind::Planar)
     }
 }
 
@@ -192,7 +201,8 @@ pub enum BodyRef {
 #[derive(Debug, Clone)]
 pub struct PointRef {
     pub body: BodyRef,
-    pub point: [Field; 2],
+    /// 2 components (planar) or 3 (spatial).
+    pub point: Vec<Field>,
 }
 
 #[derive(Debug, Clone)]
@@ -201,11 +211,30 @@ pub enum JointKind {
     Revolute,
     /// Point 1 on body 1 stays on the line through point 2 along `axis`, fixed in body 2
     /// (1 equation).
-    PinInSlot { axis: [Field; 2] },
+    PinInSlot { axis: Vec<Field> },
     /// Pin in slot plus a fixed relative angle θ1 − θ2 = angle (2 equations).
-    Prismatic { axis: [Field; 2], angle: Field },
+    Prismatic { axis: Vec<Field>, angle: Field },
     /// Revolute plus a fixed relative angle θ1 − θ2 = angle (3 equations).
     Fixed { angle: Field },
+    /// Spatial joints: axes in body 1's and body 2's frames.
+    Spatial {
+        kind: SpatialJoint,
+        axis: Option<Vec<Field>>,
+        axis2: Option<Vec<Field>>,
+        length: Option<Field>,
+    },
+}
+
+/// The spatial joint types.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SpatialJoint {
+    Revolute,
+    Spherical,
+    Universal,
+    Prismatic,
+    Cylindrical,
+    Fixed,
+    Distance,
 }
 
 #[derive(Debug, Clone)]
@@ -227,7 +256,7 @@ pub struct CustomConstraint {
 #[derive(Debug, Clone)]
 pub enum ForceKind {
     /// Uniform gravitational acceleration (m/s²) acting on every body.
-    Gravity { acceleration: [Field; 2] },
+    Gravity { acceleration: Vec<Field> },
     /// Linear spring and dashpot between two points, along their line, tension positive:
     /// T = k (d − L0) + c ḋ.
     SpringDamper {
@@ -239,7 +268,20 @@ pub enum ForceKind {
     },
     /// A force (N, world frame) at a body point; components may depend on `t`,
     /// parameters and coordinates.
-    PointForce { at: PointRef, force: [Field; 2] },
+    PointForce { at: PointRef, force: Vec<Field> },
+    /// A torsional spring–damper about a common axis (body 1's frame): the torque on
+    /// body 1 is −(k (twist − free_angle) + c twist_rate) about the axis, and the
+    /// opposite on body 2 (spatial models).
+    Torsion {
+        body1: BodyRef,
+        body2: BodyRef,
+        axis: Vec<Field>,
+        stiffness: Field,
+        damping: Field,
+        free_angle: Field,
+    },
+    /// A torque (N·m, world frame) on a body (spatial models).
+    Torque { body: BodyRef, torque: Vec<Field> },
 }
 
 #[derive(Debug, Clone)]
@@ -255,7 +297,19 @@ pub struct ForceDef {
 pub struct GroundDef {
     pub x: Option<Field>,
     pub y: Option<Field>,
+    pub z: Option<Field>,
     pub theta: Option<Field>,
+}
+
+/// `[trim]`: parameters solved so that the held coordinates' initial values are a static
+/// equilibrium.
+#[derive(Debug, Clone, Default)]
+pub struct TrimDef {
+    /// Parameters solved, with where they are named.
+    pub solve: Vec<(String, Range<usize>)>,
+    /// Coordinates held (full names), with where they are named.
+    pub hold: Vec<(String, Range<usize>)>,
+    pub span: Range<usize>,
 }
 
 /// A loaded model: immutable; cheap to clone with other parameter values.
@@ -273,6 +327,10 @@ pub struct Model {
     pub forces: Arc<Vec<ForceDef>>,
     /// The ground's prescribed motion (none: fixed).
     pub ground: Arc<GroundDef>,
+    /// Whether the model is spatial (its bodies are spatial).
+    pub spatial: bool,
+    /// Parameters solved for a datum (`[trim]`), if any.
+    pub trim: Option<Arc<TrimDef>>,
     /// The `--set` overrides applied, as given (`NAME=VALUE`).
     pub overrides: Vec<(String, String)>,
     /// The parameter that is the forcing's angular frequency (`[model] forcing_frequency`).
@@ -309,6 +367,7 @@ impl Model {
         };
         let mut diags = Vec::new();
         let parameters = Parameters::from_raw(&raw.parameters, text, &mut diags);
+        let spatial = raw.bodies.iter().any(|b| b.get_ref().rotation.is_some());
         let mut b = Builder {
             text,
             diags: &mut diags,
@@ -317,6 +376,7 @@ impl Model {
                 .iter()
                 .map(|b| b.get_ref().name.get_ref().clone())
                 .collect(),
+            dim: if spatial { 3 } else { 2 },
         };
         let bodies: Vec<Body> = raw.bodies.iter().filter_map(|r| b.body(r)).collect();
         let joints: Vec<Joint> = raw
@@ -374,20 +434,54 @@ impl Model {
             None => GroundDef::default(),
             Some(m) => {
                 let mm = m.get_ref();
-                if mm.x.is_none() && mm.y.is_none() && mm.theta.is_none() {
+                if mm.x.is_none() && mm.y.is_none() && mm.z.is_none() && mm.theta.is_none() {
                     b.diags.push(
                         Diagnostic::new("`[ground] motion` gives no component")
                             .at(m.span())
                             .help("give x, y and/or theta as expressions of t, e.g. motion = { x = \"D0*sin(omega*t)\" }"),
                     );
                 }
+                if spatial && let Some(t) = &mm.theta {
+                    b.diags.push(
+                        Diagnostic::new("a rotating ground is not supported in spatial models yet")
+                            .at(t.span())
+                            .help("give the ground's translation x, y, z; a shaker table that rotates can be a body driven by a custom constraint"),
+                    );
+                }
+                if !spatial && let Some(z) = &mm.z {
+                    b.diags.push(
+                        Diagnostic::new("`z` motion of the ground in a planar model")
+                            .at(z.span())
+                            .help("planar models move in x, y and theta; give bodies a `rotation` to make the model spatial"),
+                    );
+                }
                 GroundDef {
                     x: mm.x.as_ref().and_then(|v| b.field(v)),
                     y: mm.y.as_ref().and_then(|v| b.field(v)),
+                    z: mm.z.as_ref().and_then(|v| b.field(v)),
                     theta: mm.theta.as_ref().and_then(|v| b.field(v)),
                 }
             }
         };
+        let trim = raw.trim.as_ref().map(|t| {
+            let tt = t.get_ref();
+            Arc::new(TrimDef {
+                solve: tt
+                    .solve
+                    .iter()
+                    .map(|s| (s.get_ref().clone(), s.span()))
+                    .collect(),
+                hold: tt
+                    .hold
+                    .iter()
+                    .map(|s| (s.get_ref().clone(), s.span()))
+                    .collect(),
+                span: t.span(),
+            })
+        });
+        if let Some(t) = &trim {
+            b.check_trim(t, &bodies, &parameters);
+        }
         if bodies.is_empty() && diags.is_empty() {
             diags.push(
                 Diagnostic::new("the model has no bodies")
@@ -410,6 +504,8 @@ impl Model {
             constraints: Arc::new(constraints),
             forces: Arc::new(forces),
             ground: Arc::new(ground),
+            spatial,
+            trim,
             overrides: Vec::new(),
             forcing_frequency: raw
                 .model
@@ -473,12 +569,7 @@ impl Model {
     pub fn coordinate_names(&self) -> Vec<String> {
         self.bodies
             .iter()
-            .flat_map(|b| {
-                b.kind
-                    .coordinates()
-                    .iter()
-                    .map(move |c| format!("{}.{}", b.name, c))
-            })
+            .flat_map(|b| b.coords.iter().map(move |c| format!("{}.{}", b.name, c)))
             .collect()
     }
 }
@@ -499,6 +590,8 @@ struct Builder<'a> {
     text: &'a str,
     diags: &'a mut Vec<Diagnostic>,
     body_names: Vec<String>,
+    /// Components of points and vectors: 2 (planar) or 3 (spatial).
+    dim: usize,
 }
 
 impl Builder<'_> {
@@ -512,22 +605,78 @@ impl Builder<'_> {
         }
     }
 
-    fn vector2(&mut self, v: &SVector, what: &str) -> Option<[Field; 2]> {
+    /// A vector of the model's dimension (2 planar, 3 spatial).
+    fn vector(&mut self, v: &SVector, what: &str) -> Option<Vec<Field>> {
+        self.vector_n(v, what, self.dim)
+    }
+
+    fn vector_n(&mut self, v: &SVector, what: &str, n: usize) -> Option<Vec<Field>> {
         let items = v.get_ref();
-        if items.len() != 2 {
+        if items.len() != n {
+            let (kind, example) = if n == 3 {
+                ("spatial", "[x, y, z]")
+            } else {
+                ("planar", "[x, y]")
+            };
             self.diags.push(
                 Diagnostic::new(format!(
-                    "`{what}` needs 2 components (planar), found {}",
+                    "`{what}` needs {n} components ({kind}), found {}",
                     items.len()
                 ))
                 .at(v.span())
-                .help(format!("write `{what} = [x, y]`")),
+                .help(format!("write `{what} = {example}`")),
             );
             return None;
         }
-        let a = self.field(&items[0]);
-        let b = self.field(&items[1]);
-        Some([a?, b?])
+        let fields: Vec<Option<Field>> = items.iter().map(|x| self.field(x)).collect();
+        fields.into_iter().collect()
+    }
+
+    /// `[trim]`: names that exist, as many conditions as unknowns.
+    fn check_trim(&mut self, t: &TrimDef, bodies: &[Body], params: &Parameters) {
+        for (name, span) in &t.solve {
+            if params.index(name).is_none() {
+                self.diags.push(
+                    Diagnostic::new(format!(
+                        "`[trim] solve` names `{name}`, which is not a parameter"
+                    ))
+                    .at(span.clone())
+                    .help(
+                        suggest(name, params.names())
+                            .unwrap_or_else(|| "name parameters of this model".into()),
+                    ),
+                );
+            }
+        }
+        let coords: Vec<String> = bodies
+            .iter()
+            .flat_map(|b| b.coords.iter().map(move |c| format!("{}.{c}", b.name)))
+            .collect();
+        for (name, span) in &t.hold {
+            if !coords.contains(name) {
+                self.diags.push(
+                    Diagnostic::new(format!(
+                        "`[trim] hold` names `{name}`, which is not a coordinate"
+                    ))
+                    .at(span.clone())
+                    .help(
+                        suggest(name, coords.iter().map(|s| s.as_str()))
+                            .unwrap_or_else(|| format!("coordinates: {}", coords.join(", "))),
+                    ),
+                );
+            }
+        }
+        if t.solve.len() != t.hold.len() || t.solve.is_empty() {
+            self.diags.push(
+                Diagnostic::new(format!(
+                    "`[trim]` solves {} parameter(s) for {} held coordinate(s)",
+                    t.solve.len(),
+                    t.hold.len()
+                ))
+                .at(t.span.clone())
+                .help("each solved parameter needs one held coordinate (its condition): give as many in `hold` as in `solve`"),
+            );
+        }
     }
 
     fn body_ref(&mut self, name: &SString) -> Option<BodyRef> {
@@ -572,32 +721,145 @@ impl Builder<'_> {
             );
             ok = false;
         }
-        let kind = match raw.kind.as_ref().map(|k| k.get_ref().as_str()) {
-            None | Some("planar") => BodyKind::Planar,
-            Some(other) => {
-                let k = raw.kind.as_ref().unwrap();
+        let spatial = self.dim == 3;
+        if let Some(k) = &raw.kind {
+            let want = if spatial { "spatial" } else { "planar" };
+            let other = k.get_ref().as_str();
+            if other != want {
+                let help = if other == "spatial" || other == "planar" {
+                    "a model's bodies are all planar or all spatial: a spatial body has `rotation = [[\"z\", \"theta\"]]` (and z); a planar body has none".to_string()
+                } else {
+                    "body types: planar, spatial (a body with `rotation` is spatial)".to_string()
+                };
                 self.diags.push(
-                    Diagnostic::new(format!("unknown body type `{other}`"))
+                    Diagnostic::new(format!("body type `{other}` in a {want} model"))
                         .at(k.span())
-                        .help("body types: planar"),
+                        .help(help),
                 );
                 return None;
             }
-        };
+        }
         let mass = self.field(&raw.mass);
-        let inertia = self.field(&raw.inertia);
-        let coords = kind.coordinates();
-        let given = [&raw.x, &raw.y, &raw.theta];
-        let mut initial = Vec::new();
-        for (c, g) in coords.iter().zip(given) {
-            match g {
-                Some(v) => initial.push(self.field(v)),
-                None => {
-                    let _ = c;
-                    initial.push(Some(Field::default_value(0.0, raw.name.span())))
+        let inertia_span = raw.inertia.span();
+        let (kind, coords, dims, inertia, cg) = if spatial {
+            let Some(rot) = &raw.rotation else {
+                self.diags.push(
+                    Diagnostic::new(format!("body `{name}` has no `rotation` in a spatial model"))
+                        .at(raw.name.span())
+                        .help("a model's bodies are all planar or all spatial: give it `rotation = [[\"z\", \"angle_name\"]]` (a sequence of rotations about body axes)"),
+                );
+                return None;
+            };
+            let (axes, angle_names) = self.rotation(rot, &name)?;
+            let mut coords: Vec<String> = ["x", "y", "z"].iter().map(|s| s.to_string()).collect();
+            coords.extend(angle_names);
+            let mut dims = vec![Dim::LENGTH; 3];
+            dims.extend(std::iter::repeat_n(Dim::NONE, axes.len()));
+            let inertia = match raw.inertia.get_ref() {
+                file::RawInertia::Vector(v) if v.len() == 3 || v.len() == 6 => {
+                    let mut f: Vec<Option<Field>> = v.iter().map(|x| self.field(x)).collect();
+                    while f.len() < 6 {
+                        f.push(Some(Field::default_value(0.0, inertia_span.clone())));
+                    }
+                    f.into_iter().collect::<Option<Vec<Field>>>()
+                }
+                _ => {
+                    self.diags.push(
+                        Diagnostic::new(format!("the inertia of spatial body `{name}` is a tensor"))
+                            .at(inertia_span.clone())
+                            .help("give the principal values `inertia = [Ixx, Iyy, Izz]` or six components `[Ixx, Iyy, Izz, Ixy, Ixz, Iyz]` (kg·m², about the CG, body frame)"),
+                    );
+                    None
+                }
+            };
+            let cg = match &raw.cg {
+                Some(v) => self.vector_n(v, "cg", 3),
+                None => Some(vec![Field::default_value(0.0, raw.name.span()); 3]),
+            };
+            (BodyKind::Spatial { axes }, coords, dims, inertia, cg)
+        } else {
+            for (f, what) in [(raw.z.as_ref(), "z"), (None, "")] {
+                if let Some(f) = f {
+                    self.diags.push(
+                        Diagnostic::new(format!("`{what}` of a planar body"))
+                            .at(f.span())
+                            .help("planar bodies have x, y and theta; give the model's bodies a `rotation` to make it spatial"),
+                    );
+                    return None;
                 }
             }
+            if let Some(c) = &raw.cg {
+                self.diags.push(
+                    Diagnostic::new("`cg` of a planar body")
+                        .at(c.span())
+                        .help("a planar body's x and y are its centre of gravity and its points are given from it"),
+                );
+                return None;
+            }
+            let inertia = match raw.inertia.get_ref() {
+                file::RawInertia::Value(v) => self
+                    .field(&toml::Spanned::new(inertia_span.clone(), v.clone()))
+                    .map(|f| vec![f]),
+                file::RawInertia::Vector(_) => {
+                    self.diags.push(
+                        Diagnostic::new(format!("the inertia of planar body `{name}` is one value"))
+                            .at(inertia_span.clone())
+                            .help("give the centroidal moment of inertia about the plane's normal, e.g. `inertia = \"m1*L1^2/12\"`"),
+                    );
+                    None
+                }
+            };
+            let coords = ["x", "y", "theta"].iter().map(|s| s.to_string()).collect();
+            (
+                BodyKind::Planar,
+                coords,
+                vec![Dim::LENGTH, Dim::LENGTH, Dim::NONE],
+                inertia,
+                Some(Vec::new()),
+            )
+        };
+        let mut initial = Vec::new();
+        for c in &coords {
+            let given = match c.as_str() {
+                "x" => raw.x.as_ref(),
+                "y" => raw.y.as_ref(),
+                "z" => raw.z.as_ref(),
+                "theta" if !spatial => raw.theta.as_ref(),
+                other => raw.angles.get(other),
+            };
+            match given {
+                Some(v) => initial.push(self.field(v)),
+                None => initial.push(Some(Field::default_value(0.0, raw.name.span()))),
+            }
         }
+        if spatial {
+            if let Some(t) = &raw.theta {
+                self.diags.push(
+                    Diagnostic::new(format!("`theta` of spatial body `{name}`"))
+                        .at(t.span())
+                        .help("a spatial body's angles are named in `rotation`; give their initial values in `angles = { name = value }`"),
+                );
+                ok = false;
+            }
+            for (a, v) in &raw.angles {
+                if !coords[3..].contains(a) {
+                    self.diags.push(
+                        Diagnostic::new(format!("`{a}` is not an angle of body `{name}`"))
+                            .at(v.span())
+                            .help(format!("its angles: {}", coords[3..].join(", "))),
+                    );
+                    ok = false;
+                }
+            }
+        } else if !raw.angles.is_empty() {
+            self.diags.push(
+                Diagnostic::new(format!("`angles` of planar body `{name}`"))
+                    .at(raw.name.span())
+                    .help("a planar body's angle is `theta`"),
+            );
+            ok = false;
+        }
+        let kind_name = if spatial { "spatial" } else { "planar" };
         let mut fixed = vec![false; coords.len()];
         for f in &raw.fix {
             match coords.iter().position(|c| c == f.get_ref()) {
@@ -605,9 +867,8 @@ impl Builder<'_> {
                 None => {
                     self.diags.push(
                         Diagnostic::new(format!(
-                            "`{}` is not a coordinate of a {:?} body",
+                            "`{}` is not a coordinate of {kind_name} body `{name}`",
                             f.get_ref(),
-                            kind
                         ))
                         .at(f.span())
                         .help(format!("coordinates: {}", coords.join(", "))),
@@ -622,12 +883,31 @@ impl Builder<'_> {
                 Some(i) => velocity[i] = self.field(v),
                 None => {
                     self.diags.push(
-                        Diagnostic::new(format!("`{c}` is not a coordinate of a {kind:?} body"))
-                            .at(v.span())
-                            .help(format!("coordinates: {}", coords.join(", "))),
+                        Diagnostic::new(format!(
+                            "`{c}` is not a coordinate of {kind_name} body `{name}`"
+                        ))
+                        .at(v.span())
+                        .help(format!("coordinates: {}", coords.join(", "))),
                     );
                     ok = false;
                 }
+            }
+        }
+        let mut points = Vec::new();
+        for (pname, v) in &raw.points {
+            if !params::is_identifier(pname) || coords.contains(pname) {
+                self.diags.push(
+                    Diagnostic::new(format!("`{pname}` cannot name a point of body `{name}`"))
+                        .at(v.span())
+                        .help("point names are identifiers, distinct from the body's coordinates"),
+                );
+                ok = false;
+                continue;
+            }
+            if let Some(p) = self.vector(v, pname) {
+                points.push((pname.clone(), p));
+            } else {
+                ok = false;
             }
         }
         let initial: Option<Vec<Field>> = initial.into_iter().collect();
@@ -640,17 +920,99 @@ impl Builder<'_> {
             kind,
             mass: mass?,
             inertia: inertia?,
+            inertia_span,
+            cg: cg?,
+            coords,
+            dims,
             initial: initial?,
             fixed,
             velocity,
+            points,
         })
         .filter(|_| span.end >= span.start)
+    }
+
+    /// A spatial body's `rotation = [["z", "phi"], ...]`: the axes and angle names.
+    fn rotation(
+        &mut self,
+        rot: &toml::Spanned<toml::Value>,
+        body: &str,
+    ) -> Option<(Vec<usize>, Vec<String>)> {
+        let bad = |msg: String| {
+            Diagnostic::new(msg)
+                .at(rot.span())
+                .help("write `rotation = [[\"z\", \"phi\"]]`, or a sequence of two or three such pairs (`[[\"z\", \"alpha\"], [\"x\", \"beta\"]]`: R = Rz(alpha) Rx(beta)); axes are x, y or z of the body")
+        };
+        let Some(list) = rot.get_ref().as_array() else {
+            self.diags.push(bad(format!(
+                "the rotation of `{body}` is not a list of [axis, angle] pairs"
+            )));
+            return None;
+        };
+        if list.is_empty() || list.len() > 3 {
+            self.diags.push(bad(format!(
+                "the rotation of `{body}` has {} rotations; it takes 1 to 3",
+                list.len()
+            )));
+            return None;
+        }
+        let mut axes = Vec::new();
+        let mut names: Vec<String> = Vec::new();
+        for item in list {
+            let pair = item.as_array().filter(|p| p.len() == 2);
+            let (Some(a), Some(n)) = (
+                pair.and_then(|p| p[0].as_str()),
+                pair.and_then(|p| p[1].as_str()),
+            ) else {
+                self.diags.push(bad(format!(
+                    "a rotation of `{body}` is not an [axis, angle] pair of strings"
+                )));
+                return None;
+            };
+            let axis = match a {
+                "x" | "X" => 0,
+                "y" | "Y" => 1,
+                "z" | "Z" => 2,
+                other => {
+                    self.diags.push(bad(format!(
+                        "unknown rotation axis `{other}` of `{body}` (axes: x, y, z)"
+                    )));
+                    return None;
+                }
+            };
+            if !params::is_identifier(n) || ["x", "y", "z"].contains(&n) {
+                self.diags
+                    .push(bad(format!("`{n}` cannot name an angle of `{body}`")));
+                return None;
+            }
+            if names.iter().any(|m| m == n) {
+                self.diags
+                    .push(bad(format!("the angle `{n}` of `{body}` is named twice")));
+                return None;
+            }
+            if let Some(&prev) = axes.last()
+                && prev == axis
+            {
+                self.diags.push(bad(format!(
+                    "two successive rotations of `{body}` about the same axis `{a}` are one rotation"
+                )));
+                return None;
+            }
+            axes.push(axis);
+            names.push(n.to_string());
+        }
+        Some((axes, names))
     }
 
     /// A `[[joints]]` table, read by its type's table of fields ([`kinds::JOINTS`]).
     fn joint(&mut self, i: usize, r: &toml::Spanned<file::RawJoint>) -> Option<Joint> {
         let span = r.span();
-        let mut e = self.element(&kinds::JOINTS, i, r.get_ref(), span.clone())?;
+        let family = if self.dim == 3 {
+            &kinds::JOINTS3
+        } else {
+            &kinds::JOINTS
+        };
+        let mut e = self.element(family, i, r.get_ref(), span.clone())?;
         let [p1, p2] = e.values.ends()?;
         Some(Joint {
             name: e.name,
@@ -664,7 +1026,12 @@ impl Builder<'_> {
     /// A `[[forces]]` table, read by its type's table of fields ([`kinds::FORCES`]).
     fn force(&mut self, i: usize, r: &toml::Spanned<file::RawForce>) -> Option<ForceDef> {
         let span = r.span();
-        let e = self.element(&kinds::FORCES, i, r.get_ref(), span.clone())?;
+        let family = if self.dim == 3 {
+            &kinds::FORCES3
+        } else {
+            &kinds::FORCES
+        };
+        let e = self.element(family, i, r.get_ref(), span.clone())?;
         Some(ForceDef {
             name: e.name,
             span,

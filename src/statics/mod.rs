@@ -387,7 +387,7 @@ impl<'a> Statics<'a> {
             return (true, Vec::new());
         }
         let kr = self.reduced_stiffness(q, lambda, &nb);
-        let mr = nb.transpose() * &self.sys.mass_matrix * &nb;
+        let mr = nb.transpose() * &self.sys.mass_matrix_at(q) * &nb;
         let omega2 = generalized_eigenvalues(&kr, &mr);
         let stable = omega2.iter().all(|&w| w > 0.0);
         (stable, omega2)

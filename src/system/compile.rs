@@ -5,11 +5,15 @@
 use super::frame::{GroundMotion, SysPoint};
 use super::joints::{Constraint, Joint};
 use super::live::{Check, CheckKind, Live};
+use super::spatial::{Force3, Geom3, Joint3, SysPoint3, UnitCoefs};
 use super::{InitialGuess, SysBody, System, forces::Force};
 use crate::diag::{Diagnostic, Error, Result};
 use crate::model::expr::{Compiled, ExprError, Slot, Span};
 use crate::model::units::Dim;
-use crate::model::{BodyRef, Field, ForceKind, JointKind, Model, PointRef, expr_diag, suggest};
+use crate::model::{
+    BodyKind, BodyRef, Field, ForceKind, JointKind, Model, PointRef, SpatialJoint, expr_diag,
+    suggest,
+};
 use nalgebra::DMatrix;
 
 impl System {
@@ -258,6 +262,44 @@ impl Compiler<'_> {
         self.checked(f, expected, what, CheckKind::Finite)
     }
 
+    /// A point of a spatial model: three coefficients, and its body's CG.
+    fn point3(
+        &mut self,
+        p: &PointRef,
+        what: &str,
+        cgs: &[Option<[usize; 3]>],
+    ) -> Option<SysPoint3> {
+        let c: Vec<Option<usize>> = p
+            .point
+            .iter()
+            .map(|f| self.constant(f, Dim::LENGTH, what))
+            .collect();
+        let body = self.body_of(p);
+        Some(SysPoint3 {
+            body,
+            p: [c[0]?, c[1]?, c[2]?],
+            cg: body.and_then(|k| cgs[k]),
+        })
+    }
+
+    /// A spatial axis (3 dimensionless coefficients), refused if zero.
+    fn axis3(&mut self, a: &[Field], what: &str) -> Option<[usize; 3]> {
+        let c: Vec<Option<usize>> = a
+            .iter()
+            .map(|f| self.constant(f, Dim::NONE, what))
+            .collect();
+        let c = [c[0]?, c[1]?, c[2]?];
+        if self.diags.is_empty() && c.iter().all(|&i| self.value_now(i) == 0.0) {
+            self.diags.push(
+                Diagnostic::new(format!("{what} is zero"))
+                    .at(a[0].span.start..a[2].span.end)
+                    .help("give a direction such as [1, 0, 0]"),
+            );
+            return None;
+        }
+        Some(c)
+    }
+
     fn point(&mut self, p: &PointRef, what: &str) -> Option<SysPoint> {
         let x = self.constant(&p.point[0], Dim::LENGTH, what);
         let y = self.constant(&p.point[1], Dim::LENGTH, what);
@@ -275,10 +317,7 @@ impl Compiler<'_> {
     }
 
     fn body_offset(&self, i: usize) -> usize {
-        self.model.bodies[..i]
-            .iter()
-            .map(|b| b.kind.coordinates().len())
-            .sum()
+        self.model.bodies[..i].iter().map(|b| b.coords.len()).sum()
     }
 
     /// The current value of a compiled coefficient expression.
@@ -300,6 +339,7 @@ impl Compiler<'_> {
         GroundMotion {
             x: component(&g.x, Dim::LENGTH, "the ground's x motion"),
             y: component(&g.y, Dim::LENGTH, "the ground's y motion"),
+            z: component(&g.z, Dim::LENGTH, "the ground's z motion"),
             theta: component(&g.theta, Dim::NONE, "the ground's theta motion"),
         }
     }
@@ -324,19 +364,51 @@ impl Compiler<'_> {
                 &format!("the mass of `{}`", b.name),
                 CheckKind::Positive,
             );
-            let inertia = self.checked(
-                &b.inertia,
-                Dim::INERTIA,
-                &format!("the inertia of `{}`", b.name),
-                CheckKind::Positive,
-            );
-            for (k, (c, d)) in b
-                .kind
-                .coordinates()
-                .iter()
-                .zip(b.kind.coordinate_dims())
-                .enumerate()
-            {
+            let inertia: Vec<Option<usize>> = if b.kind.is_spatial() {
+                let names = ["Ixx", "Iyy", "Izz", "Ixy", "Ixz", "Iyz"];
+                b.inertia
+                    .iter()
+                    .zip(names)
+                    .enumerate()
+                    .map(|(k, (f, n))| {
+                        let what = format!("the inertia {n} of `{}`", b.name);
+                        if k < 3 {
+                            self.checked(f, Dim::INERTIA, &what, CheckKind::NonNegative)
+                        } else {
+                            self.constant(f, Dim::INERTIA, &what)
+                        }
+                    })
+                    .collect()
+            } else {
+                vec![self.checked(
+                    &b.inertia[0],
+                    Dim::INERTIA,
+                    &format!("the inertia of `{}`", b.name),
+                    CheckKind::Positive,
+                )]
+            };
+            let cg: Option<Option<[usize; 3]>> = if b.kind.is_spatial() {
+                let c: Vec<Option<usize>> =
+                    b.cg.iter()
+                        .map(|f| self.constant(f, Dim::LENGTH, &format!("the CG of `{}`", b.name)))
+                        .collect();
+                c.into_iter()
+                    .collect::<Option<Vec<usize>>>()
+                    .map(|c| Some([c[0], c[1], c[2]]))
+            } else {
+                Some(None)
+            };
+            let mut points = Vec::new();
+            for (pname, p) in &b.points {
+                let c: Option<Vec<usize>> = p
+                    .iter()
+                    .map(|f| self.constant(f, Dim::LENGTH, &format!("point `{}.{pname}`", b.name)))
+                    .collect();
+                if let Some(c) = c {
+                    points.push((pname.clone(), c));
+                }
+            }
+            for (k, (c, d)) in b.coords.iter().zip(&b.dims).enumerate() {
                 let what = format!("`{}.{c}`", b.name);
                 coordinate_dims.push(*d);
                 // A guess may be undefined (NaN) for some parameters: assembly reports it.
@@ -365,24 +437,47 @@ impl Compiler<'_> {
                 }
                 initial.v.push(0.0);
             }
-            if let (Some(mass_coef), Some(inertia_coef)) = (mass, inertia) {
+            let inertia: Option<Vec<usize>> = inertia.into_iter().collect();
+            if let (Some(mass_coef), Some(inertia_coefs), Some(cg)) = (mass, inertia, cg) {
                 bodies.push(SysBody {
                     name: b.name.clone(),
-                    kind: b.kind,
+                    kind: b.kind.clone(),
                     offset: self.body_offset(i),
                     mass: f64::NAN,
                     inertia: f64::NAN,
+                    tensor: [f64::NAN; 6],
                     mass_coef,
-                    inertia_coef,
+                    inertia_coefs,
+                    cg,
+                    points,
                 });
             }
         }
+        let cgs: Vec<Option<[usize; 3]>> = bodies.iter().map(|b| b.cg).collect();
+        let zero = self.live.coef(Compiled::constant(0.0));
+        let one = self.live.coef(Compiled::constant(1.0));
+        let unit = UnitCoefs { zero, one };
         // Constraints.
         let mut constraints = Vec::new();
         let mut names = Vec::new();
+        let mut elements: Vec<String> = Vec::new();
         let ground = self.ground();
         let mut rheonomic = ground.is_moving();
         for j in model.joints.iter() {
+            if let JointKind::Spatial {
+                kind,
+                axis,
+                axis2,
+                length,
+            } = &j.kind
+            {
+                if let Some(joint) = self.joint3(j, *kind, axis, axis2, length, &cgs, unit) {
+                    names.extend(joint.row_names().iter().map(|r| format!("{}.{r}", j.name)));
+                    elements.push(j.name.clone());
+                    constraints.push(Constraint::Spatial(joint));
+                }
+                continue;
+            }
             let a = self.point(&j.p1, &format!("point1 of joint `{}`", j.name));
             let b = self.point(&j.p2, &format!("point2 of joint `{}`", j.name));
             let (Some(a), Some(b)) = (a, b) else { continue };
@@ -438,8 +533,10 @@ impl Compiler<'_> {
                     };
                     Joint::fixed(a, b, angle)
                 }
+                JointKind::Spatial { .. } => unreachable!("spatial joints are compiled above"),
             };
             names.extend(joint.row_names().iter().map(|r| format!("{}.{r}", j.name)));
+            elements.push(j.name.clone());
             constraints.push(Constraint::Joint(joint));
         }
         for c in model.constraints.iter() {
@@ -447,6 +544,7 @@ impl Compiler<'_> {
                 rheonomic |= e.depends_on_time();
                 constraints.push(Constraint::Custom(e));
                 names.push(c.name.clone());
+                elements.push(c.name.clone());
             }
         }
         // Forces.
@@ -455,10 +553,124 @@ impl Compiler<'_> {
         for f in model.forces.iter() {
             match &f.kind {
                 ForceKind::Gravity { acceleration } => {
-                    let gx = self.constant(&acceleration[0], Dim::ACCELERATION, "gravity");
-                    let gy = self.constant(&acceleration[1], Dim::ACCELERATION, "gravity");
-                    if let (Some(gx), Some(gy)) = (gx, gy) {
-                        gravity_coefs.push([gx, gy]);
+                    let g: Vec<Option<usize>> = acceleration
+                        .iter()
+                        .map(|f| self.constant(f, Dim::ACCELERATION, "gravity"))
+                        .collect();
+                    if let Some(g) = g.into_iter().collect::<Option<Vec<usize>>>() {
+                        gravity_coefs.push([g[0], g[1], g.get(2).copied().unwrap_or(zero)]);
+                    }
+                }
+                ForceKind::SpringDamper {
+                    p1,
+                    p2,
+                    stiffness,
+                    damping,
+                    free_length,
+                } if model.spatial => {
+                    let a = self.point3(p1, &format!("point1 of `{}`", f.name), &cgs);
+                    let b = self.point3(p2, &format!("point2 of `{}`", f.name), &cgs);
+                    let k = self.constant(stiffness, Dim::STIFFNESS, "the stiffness");
+                    let c = self.constant(damping, Dim::DAMPING, "the damping");
+                    let l0 = self.checked(
+                        free_length,
+                        Dim::LENGTH,
+                        "the free length",
+                        CheckKind::NonNegative,
+                    );
+                    if let (Some(a), Some(b), Some(k), Some(c), Some(l0)) = (a, b, k, c, l0) {
+                        forces.push(Force::Spatial(Force3::Spring { a, b, k, c, l0 }));
+                    }
+                }
+                ForceKind::PointForce { at, force } if model.spatial => {
+                    let p = self.point3(at, &format!("the point of `{}`", f.name), &cgs);
+                    let fs: Vec<Option<Compiled>> = force
+                        .iter()
+                        .map(|c| {
+                            self.check_dim(c, Dim::FORCE, "a force");
+                            self.compile_field(c, true, true)
+                        })
+                        .collect();
+                    if let (Some(at), Some(fs)) = (p, fs.into_iter().collect::<Option<Vec<_>>>()) {
+                        let [fx, fy, fz] = <[Compiled; 3]>::try_from(fs).ok()?;
+                        forces.push(Force::Spatial(Force3::Point {
+                            at,
+                            f: [fx, fy, fz],
+                        }));
+                    }
+                }
+                ForceKind::Torsion {
+                    body1,
+                    body2,
+                    axis,
+                    stiffness,
+                    damping,
+                    free_angle,
+                } => {
+                    let b1 = self.body_of(&PointRef {
+                        body: *body1,
+                        point: Vec::new(),
+                    });
+                    let b2 = self.body_of(&PointRef {
+                        body: *body2,
+                        point: Vec::new(),
+                    });
+                    if b1 == b2 {
+                        self.diags.push(
+                            Diagnostic::new(format!(
+                                "torsion `{}` acts between a body and itself",
+                                f.name
+                            ))
+                            .at(f.span.clone())
+                            .help("name two different bodies (or a body and \"ground\")"),
+                        );
+                        continue;
+                    }
+                    let ax = self.axis3(axis, &format!("the axis of `{}`", f.name));
+                    let k =
+                        self.constant(stiffness, Dim::ANGULAR_STIFFNESS, "the torsional stiffness");
+                    let c = self.constant(damping, Dim::ANGULAR_DAMPING, "the torsional damping");
+                    let free = self.constant(free_angle, Dim::NONE, "the free angle");
+                    if let (Some(ax), Some(k), Some(c), Some(free)) = (ax, k, c, free) {
+                        let frame = self.live.axis_frame(ax);
+                        forces.push(Force::Spatial(Force3::Torsion {
+                            b1,
+                            b2,
+                            frame,
+                            k,
+                            c,
+                            free,
+                        }));
+                    }
+                }
+                ForceKind::Torque { body, torque } => {
+                    let Some(b) = self.body_of(&PointRef {
+                        body: *body,
+                        point: Vec::new(),
+                    }) else {
+                        self.diags.push(
+                            Diagnostic::new(format!(
+                                "torque `{}` acts on the ground, so it does nothing",
+                                f.name
+                            ))
+                            .at(f.span.clone())
+                            .help("name the body it acts on in `body`"),
+                        );
+                        continue;
+                    };
+                    let ts: Vec<Option<Compiled>> = torque
+                        .iter()
+                        .map(|c| {
+                            self.check_dim(c, Dim::TORQUE, "a torque");
+                            self.compile_field(c, true, true)
+                        })
+                        .collect();
+                    if let Some(ts) = ts.into_iter().collect::<Option<Vec<_>>>() {
+                        let [tx, ty, tz] = <[Compiled; 3]>::try_from(ts).ok()?;
+                        forces.push(Force::Spatial(Force3::Torque {
+                            body: b,
+                            torque: [tx, ty, tz],
+                        }));
                     }
                 }
                 ForceKind::SpringDamper {
@@ -543,28 +755,32 @@ impl Compiler<'_> {
             .collect();
         let mut coord_body = Vec::with_capacity(n);
         for (k, b) in model.bodies.iter().enumerate() {
-            coord_body.extend((0..b.kind.coordinates().len()).map(|d| (k, d)));
+            coord_body.extend((0..b.coords.len()).map(|d| (k, d)));
         }
-        let mut blocks = Vec::with_capacity(constraints.len());
-        let (mut row0, mut val0) = (0, 0);
-        for c in &constraints {
-            let mut cols = c.coordinates();
-            for k in c.bodies() {
-                cols.extend(offsets[k]..offsets[k] + model.bodies[k].kind.coordinates().len());
-            }
-            cols.sort_unstable();
-            cols.dedup();
-            let rows = c.rows();
-            blocks.push(super::Block {
-                row0,
-                rows,
-                val0,
-                cols: cols.clone(),
-            });
-            row0 += rows;
-            val0 += rows * cols.len();
-        }
+        let geoms3: Vec<Geom3> = if model.spatial {
+            model
+                .bodies
+                .iter()
+                .zip(&offsets)
+                .map(|(b, &offset)| Geom3 {
+                    offset,
+                    axes: match &b.kind {
+                        BodyKind::Spatial { axes } => axes.clone(),
+                        BodyKind::Planar => Vec::new(),
+                    },
+                })
+                .collect()
+        } else {
+            Vec::new()
+        };
+        let nrot = geoms3.iter().map(|g| g.axes.len()).collect();
+        let trim = self.trim();
         let mut sys = System {
+            spatial: model.spatial,
+            geoms3,
+            nrot,
+            trim,
+            elements,
             coordinates: self.coordinates.clone(),
             coordinate_dims,
             constraint_names: names,
@@ -572,11 +788,11 @@ impl Compiler<'_> {
             offsets,
             coord_body,
             constraints,
-            blocks,
-            nvals: val0,
+            blocks: Vec::new(),
+            nvals: 0,
             forces,
             gravity_coefs,
-            gravity: [0.0, 0.0],
+            gravity: [0.0; 3],
             ground,
             mass_matrix: DMatrix::zeros(n, n),
             mass_inv_sqrt: DMatrix::zeros(n, n),
@@ -594,7 +810,269 @@ impl Compiler<'_> {
             overrides,
         };
         sys.refresh();
+        sys.layout();
+        if sys.spatial {
+            sys.drop_identical_rows();
+        }
+        if let Some(d) = self.check_inertia(&sys) {
+            self.diags.push(d);
+            return None;
+        }
         Some(sys)
+    }
+
+    /// `[trim]` as indices; off (with the parameter that turned it off) when a solved
+    /// parameter is given with `--set`.
+    fn trim(&self) -> Option<super::Trim> {
+        let t = self.model.trim.as_ref()?;
+        let params: Vec<usize> = t
+            .solve
+            .iter()
+            .filter_map(|(n, _)| self.model.parameters.index(n))
+            .collect();
+        let coords: Vec<usize> = t
+            .hold
+            .iter()
+            .filter_map(|(n, _)| self.coordinates.iter().position(|c| c == n))
+            .collect();
+        let off = t
+            .solve
+            .iter()
+            .find(|(n, _)| self.model.overrides.iter().any(|(o, _)| o == n))
+            .map(|(n, _)| n.clone());
+        Some(super::Trim {
+            params,
+            coords,
+            off,
+        })
+    }
+
+    /// A spatial body's inertia tensor must be positive semi-definite with its principal
+    /// values obeying the triangle inequality, and its angles' mass matrix must be
+    /// positive definite at the initial guess (a zero principal value is allowed about an
+    /// axis the body's angles cannot turn about).
+    fn check_inertia(&self, sys: &System) -> Option<Diagnostic> {
+        for (b, mb) in sys.bodies.iter().zip(self.model.bodies.iter()) {
+            let BodyKind::Spatial { axes } = &b.kind else {
+                continue;
+            };
+            let t = super::spatial::tensor(b.tensor);
+            let m = nalgebra::Matrix3::from_fn(|i, j| t[i][j]);
+            let ev = m.symmetric_eigenvalues();
+            let (mut e0, mut e1, mut e2) = (ev[0], ev[1], ev[2]);
+            let scale = e0.abs().max(e1.abs()).max(e2.abs()).max(f64::MIN_POSITIVE);
+            let tol = 1e-12 * scale;
+            let mut sorted = [e0, e1, e2];
+            sorted.sort_by(f64::total_cmp);
+            [e0, e1, e2] = sorted;
+            let bad = if e0 < -tol {
+                Some(format!("has a negative principal value {e0:.6e} kg·m²"))
+            } else if axes.len() == 3 && e0 + e1 < e2 - tol {
+                // (a body with fewer angles may be an equivalent element: a gearbox's
+                // reflected inertia about its shaft exceeds any rigid body's; its other
+                // components do not enter the dynamics)
+                Some(format!(
+                    "violates the triangle inequality: principal values {e0:.6e}, {e1:.6e}, {e2:.6e} kg·m² (the two smaller must add up to at least the largest)"
+                ))
+            } else {
+                None
+            };
+            if let Some(why) = bad {
+                return Some(
+                    Diagnostic::new(format!("the inertia tensor of `{}` {why}", b.name))
+                        .at(mb.inertia_span.clone())
+                        .help("give the inertia about the CG in the body frame: principal values [Ixx, Iyy, Izz] or [Ixx, Iyy, Izz, Ixy, Ixz, Iyz]"),
+                );
+            }
+            let n = axes.len();
+            let g = &sys.geoms3[sys.bodies.iter().position(|x| x.name == b.name)?];
+            let mut q = sys.initial.q.clone();
+            for x in &mut q {
+                if !x.is_finite() {
+                    *x = 0.0;
+                }
+            }
+            let mut blk = [0.0; 9];
+            sys.rotational_mass(b, g, &q, &mut blk);
+            let mm = DMatrix::from_row_slice(n, n, &blk[..n * n]);
+            let ev = mm.symmetric_eigenvalues();
+            let (lo, hi) = ev.iter().fold((f64::INFINITY, 0.0f64), |(l, h), &x| {
+                (l.min(x), h.max(x.abs()))
+            });
+            if !(lo > 1e-12 * hi.max(f64::MIN_POSITIVE)) || hi == 0.0 {
+                return Some(
+                    Diagnostic::new(format!(
+                        "body `{}` has no inertia about an axis its angles turn about (the mass matrix of its angles has eigenvalue {lo:.3e} kg·m² at the initial pose)",
+                        b.name
+                    ))
+                    .at(mb.inertia_span.clone())
+                    .help("a zero principal value is allowed only about an axis the body cannot turn about: give that axis some inertia, or drop the angle from `rotation`"),
+                );
+            }
+        }
+        None
+    }
+
+    /// A spatial joint, its rows all kept (identical ones are dropped later).
+    #[allow(clippy::too_many_arguments)]
+    fn joint3(
+        &mut self,
+        j: &crate::model::Joint,
+        kind: SpatialJoint,
+        axis: &Option<Vec<Field>>,
+        axis2: &Option<Vec<Field>>,
+        length: &Option<Field>,
+        cgs: &[Option<[usize; 3]>],
+        unit: UnitCoefs,
+    ) -> Option<Joint3> {
+        if j.p1.body == j.p2.body {
+            let what = if j.p1.body == BodyRef::Ground {
+                "the ground to itself".to_string()
+            } else {
+                "a body to itself".to_string()
+            };
+            self.diags.push(
+                Diagnostic::new(format!("joint `{}` connects {what}", j.name))
+                    .at(j.span.clone())
+                    .help(
+                        "name two different bodies (or a body and \"ground\") in body1 and body2",
+                    ),
+            );
+            return None;
+        }
+        let a = self.point3(&j.p1, &format!("point1 of joint `{}`", j.name), cgs);
+        let b = self.point3(&j.p2, &format!("point2 of joint `{}`", j.name), cgs);
+        let f1 = match axis {
+            Some(ax) => Some(self.axis3(ax, &format!("the axis of joint `{}`", j.name))?),
+            None => None,
+        };
+        let f2 = match (axis2, f1) {
+            (Some(ax), _) => Some(self.axis3(ax, &format!("axis2 of joint `{}`", j.name))?),
+            (None, f1) => f1,
+        };
+        let len = match length {
+            Some(l) => Some(self.checked(
+                l,
+                Dim::LENGTH,
+                &format!("the length of joint `{}`", j.name),
+                CheckKind::Positive,
+            )?),
+            None => None,
+        };
+        let f1 = f1.map(|ax| self.live.axis_frame(ax));
+        let f2 = f2.map(|ax| self.live.axis_frame(ax));
+        Some(Joint3 {
+            kind,
+            a: a?,
+            b: b?,
+            f1,
+            f2,
+            length: len,
+            keep: (0..Joint3::all_rows(kind).len()).collect(),
+            unit,
+        })
+    }
+}
+
+impl System {
+    /// Constraint row names and the block of A of each constraint element, from the
+    /// elements' rows.
+    fn layout(&mut self) {
+        let mut blocks = Vec::with_capacity(self.constraints.len());
+        let mut names = Vec::new();
+        let (mut row0, mut val0) = (0, 0);
+        for (c, name) in self.constraints.iter().zip(&self.elements) {
+            let mut cols = c.coordinates();
+            for k in c.bodies() {
+                cols.extend(self.offsets[k]..self.offsets[k] + self.body_len(&self.bodies[k]));
+            }
+            cols.sort_unstable();
+            cols.dedup();
+            let rows = c.rows();
+            match c {
+                Constraint::Joint(j) => {
+                    names.extend(j.row_names().iter().map(|r| format!("{name}.{r}")))
+                }
+                Constraint::Spatial(j) => {
+                    names.extend(j.row_names().iter().map(|r| format!("{name}.{r}")))
+                }
+                Constraint::Custom(_) => names.push(name.clone()),
+            }
+            blocks.push(super::Block {
+                row0,
+                rows,
+                val0,
+                cols,
+            });
+            row0 += rows;
+            val0 += rows * blocks.last().map_or(0, |b: &super::Block| b.cols.len());
+        }
+        self.blocks = blocks;
+        self.nvals = val0;
+        self.constraint_names = names;
+    }
+
+    /// Drop the rows of spatial joints that the bodies' own coordinates satisfy
+    /// identically: zero, with a zero gradient, at several scattered poses and times (a
+    /// revolute between the ground and a body that only turns about its axis keeps its 3
+    /// position rows).
+    fn drop_identical_rows(&mut self) {
+        let n = self.nq();
+        let mut seed = 0x9e37_79b9_7f4a_7c15u64;
+        let mut rand = move || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            (seed >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
+        };
+        let samples: Vec<(Vec<f64>, f64)> = (0..4)
+            .map(|_| {
+                let q: Vec<f64> = (0..n)
+                    .map(|i| {
+                        if self.is_angle(i) {
+                            3.0 * rand()
+                        } else {
+                            rand()
+                        }
+                    })
+                    .collect();
+                (q, 0.37 + rand())
+            })
+            .collect();
+        let mut ws = super::Workspace::new(self);
+        let mut identical = vec![true; self.m()];
+        for (q, t) in &samples {
+            let phi = self.residual(q, *t);
+            self.jacobian_blocks(&mut ws, q, *t);
+            for b in &self.blocks {
+                let nc = b.cols.len();
+                for r in 0..b.rows {
+                    let row = &ws.vals[b.val0 + r * nc..b.val0 + (r + 1) * nc];
+                    let scale = 1.0 + row.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+                    if phi[b.row0 + r].abs() > 1e-12 * scale || row.iter().any(|x| x.abs() > 1e-12)
+                    {
+                        identical[b.row0 + r] = false;
+                    }
+                }
+            }
+        }
+        let mut changed = false;
+        for (c, b) in self.constraints.iter_mut().zip(&self.blocks) {
+            if let Constraint::Spatial(j) = c {
+                let keep: Vec<usize> = j
+                    .keep
+                    .iter()
+                    .enumerate()
+                    .filter(|(r, _)| !identical[b.row0 + r])
+                    .map(|(_, &k)| k)
+                    .collect();
+                changed |= keep.len() != j.keep.len();
+                j.keep = keep;
+            }
+        }
+        if changed {
+            self.layout();
+        }
     }
 }
 

@@ -17,6 +17,8 @@ pub enum Force {
     },
     /// World-frame force at a point.
     Point { at: SysPoint, f: [Compiled; 2] },
+    /// A force of a spatial model.
+    Spatial(super::spatial::Force3),
 }
 
 impl Force {
@@ -45,6 +47,7 @@ impl Force {
                 let fy = f[1].eval_in(fr.q, t, fr.env);
                 fr.apply(at, [fx, fy], out);
             }
+            Force::Spatial(f) => f.add(fr, v, t, out),
         }
     }
 
@@ -53,6 +56,7 @@ impl Force {
         match self {
             Force::Point { f, .. } => f.iter().any(|c| c.depends_on_time()),
             Force::Spring { .. } => false,
+            Force::Spatial(f) => f.depends_on_time(),
         }
     }
 
@@ -66,6 +70,7 @@ impl Force {
                 0.5 * fr.env.coef(*k) * (len - fr.env.coef(*l0)).powi(2)
             }
             Force::Point { .. } => 0.0,
+            Force::Spatial(f) => f.potential(fr),
         }
     }
 }

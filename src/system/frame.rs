@@ -5,6 +5,7 @@
 //! the ground (evaluated once per evaluation of Φ or f, at time t) and reads each body's
 //! pose from q. Planar bodies have `q = (x, y, θ)` of the centre of gravity.
 
+use super::spatial::{Geom3, Pose3};
 use crate::model::expr::Compiled;
 use crate::scalar::{Env, Scalar};
 use num_dual::Dual;
@@ -23,13 +24,15 @@ pub struct SysPoint {
 pub struct GroundMotion {
     pub x: Option<Compiled>,
     pub y: Option<Compiled>,
+    /// Spatial models.
+    pub z: Option<Compiled>,
     pub theta: Option<Compiled>,
 }
 
 impl GroundMotion {
     /// Whether the ground moves at all.
     pub fn is_moving(&self) -> bool {
-        self.x.is_some() || self.y.is_some() || self.theta.is_some()
+        self.x.is_some() || self.y.is_some() || self.z.is_some() || self.theta.is_some()
     }
 
     fn component<D: Scalar, E: Env<D>>(c: &Option<Compiled>, t: D, env: E) -> (D, D) {
@@ -67,10 +70,12 @@ impl<D: Scalar, E: Env<D>> Env<Dual<D>> for Lifted<E> {
 /// velocity ṙ and angular velocity ω.
 #[derive(Debug, Clone, Copy)]
 pub struct GroundPose<D> {
-    r: [D; 2],
+    /// Position of the ground origin (planar models: z = 0).
+    pub r: [D; 3],
     theta: D,
     sc: Option<(D, D)>,
-    vel: [D; 2],
+    /// Velocity of the ground origin.
+    pub vel: [D; 3],
     omega: D,
 }
 
@@ -79,17 +84,21 @@ impl<D: Scalar> GroundPose<D> {
     pub fn fixed() -> Self {
         let z = D::from(0.0);
         GroundPose {
-            r: [z, z],
+            r: [z, z, z],
             theta: z,
             sc: None,
-            vel: [z, z],
+            vel: [z, z, z],
             omega: z,
         }
     }
 
-    /// Position of the ground origin, its velocity and angular velocity.
+    /// Position of the ground origin, its velocity and angular velocity (planar).
     pub fn motion(&self) -> ([D; 2], [D; 2], D) {
-        (self.r, self.vel, self.omega)
+        (
+            [self.r[0], self.r[1]],
+            [self.vel[0], self.vel[1]],
+            self.omega,
+        )
     }
 
     /// The ground of `motion` at time t.
@@ -99,13 +108,14 @@ impl<D: Scalar> GroundPose<D> {
         }
         let (x, vx) = GroundMotion::component(&motion.x, t, env);
         let (y, vy) = GroundMotion::component(&motion.y, t, env);
+        let (z, vz) = GroundMotion::component(&motion.z, t, env);
         let (theta, omega) = GroundMotion::component(&motion.theta, t, env);
         let sc = motion.theta.as_ref().map(|_| theta.sin_cos());
         GroundPose {
-            r: [x, y],
+            r: [x, y, z],
             theta,
             sc,
-            vel: [vx, vy],
+            vel: [vx, vy, vz],
             omega,
         }
     }
@@ -216,12 +226,33 @@ pub fn with_poses<D: Scalar, R>(q: &[D], offsets: &[usize], f: impl FnOnce(&[Pos
     }
 }
 
+/// [`with_poses`] for spatial bodies.
+#[inline]
+pub fn with_poses3<D: Scalar, R>(q: &[D], geoms: &[Geom3], f: impl FnOnce(&[Pose3<D>]) -> R) -> R {
+    let nb = geoms.len();
+    if nb <= INLINE_BODIES {
+        let mut buf = [Pose3::zero(); INLINE_BODIES];
+        for (p, g) in buf.iter_mut().zip(geoms) {
+            *p = Pose3::from_q(q, g);
+        }
+        f(&buf[..nb])
+    } else {
+        let poses: Vec<Pose3<D>> = geoms.iter().map(|g| Pose3::from_q(q, g)).collect();
+        f(&poses)
+    }
+}
+
 /// The frames of one evaluation: body poses, the ground's pose, the coordinates (for
 /// custom expressions) and where parameters come from.
 #[derive(Clone, Copy)]
 pub struct Frames<'a, D, E> {
     pub q: &'a [D],
+    /// Planar bodies' poses (empty in spatial models).
     pub poses: &'a [Pose<D>],
+    /// Spatial bodies' poses (empty in planar models).
+    pub poses3: &'a [Pose3<D>],
+    /// Number of angles of each spatial body.
+    pub nrot: &'a [usize],
     /// Coordinate offset of each body (for generalized forces).
     pub offsets: &'a [usize],
     pub ground: GroundPose<D>,
@@ -266,7 +297,7 @@ impl<D: Scalar, E: Env<D>> Frames<'_, D, E> {
     pub fn position(&self, pt: &SysPoint) -> [D; 2] {
         let r = match pt.body {
             Some(k) => self.poses[k].r,
-            None => self.ground.r,
+            None => [self.ground.r[0], self.ground.r[1]],
         };
         let e = self.env;
         let p = pt.p;
@@ -288,7 +319,7 @@ impl<D: Scalar, E: Env<D>> Frames<'_, D, E> {
                 let o = self.offsets[k];
                 ([v[o], v[o + 1]], v[o + 2])
             }
-            None => (self.ground.vel, self.ground.omega),
+            None => ([self.ground.vel[0], self.ground.vel[1]], self.ground.omega),
         };
         [vel[0] - w * r[1], vel[1] + w * r[0]]
     }

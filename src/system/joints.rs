@@ -119,6 +119,7 @@ impl Joint {
 #[derive(Debug, Clone)]
 pub enum Constraint {
     Joint(Joint),
+    Spatial(super::spatial::Joint3),
     Custom(Compiled),
 }
 
@@ -128,6 +129,7 @@ impl Constraint {
     pub fn bodies(&self) -> Vec<usize> {
         match self {
             Constraint::Joint(j) => [j.a.body, j.b.body].into_iter().flatten().collect(),
+            Constraint::Spatial(j) => [j.a.body, j.b.body].into_iter().flatten().collect(),
             Constraint::Custom(_) => Vec::new(),
         }
     }
@@ -135,7 +137,7 @@ impl Constraint {
     /// The coordinates a custom constraint reads, sorted, without repeats.
     pub fn coordinates(&self) -> Vec<usize> {
         match self {
-            Constraint::Joint(_) => Vec::new(),
+            Constraint::Joint(_) | Constraint::Spatial(_) => Vec::new(),
             Constraint::Custom(e) => {
                 let mut c: Vec<usize> = e.coordinates().collect();
                 c.sort_unstable();
@@ -148,6 +150,7 @@ impl Constraint {
     pub fn rows(&self) -> usize {
         match self {
             Constraint::Joint(j) => j.rows(),
+            Constraint::Spatial(j) => j.rows(),
             Constraint::Custom(_) => 1,
         }
     }
@@ -156,6 +159,7 @@ impl Constraint {
     pub fn phi<D: Scalar, E: Env<D>>(&self, fr: &Frames<'_, D, E>, t: D, out: &mut [D]) {
         match self {
             Constraint::Joint(j) => j.phi(fr, out),
+            Constraint::Spatial(j) => j.phi(fr, out),
             Constraint::Custom(e) => out[0] = e.eval_in(fr.q, t, fr.env),
         }
     }

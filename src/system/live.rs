@@ -53,6 +53,9 @@ pub struct Live {
     /// Unit normals derived from axis coefficients: (axis, normal) = ([ax, ay], [nx, ny]),
     /// n = (−ay, ax)/|a|.
     normals: Vec<([usize; 2], [usize; 2])>,
+    /// Orthonormal frames derived from spatial axes: (axis, [a, u, w]) with a the unit
+    /// axis, u ⟂ a (from the coordinate axis least aligned with a) and w = a × u.
+    frames: Vec<([usize; 3], [[usize; 3]; 3])>,
     /// Current value of each coefficient.
     pub coefs: Vec<f64>,
     pub checks: Vec<Check>,
@@ -104,6 +107,18 @@ impl Live {
         [nx, ny]
     }
 
+    /// Add the orthonormal frame (a, u, w) of a spatial axis: nine coefficients.
+    pub fn axis_frame(&mut self, axis: [usize; 3]) -> [[usize; 3]; 3] {
+        let mut f = [[0; 3]; 3];
+        for v in &mut f {
+            for c in v.iter_mut() {
+                *c = self.coef(Compiled::constant(f64::NAN));
+            }
+        }
+        self.frames.push((axis, f));
+        f
+    }
+
     /// Parameters and coefficients in type D, every parameter lifted by `lift`, with
     /// parameter `free` (if any) held at its lifted value instead of following its
     /// definition.
@@ -149,6 +164,35 @@ impl Live {
             let len = (ax * ax + ay * ay).sqrt();
             c[n[0]] = -ay / len;
             c[n[1]] = ax / len;
+        }
+        for (a, f) in &self.frames {
+            let v = [c[a[0]], c[a[1]], c[a[2]]];
+            let len = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+            let a = [v[0] / len, v[1] / len, v[2] / len];
+            // the coordinate axis least aligned with a
+            let k = (0..3)
+                .min_by(|&i, &j| a[i].re().abs().total_cmp(&a[j].re().abs()))
+                .unwrap_or(0);
+            let mut u = [D::from(0.0); 3];
+            u[k] = D::from(1.0);
+            let d = a[k];
+            for i in 0..3 {
+                u[i] -= d * a[i];
+            }
+            let ul = (u[0] * u[0] + u[1] * u[1] + u[2] * u[2]).sqrt();
+            for x in &mut u {
+                *x /= ul;
+            }
+            let w = [
+                a[1] * u[2] - a[2] * u[1],
+                a[2] * u[0] - a[0] * u[2],
+                a[0] * u[1] - a[1] * u[0],
+            ];
+            for (idx, vals) in f.iter().zip([a, u, w]) {
+                for (i, x) in idx.iter().zip(vals) {
+                    c[*i] = x;
+                }
+            }
         }
         (p, c)
     }

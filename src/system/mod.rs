@@ -23,14 +23,16 @@ pub mod forces;
 pub mod frame;
 pub mod joints;
 pub mod live;
+pub mod spatial;
 
 use crate::diag::{Error, Result, SourceFile};
 use crate::model::BodyKind;
 use crate::model::units::Dim;
 use crate::scalar::{Env, Plain, Scalar};
-use frame::{Frames, GroundMotion, GroundPose, Pose, with_poses};
+use frame::{Frames, GroundMotion, GroundPose, Pose, with_poses, with_poses3};
 use nalgebra::{DMatrix, DVector};
 use num_dual::{Dual2_64, Dual64};
+use spatial::{Geom3, Pose3};
 
 /// A compiled body.
 #[derive(Debug, Clone)]
@@ -41,11 +43,18 @@ pub struct SysBody {
     pub offset: usize,
     /// kg (current value).
     pub mass: f64,
-    /// Centroidal moment of inertia, kg·m² (current value).
+    /// Centroidal moment of inertia, kg·m² (current value; planar bodies).
     pub inertia: f64,
-    /// Coefficient indices of mass and inertia.
+    /// Spatial bodies: the inertia tensor about the CG in the body frame, `Ixx, Iyy, Izz,
+    /// Ixy, Ixz, Iyz` (kg·m², current values).
+    pub tensor: [f64; 6],
+    /// Coefficient indices of mass and inertia (planar: 1, spatial: 6).
     mass_coef: usize,
-    inertia_coef: usize,
+    inertia_coefs: Vec<usize>,
+    /// Spatial bodies: the CG in the body frame (coefficients).
+    pub cg: Option<[usize; 3]>,
+    /// Named points (body frame from the frame's origin; coefficients).
+    pub points: Vec<(String, Vec<usize>)>,
 }
 
 /// The rows of one constraint element and the coordinates (columns of A) it depends
@@ -60,6 +69,15 @@ pub struct Block {
     pub cols: Vec<usize>,
     /// Index of the block's first value in the values (row-major, rows × cols).
     pub val0: usize,
+}
+
+/// Parameters solved so that held coordinates are a static equilibrium (`[trim]`).
+#[derive(Debug, Clone)]
+pub struct Trim {
+    pub params: Vec<usize>,
+    pub coords: Vec<usize>,
+    /// The parameter given with `--set` that turned the trim off, if any.
+    pub off: Option<String>,
 }
 
 /// The initial state as the model gives it (before assembly).
@@ -94,10 +112,20 @@ pub struct System {
     /// Number of values of A stored by blocks.
     nvals: usize,
     forces: Vec<forces::Force>,
-    /// Gravity entries (coefficient pairs, m/s²), summed.
-    gravity_coefs: Vec<[usize; 2]>,
-    /// Gravitational acceleration, m/s² (current value).
-    pub gravity: [f64; 2],
+    /// Gravity entries (coefficients, m/s²; planar: the third is 0), summed.
+    gravity_coefs: Vec<[usize; 3]>,
+    /// Gravitational acceleration, m/s² (current value; planar: z = 0).
+    pub gravity: [f64; 3],
+    /// Whether the model is spatial.
+    pub spatial: bool,
+    /// Parameters solved for a datum (`[trim]`).
+    pub trim: Option<Trim>,
+    /// The name of each constraint element (joint or custom constraint).
+    elements: Vec<String>,
+    /// Spatial bodies' rotation sequences (empty in planar models).
+    geoms3: Vec<Geom3>,
+    /// Spatial bodies' number of angles (empty in planar models).
+    nrot: Vec<usize>,
     /// The ground's prescribed motion (none: fixed).
     pub ground: GroundMotion,
     /// Mass matrix M (n × n), constant for planar bodies.
@@ -132,6 +160,9 @@ pub struct Workspace {
     pose_f: Vec<Pose<f64>>,
     pose_d: Vec<Pose<Dual64>>,
     pose_2: Vec<Pose<Dual2_64>>,
+    pose3_f: Vec<Pose3<f64>>,
+    pose3_d: Vec<Pose3<Dual64>>,
+    pose3_2: Vec<Pose3<Dual2_64>>,
     /// The values of A by blocks (see [`System::blocks`]).
     pub vals: Vec<f64>,
 }
@@ -141,14 +172,18 @@ impl Workspace {
         let n = sys.n();
         let m = sys.m();
         let nb = sys.offsets.len();
+        let nb3 = sys.geoms3.len();
         Workspace {
+            pose3_f: vec![Pose3::zero(); nb3],
+            pose3_d: vec![Pose3::zero(); nb3],
+            pose3_2: vec![Pose3::zero(); nb3],
             qd: vec![Dual64::from(0.0); n],
             phid: vec![Dual64::from(0.0); m],
             q2: vec![Dual2_64::from(0.0); n],
             phi2: vec![Dual2_64::from(0.0); m],
-            pose_f: vec![Pose::zero(); nb],
-            pose_d: vec![Pose::zero(); nb],
-            pose_2: vec![Pose::zero(); nb],
+            pose_f: vec![Pose::zero(); nb - nb3.min(nb)],
+            pose_d: vec![Pose::zero(); nb - nb3.min(nb)],
+            pose_2: vec![Pose::zero(); nb - nb3.min(nb)],
             vals: vec![0.0; sys.nvals],
         }
     }
@@ -183,8 +218,8 @@ impl System {
     pub fn retract(&self, q: &mut [f64], delta: &[f64], s: f64) {
         for b in &self.bodies {
             match b.kind {
-                BodyKind::Planar => {
-                    for i in b.offset..b.offset + 3 {
+                BodyKind::Planar | BodyKind::Spatial { .. } => {
+                    for i in b.offset..b.offset + self.body_len(b) {
                         q[i] += s * delta[i];
                     }
                 }
@@ -196,8 +231,8 @@ impl System {
     pub fn difference(&self, q1: &[f64], q0: &[f64], out: &mut [f64]) {
         for b in &self.bodies {
             match b.kind {
-                BodyKind::Planar => {
-                    for i in b.offset..b.offset + 3 {
+                BodyKind::Planar | BodyKind::Spatial { .. } => {
+                    for i in b.offset..b.offset + self.body_len(b) {
                         out[i] = q1[i] - q0[i];
                     }
                 }
@@ -209,11 +244,25 @@ impl System {
     pub fn qdot(&self, _q: &[f64], v: &[f64], out: &mut [f64]) {
         for b in &self.bodies {
             match b.kind {
-                BodyKind::Planar => {
-                    out[b.offset..b.offset + 3].copy_from_slice(&v[b.offset..b.offset + 3]);
+                BodyKind::Planar | BodyKind::Spatial { .. } => {
+                    let r = b.offset..b.offset + self.body_len(b);
+                    out[r.clone()].copy_from_slice(&v[r]);
                 }
             }
         }
+    }
+
+    /// Number of coordinates of a body.
+    fn body_len(&self, b: &SysBody) -> usize {
+        match &b.kind {
+            BodyKind::Planar => 3,
+            BodyKind::Spatial { axes } => 3 + axes.len(),
+        }
+    }
+
+    /// The spatial bodies' rotation sequences (empty in planar models).
+    pub fn geoms3(&self) -> &[Geom3] {
+        &self.geoms3
     }
 
     /// Index of a coordinate by name.
@@ -314,18 +363,40 @@ impl System {
         let mut mdiag = DVector::zeros(n);
         for b in &mut self.bodies {
             b.mass = c[b.mass_coef];
-            b.inertia = c[b.inertia_coef];
-            mdiag[b.offset] = b.mass;
-            mdiag[b.offset + 1] = b.mass;
-            mdiag[b.offset + 2] = b.inertia;
+            match &b.kind {
+                BodyKind::Planar => {
+                    b.inertia = c[b.inertia_coefs[0]];
+                    mdiag[b.offset] = b.mass;
+                    mdiag[b.offset + 1] = b.mass;
+                    mdiag[b.offset + 2] = b.inertia;
+                }
+                BodyKind::Spatial { axes } => {
+                    for (k, &i) in b.inertia_coefs.iter().enumerate() {
+                        b.tensor[k] = c[i];
+                    }
+                    for i in 0..3 {
+                        mdiag[b.offset + i] = b.mass;
+                    }
+                    // the angles' mass depends on the pose: see `mass_matrix_at`; here
+                    // its value at zero angles
+                    let p = Pose3::from_parts([0.0; 3], &[0.0; 3][..axes.len()], axes);
+                    let na = axes.len();
+                    let mut m = [0.0; 9];
+                    spatial::rotational_mass(&p, na, &spatial::tensor(b.tensor), &mut m);
+                    for i in 0..na {
+                        mdiag[b.offset + 3 + i] = m[i * na + i];
+                    }
+                }
+            }
         }
         self.mass_inv_diag = mdiag.iter().map(|x| 1.0 / x).collect();
         self.mass_matrix = DMatrix::from_diagonal(&mdiag);
         self.mass_inv_sqrt = DMatrix::from_diagonal(&mdiag.map(|x| 1.0 / x.sqrt()));
-        self.gravity = [0.0, 0.0];
+        self.gravity = [0.0, 0.0, 0.0];
         for g in &self.gravity_coefs {
-            self.gravity[0] += c[g[0]];
-            self.gravity[1] += c[g[1]];
+            for k in 0..3 {
+                self.gravity[k] += c[g[k]];
+            }
         }
         for (k, &i) in self.initial_coefs.iter().enumerate() {
             self.initial.q[k] = c[i];
@@ -353,10 +424,25 @@ impl System {
         f: impl FnOnce(&Frames<'_, D, E>) -> R,
     ) -> R {
         let ground = GroundPose::at(&self.ground, t, env);
+        if self.spatial {
+            return with_poses3(q, &self.geoms3, |poses3| {
+                f(&Frames {
+                    q,
+                    poses: &[],
+                    poses3,
+                    nrot: &self.nrot,
+                    offsets: &self.offsets,
+                    ground,
+                    env,
+                })
+            });
+        }
         with_poses(q, &self.offsets, |poses| {
             f(&Frames {
                 q,
                 poses,
+                poses3: &[],
+                nrot: &[],
                 offsets: &self.offsets,
                 ground,
                 env,
@@ -389,6 +475,12 @@ impl System {
 
     /// Every body's pose at q into the workspace (once per right-hand side).
     fn poses_into(&self, ws: &mut Workspace, q: &[f64]) {
+        if self.spatial {
+            for (k, g) in self.geoms3.iter().enumerate() {
+                ws.pose3_f[k] = Pose3::from_q(q, g);
+            }
+            return;
+        }
         for (k, &o) in self.offsets.iter().enumerate() {
             ws.pose_f[k] = Pose::planar(q, o);
         }
@@ -396,6 +488,9 @@ impl System {
 
     /// [`System::jacobian_blocks`] with the poses already in the workspace.
     fn jacobian_posed(&self, ws: &mut Workspace, q: &[f64], t: f64) {
+        if self.spatial {
+            return self.jacobian_posed3(ws, q, t);
+        }
         let env = self.env();
         for k in 0..self.offsets.len() {
             ws.pose_d[k] = ws.pose_f[k].lift();
@@ -414,6 +509,8 @@ impl System {
                 let fr = Frames {
                     q: &ws.qd,
                     poses: &ws.pose_d,
+                    poses3: &[],
+                    nrot: &[],
                     offsets: &self.offsets,
                     ground,
                     env,
@@ -421,6 +518,43 @@ impl System {
                 c.phi(&fr, td, &mut ws.phid[..b.rows]);
                 ws.qd[j].eps = 0.0;
                 ws.pose_d[k] = ws.pose_f[k].lift();
+                for r in 0..b.rows {
+                    ws.vals[b.val0 + r * ncols + ci] = ws.phid[r].eps;
+                }
+            }
+        }
+    }
+
+    /// [`System::jacobian_posed`] for spatial bodies: the seeded pose of a column carries
+    /// ∂R/∂θ = [jw]× R, without evaluating sin and cos again.
+    fn jacobian_posed3(&self, ws: &mut Workspace, q: &[f64], t: f64) {
+        let env = self.env();
+        for k in 0..self.geoms3.len() {
+            ws.pose3_d[k] = ws.pose3_f[k].lift();
+        }
+        for (d, &x) in ws.qd.iter_mut().zip(q) {
+            *d = Dual64::from(x);
+        }
+        let td = Dual64::from(t);
+        let ground = GroundPose::at(&self.ground, td, env);
+        for (c, b) in self.constraints.iter().zip(&self.blocks) {
+            let ncols = b.cols.len();
+            for (ci, &j) in b.cols.iter().enumerate() {
+                let (k, d) = self.coord_body[j];
+                ws.pose3_d[k] = ws.pose3_f[k].seeded(d);
+                ws.qd[j].eps = 1.0;
+                let fr = Frames {
+                    q: &ws.qd,
+                    poses: &[],
+                    poses3: &ws.pose3_d,
+                    nrot: &self.nrot,
+                    offsets: &self.offsets,
+                    ground,
+                    env,
+                };
+                c.phi(&fr, td, &mut ws.phid[..b.rows]);
+                ws.qd[j].eps = 0.0;
+                ws.pose3_d[k] = ws.pose3_f[k].lift();
                 for r in 0..b.rows {
                     ws.vals[b.val0 + r * ncols + ci] = ws.phid[r].eps;
                 }
@@ -481,14 +615,22 @@ impl System {
         for ((d, &x), &dx) in ws.q2.iter_mut().zip(q).zip(v) {
             *d = Dual2_64::new(x, dx, 0.0);
         }
-        for (k, &o) in self.offsets.iter().enumerate() {
-            ws.pose_2[k] = ws.pose_f[k].along(v, o);
+        if self.spatial {
+            for (k, g) in self.geoms3.iter().enumerate() {
+                ws.pose3_2[k] = Pose3::from_q(&ws.q2, g);
+            }
+        } else {
+            for (k, &o) in self.offsets.iter().enumerate() {
+                ws.pose_2[k] = ws.pose_f[k].along(v, o);
+            }
         }
         let env = self.env();
         let td = Dual2_64::new(t, 1.0, 0.0);
         let fr = Frames {
             q: &ws.q2,
             poses: &ws.pose_2,
+            poses3: &ws.pose3_2,
+            nrot: &self.nrot,
             offsets: &self.offsets,
             ground: GroundPose::at(&self.ground, td, env),
             env,
@@ -521,6 +663,8 @@ impl System {
             let fr = Frames {
                 q,
                 poses: &ws.pose_f,
+                poses3: &ws.pose3_f,
+                nrot: &self.nrot,
                 offsets: &self.offsets,
                 ground: GroundPose::at(&self.ground, t, env),
                 env,
@@ -529,6 +673,7 @@ impl System {
                 force.add(&fr, v, t, f);
             }
         }
+        self.velocity_forces_in(q, v, env, f);
         if self.m() == 0 {
             return;
         }
@@ -541,16 +686,43 @@ impl System {
     fn gravity_in<D: Scalar, E: Env<D>>(&self, env: E, f: &mut [D]) {
         f.fill(D::from(0.0));
         if !self.gravity_coefs.is_empty() {
-            let mut g = [D::from(0.0), D::from(0.0)];
+            let mut g = [D::from(0.0); 3];
             for c in &self.gravity_coefs {
-                g[0] += env.coef(c[0]);
-                g[1] += env.coef(c[1]);
+                for k in 0..3 {
+                    g[k] += env.coef(c[k]);
+                }
             }
+            let dims = if self.spatial { 3 } else { 2 };
             for b in &self.bodies {
                 let m = env.coef(b.mass_coef);
-                f[b.offset] += m * g[0];
-                f[b.offset + 1] += m * g[1];
+                for k in 0..dims {
+                    f[b.offset + k] += m * g[k];
+                }
             }
+        }
+    }
+
+    /// Add the spatial bodies' velocity forces `∂T/∂θ − Ṁ θ̇` (see [`spatial`]).
+    #[inline]
+    fn velocity_forces_in<D: Scalar, E: Env<D>>(&self, q: &[D], v: &[D], env: E, f: &mut [D]) {
+        for (b, g) in self.bodies.iter().zip(&self.geoms3) {
+            let n = g.axes.len();
+            let o = g.offset + 3;
+            // quadratic in the rates: at rest it and its first derivatives vanish
+            if v[o..o + n].iter().all(|w| w.re() == 0.0) {
+                continue;
+            }
+            let mut i6 = [D::from(0.0); 6];
+            for (x, &c) in i6.iter_mut().zip(&b.inertia_coefs) {
+                *x = env.coef(c);
+            }
+            spatial::velocity_forces(
+                &g.axes,
+                &q[o..o + n],
+                &v[o..o + n],
+                &spatial::tensor(i6),
+                &mut f[o..o + n],
+            );
         }
     }
 
@@ -564,6 +736,7 @@ impl System {
     /// f(q, v, t) with parameters from `env`.
     pub fn forces_in<D: Scalar, E: Env<D>>(&self, q: &[D], v: &[D], t: D, env: E, f: &mut [D]) {
         self.gravity_in(env, f);
+        self.velocity_forces_in(q, v, env, f);
         if self.forces.is_empty() {
             return;
         }
@@ -594,6 +767,13 @@ impl System {
             return v;
         }
         let g = GroundPose::<f64>::at(&self.ground, t, self.env());
+        if self.spatial {
+            // the ground translates (it does not rotate in spatial models)
+            for b in &self.bodies {
+                v[b.offset..b.offset + 3].copy_from_slice(&g.vel);
+            }
+            return v;
+        }
         let (r, vel, w) = g.motion();
         for b in &self.bodies {
             let o = b.offset;
@@ -608,8 +788,11 @@ impl System {
     /// to a moving ground is taken with its anchor where the ground is at t).
     pub fn potential_energy(&self, q: &[f64], t: f64) -> f64 {
         let mut e = 0.0;
+        let dims = if self.spatial { 3 } else { 2 };
         for b in &self.bodies {
-            e -= b.mass * (self.gravity[0] * q[b.offset] + self.gravity[1] * q[b.offset + 1]);
+            for k in 0..dims {
+                e -= b.mass * self.gravity[k] * q[b.offset + k];
+            }
         }
         self.with_frames(q, t, self.env(), |fr| {
             for force in &self.forces {
@@ -619,9 +802,39 @@ impl System {
         e
     }
 
-    /// Kinetic energy ½ vᵀ M v, J.
-    pub fn kinetic_energy(&self, v: &[f64]) -> f64 {
+    /// Kinetic energy ½ vᵀ M(q) v, J.
+    pub fn kinetic_energy(&self, q: &[f64], v: &[f64]) -> f64 {
         let v = DVector::from_column_slice(v);
-        0.5 * (v.transpose() * &self.mass_matrix * &v)[(0, 0)]
+        0.5 * (v.transpose() * &self.mass_matrix_at(q) * &v)[(0, 0)]
+    }
+
+    /// The mass matrix M(q) (nv × nv): constant for planar bodies; for spatial bodies,
+    /// block-diagonal with the angles' block `J_bᵀ I J_b` at the pose.
+    pub fn mass_matrix_at(&self, q: &[f64]) -> DMatrix<f64> {
+        if !self.spatial {
+            return self.mass_matrix.clone();
+        }
+        let mut m = DMatrix::zeros(self.nv(), self.nv());
+        for (b, g) in self.bodies.iter().zip(&self.geoms3) {
+            for i in 0..3 {
+                m[(g.offset + i, g.offset + i)] = b.mass;
+            }
+            let n = g.axes.len();
+            let mut blk = [0.0; 9];
+            self.rotational_mass(b, g, q, &mut blk);
+            for i in 0..n {
+                for j in 0..n {
+                    m[(g.offset + 3 + i, g.offset + 3 + j)] = blk[i * n + j];
+                }
+            }
+        }
+        m
+    }
+
+    /// The mass matrix of a spatial body's angles at q (n × n row-major into `out`).
+    pub fn rotational_mass(&self, b: &SysBody, g: &Geom3, q: &[f64], out: &mut [f64]) {
+        let n = g.axes.len();
+        let p = Pose3::from_parts([0.0; 3], &q[g.offset + 3..g.offset + 3 + n], &g.axes);
+        spatial::rotational_mass(&p, n, &spatial::tensor(b.tensor), out);
     }
 }
