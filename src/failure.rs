@@ -84,6 +84,10 @@ pub enum Failure {
     #[error("no equilibrium found on the assembly branch of the initial pose")]
     NoEquilibriumOnBranch,
     #[error(
+        "the trim does not converge: no value of {params} makes the held pose a static equilibrium (residual {residual:.3e})"
+    )]
+    TrimFailed { params: String, residual: f64 },
+    #[error(
         "the linear system is singular at ω = {omega} rad/s (an undamped resonance: the response is unbounded)"
     )]
     UndampedResonance { omega: f64 },
@@ -125,6 +129,7 @@ impl Failure {
             SingularStart => "start away from it: change the coordinate the model fixes for assembly".into(),
             NoEquilibrium { .. } => "start closer to an equilibrium (another initial pose), or check that one exists for these loads".into(),
             UndefinedEquilibrium { .. } => "a load or a moving constraint is undefined there at some time of the forcing period (statics averages them over it): sqrt or ln of a negative number, or a division by zero".into(),
+            TrimFailed { .. } => "check that the solved parameters can balance the held pose (a stiffness of zero, or a load the parameter does not act on, cannot be trimmed), or fix their values".into(),
             NoEquilibriumOnBranch => "check the loads: the mechanism may have no static equilibrium (e.g. a force larger than any spring can hold)".into(),
             UndampedResonance { .. } => "add damping or step around that frequency".into(),
         }
@@ -182,6 +187,10 @@ mod tests {
                 pose: "b.x = 1".into(),
             },
             Failure::NoEquilibriumOnBranch,
+            Failure::TrimFailed {
+                params: "L0".into(),
+                residual: 1.0,
+            },
             Failure::UndefinedEquilibrium {
                 iterations: 0,
                 pose: "b.x = 1".into(),

@@ -24,6 +24,8 @@ impl ModelArgs {
         let overrides = parse_sets(&self.set)?;
         let model = model.with_overrides(&overrides)?;
         let sys = System::new(&model)?;
+        // parameters solved for a datum ([trim]) follow every other change
+        let (sys, _) = detune::statics::trim::trim(&sys)?;
         Ok((model, sys))
     }
 }

@@ -31,21 +31,44 @@ pub fn run(a: EquilibriumArgs) -> Result<()> {
     } else {
         vec![st.nearest(&start)?]
     };
+    let solved = sys.trim_solved();
+    let trim_off = sys
+        .trim_off()
+        .map(|p| format!("off: {p} is given with --set, so the held pose need not be an equilibrium"));
     if a.json {
+        let solved = solved.map(|v| v.into_iter().collect());
         let provenance = Provenance::of(&model);
         let json = |e| EquilibriumJson::new(&sys.coordinates, e);
         if a.all {
             print_json(&EquilibriaReport {
                 equilibria: list.iter().map(json).collect(),
+                solved,
+                trim: trim_off,
                 provenance: &provenance,
             });
         } else {
             print_json(&EquilibriumReport {
                 equilibrium: json(&list[0]),
+                solved,
+                trim: trim_off,
                 provenance: &provenance,
             });
         }
         return Ok(());
+    }
+    if let Some(v) = &solved {
+        for (name, value) in v {
+            let unit = model
+                .parameters
+                .index(name)
+                .and_then(|i| model.parameters.dims[i])
+                .map(|d| d.to_string())
+                .unwrap_or_default();
+            println!("solved by [trim]: {name} = {value:.12} {unit}");
+        }
+    }
+    if let Some(off) = &trim_off {
+        println!("trim {off}");
     }
     for (k, e) in list.iter().enumerate() {
         if a.all {

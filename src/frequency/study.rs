@@ -114,10 +114,10 @@ impl SweepStudy {
             }
             .into());
         }
-        // One compiled system per run.
+        // One compiled system per run, its trim solved for the run's parameters.
         let systems: Vec<System> = models
             .iter()
-            .map(|(_, m)| System::new(m))
+            .map(|(_, m)| System::new(m).and_then(|s| crate::statics::trim::trim(&s).map(|t| t.0)))
             .collect::<Result<_>>()?;
         let runs: Vec<StudyRun> = models
             .into_iter()

@@ -150,6 +150,12 @@ impl<'a> EquilibriumJson<'a> {
 pub struct EquilibriumReport<'a> {
     #[serde(flatten)]
     pub equilibrium: EquilibriumJson<'a>,
+    /// Parameters solved by the model's `[trim]` (SI), name → value.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub solved: Option<std::collections::BTreeMap<String, f64>>,
+    /// Why the model's `[trim]` is off (a solved parameter given by the user).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub trim: Option<String>,
     pub provenance: &'a Provenance,
 }
 
@@ -157,6 +163,10 @@ pub struct EquilibriumReport<'a> {
 #[derive(Debug, Clone, Serialize)]
 pub struct EquilibriaReport<'a> {
     pub equilibria: Vec<EquilibriumJson<'a>>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub solved: Option<std::collections::BTreeMap<String, f64>>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub trim: Option<String>,
     pub provenance: &'a Provenance,
 }
 

@@ -68,6 +68,9 @@ struct Family<'m> {
     /// The requested range of the parameter.
     lo: f64,
     hi: f64,
+    /// The model's `[trim]`, when it is on: its parameters are unknowns after the
+    /// multipliers in y, its held coordinates' values extra equations.
+    trim: Vec<(usize, usize, f64)>,
 }
 
 /// A corrected point: y = (x, p), with the data needed at it.
@@ -81,26 +84,44 @@ struct Pt {
 }
 
 impl Family<'_> {
-    fn system(&self, p: f64) -> Result<System> {
-        self.sys
+    /// The system at y: the parameter y[d] and the trim's parameters.
+    fn system(&self, y: &DVector<f64>) -> Result<System> {
+        let d = y.len() - 1;
+        let p = y[d];
+        let mut s = self
+            .sys
             .with_param(self.index, p)
-            .map_err(|e| e.context(&format!("continuation at {} = {p}", self.param)))
+            .map_err(|e| e.context(&format!("continuation at {} = {p}", self.param)))?;
+        let nr = self.n + self.rows.len();
+        for (k, &(_, param, _)) in self.trim.iter().enumerate() {
+            s.set_param(param, y[nr + k])
+                .map_err(|e| e.context(&format!("continuation at {} = {p}", self.param)))?;
+        }
+        Ok(s)
     }
 
     /// H, [J_x H_p], det J_x.
     fn linearize(&self, y: &DVector<f64>) -> Result<(DVector<f64>, DMatrix<f64>, f64)> {
         let d = y.len() - 1;
-        let p = y[d];
-        let x = &y.as_slice()[..d];
-        let sys = self.system(p)?;
+        let nr = self.n + self.rows.len();
+        let x = &y.as_slice()[..nr];
+        let sys = self.system(y)?;
         let st = Statics::with_rows(&sys, self.rows.clone())?;
-        let (h, ar) = st.residual_rows(x);
+        let (h0, ar) = st.residual_rows(x);
         let jx = st.kkt_jacobian_with(x, &ar);
         let hp = st.residual_dp(x, self.index);
-        let det = jx.determinant();
+        let mut h = DVector::zeros(d);
+        h.rows_mut(0, nr).copy_from(&h0);
         let mut j = DMatrix::zeros(d, d + 1);
-        j.view_mut((0, 0), (d, d)).copy_from(&jx);
-        j.set_column(d, &hp);
+        j.view_mut((0, 0), (nr, nr)).copy_from(&jx);
+        for (k, &(coord, param, held)) in self.trim.iter().enumerate() {
+            h[nr + k] = y[coord] - held;
+            j.view_mut((0, nr + k), (nr, 1))
+                .copy_from(&st.residual_dp(x, param));
+            j[(nr + k, coord)] = 1.0;
+        }
+        let det = j.view((0, 0), (d, d)).determinant();
+        j.view_mut((0, d), (nr, 1)).copy_from(&hp);
         Ok((h, j, det))
     }
 
@@ -270,6 +291,23 @@ pub fn continue_equilibria(sys: &System, opts: &ContinuationOptions) -> Result<B
     let sys0 = sys
         .with_param(index, opts.from)
         .map_err(|e| e.context(&format!("continuation at {} = {}", opts.param, opts.from)))?;
+    // The model's trim follows the parameter (unless it is the parameter continued).
+    let trim: Vec<(usize, usize, f64)> = match &sys.trim {
+        Some(t) if t.off.is_none() && !t.params.contains(&index) => t
+            .coords
+            .iter()
+            .zip(&t.params)
+            .map(|(&c, &p)| (c, p, sys.initial.q[c]))
+            .collect(),
+        _ => Vec::new(),
+    };
+    let sys0 = if trim.is_empty() {
+        sys0
+    } else {
+        super::trim::trim(&sys0)
+            .map_err(|e| e.context(&format!("continuation at {} = {}", opts.param, opts.from)))?
+            .0
+    };
     let start = crate::dynamics::assemble(&sys0)?;
     let st0 = Statics::new(&sys0, &start.q)?;
     let eq = st0.nearest(&start)?;
@@ -283,6 +321,7 @@ pub fn continue_equilibria(sys: &System, opts: &ContinuationOptions) -> Result<B
         n,
         lo,
         hi,
+        trim: trim.clone(),
     };
     let scale = {
         let mut f = vec![0.0; n];
@@ -291,6 +330,7 @@ pub fn continue_equilibria(sys: &System, opts: &ContinuationOptions) -> Result<B
     };
     let mut y0: Vec<f64> = eq.q.clone();
     y0.extend(&eq.lambda);
+    y0.extend(trim.iter().map(|&(_, p, _)| sys0.param(p)));
     y0.push(opts.from);
     let y0 = DVector::from_vec(y0);
     let d = y0.len() - 1;
@@ -302,9 +342,10 @@ pub fn continue_equilibria(sys: &System, opts: &ContinuationOptions) -> Result<B
         det: det0,
     };
     let stability = |y: &DVector<f64>| -> Result<bool> {
-        let sys = fam.system(y[d])?;
+        let sys = fam.system(y)?;
         let st = Statics::with_rows(&sys, fam.rows.clone())?;
-        Ok(st.stability(&y.as_slice()[..n], &y.as_slice()[n..d]).0)
+        let nr = n + fam.rows.len();
+        Ok(st.stability(&y.as_slice()[..n], &y.as_slice()[n..nr]).0)
     };
     let point = |pt: &Pt| -> Result<BranchPoint> {
         Ok(BranchPoint {

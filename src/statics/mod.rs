@@ -21,6 +21,7 @@
 //! crates do not support nalgebra 0.35 (see docs/performance.md and CRATES notes).
 
 pub mod continuation;
+pub mod trim;
 
 use crate::diag::{Error, Result};
 use crate::dynamics::{DynWorkspace, State};
@@ -440,7 +441,7 @@ impl<'a> Statics<'a> {
 
     /// Convergence thresholds: force rows relative to the load scale, constraint rows
     /// relative to the coordinates.
-    fn converged(&self, r: &DVector<f64>, x: &[f64], force_scale: f64) -> bool {
+    pub(crate) fn converged(&self, r: &DVector<f64>, x: &[f64], force_scale: f64) -> bool {
         let n = self.sys.n();
         let qs = 1.0 + x[..n].iter().fold(0.0f64, |a, v| a.max(v.abs()));
         let fr = r.rows(0, n).amax();
@@ -448,11 +449,15 @@ impl<'a> Statics<'a> {
         fr <= 1e-11 * force_scale && cr <= 1e-13 * qs
     }
 
-    fn force_scale(&self, q: &[f64]) -> f64 {
+    pub(crate) fn force_scale(&self, q: &[f64]) -> f64 {
         let mut f = vec![0.0; self.sys.n()];
         self.static_force(q, &mut f);
         let g: f64 = self.sys.bodies.iter().map(|b| b.mass).sum::<f64>()
-            * self.sys.gravity[0].hypot(self.sys.gravity[1]);
+            * if self.sys.spatial {
+                self.sys.gravity.iter().map(|g| g * g).sum::<f64>().sqrt()
+            } else {
+                self.sys.gravity[0].hypot(self.sys.gravity[1])
+            };
         1.0 + f.iter().fold(g, |a, v| a.max(v.abs()))
     }
 

@@ -775,6 +775,12 @@ impl Compiler<'_> {
         };
         let nrot = geoms3.iter().map(|g| g.axes.len()).collect();
         let trim = self.trim();
+        if let Some(t) = trim.as_ref().filter(|t| t.off.is_none()) {
+            // the held coordinates are held while the pose is assembled
+            for &c in &t.coords {
+                initial.fixed[c] = true;
+            }
+        }
         let mut sys = System {
             spatial: model.spatial,
             geoms3,
@@ -844,6 +850,7 @@ impl Compiler<'_> {
             params,
             coords,
             off,
+            solved: false,
         })
     }
 

@@ -78,6 +78,9 @@ pub struct Trim {
     pub coords: Vec<usize>,
     /// The parameter given with `--set` that turned the trim off, if any.
     pub off: Option<String>,
+    /// Whether the solved parameters hold their trimmed values (set by
+    /// `statics::trim::trimmed`).
+    pub solved: bool,
 }
 
 /// The initial state as the model gives it (before assembly).
@@ -319,6 +322,22 @@ impl System {
     /// The forcing frequency's parameter index (`[model] forcing_frequency`).
     pub fn forcing_param(&self) -> Option<usize> {
         self.forcing
+    }
+
+    /// The `[trim]` parameters and their solved values, when the trim has been solved.
+    pub fn trim_solved(&self) -> Option<Vec<(String, f64)>> {
+        let t = self.trim.as_ref().filter(|t| t.solved && t.off.is_none())?;
+        Some(
+            t.params
+                .iter()
+                .map(|&i| (self.live.names[i].clone(), self.live.values[i]))
+                .collect(),
+        )
+    }
+
+    /// The parameter given by the user that turned the `[trim]` off, if any.
+    pub fn trim_off(&self) -> Option<&str> {
+        self.trim.as_ref().and_then(|t| t.off.as_deref())
     }
 
     /// Angular frequency of the harmonic forcing, rad/s (`[model] forcing_frequency`).
