@@ -32,9 +32,9 @@ pub fn run(a: EquilibriumArgs) -> Result<()> {
         vec![st.nearest(&start)?]
     };
     let solved = sys.trim_solved();
-    let trim_off = sys
-        .trim_off()
-        .map(|p| format!("off: {p} is given with --set, so the held pose need not be an equilibrium"));
+    let trim_off = sys.trim_off().map(|p| {
+        format!("off: {p} is given with --set, so the held pose need not be an equilibrium")
+    });
     if a.json {
         let solved = solved.map(|v| v.into_iter().collect());
         let provenance = Provenance::of(&model);

@@ -50,5 +50,13 @@ pub fn run(a: FrfArgs) -> Result<()> {
             println!("{w:10.5}  {}", cols.join("  "));
         }
     }
+    if !a.json {
+        for p in &fr.peaks {
+            eprintln!(
+                "peak {}: {} = {:.6} ± {:.1e} rad/s, amplitude {:.6e}",
+                p.response, fr.param, p.omega, p.uncertainty, p.amplitude
+            );
+        }
+    }
     Ok(())
 }

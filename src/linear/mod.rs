@@ -97,7 +97,7 @@ impl From<Complex<f64>> for C64 {
 
 /// ∂f̄/∂v at rest (n × n), by dual numbers.
 fn velocity_jacobian(st: &Statics, q: &[f64]) -> DMatrix<f64> {
-    let sys = st.sys;
+    let sys: &System = &st.sys;
     let n = sys.n();
     let times = st.times();
     let qd: Vec<Dual64> = q.iter().map(|&x| Dual64::from(x)).collect();
@@ -451,6 +451,52 @@ pub struct FrequencyResponse {
     pub values: Vec<Vec<(f64, f64)>>,
     pub equilibrium: Equilibrium,
     pub coordinates: Vec<String>,
+    /// The interior local maxima of each response's amplitude on the grid, refined to the
+    /// maximum of the linear response between the neighbouring grid points.
+    pub peaks: Vec<LinearPeak>,
+}
+
+/// A maximum of a linear response's amplitude.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct LinearPeak {
+    pub response: String,
+    /// rad/s.
+    pub omega: f64,
+    /// SI (rad for an angle).
+    pub amplitude: f64,
+    /// rad/s: the final bracket of the refinement.
+    pub uncertainty: f64,
+}
+
+/// The maximum of `f` on [a, b] (unimodal there) by golden-section search to `tol`:
+/// (argument, value, final half-width).
+fn golden_max(
+    mut f: impl FnMut(f64) -> Result<f64>,
+    mut a: f64,
+    mut b: f64,
+    tol: f64,
+) -> Result<(f64, f64, f64)> {
+    let g = (5f64.sqrt() - 1.0) / 2.0;
+    let mut c = b - g * (b - a);
+    let mut d = a + g * (b - a);
+    let (mut fc, mut fd) = (f(c)?, f(d)?);
+    while (b - a) > tol {
+        if fc >= fd {
+            b = d;
+            d = c;
+            fd = fc;
+            c = b - g * (b - a);
+            fc = f(c)?;
+        } else {
+            a = c;
+            c = d;
+            fc = fd;
+            d = a + g * (b - a);
+            fd = f(d)?;
+        }
+    }
+    let (x, v) = if fc >= fd { (c, fc) } else { (d, fd) };
+    Ok((x, v, (b - a) / 2.0))
 }
 
 /// The steady harmonic response of the linearized system about the equilibrium nearest
@@ -478,8 +524,31 @@ pub fn frequency_response(
         out.push(
             idx.iter()
                 .map(|&i| (y[i].norm(), y[i].arg().to_degrees()))
-                .collect(),
+                .collect::<Vec<_>>(),
         );
+    }
+    let mut peaks = Vec::new();
+    for (r, &i) in idx.iter().enumerate() {
+        let a: Vec<f64> = out.iter().map(|row: &Vec<(f64, f64)>| row[r].0).collect();
+        for k in 1..a.len().saturating_sub(1) {
+            if !(a[k] > a[k - 1] && a[k] >= a[k + 1]) {
+                continue;
+            }
+            let amp = |w: f64| -> Result<f64> {
+                at.set_param(index, w)?;
+                let forcing = harmonic_forcing(&at, &modal.equilibrium, &rows, param, w)?;
+                Ok(modal.linearization.response(w, &forcing)?[i].norm())
+            };
+            let (lo, hi) = (values[k - 1], values[k + 1]);
+            let tol = 1e-10 * hi.abs().max(1.0);
+            let (w, amplitude, half) = golden_max(amp, lo, hi, tol)?;
+            peaks.push(LinearPeak {
+                response: responses[r].clone(),
+                omega: w,
+                amplitude,
+                uncertainty: half,
+            });
+        }
     }
     Ok(FrequencyResponse {
         param: param.to_string(),
@@ -488,6 +557,7 @@ pub fn frequency_response(
         values: out,
         equilibrium: modal.equilibrium,
         coordinates: modal.coordinates,
+        peaks,
     })
 }
 

@@ -264,6 +264,8 @@ impl<'a> ModesReport<'a> {
 pub struct FrfReport<'a> {
     pub equilibrium: Named<'a, f64>,
     pub points: Vec<Map<String, Value>>,
+    /// Maxima of the amplitudes, refined between grid points.
+    pub peaks: &'a [crate::linear::LinearPeak],
     pub provenance: &'a Provenance,
 }
 
@@ -276,6 +278,7 @@ impl<'a> FrfReport<'a> {
                 .iter()
                 .map(|row| row_object(&header, row))
                 .collect(),
+            peaks: &fr.peaks,
             provenance,
         }
     }

@@ -39,7 +39,8 @@ const PERIOD_SAMPLES: usize = 64;
 /// The static problem of one compiled system.
 #[derive(Debug, Clone)]
 pub struct Statics<'a> {
-    pub sys: &'a System,
+    /// The system, with a moving ground held at its mean pose.
+    pub sys: std::borrow::Cow<'a, System>,
     /// Independent constraint rows.
     pub rows: Vec<usize>,
     /// Times at which loads are averaged (one period of the forcing, or just t = 0).
@@ -65,19 +66,32 @@ pub struct Equilibrium {
 impl<'a> Statics<'a> {
     /// Set up the static problem; independent rows are chosen at `q_ref`.
     pub fn new(sys: &'a System, q_ref: &[f64]) -> Result<Statics<'a>> {
-        let times = Statics::averaging_times(sys)?;
-        let rows = independent_rows(sys, q_ref);
+        let (sys, times) = Statics::at_mean(sys)?;
+        let rows = independent_rows(&sys, q_ref);
         Ok(Statics { sys, rows, times })
+    }
+
+    /// The system as statics sees it (a moving ground held at its mean pose over the
+    /// forcing period) and the times at which time-dependent loads are averaged.
+    fn at_mean(sys: &'a System) -> Result<(std::borrow::Cow<'a, System>, Vec<f64>)> {
+        let times = Statics::averaging_times(sys)?;
+        if !sys.ground.is_moving() {
+            return Ok((std::borrow::Cow::Borrowed(sys), times));
+        }
+        let frozen = sys.with_ground_at_mean(&times);
+        let times = if frozen.depends_on_time() {
+            times
+        } else {
+            vec![0.0]
+        };
+        Ok((std::borrow::Cow::Owned(frozen), times))
     }
 
     /// A static problem with given independent rows (none are chosen: a continuation
     /// keeps the rows of its start, whatever the model's initial guess at p).
     pub fn with_rows(sys: &'a System, rows: Vec<usize>) -> Result<Statics<'a>> {
-        Ok(Statics {
-            sys,
-            rows,
-            times: Statics::averaging_times(sys)?,
-        })
+        let (sys, times) = Statics::at_mean(sys)?;
+        Ok(Statics { sys, rows, times })
     }
 
     /// The times at which time-dependent loads and constraints are averaged: one period
@@ -109,7 +123,7 @@ impl<'a> Statics<'a> {
 
     /// x ⊕ s·dx for x = (q, λ, …) (see [`advance`]).
     pub fn advance(&self, x: &[f64], dx: &[f64], s: f64) -> Vec<f64> {
-        advance(self.sys, x, dx, s)
+        advance(&self.sys, x, dx, s)
     }
 
     /// Times at which time-dependent loads are averaged.
@@ -162,7 +176,7 @@ impl<'a> Statics<'a> {
     /// parameter `i`, by automatic differentiation (dual numbers seeded on the parameter,
     /// hyper-dual for the constraint forces A_rᵀ λ).
     pub fn residual_dp(&self, x: &[f64], i: usize) -> DVector<f64> {
-        let sys = self.sys;
+        let sys: &System = &self.sys;
         let n = sys.n();
         let (q, lambda) = x.split_at(n);
         let p = sys.param(i);
@@ -233,7 +247,7 @@ impl<'a> Statics<'a> {
     /// Ā = ∂Φ̄/∂q (m × n).
     pub fn mean_jacobian(&self, q: &[f64]) -> DMatrix<f64> {
         let times = self.constraint_times();
-        let mut ws = DynWorkspace::new(self.sys);
+        let mut ws = DynWorkspace::new(&self.sys);
         if times.len() == 1 {
             self.sys.jacobian(&mut ws.sys, q, times[0], &mut ws.a);
             return ws.a;
@@ -420,7 +434,7 @@ impl<'a> Statics<'a> {
             Ok(e) => Ok(e),
             Err(first) => {
                 let Ok(all) = self.all(start) else {
-                    if free_jacobian_conditioning(self.sys, &start.q, &self.rows) < 1e-6 {
+                    if free_jacobian_conditioning(&self.sys, &start.q, &self.rows) < 1e-6 {
                         return Err(Failure::SingularStart.into());
                     }
                     return Err(first);
@@ -526,7 +540,7 @@ impl<'a> Statics<'a> {
     /// closing; Newton runs from every seed; solutions inside the swept range are kept,
     /// duplicates removed, sorted by the first driving coordinate.
     pub fn all(&self, start: &State) -> Result<Vec<Equilibrium>> {
-        let sys = self.sys;
+        let sys: &System = &self.sys;
         let drivers: Vec<usize> = (0..sys.n()).filter(|&i| sys.initial.fixed[i]).collect();
         if drivers.is_empty() {
             return Ok(vec![self.solve(&start.q)?]);
@@ -568,7 +582,7 @@ impl<'a> Statics<'a> {
     /// Sweep driver `d` from the start pose in direction `dir`; push seeds; return the last
     /// value reached.
     fn sweep(&self, start: &State, d: usize, dir: f64, seeds: &mut Vec<Vec<f64>>) -> f64 {
-        let sys = self.sys;
+        let sys: &System = &self.sys;
         let angle = sys.is_angle(d);
         let step = if angle {
             2f64.to_radians()

@@ -26,7 +26,11 @@ pub fn trim(sys: &System) -> Result<(System, Vec<(String, f64)>)> {
 /// trim or the trim is off because a solved parameter was given), and the solved values
 /// `(name, value)`.
 pub fn trimmed(sys: &System, start: &State) -> Result<(System, Vec<(String, f64)>)> {
-    let Some(trim) = sys.trim.clone().filter(|t| t.off.is_none() && !t.params.is_empty()) else {
+    let Some(trim) = sys
+        .trim
+        .clone()
+        .filter(|t| t.off.is_none() && !t.params.is_empty())
+    else {
         return Ok((sys.clone(), Vec::new()));
     };
     if trim.params.len() != trim.coords.len() {

@@ -341,6 +341,7 @@ impl Compiler<'_> {
             y: component(&g.y, Dim::LENGTH, "the ground's y motion"),
             z: component(&g.z, Dim::LENGTH, "the ground's z motion"),
             theta: component(&g.theta, Dim::NONE, "the ground's theta motion"),
+            frozen: None,
         }
     }
 

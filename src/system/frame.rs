@@ -27,12 +27,16 @@ pub struct GroundMotion {
     /// Spatial models.
     pub z: Option<Compiled>,
     pub theta: Option<Compiled>,
+    /// Held at this pose (x, y, z, theta), at rest: statics and linearizations see the
+    /// ground at its mean over the forcing period.
+    pub frozen: Option<[f64; 4]>,
 }
 
 impl GroundMotion {
     /// Whether the ground moves at all.
     pub fn is_moving(&self) -> bool {
-        self.x.is_some() || self.y.is_some() || self.z.is_some() || self.theta.is_some()
+        self.frozen.is_none()
+            && (self.x.is_some() || self.y.is_some() || self.z.is_some() || self.theta.is_some())
     }
 
     fn component<D: Scalar, E: Env<D>>(c: &Option<Compiled>, t: D, env: E) -> (D, D) {
@@ -92,6 +96,11 @@ impl<D: Scalar> GroundPose<D> {
         }
     }
 
+    /// The ground's angle (planar).
+    pub fn angle(&self) -> D {
+        self.theta
+    }
+
     /// Position of the ground origin, its velocity and angular velocity (planar).
     pub fn motion(&self) -> ([D; 2], [D; 2], D) {
         (
@@ -103,6 +112,15 @@ impl<D: Scalar> GroundPose<D> {
 
     /// The ground of `motion` at time t.
     pub fn at<E: Env<D>>(motion: &GroundMotion, t: D, env: E) -> Self {
+        if let Some(f) = motion.frozen {
+            let mut g = Self::fixed();
+            g.r = [D::from(f[0]), D::from(f[1]), D::from(f[2])];
+            if motion.theta.is_some() {
+                g.theta = D::from(f[3]);
+                g.sc = Some(g.theta.sin_cos());
+            }
+            return g;
+        }
         if !motion.is_moving() {
             return Self::fixed();
         }

@@ -324,6 +324,30 @@ impl System {
         self.forcing
     }
 
+    /// A copy whose ground is held at its mean pose over `times` (at rest): what statics
+    /// and linearizations see of a moving ground, so that a linear response is the limit
+    /// of small excitation (the stiffness is not averaged over the excitation's swing).
+    pub fn with_ground_at_mean(&self, times: &[f64]) -> System {
+        let mut s = self.clone();
+        if !self.ground.is_moving() || times.is_empty() {
+            return s;
+        }
+        let mut mean = [0.0; 4];
+        for &t in times {
+            let g = GroundPose::<f64>::at(&self.ground, t, self.env());
+            for k in 0..3 {
+                mean[k] += g.r[k] / times.len() as f64;
+            }
+            mean[3] += g.angle() / times.len() as f64;
+        }
+        s.ground.frozen = Some(mean);
+        s.rheonomic = self.constraints.iter().any(|c| match c {
+            joints::Constraint::Custom(e) => e.depends_on_time(),
+            _ => false,
+        });
+        s
+    }
+
     /// The `[trim]` parameters and their solved values, when the trim has been solved.
     pub fn trim_solved(&self) -> Option<Vec<(String, f64)>> {
         let t = self.trim.as_ref().filter(|t| t.solved && t.off.is_none())?;
