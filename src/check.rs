@@ -31,6 +31,77 @@ pub struct CheckedAssembly {
     pub dof: usize,
     /// |Φ|∞ at q.
     pub residual: f64,
+    /// Per constraint element, in order: its rows, the rank they add to the elements
+    /// before it, and the degrees of freedom left after it.
+    pub elements: Vec<CheckedElement>,
+}
+
+/// One joint or custom constraint at the assembled pose.
+#[derive(Debug, Clone)]
+pub struct CheckedElement {
+    pub name: String,
+    /// The element's type (`revolute`, `spherical`, `constraint`...).
+    pub kind: String,
+    pub rows: usize,
+    /// Rank added to the rows of the elements before it.
+    pub rank: usize,
+    /// Degrees of freedom left after it (coordinates less the rank so far).
+    pub dof: usize,
+}
+
+/// The incremental rank of each element's rows of A M^-½ at q.
+fn element_ranks(model: &Model, sys: &System, q: &[f64]) -> Vec<CheckedElement> {
+    use crate::linalg::RANK_TOL;
+    let mut ws = crate::dynamics::DynWorkspace::new(sys);
+    sys.jacobian(&mut ws.sys, q, 0.0, &mut ws.a);
+    let m_half = sys.mass_matrix_at(q).map(|x| x.max(0.0).sqrt());
+    // scale columns by M^-½ of the diagonal (unit-consistent rows; rank is unchanged by
+    // any column scaling)
+    let mut a = ws.a.clone();
+    for j in 0..a.ncols() {
+        let w = m_half[(j, j)];
+        if w > 0.0 {
+            a.column_mut(j).scale_mut(1.0 / w);
+        }
+    }
+    let kinds: Vec<String> = model
+        .joints
+        .iter()
+        .map(|j| match &j.kind {
+            crate::model::JointKind::Revolute => "revolute".into(),
+            crate::model::JointKind::PinInSlot { .. } => "pin_in_slot".into(),
+            crate::model::JointKind::Prismatic { .. } => "prismatic".into(),
+            crate::model::JointKind::Fixed { .. } => "fixed".into(),
+            crate::model::JointKind::Spatial { kind, .. } => format!("{kind:?}").to_lowercase(),
+        })
+        .chain(model.constraints.iter().map(|_| "constraint".to_string()))
+        .collect();
+    let rank_of = |rows: usize| -> usize {
+        if rows == 0 {
+            return 0;
+        }
+        let sub = a.rows(0, rows).into_owned();
+        let sv = sub.svd(false, false).singular_values;
+        let smax = sv.max();
+        if !smax.is_finite() || smax == 0.0 {
+            return 0;
+        }
+        sv.iter().filter(|&&x| x > RANK_TOL * smax).count()
+    };
+    let mut out = Vec::new();
+    let mut before = 0;
+    for (k, (name, r)) in sys.element_rows().into_iter().enumerate() {
+        let rank = rank_of(r.end);
+        out.push(CheckedElement {
+            name,
+            kind: kinds.get(k).cloned().unwrap_or_default(),
+            rows: r.len(),
+            rank: rank - before,
+            dof: sys.nv() - rank,
+        });
+        before = rank;
+    }
+    out
 }
 
 /// What `detune check` reports; [`fmt::Display`] gives its text.
@@ -71,6 +142,7 @@ impl CheckReport {
                 rank,
                 dof: sys.n() - rank,
                 residual: residual_norm(sys, &s.q, 0.0),
+                elements: element_ranks(model, sys, &s.q),
                 q: s.q,
             }
         });
@@ -84,7 +156,7 @@ impl CheckReport {
             constraints: sys.constraint_names.clone(),
             ground_motion: {
                 let g = &model.ground;
-                [("x", &g.x), ("y", &g.y), ("theta", &g.theta)]
+                [("x", &g.x), ("y", &g.y), ("z", &g.z), ("theta", &g.theta)]
                     .into_iter()
                     .filter_map(|(c, f)| f.as_ref().map(|f| format!("{c} = {}", f.expr)))
                     .collect()
@@ -147,6 +219,18 @@ impl fmt::Display for CheckReport {
                 f,
                 "  ({} redundant or singular; the pseudoinverse handles them)",
                 m - a.rank
+            )?;
+        }
+        writeln!(
+            f,
+            "  {:<16} {:<12} {:>4} {:>6} {:>9}",
+            "element", "type", "rows", "rank", "DoF left"
+        )?;
+        for e in &a.elements {
+            writeln!(
+                f,
+                "  {:<16} {:<12} {:>4} {:>6} {:>9}",
+                e.name, e.kind, e.rows, e.rank, e.dof
             )?;
         }
         writeln!(f, "degrees of freedom: {}", a.dof)?;

@@ -502,6 +502,16 @@ impl System {
         })
     }
 
+    /// Each constraint element (joint or custom constraint, in model order): its name and
+    /// its rows of Φ.
+    pub fn element_rows(&self) -> Vec<(String, std::ops::Range<usize>)> {
+        self.elements
+            .iter()
+            .zip(&self.blocks)
+            .map(|(n, b)| (n.clone(), b.row0..b.row0 + b.rows))
+            .collect()
+    }
+
     /// The blocks of A: one per constraint element (see [`System::jacobian_blocks`]).
     pub fn blocks(&self) -> &[Block] {
         &self.blocks
