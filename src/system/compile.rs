@@ -128,10 +128,23 @@ impl Compiler<'_> {
             if coords {
                 return Ok(Slot::Coord(i));
             }
+            let (message, help) = if time {
+                (
+                    format!(
+                        "`{name}` is a coordinate; this value may depend only on time `t` and the parameters"
+                    ),
+                    "a prescribed motion is a function of t alone: use t and parameters here",
+                )
+            } else {
+                (
+                    format!("`{name}` is a coordinate; this value must be constant"),
+                    "use parameters only here",
+                )
+            };
             return Err(ExprError {
                 span: span.clone(),
-                message: format!("`{name}` is a coordinate; this value must be constant"),
-                help: Some("use parameters only here".into()),
+                message,
+                help: Some(help.into()),
             });
         }
         if name == "t" {
