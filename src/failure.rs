@@ -91,6 +91,30 @@ pub enum Failure {
         "the linear system is singular at ω = {omega} rad/s (an undamped resonance: the response is unbounded)"
     )]
     UndampedResonance { omega: f64 },
+    /// A kinematic path ends where the closure, with the driven coordinate held, has no
+    /// solution on the branch followed (a dead point: the other coordinates' Jacobian
+    /// loses rank there): `value` is the last drive value reached, `target` the one that
+    /// was not; `angle` whether the drive is an angle (then also shown in degrees).
+    #[error(
+        "the branch ends at {drive} = {}: the closure is singular there (a dead point, or branches cross), {} is not reached",
+        drive_value(*.value, *.angle),
+        drive_value(*.target, *.angle)
+    )]
+    DeadPoint {
+        drive: String,
+        value: f64,
+        target: f64,
+        angle: bool,
+    },
+}
+
+/// A value of a driven coordinate in words: SI, and degrees for an angle.
+fn drive_value(x: f64, angle: bool) -> String {
+    if angle {
+        format!("{x:.9} rad ({:.6}°)", x.to_degrees())
+    } else {
+        format!("{x:.9} m")
+    }
 }
 
 impl Failure {
@@ -132,6 +156,9 @@ impl Failure {
             TrimFailed { .. } => "check that the solved parameters can balance the held pose (a stiffness of zero, or a load the parameter does not act on, cannot be trimmed), or fix their values".into(),
             NoEquilibriumOnBranch => "check the loads: the mechanism may have no static equilibrium (e.g. a force larger than any spring can hold)".into(),
             UndampedResonance { .. } => "add damping or step around that frequency".into(),
+            DeadPoint { drive, .. } => format!(
+                "beyond it the mechanism locks, a link cannot reach, or the branch to follow is ambiguous: end the range before it, or drive another coordinate than `{drive}`"
+            ),
         }
     }
 }
@@ -196,6 +223,12 @@ mod tests {
                 pose: "b.x = 1".into(),
             },
             Failure::UndampedResonance { omega: 4.0 },
+            Failure::DeadPoint {
+                drive: "bar1.theta".into(),
+                value: 0.78,
+                target: 0.8,
+                angle: true,
+            },
         ];
         for f in &all {
             let (m, h) = (f.to_string(), f.hint());

@@ -19,6 +19,7 @@ pub mod diag;
 pub mod dynamics;
 pub mod failure;
 pub mod frequency;
+pub mod kinematics;
 pub mod linalg;
 pub mod linear;
 pub mod model;

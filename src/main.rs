@@ -8,6 +8,7 @@ use cli::check::CheckArgs;
 use cli::r#continue::ContinueArgs;
 use cli::equilibrium::EquilibriumArgs;
 use cli::frf::FrfArgs;
+use cli::kinematics::KinematicsArgs;
 use cli::modes::ModesArgs;
 use cli::simulate::SimulateArgs;
 use cli::sweep::SweepArgs;
@@ -50,6 +51,10 @@ enum Command {
     /// simulation, resonances located by refinement.
     #[command(allow_negative_numbers = true)]
     Sweep(SweepArgs),
+    /// The closure solved along a driven coordinate on the branch through the assembled
+    /// pose, with transmission ratios d<drive>/d<NAME> from its tangent.
+    #[command(allow_negative_numbers = true)]
+    Kinematics(KinematicsArgs),
 }
 
 fn main() {
@@ -69,6 +74,7 @@ fn main() {
         Command::Modes(a) => cli::modes::run(a),
         Command::Frf(a) => cli::frf::run(a),
         Command::Sweep(a) => cli::sweep::run(a),
+        Command::Kinematics(a) => cli::kinematics::run(a),
     };
     if let Err(e) = result {
         eprint!(

@@ -68,6 +68,14 @@ arguments! {
     RelativeTolerance => "the relative tolerance",
     /// The integrator's absolute tolerance (`atol`).
     AbsoluteTolerance => "the absolute tolerance",
+    /// The coordinate a kinematic analysis drives (`KinematicsOptions::drive`).
+    Drive => "the driven coordinate",
+    /// A coordinate whose transmission ratio is reported (`KinematicsOptions::ratios`).
+    Ratio => "the ratio coordinate",
+    /// The range of the driven coordinate (`KinematicsOptions::from`, `to`).
+    DriveRange => "the drive range",
+    /// The step of the driven coordinate (`KinematicsOptions::step`).
+    DriveStep => "the drive step",
 }
 
 impl fmt::Display for Argument {
@@ -131,6 +139,12 @@ pub enum Invalid {
         points: usize,
         limit: usize,
     },
+    /// A transmission ratio asked of a coordinate that no constraint couples to the
+    /// driven one: it does not move with the drive.
+    #[error(
+        "`{name}` does not move with the driven coordinate `{drive}` (no constraint couples them): d{drive}/d{name} is undefined"
+    )]
+    NotDriven { name: String, drive: String },
     /// A peak's bracket is its two neighbours, 2 steps wide.
     #[error(
         "the refinement resolution {refine} is not finer than a peak's bracket (2 × the frequency step {step}): nothing would be refined"
@@ -197,9 +211,14 @@ impl Invalid {
                 what: A::Frequencies,
                 ..
             } => "give a start below the end (or equal to it for one frequency)".into(),
+            Range {
+                what: A::DriveRange,
+                ..
+            } => "give finite values".into(),
             Range { .. } => "give two different finite values".into(),
             NotPositive { argument, .. } => match argument {
                 A::FrequencyStep => "give a positive step",
+                A::DriveStep => "give a positive step, e.g. 0.5 deg",
                 A::ArclengthStep => "give a positive arclength step",
                 A::Refine => "give a positive resolution, e.g. 1e-3",
                 A::OutputInterval => "give an output interval > 0 s",
@@ -231,6 +250,9 @@ impl Invalid {
             .into(),
             RefineTooCoarse { .. } => {
                 "give a resolution below the frequency step (e.g. the step / 100), or none".into()
+            }
+            NotDriven { drive, .. } => {
+                format!("name a coordinate that the constraints move with `{drive}`")
             }
             FamilySyntax { .. } | FamilyUnnamed { .. } => "for example F0=0.1,1,2,3,4".into(),
             FamilyVariesSwept { .. } => {
@@ -279,6 +301,10 @@ mod tests {
             },
             FamilyEmptyEntry {
                 spec: "F0=1,,2".into(),
+            },
+            NotDriven {
+                name: "gearbox.theta".into(),
+                drive: "stick.phi".into(),
             },
         ];
         for &argument in Argument::ALL {

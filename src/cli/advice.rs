@@ -40,6 +40,7 @@ pub fn advice(f: &Failure) -> Option<String> {
         BranchTurns { .. } => "the branch may end here (a singular pose); try a smaller --step".into(),
         SingularStart => "start away from it: --set the initial value of the coordinate the model fixes for assembly to another value".into(),
         NoEquilibrium { .. } => "start closer to an equilibrium (e.g. --set the initial angle), or check that one exists for these loads".into(),
+        DeadPoint { .. } => "beyond it the mechanism locks, a link cannot reach, or the branch to follow is ambiguous: end --from/--to before it, or drive another coordinate (--drive)".into(),
         _ => return None,
     })
 }
@@ -61,7 +62,10 @@ fn flag(argument: Argument) -> Option<&'static str> {
         OutputInterval => "--dt-out",
         RelativeTolerance => "--rtol",
         AbsoluteTolerance => "--atol",
-        Frequencies | ContinuationRange | FixedPeriods => return None,
+        Drive => "--drive",
+        Ratio => "--ratio",
+        DriveStep => "--step",
+        Frequencies | ContinuationRange | FixedPeriods | DriveRange => return None,
     })
 }
 
@@ -100,6 +104,14 @@ pub fn wording(invalid: &Invalid) -> Option<Wording> {
         BadFrequencies { param, .. } => said(
             format!("--param {param}: the frequencies must be positive and finite (rad/s)"),
             "give --from > 0",
+        ),
+        Range {
+            what: Argument::DriveRange,
+            from,
+            to,
+        } => said(
+            format!("--from {from} --to {to}: not finite"),
+            "give finite values, e.g. --from \"-15 deg\" --to \"35 deg\"",
         ),
         Range { what, from, to } => said(
             format!("empty range: --from {from} --to {to}"),
@@ -140,6 +152,12 @@ pub fn wording(invalid: &Invalid) -> Option<Wording> {
                 "--refine {refine} is not finer than a peak's bracket (2 × the step {step}): nothing would be refined"
             ),
             "give --refine below --step (e.g. --step / 100), or leave it out",
+        ),
+        NotDriven { name, drive } => said(
+            format!(
+                "--ratio {name}: `{name}` does not move with --drive {drive} (no constraint couples them)"
+            ),
+            &hint,
         ),
         FamilySyntax { spec } => said(
             format!("--values {spec}: expected PARAM=v1,v2,..."),

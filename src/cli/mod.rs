@@ -10,6 +10,7 @@ pub mod check;
 pub mod r#continue;
 pub mod equilibrium;
 pub mod frf;
+pub mod kinematics;
 pub mod modes;
 pub mod simulate;
 pub mod sweep;

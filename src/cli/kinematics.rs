@@ -1,0 +1,189 @@
+//! `detune kinematics`: the closure solved along a driven coordinate on the branch
+//! through the assembled pose, with transmission ratios from its tangent.
+
+use super::args::ModelArgs;
+use clap::Args;
+use detune::diag::{Error, Result};
+use detune::kinematics::{KinematicPath, KinematicsOptions, drive_index, kinematics};
+use detune::model::expr;
+use detune::model::units::Dim;
+use detune::output::check_outputs;
+use detune::output::plot::write_panels;
+
+#[derive(Args)]
+pub struct KinematicsArgs {
+    #[command(flatten)]
+    pub model: ModelArgs,
+    /// The driven coordinate, e.g. stick.phi.
+    #[arg(long, value_name = "NAME")]
+    pub drive: String,
+    /// First value of the drive: a number (SI: rad or m) or a quantity, e.g. "-15 deg".
+    #[arg(long, value_name = "A", allow_hyphen_values = true)]
+    pub from: String,
+    /// Last value of the drive (included when the step divides the range).
+    #[arg(long, value_name = "B", allow_hyphen_values = true)]
+    pub to: String,
+    /// Step of the drive, e.g. "0.5 deg".
+    #[arg(long, value_name = "S", allow_hyphen_values = true)]
+    pub step: String,
+    /// Report d<drive>/d<NAME> from the closure's tangent (repeatable).
+    #[arg(long, value_name = "NAME")]
+    pub ratio: Vec<String>,
+    /// CSV: `<drive>,<coordinates>...,d<drive>/d<NAME>...` in SI (angles in rad).
+    #[arg(short = 'o', long = "output", value_name = "OUT.csv")]
+    pub output: Option<String>,
+    /// SVG: the ratios (or, without --ratio, every coordinate) against the drive, angles
+    /// in degrees.
+    #[arg(long, value_name = "OUT.svg")]
+    pub plot: Option<String>,
+}
+
+pub fn run(a: KinematicsArgs) -> Result<()> {
+    let (model, sys) = a.model.load()?;
+    check_outputs(
+        &model.source.path,
+        &[a.output.as_deref(), a.plot.as_deref()],
+    )?;
+    let d = drive_index(&sys, &a.drive)?;
+    let dim = sys.coordinate_dims[d];
+    let opts = KinematicsOptions {
+        drive: a.drive.clone(),
+        from: quantity("--from", &a.from, &a.drive, dim)?,
+        to: quantity("--to", &a.to, &a.drive, dim)?,
+        step: quantity("--step", &a.step, &a.drive, dim)?,
+        ratios: a.ratio.clone(),
+    };
+    let path = kinematics(&sys, &opts)?;
+    if let Some(o) = &a.output {
+        path.write_csv(o)?;
+    }
+    if let Some(p) = &a.plot {
+        write_panels(p, &path.figures(&model.name))?;
+    }
+    if a.output.is_none() {
+        print_table(&path);
+    } else {
+        let last = path.values.len() - 1;
+        println!(
+            "{} points, {} from {} to {}",
+            path.values.len(),
+            path.drive,
+            shown(&path, d, path.values[0]),
+            shown(&path, d, path.values[last])
+        );
+    }
+    for f in [&a.output, &a.plot].into_iter().flatten() {
+        eprintln!("wrote {f}");
+    }
+    Ok(())
+}
+
+/// A value of coordinate `i` for people: degrees for an angle, else metres.
+fn shown(path: &KinematicPath, i: usize, x: f64) -> String {
+    if path.angles[i] {
+        format!("{:.6}°", x.to_degrees())
+    } else {
+        format!("{x:.9} m")
+    }
+}
+
+/// The path as a table on stdout: the drive, then the ratios (or, without them, every
+/// other coordinate); angles in degrees.
+fn print_table(path: &KinematicPath) {
+    let d = path.drive_index;
+    let unit = |i: usize| if path.angles[i] { "deg" } else { "m" };
+    let shown = |i: usize, x: f64| if path.angles[i] { x.to_degrees() } else { x };
+    let mut head = vec![format!("{} [{}]", path.drive, unit(d))];
+    let others: Vec<usize> = (0..path.coordinates.len()).filter(|&i| i != d).collect();
+    if path.ratio_names.is_empty() {
+        head.extend(
+            others
+                .iter()
+                .map(|&i| format!("{} [{}]", path.coordinates[i], unit(i))),
+        );
+    } else {
+        head.extend(
+            path.ratio_names
+                .iter()
+                .map(|n| format!("d{}/d{n}", path.drive)),
+        );
+    }
+    let width = head
+        .iter()
+        .map(|h| h.chars().count())
+        .max()
+        .unwrap_or(12)
+        .max(14);
+    let line = |cells: Vec<String>| {
+        cells
+            .iter()
+            .map(|c| format!("{c:>width$}"))
+            .collect::<Vec<_>>()
+            .join(" ")
+    };
+    println!("{}", line(head));
+    for (k, v) in path.values.iter().enumerate() {
+        let mut cells = vec![format!("{:.6}", shown(d, *v))];
+        if path.ratio_names.is_empty() {
+            cells.extend(
+                others
+                    .iter()
+                    .map(|&i| format!("{:.9}", shown(i, path.q[k][i]))),
+            );
+        } else {
+            cells.extend(path.ratios[k].iter().map(|r| format!("{r:.9}")));
+        }
+        println!("{}", line(cells));
+    }
+}
+
+/// A value of the drive as given to `flag`: a number (SI) or a quantity with a unit of
+/// the drive's dimension ("-15 deg", "3 mm"), or an expression of them ("-15 deg + 1
+/// deg"); no parameters.
+fn quantity(flag: &str, text: &str, drive: &str, dim: Dim) -> Result<f64> {
+    let example = if dim == Dim::NONE {
+        "\"-15 deg\" or -0.26 (rad)"
+    } else {
+        "\"3 mm\" or 0.003 (m)"
+    };
+    let bad = |message: String, help: Option<String>| Error::Request {
+        message: format!("{flag} {text}: {message}"),
+        help: Some(
+            help.unwrap_or_else(|| format!("give a number (SI) or a quantity, e.g. {example}")),
+        ),
+    };
+    let e = expr::parse(text).map_err(|e| bad(e.message.clone(), e.help.clone()))?;
+    if let Some((name, _)) = e.variables().first() {
+        return Err(bad(
+            format!("`{name}` is not a unit here (a value of {drive} is a number or a quantity)"),
+            None,
+        ));
+    }
+    e.check_dims(&|_| None)
+        .map_err(|e| bad(e.message.clone(), e.help.clone()))?;
+    if let Some(got) = e.dim(&|_| None)
+        && got != dim
+    {
+        let what = if dim == Dim::NONE {
+            "an angle".to_string()
+        } else {
+            format!("a quantity in {dim}")
+        };
+        let given = if got == Dim::NONE {
+            "an angle".to_string()
+        } else {
+            format!("in {got}")
+        };
+        return Err(bad(
+            format!("`{drive}` is {what}, the value given is {given}"),
+            None,
+        ));
+    }
+    expr::eval_const(&e, &mut |n, span| {
+        Err(expr::ExprError::new(
+            span.clone(),
+            format!("unknown name `{n}`"),
+        ))
+    })
+    .map_err(|e| bad(e.message.clone(), e.help.clone()))
+}
