@@ -69,8 +69,9 @@ struct Family<'m> {
     lo: f64,
     hi: f64,
     /// The model's `[trim]`, when it is on: its parameters are unknowns after the
-    /// multipliers in y, its held coordinates' values extra equations.
-    trim: Vec<(usize, usize, f64)>,
+    /// multipliers in y, its held coordinates at their initial values (which may follow
+    /// the parameter, e.g. a datum angle) extra equations: (coordinate, parameter).
+    trim: Vec<(usize, usize)>,
 }
 
 /// A corrected point: y = (x, p), with the data needed at it.
@@ -93,7 +94,7 @@ impl Family<'_> {
             .with_param(self.index, p)
             .map_err(|e| e.context(&format!("continuation at {} = {p}", self.param)))?;
         let nr = self.n + self.rows.len();
-        for (k, &(_, param, _)) in self.trim.iter().enumerate() {
+        for (k, &(_, param)) in self.trim.iter().enumerate() {
             s.set_param(param, y[nr + k])
                 .map_err(|e| e.context(&format!("continuation at {} = {p}", self.param)))?;
         }
@@ -114,11 +115,17 @@ impl Family<'_> {
         h.rows_mut(0, nr).copy_from(&h0);
         let mut j = DMatrix::zeros(d, d + 1);
         j.view_mut((0, 0), (nr, nr)).copy_from(&jx);
-        for (k, &(coord, param, held)) in self.trim.iter().enumerate() {
-            h[nr + k] = y[coord] - held;
+        let held_dp = if self.trim.is_empty() {
+            Vec::new()
+        } else {
+            sys.initial_dp(self.index)
+        };
+        for (k, &(coord, param)) in self.trim.iter().enumerate() {
+            h[nr + k] = y[coord] - sys.initial.q[coord];
             j.view_mut((0, nr + k), (nr, 1))
                 .copy_from(&st.residual_dp(x, param));
             j[(nr + k, coord)] = 1.0;
+            j[(nr + k, d)] = -held_dp[coord];
         }
         let det = j.view((0, 0), (d, d)).determinant();
         j.view_mut((0, d), (nr, 1)).copy_from(&hp);
@@ -292,12 +299,12 @@ pub fn continue_equilibria(sys: &System, opts: &ContinuationOptions) -> Result<B
         .with_param(index, opts.from)
         .map_err(|e| e.context(&format!("continuation at {} = {}", opts.param, opts.from)))?;
     // The model's trim follows the parameter (unless it is the parameter continued).
-    let trim: Vec<(usize, usize, f64)> = match &sys.trim {
+    let trim: Vec<(usize, usize)> = match &sys.trim {
         Some(t) if t.off.is_none() && !t.params.contains(&index) => t
             .coords
             .iter()
             .zip(&t.params)
-            .map(|(&c, &p)| (c, p, sys.initial.q[c]))
+            .map(|(&c, &p)| (c, p))
             .collect(),
         _ => Vec::new(),
     };
@@ -330,7 +337,7 @@ pub fn continue_equilibria(sys: &System, opts: &ContinuationOptions) -> Result<B
     };
     let mut y0: Vec<f64> = eq.q.clone();
     y0.extend(&eq.lambda);
-    y0.extend(trim.iter().map(|&(_, p, _)| sys0.param(p)));
+    y0.extend(trim.iter().map(|&(_, p)| sys0.param(p)));
     y0.push(opts.from);
     let y0 = DVector::from_vec(y0);
     let d = y0.len() - 1;

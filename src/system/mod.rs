@@ -359,6 +359,13 @@ impl System {
         )
     }
 
+    /// ∂q₀/∂p_i: how the initial pose the model gives (fixed coordinates exact, the rest
+    /// guesses) moves with parameter `i`, by dual numbers.
+    pub fn initial_dp(&self, i: usize) -> Vec<f64> {
+        let (_, c) = self.seeded(i, Dual64::new(self.param(i), 1.0));
+        self.initial_coefs.iter().map(|&k| c[k].eps).collect()
+    }
+
     /// The parameter given by the user that turned the `[trim]` off, if any.
     pub fn trim_off(&self) -> Option<&str> {
         self.trim.as_ref().and_then(|t| t.off.as_deref())
