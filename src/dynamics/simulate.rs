@@ -70,10 +70,12 @@ pub struct Trajectory {
     pub coordinates: Vec<String>,
     /// Whether each coordinate is an angle (rad), as [`System::is_angle`] says.
     pub angles: Vec<bool>,
+    /// The velocities' names ([`System::velocities`]).
+    pub velocities: Vec<String>,
     pub t: Vec<f64>,
-    /// q at each sample (n each).
+    /// q at each sample (nq each).
     pub q: Vec<Vec<f64>>,
-    /// v at each sample (n each).
+    /// v at each sample (nv each).
     pub v: Vec<Vec<f64>>,
     pub stats: SimStats,
 }
@@ -84,6 +86,7 @@ impl Trajectory {
         Trajectory {
             coordinates: sys.coordinates.clone(),
             angles: sys.angles(),
+            velocities: sys.velocities.clone(),
             t: Vec::new(),
             q: Vec::new(),
             v: Vec::new(),
@@ -96,9 +99,15 @@ impl Trajectory {
         let i = self.coordinates.iter().position(|c| c == name)?;
         Some(self.q.iter().map(|q| q[i]).collect())
     }
+
+    /// Time history of one velocity.
+    pub fn velocity(&self, name: &str) -> Option<Vec<f64>> {
+        let i = self.velocities.iter().position(|c| c == name)?;
+        Some(self.v.iter().map(|v| v[i]).collect())
+    }
 }
 
-/// The first-order system y = (q, v), ẏ = (v, v̇).
+/// The first-order system y = (q, v) (nq + nv), ẏ = (q̇(q, v), v̇).
 pub struct ConstrainedOde<'a> {
     sys: &'a System,
     ws: RefCell<DynWorkspace>,
@@ -188,6 +197,7 @@ pub fn simulate_with(
         &mut |t, y| {
             q.copy_from_slice(&y[..n]);
             v.copy_from_slice(&y[n..]);
+            sys.normalize(&mut q);
             let pos = residual_norm(sys, &q, t);
             drift.set(drift.get().max(pos));
             // the residual of the written sample: `pos` unless it was projected
@@ -203,9 +213,14 @@ pub fn simulate_with(
             max_residual.set(crate::linalg::amax(&[max_residual.get(), r]));
             sink(t, &q, &v)
         },
-        // Drift: project when the residual exceeds the tolerance.
+        // Drift: project when the residual exceeds the tolerance (and normalize the
+        // quaternions when their norm has drifted as far).
         &mut |t, y| {
             let (q, v) = y.split_at_mut(n);
+            let normalized = sys.norm_drift(q) > opts.projection_tol;
+            if normalized {
+                sys.normalize(q);
+            }
             let pos = residual_norm(sys, q, t);
             drift.set(drift.get().max(pos));
             let mut ws = proj_ws.borrow_mut();
@@ -216,7 +231,7 @@ pub fn simulate_with(
                 projections += 1;
                 true
             } else {
-                false
+                normalized
             }
         },
         progress,
