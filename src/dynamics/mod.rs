@@ -48,6 +48,11 @@ pub struct DynWorkspace {
     minv: MassInverse,
 }
 
+/// Below this reciprocal condition number of a body's angles' mass matrix, a simulation
+/// stops ([`Failure::SingularMass`]): the rotation sequence is within ~1e-4 rad of its
+/// singular pose, where its angle rates grow without bound.
+pub const MIN_RCOND: f64 = 1e-8;
+
 /// The inverse of a spatial model's mass matrix by groups: each translation alone
 /// (1/m), each body's rotational velocities together (the inverse of `J_bᵀ I J_b` for an
 /// angle sequence, updated per pose; of the inertia tensor for a free body).
@@ -157,6 +162,12 @@ impl MassInverse {
 }
 
 impl DynWorkspace {
+    /// The worst conditioned angle sequence at the last right-hand side: (body, the
+    /// reciprocal condition number of its angles' mass matrix).
+    pub fn worst_mass(&self) -> Option<(usize, f64)> {
+        self.minv.worst
+    }
+
     pub fn new(sys: &System) -> Self {
         let (m, n) = (sys.m(), sys.nv());
         let col_entries = column_entries(sys);

@@ -5,14 +5,14 @@
 
 use super::integrator::{IntegratorOptions, integrate};
 use super::{
-    DynWorkspace, State, accelerations, project_position, project_velocity, residual_norm,
-    velocity_residual_blocks,
+    DynWorkspace, MIN_RCOND, State, accelerations, project_position, project_velocity,
+    residual_norm, velocity_residual_blocks,
 };
 use crate::diag::Result;
 use crate::failure::Failure;
 use crate::system::System;
 use differential_equations::ode::ODE;
-use std::cell::RefCell;
+use std::cell::{Cell, RefCell};
 
 /// Settings of a simulation. Defaults: 20 s, output every 0.01 s, rtol 1e-10, atol 1e-12.
 #[derive(Debug, Clone)]
@@ -111,6 +111,9 @@ impl Trajectory {
 pub struct ConstrainedOde<'a> {
     sys: &'a System,
     ws: RefCell<DynWorkspace>,
+    /// The first right-hand side whose angles' mass matrix was singular: (t, body,
+    /// reciprocal condition number). Its derivative is NaN, which stops the integration.
+    singular: Cell<Option<(f64, usize, f64)>>,
 }
 
 impl<'a> ConstrainedOde<'a> {
@@ -118,7 +121,19 @@ impl<'a> ConstrainedOde<'a> {
         ConstrainedOde {
             sys,
             ws: RefCell::new(DynWorkspace::new(sys)),
+            singular: Cell::new(None),
         }
+    }
+
+    /// The failure of a run that stopped at a singular mass matrix, if it did.
+    fn singular_mass(&self) -> Option<Failure> {
+        self.singular
+            .get()
+            .map(|(t, k, rcond)| Failure::SingularMass {
+                t,
+                body: self.sys.bodies[k].name.clone(),
+                rcond,
+            })
     }
 }
 
@@ -129,6 +144,16 @@ impl ODE<f64, Vec<f64>> for ConstrainedOde<'_> {
         self.sys.qdot(q, v, &mut dydt[..n]);
         let mut ws = self.ws.borrow_mut();
         accelerations(self.sys, &mut ws, q, v, t, &mut dydt[n..]);
+        // an angle sequence at (next to) its singular pose: its angle rates are about to
+        // blow up; stop here, saying so, rather than integrate through it
+        if let Some((k, rcond)) = ws.worst_mass()
+            && rcond < MIN_RCOND
+        {
+            if self.singular.get().is_none() {
+                self.singular.set(Some((t, k, rcond)));
+            }
+            dydt.fill(f64::NAN);
+        }
     }
 }
 
@@ -235,7 +260,8 @@ pub fn simulate_with(
             }
         },
         progress,
-    )?;
+    )
+    .map_err(|e| ode.singular_mass().map_or(e, |f| f.into()))?;
     // The projection keeps written states on the constraints to `projection_tol`; a
     // residual far above it means it failed (a run far too loose, or a singular pose),
     // and the trajectory is not a motion of the mechanism: refuse it rather than write it.
