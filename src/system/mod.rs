@@ -707,7 +707,8 @@ impl System {
                 let seeded = if g.free && d >= 3 {
                     let mut e = [0.0; 3];
                     e[d - 3] = 1.0;
-                    let dq = spatial::quat_rate(quat_at(q, g.offset + 3), e);
+                    let qq = spatial::quat_normalize(quat_at(q, g.offset + 3));
+                    let dq = spatial::quat_rate(qq, e);
                     for (i, x) in dq.iter().enumerate() {
                         ws.qd[g.offset + 3 + i].eps = *x;
                     }
