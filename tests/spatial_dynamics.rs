@@ -747,6 +747,14 @@ fn spatial_joints_jacobian_and_bias_along_the_retraction() {
         }
         println!("{kind:<12} worst A error {ea:.2e}, b error {eb:.2e}");
     }
+    // a custom constraint reading a free body's quaternion and another body's angle: its
+    // columns are the free body's rotations (and the angle's)
+    let text = format!(
+        "{TWO_BODIES}\n[[constraints]]\nname = \"C\"\nexpr = \"a.qx*a.qy + a.z*a.qw - b.r*a.qz\"\n"
+    );
+    let sys = system(&text);
+    let (ea, eb) = check_joint("custom", &sys, 99);
+    println!("{:<12} worst A error {ea:.2e}, b error {eb:.2e}", "custom");
 }
 
 #[test]
