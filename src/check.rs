@@ -140,7 +140,7 @@ impl CheckReport {
             let rank = constraint_rank(sys, &s.q, 0.0);
             CheckedAssembly {
                 rank,
-                dof: sys.n() - rank,
+                dof: sys.nv() - rank,
                 residual: residual_norm(sys, &s.q, 0.0),
                 elements: element_ranks(model, sys, &s.q),
                 q: s.q,

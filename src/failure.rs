@@ -16,6 +16,10 @@ pub enum Failure {
         "the equations of motion produced a non-finite value (NaN or infinity) at t = {t:.6} s"
     )]
     NonFinite { t: f64 },
+    #[error(
+        "the mass matrix of `{body}`'s angles became singular at t = {t:.6} s (reciprocal condition number {rcond:.3e}): its rotation sequence is at a singular pose (gimbal lock)"
+    )]
+    SingularMass { t: f64, body: String, rcond: f64 },
     #[error("the step size fell to zero at t = {t:.6} s")]
     StepSizeUnderflow { t: f64 },
     #[error("too many steps at t = {t:.6} s")]
@@ -128,6 +132,7 @@ impl Failure {
             Interrupted { .. } => "the run was cancelled".into(),
             SweepInterrupted => "the sweep was interrupted".into(),
             NonFinite { .. } => "an expression in a force or constraint is undefined there (sqrt or ln of a negative number, division by zero), or the mechanism reached a singular pose".into(),
+            SingularMass { .. } => "two axes of the body's rotation sequence line up there, so its angles cannot follow the motion: use another rotation sequence whose singular pose the motion does not reach, or `rotation = \"free\"` (a unit quaternion, which has none)".into(),
             StepSizeUnderflow { .. } => "the mechanism may be at a singular pose (a rank loss of the constraints) or the forces change abruptly; check the model, or loosen the integration tolerances".into(),
             Stiff { .. } => "a very stiff spring or damper makes an explicit integrator crawl; soften it or shorten the run".into(),
             Integrator { bad_input: true, .. } => "check the run's length and tolerances".into(),
@@ -175,6 +180,11 @@ mod tests {
             Failure::SweepInterrupted,
             Failure::NonFinite { t: 1.0 },
             Failure::StepSizeUnderflow { t: 1.0 },
+            Failure::SingularMass {
+                t: 1.0,
+                body: "rod".into(),
+                rcond: 1e-9,
+            },
             Failure::TooManySteps { t: 1.0 },
             Failure::Stiff { t: 1.0 },
             Failure::Integrator {

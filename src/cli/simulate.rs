@@ -76,7 +76,8 @@ pub fn run(a: SimulateArgs) -> Result<()> {
     let mut traj = Trajectory::empty(&sys);
     let mut outcome = None;
     let written = write_atomic(&a.output, |w| {
-        trajectory_header(w, &sys.coordinates, a.velocities)?;
+        let columns = a.velocities.then(|| sys.velocity_columns());
+        trajectory_header(w, &sys.coordinates, columns.as_deref())?;
         let mut io_error = None;
         let run = simulate_with(
             &sys,

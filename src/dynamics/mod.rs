@@ -48,8 +48,14 @@ pub struct DynWorkspace {
     minv: MassInverse,
 }
 
+/// Below this reciprocal condition number of a body's angles' mass matrix, a simulation
+/// stops ([`Failure::SingularMass`]): the rotation sequence is within ~1e-4 rad of its
+/// singular pose, where its angle rates grow without bound.
+pub const MIN_RCOND: f64 = 1e-8;
+
 /// The inverse of a spatial model's mass matrix by groups: each translation alone
-/// (1/m), each body's angles together (the inverse of `J_bᵀ I J_b`), updated per pose.
+/// (1/m), each body's rotational velocities together (the inverse of `J_bᵀ I J_b` for an
+/// angle sequence, updated per pose; of the inertia tensor for a free body).
 #[derive(Debug, Clone, Default)]
 pub struct MassInverse {
     /// (first velocity, size, offset into `vals`) of each group.
@@ -57,7 +63,8 @@ pub struct MassInverse {
     /// Row-major inverses.
     vals: Vec<f64>,
     /// The worst conditioned body's angles at the last update: (body, reciprocal
-    /// condition number of its angles' mass matrix).
+    /// condition number of its angles' mass matrix). Angle sequences only: a free body's
+    /// block is its constant inertia tensor, checked when the model is compiled.
     pub worst: Option<(usize, f64)>,
     tmp: Vec<f64>,
 }
@@ -68,12 +75,12 @@ impl MassInverse {
         let mut v0 = 0;
         for g in sys.geoms3() {
             for i in 0..3 {
-                groups.push((g.offset + i, 1, v0));
+                groups.push((g.voff + i, 1, v0));
                 v0 += 1;
             }
-            let n = g.axes.len();
+            let n = g.nrot();
             if n > 0 {
-                groups.push((g.offset + 3, n, v0));
+                groups.push((g.voff + 3, n, v0));
                 v0 += n * n;
             }
         }
@@ -95,7 +102,7 @@ impl MassInverse {
                 self.vals[v0] = 1.0 / b.mass;
                 gi += 1;
             }
-            let n = g.axes.len();
+            let n = g.nrot();
             if n == 0 {
                 continue;
             }
@@ -112,7 +119,7 @@ impl MassInverse {
                     (l.min(x), h.max(x.abs()))
                 });
             let rcond = if hi > 0.0 { lo / hi } else { 0.0 };
-            if self.worst.is_none_or(|(_, r)| rcond < r) {
+            if !g.free && self.worst.is_none_or(|(_, r)| rcond < r) {
                 self.worst = Some((k, rcond));
             }
             let inv = eig.eigenvectors.clone()
@@ -155,8 +162,14 @@ impl MassInverse {
 }
 
 impl DynWorkspace {
+    /// The worst conditioned angle sequence at the last right-hand side: (body, the
+    /// reciprocal condition number of its angles' mass matrix).
+    pub fn worst_mass(&self) -> Option<(usize, f64)> {
+        self.minv.worst
+    }
+
     pub fn new(sys: &System) -> Self {
-        let (m, n) = (sys.m(), sys.n());
+        let (m, n) = (sys.m(), sys.nv());
         let col_entries = column_entries(sys);
         let minv = MassInverse::new(sys);
         let gram_env = if sys.spatial {
@@ -184,7 +197,7 @@ impl DynWorkspace {
 
 /// For each column of A: its entries as (row, index into the values by blocks).
 fn column_entries(sys: &System) -> Vec<Vec<(usize, usize)>> {
-    let mut cols = vec![Vec::new(); sys.n()];
+    let mut cols = vec![Vec::new(); sys.nv()];
     for b in sys.blocks() {
         for r in 0..b.rows {
             for (ci, &j) in b.cols.iter().enumerate() {
@@ -484,6 +497,10 @@ fn weighted_min_norm(
     cols: &[usize],
     r: &DVector<f64>,
 ) -> DVector<f64> {
+    if cols.is_empty() {
+        // nothing to correct (every velocity given): nalgebra has no SVD of nothing
+        return DVector::zeros(0);
+    }
     let w: Vec<f64> = cols
         .iter()
         .map(|&i| {
@@ -524,7 +541,7 @@ pub struct State {
 /// velocities the model does not give from A v + Φ_t = 0, nearest to rest relative to the
 /// ground.
 pub fn assemble(sys: &System) -> Result<State> {
-    let n = sys.n();
+    let n = sys.nv();
     let init = &sys.initial;
     let mut q = init.q.clone();
     if let Some(i) = q.iter().position(|x| !x.is_finite()) {
@@ -533,7 +550,9 @@ pub fn assemble(sys: &System) -> Result<State> {
         }
         .into());
     }
-    let free: Vec<usize> = (0..n).filter(|&i| !init.fixed[i]).collect();
+    // the tangent directions solved for (a free body's orientation is held whole)
+    let (held, held_tangent) = sys.held();
+    let free: Vec<usize> = (0..n).filter(|&i| !held_tangent[i]).collect();
     let mut ws = DynWorkspace::new(sys);
     let t = 0.0;
     let tol = 1e-13 * (1.0 + q.iter().fold(0.0f64, |a, x| a.max(x.abs())));
@@ -547,7 +566,7 @@ pub fn assemble(sys: &System) -> Result<State> {
         // damped step: halve until |Φ| decreases
         let mut step = 1.0;
         let mut accepted = false;
-        let mut delta = vec![0.0; sys.nv()];
+        let mut delta = vec![0.0; n];
         for (k, &i) in free.iter().enumerate() {
             delta[i] = dx[k];
         }
@@ -581,9 +600,9 @@ pub fn assemble(sys: &System) -> Result<State> {
             .max_by(|&i, &j| phi[i].abs().total_cmp(&phi[j].abs()))
             .map(|i| sys.constraint_names[i].clone())
             .unwrap_or_default();
-        let fixed: Vec<(String, f64)> = (0..n)
-            .filter(|&i| init.fixed[i])
-            .map(|i| (sys.coordinates[i].clone(), init.q[i]))
+        let fixed: Vec<(String, f64)> = held
+            .iter()
+            .map(|&i| (sys.coordinates[i].clone(), init.q[i]))
             .collect();
         return Err(Failure::NoAssembly {
             residual: norm,

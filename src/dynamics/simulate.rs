@@ -5,14 +5,14 @@
 
 use super::integrator::{IntegratorOptions, integrate};
 use super::{
-    DynWorkspace, State, accelerations, project_position, project_velocity, residual_norm,
-    velocity_residual_blocks,
+    DynWorkspace, MIN_RCOND, State, accelerations, project_position, project_velocity,
+    residual_norm, velocity_residual_blocks,
 };
 use crate::diag::Result;
 use crate::failure::Failure;
 use crate::system::System;
 use differential_equations::ode::ODE;
-use std::cell::RefCell;
+use std::cell::{Cell, RefCell};
 
 /// Settings of a simulation. Defaults: 20 s, output every 0.01 s, rtol 1e-10, atol 1e-12.
 #[derive(Debug, Clone)]
@@ -70,10 +70,12 @@ pub struct Trajectory {
     pub coordinates: Vec<String>,
     /// Whether each coordinate is an angle (rad), as [`System::is_angle`] says.
     pub angles: Vec<bool>,
+    /// The velocities' names ([`System::velocities`]).
+    pub velocities: Vec<String>,
     pub t: Vec<f64>,
-    /// q at each sample (n each).
+    /// q at each sample (nq each).
     pub q: Vec<Vec<f64>>,
-    /// v at each sample (n each).
+    /// v at each sample (nv each).
     pub v: Vec<Vec<f64>>,
     pub stats: SimStats,
 }
@@ -84,6 +86,7 @@ impl Trajectory {
         Trajectory {
             coordinates: sys.coordinates.clone(),
             angles: sys.angles(),
+            velocities: sys.velocities.clone(),
             t: Vec::new(),
             q: Vec::new(),
             v: Vec::new(),
@@ -96,12 +99,21 @@ impl Trajectory {
         let i = self.coordinates.iter().position(|c| c == name)?;
         Some(self.q.iter().map(|q| q[i]).collect())
     }
+
+    /// Time history of one velocity.
+    pub fn velocity(&self, name: &str) -> Option<Vec<f64>> {
+        let i = self.velocities.iter().position(|c| c == name)?;
+        Some(self.v.iter().map(|v| v[i]).collect())
+    }
 }
 
-/// The first-order system y = (q, v), ẏ = (v, v̇).
+/// The first-order system y = (q, v) (nq + nv), ẏ = (q̇(q, v), v̇).
 pub struct ConstrainedOde<'a> {
     sys: &'a System,
     ws: RefCell<DynWorkspace>,
+    /// The first right-hand side whose angles' mass matrix was singular: (t, body,
+    /// reciprocal condition number). Its derivative is NaN, which stops the integration.
+    singular: Cell<Option<(f64, usize, f64)>>,
 }
 
 impl<'a> ConstrainedOde<'a> {
@@ -109,7 +121,19 @@ impl<'a> ConstrainedOde<'a> {
         ConstrainedOde {
             sys,
             ws: RefCell::new(DynWorkspace::new(sys)),
+            singular: Cell::new(None),
         }
+    }
+
+    /// The failure of a run that stopped at a singular mass matrix, if it did.
+    fn singular_mass(&self) -> Option<Failure> {
+        self.singular
+            .get()
+            .map(|(t, k, rcond)| Failure::SingularMass {
+                t,
+                body: self.sys.bodies[k].name.clone(),
+                rcond,
+            })
     }
 }
 
@@ -120,6 +144,16 @@ impl ODE<f64, Vec<f64>> for ConstrainedOde<'_> {
         self.sys.qdot(q, v, &mut dydt[..n]);
         let mut ws = self.ws.borrow_mut();
         accelerations(self.sys, &mut ws, q, v, t, &mut dydt[n..]);
+        // an angle sequence at (next to) its singular pose: its angle rates are about to
+        // blow up; stop here, saying so, rather than integrate through it
+        if let Some((k, rcond)) = ws.worst_mass()
+            && rcond < MIN_RCOND
+        {
+            if self.singular.get().is_none() {
+                self.singular.set(Some((t, k, rcond)));
+            }
+            dydt.fill(f64::NAN);
+        }
     }
 }
 
@@ -188,6 +222,7 @@ pub fn simulate_with(
         &mut |t, y| {
             q.copy_from_slice(&y[..n]);
             v.copy_from_slice(&y[n..]);
+            sys.normalize(&mut q);
             let pos = residual_norm(sys, &q, t);
             drift.set(drift.get().max(pos));
             // the residual of the written sample: `pos` unless it was projected
@@ -203,9 +238,14 @@ pub fn simulate_with(
             max_residual.set(crate::linalg::amax(&[max_residual.get(), r]));
             sink(t, &q, &v)
         },
-        // Drift: project when the residual exceeds the tolerance.
+        // Drift: project when the residual exceeds the tolerance (and normalize the
+        // quaternions when their norm has drifted as far).
         &mut |t, y| {
             let (q, v) = y.split_at_mut(n);
+            let normalized = sys.norm_drift(q) > opts.projection_tol;
+            if normalized {
+                sys.normalize(q);
+            }
             let pos = residual_norm(sys, q, t);
             drift.set(drift.get().max(pos));
             let mut ws = proj_ws.borrow_mut();
@@ -216,11 +256,12 @@ pub fn simulate_with(
                 projections += 1;
                 true
             } else {
-                false
+                normalized
             }
         },
         progress,
-    )?;
+    )
+    .map_err(|e| ode.singular_mass().map_or(e, |f| f.into()))?;
     // The projection keeps written states on the constraints to `projection_tol`; a
     // residual far above it means it failed (a run far too loose, or a singular pose),
     // and the trajectory is not a motion of the mechanism: refuse it rather than write it.

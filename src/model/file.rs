@@ -152,11 +152,15 @@ pub struct RawBody {
     pub z: Option<SValue>,
     pub theta: Option<SValue>,
     /// Spatial bodies: the orientation, a sequence of rotations about body axes, each
-    /// `[axis, name]` (`[["z", "phi"]]`, `[["z", "alpha"], ["x", "beta"]]`).
+    /// `[axis, name]` (`[["z", "phi"]]`, `[["z", "alpha"], ["x", "beta"]]`), or `"free"`
+    /// (a unit quaternion with the body-frame angular velocity).
     pub rotation: Option<Spanned<toml::Value>>,
     /// Spatial bodies: initial values of the named angles (rad), default 0.
     #[serde(default)]
     pub angles: std::collections::BTreeMap<String, SValue>,
+    /// Free bodies: the initial orientation as a quaternion `[qw, qx, qy, qz]`
+    /// (normalized; default the identity).
+    pub orientation: Option<SVector>,
     /// Spatial bodies: the CG in the body frame (m), when the frame's origin is not the
     /// CG. Points are given from the frame's origin.
     pub cg: Option<SVector>,
@@ -165,8 +169,9 @@ pub struct RawBody {
     pub points: std::collections::BTreeMap<String, SVector>,
     #[serde(default)]
     pub fix: Vec<SString>,
-    /// Initial velocities by coordinate name (`{ theta = 0.5 }`): every velocity given
-    /// is held; the others are solved from the velocity constraints (minimum norm).
+    /// Initial velocities by coordinate name (`{ theta = 0.5 }`; a free body's by
+    /// velocity name, `{ vx = 1, wz = 2 }`): every velocity given is held; the others are
+    /// solved from the velocity constraints (minimum norm).
     #[serde(default)]
     pub velocity: std::collections::BTreeMap<String, SValue>,
 }

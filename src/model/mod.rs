@@ -144,7 +144,9 @@ pub fn suggest<'a>(name: &str, candidates: impl IntoIterator<Item = &'a str>) ->
 
 /// A rigid body. Planar: coordinates `x`, `y` (centre of gravity, m), `theta` (rad).
 /// Spatial: `x`, `y`, `z` (centre of gravity, m) and the named angles of its rotation
-/// sequence (rad).
+/// sequence (rad); its velocities are the coordinates' rates. Free: `x`, `y`, `z` and the
+/// unit quaternion `qw`, `qx`, `qy`, `qz`; velocities `vx`, `vy`, `vz` (the CG's, world
+/// frame) and `wx`, `wy`, `wz` (the angular velocity in the body frame).
 #[derive(Debug, Clone)]
 pub struct Body {
     pub name: String,
@@ -163,11 +165,17 @@ pub struct Body {
     pub coords: Vec<String>,
     /// Dimension of each coordinate.
     pub dims: Vec<Dim>,
+    /// Velocity names (without the body's prefix), in order: the coordinates' names when
+    /// the velocities are their rates.
+    pub vels: Vec<String>,
+    /// Dimension of each velocity.
+    pub vdims: Vec<Dim>,
     /// Initial pose, one per coordinate (in the body kind's coordinate order).
     pub initial: Vec<Field>,
-    /// Which coordinates are held at their initial value during assembly.
+    /// Which coordinates are held at their initial value during assembly (a free body's
+    /// four quaternion components together, or none of them).
     pub fixed: Vec<bool>,
-    /// Given initial velocities (m/s or rad/s), per coordinate.
+    /// Given initial velocities (m/s or rad/s), per velocity.
     pub velocity: Vec<Option<Field>>,
     /// Named points (body frame, from the frame's origin, m).
     pub points: Vec<(String, Vec<Field>)>,
@@ -182,12 +190,33 @@ pub enum BodyKind {
     Spatial {
         axes: Vec<usize>,
     },
+    /// A spatial body whose orientation is a unit quaternion, moved by its body-frame
+    /// angular velocity (no singular pose).
+    Free,
 }
 
 impl BodyKind {
     pub fn is_spatial(&self) -> bool {
         !matches!(self, BodyKind::Planar)
     }
+
+    /// Whether the velocities are the coordinates' rates (all but free bodies).
+    pub fn velocities_are_rates(&self) -> bool {
+        !matches!(self, BodyKind::Free)
+    }
+}
+
+/// A free body's coordinates after x, y, z: the unit quaternion.
+pub const QUATERNION: [&str; 4] = ["qw", "qx", "qy", "qz"];
+
+/// A free body's velocities: the CG's (world frame) and the angular velocity (body frame).
+pub const FREE_VELOCITIES: [&str; 6] = ["vx", "vy", "vz", "wx", "wy", "wz"];
+
+/// A spatial body's `rotation`, as written.
+enum Rotation {
+    /// Axes (0 = x, 1 = y, 2 = z) and angle names.
+    Sequence(Vec<usize>, Vec<String>),
+    Free,
 }
 
 /// A body reference: a body index, or the ground.
@@ -572,6 +601,15 @@ impl Model {
             .flat_map(|b| b.coords.iter().map(move |c| format!("{}.{}", b.name, c)))
             .collect()
     }
+
+    /// `<body>.<velocity>` for each velocity (the coordinates' names where the
+    /// velocities are their rates).
+    pub fn velocity_names(&self) -> Vec<String> {
+        self.bodies
+            .iter()
+            .flat_map(|b| b.vels.iter().map(move |c| format!("{}.{}", b.name, c)))
+            .collect()
+    }
 }
 
 /// `toml`'s message without its own location excerpt (we print ours).
@@ -746,15 +784,24 @@ impl Builder<'_> {
                 self.diags.push(
                     Diagnostic::new(format!("body `{name}` has no `rotation` in a spatial model"))
                         .at(raw.name.span())
-                        .help("a model's bodies are all planar or all spatial: give it `rotation = [[\"z\", \"angle_name\"]]` (a sequence of rotations about body axes)"),
+                        .help("a model's bodies are all planar or all spatial: give it `rotation = [[\"z\", \"angle_name\"]]` (a sequence of rotations about body axes) or `rotation = \"free\"`"),
                 );
                 return None;
             };
-            let (axes, angle_names) = self.rotation(rot, &name)?;
             let mut coords: Vec<String> = ["x", "y", "z"].iter().map(|s| s.to_string()).collect();
-            coords.extend(angle_names);
             let mut dims = vec![Dim::LENGTH; 3];
-            dims.extend(std::iter::repeat_n(Dim::NONE, axes.len()));
+            let kind = match self.rotation(rot, &name)? {
+                Rotation::Free => {
+                    coords.extend(QUATERNION.iter().map(|s| s.to_string()));
+                    dims.extend([Dim::NONE; 4]);
+                    BodyKind::Free
+                }
+                Rotation::Sequence(axes, angle_names) => {
+                    coords.extend(angle_names);
+                    dims.extend(std::iter::repeat_n(Dim::NONE, axes.len()));
+                    BodyKind::Spatial { axes }
+                }
+            };
             let inertia = match raw.inertia.get_ref() {
                 file::RawInertia::Vector(v) if v.len() == 3 || v.len() == 6 => {
                     let mut f: Vec<Option<Field>> = v.iter().map(|x| self.field(x)).collect();
@@ -776,7 +823,7 @@ impl Builder<'_> {
                 Some(v) => self.vector_n(v, "cg", 3),
                 None => Some(vec![Field::default_value(0.0, raw.name.span()); 3]),
             };
-            (BodyKind::Spatial { axes }, coords, dims, inertia, cg)
+            (kind, coords, dims, inertia, cg)
         } else {
             for (f, what) in [(raw.z.as_ref(), "z"), (None, "")] {
                 if let Some(f) = f {
@@ -818,8 +865,9 @@ impl Builder<'_> {
                 Some(Vec::new()),
             )
         };
+        let free = kind == BodyKind::Free;
         let mut initial = Vec::new();
-        for c in &coords {
+        for c in coords.iter().take(if free { 3 } else { coords.len() }) {
             let given = match c.as_str() {
                 "x" => raw.x.as_ref(),
                 "y" => raw.y.as_ref(),
@@ -832,16 +880,62 @@ impl Builder<'_> {
                 None => initial.push(Some(Field::default_value(0.0, raw.name.span()))),
             }
         }
+        if free {
+            match &raw.orientation {
+                Some(o) if o.get_ref().len() == 4 => {
+                    initial.extend(o.get_ref().iter().map(|x| self.field(x)));
+                }
+                Some(o) => {
+                    self.diags.push(
+                        Diagnostic::new(format!(
+                            "the orientation of `{name}` needs 4 components (a quaternion), found {}",
+                            o.get_ref().len()
+                        ))
+                        .at(o.span())
+                        .help("write `orientation = [qw, qx, qy, qz]` (normalized when loaded; the identity is [1, 0, 0, 0])"),
+                    );
+                    ok = false;
+                }
+                None => {
+                    for x in [1.0, 0.0, 0.0, 0.0] {
+                        initial.push(Some(Field::default_value(x, raw.name.span())));
+                    }
+                }
+            }
+            if let Some((a, v)) = raw.angles.iter().next() {
+                self.diags.push(
+                    Diagnostic::new(format!("`angles` of free body `{name}` (`{a}`)"))
+                        .at(v.span())
+                        .help("a free body's orientation is a unit quaternion: give `orientation = [qw, qx, qy, qz]`"),
+                );
+                ok = false;
+            }
+        } else if let Some(o) = &raw.orientation {
+            self.diags.push(
+                Diagnostic::new(format!("`orientation` of body `{name}`"))
+                    .at(o.span())
+                    .help(if spatial {
+                        "only a free body (`rotation = \"free\"`) has a quaternion orientation; give the initial angles in `angles = { name = value }`"
+                    } else {
+                        "a planar body's orientation is `theta`"
+                    }),
+            );
+            ok = false;
+        }
         if spatial {
             if let Some(t) = &raw.theta {
                 self.diags.push(
                     Diagnostic::new(format!("`theta` of spatial body `{name}`"))
                         .at(t.span())
-                        .help("a spatial body's angles are named in `rotation`; give their initial values in `angles = { name = value }`"),
+                        .help(if free {
+                            "a free body's orientation is a unit quaternion: give `orientation = [qw, qx, qy, qz]`"
+                        } else {
+                            "a spatial body's angles are named in `rotation`; give their initial values in `angles = { name = value }`"
+                        }),
                 );
                 ok = false;
             }
-            for (a, v) in &raw.angles {
+            for (a, v) in raw.angles.iter().filter(|_| !free) {
                 if !coords[3..].contains(a) {
                     self.diags.push(
                         Diagnostic::new(format!("`{a}` is not an angle of body `{name}`"))
@@ -859,35 +953,74 @@ impl Builder<'_> {
             );
             ok = false;
         }
-        let kind_name = if spatial { "spatial" } else { "planar" };
+        let kind_name = match kind {
+            BodyKind::Planar => "planar",
+            BodyKind::Spatial { .. } => "spatial",
+            BodyKind::Free => "free",
+        };
+        // what `fix` can name: the coordinates, or a free body's position and its
+        // orientation as a whole
+        let fixable: Vec<&str> = if free {
+            vec!["x", "y", "z", "orientation"]
+        } else {
+            coords.iter().map(|c| c.as_str()).collect()
+        };
         let mut fixed = vec![false; coords.len()];
         for f in &raw.fix {
-            match coords.iter().position(|c| c == f.get_ref()) {
+            match fixable.iter().position(|c| c == f.get_ref()) {
+                Some(3) if free => fixed[3..].fill(true),
                 Some(i) => fixed[i] = true,
                 None => {
-                    self.diags.push(
-                        Diagnostic::new(format!(
+                    let message = if free {
+                        format!("free body `{name}` cannot fix `{}`", f.get_ref())
+                    } else {
+                        format!(
                             "`{}` is not a coordinate of {kind_name} body `{name}`",
-                            f.get_ref(),
-                        ))
-                        .at(f.span())
-                        .help(format!("coordinates: {}", coords.join(", "))),
-                    );
+                            f.get_ref()
+                        )
+                    };
+                    self.diags
+                        .push(Diagnostic::new(message).at(f.span()).help(if free {
+                        "a free body fixes `x`, `y`, `z` or `orientation` (its whole quaternion)"
+                            .to_string()
+                    } else {
+                        format!("coordinates: {}", coords.join(", "))
+                    }));
                     ok = false;
                 }
             }
         }
-        let mut velocity: Vec<Option<Field>> = vec![None; coords.len()];
+        let (vels, vdims): (Vec<String>, Vec<Dim>) = if free {
+            let rate = Dim::NONE.div(Dim::TIME);
+            (
+                FREE_VELOCITIES.iter().map(|s| s.to_string()).collect(),
+                [Dim::LENGTH.div(Dim::TIME); 3]
+                    .into_iter()
+                    .chain([rate; 3])
+                    .collect(),
+            )
+        } else {
+            (
+                coords.clone(),
+                dims.iter().map(|d| d.div(Dim::TIME)).collect(),
+            )
+        };
+        let mut velocity: Vec<Option<Field>> = vec![None; vels.len()];
         for (c, v) in &raw.velocity {
-            match coords.iter().position(|k| k == c) {
+            match vels.iter().position(|k| k == c) {
                 Some(i) => velocity[i] = self.field(v),
                 None => {
+                    let (what, list) = if free {
+                        ("velocity", "velocities")
+                    } else {
+                        ("coordinate", "coordinates")
+                    };
                     self.diags.push(
                         Diagnostic::new(format!(
-                            "`{c}` is not a coordinate of {kind_name} body `{name}`"
+                            "`{c}` is not a {what} of {kind_name} body `{name}`"
                         ))
                         .at(v.span())
-                        .help(format!("coordinates: {}", coords.join(", "))),
+                        .help(format!("{list}: {}", vels.join(", "))),
                     );
                     ok = false;
                 }
@@ -895,7 +1028,7 @@ impl Builder<'_> {
         }
         let mut points = Vec::new();
         for (pname, v) in &raw.points {
-            if !params::is_identifier(pname) || coords.contains(pname) {
+            if !params::is_identifier(pname) || coords.contains(pname) || vels.contains(pname) {
                 self.diags.push(
                     Diagnostic::new(format!("`{pname}` cannot name a point of body `{name}`"))
                         .at(v.span())
@@ -924,6 +1057,8 @@ impl Builder<'_> {
             cg: cg?,
             coords,
             dims,
+            vels,
+            vdims,
             initial: initial?,
             fixed,
             velocity,
@@ -932,17 +1067,23 @@ impl Builder<'_> {
         .filter(|_| span.end >= span.start)
     }
 
-    /// A spatial body's `rotation = [["z", "phi"], ...]`: the axes and angle names.
-    fn rotation(
-        &mut self,
-        rot: &toml::Spanned<toml::Value>,
-        body: &str,
-    ) -> Option<(Vec<usize>, Vec<String>)> {
+    /// A spatial body's `rotation = [["z", "phi"], ...]` (the axes and angle names) or
+    /// `rotation = "free"`.
+    fn rotation(&mut self, rot: &toml::Spanned<toml::Value>, body: &str) -> Option<Rotation> {
         let bad = |msg: String| {
             Diagnostic::new(msg)
                 .at(rot.span())
-                .help("write `rotation = [[\"z\", \"phi\"]]`, or a sequence of two or three such pairs (`[[\"z\", \"alpha\"], [\"x\", \"beta\"]]`: R = Rz(alpha) Rx(beta)); axes are x, y or z of the body")
+                .help("write `rotation = [[\"z\", \"phi\"]]`, or a sequence of two or three such pairs (`[[\"z\", \"alpha\"], [\"x\", \"beta\"]]`: R = Rz(alpha) Rx(beta)); axes are x, y or z of the body; or `rotation = \"free\"` (a unit quaternion)")
         };
+        if let Some(word) = rot.get_ref().as_str() {
+            if word == "free" {
+                return Some(Rotation::Free);
+            }
+            self.diags.push(bad(format!(
+                "unknown rotation `{word}` of `{body}` (the named one is \"free\")"
+            )));
+            return None;
+        }
         let Some(list) = rot.get_ref().as_array() else {
             self.diags.push(bad(format!(
                 "the rotation of `{body}` is not a list of [axis, angle] pairs"
@@ -980,7 +1121,8 @@ impl Builder<'_> {
                     return None;
                 }
             };
-            if !params::is_identifier(n) || ["x", "y", "z"].contains(&n) {
+            if !params::is_identifier(n) || ["x", "y", "z"].contains(&n) || QUATERNION.contains(&n)
+            {
                 self.diags
                     .push(bad(format!("`{n}` cannot name an angle of `{body}`")));
                 return None;
@@ -1001,7 +1143,7 @@ impl Builder<'_> {
             axes.push(axis);
             names.push(n.to_string());
         }
-        Some((axes, names))
+        Some(Rotation::Sequence(axes, names))
     }
 
     /// A `[[joints]]` table, read by its type's table of fields ([`kinds::JOINTS`]).

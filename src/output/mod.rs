@@ -136,16 +136,18 @@ pub fn num(x: f64) -> String {
     }
 }
 
-/// The header of a trajectory CSV: `t,<coordinates>...[,<coordinate>_dot...]`.
+/// The header of a trajectory CSV: `t,<coordinates>...[,<velocity columns>...]`, the
+/// velocity columns as [`crate::System::velocity_columns`] names them (`<coordinate>_dot`
+/// for a coordinate's rate).
 pub fn trajectory_header(
     w: &mut dyn Write,
     coordinates: &[String],
-    velocities: bool,
+    velocities: Option<&[String]>,
 ) -> std::io::Result<()> {
     let mut header = vec!["t".to_string()];
     header.extend(coordinates.iter().cloned());
-    if velocities {
-        header.extend(coordinates.iter().map(|c| format!("{c}_dot")));
+    if let Some(v) = velocities {
+        header.extend(v.iter().cloned());
     }
     writeln!(w, "{}", header.join(","))
 }

@@ -97,6 +97,7 @@ impl<'a> Statics<'a> {
     /// The times at which time-dependent loads and constraints are averaged: one period
     /// of the forcing frequency, or t = 0 when nothing depends on time.
     fn averaging_times(sys: &System) -> Result<Vec<f64>> {
+        sys.refuse_free_bodies("statics and modes")?;
         Ok(if sys.depends_on_time() {
             match sys.forcing_frequency() {
                 Some(w) if w != 0.0 => {

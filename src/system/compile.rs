@@ -333,6 +333,10 @@ impl Compiler<'_> {
         self.model.bodies[..i].iter().map(|b| b.coords.len()).sum()
     }
 
+    fn body_voffset(&self, i: usize) -> usize {
+        self.model.bodies[..i].iter().map(|b| b.vels.len()).sum()
+    }
+
     /// The current value of a compiled coefficient expression.
     fn value_now(&self, c: usize) -> f64 {
         let (p, coefs) = self.live.evaluate(|_, x| x, None);
@@ -371,6 +375,10 @@ impl Compiler<'_> {
         let mut initial_coefs = Vec::new();
         let mut velocity_coefs = Vec::new();
         let mut coordinate_dims = Vec::new();
+        let mut angle_coords = Vec::new();
+        let mut velocity_is_rate = Vec::new();
+        // free bodies: where their quaternion's initial coefficients are
+        let mut quaternions = Vec::new();
         for (i, b) in model.bodies.iter().enumerate() {
             let mass = self.checked(
                 &b.mass,
@@ -425,6 +433,7 @@ impl Compiler<'_> {
             for (k, (c, d)) in b.coords.iter().zip(&b.dims).enumerate() {
                 let what = format!("`{}.{c}`", b.name);
                 coordinate_dims.push(*d);
+                angle_coords.push(*d == Dim::NONE && (b.kind != BodyKind::Free || k < 3));
                 // A guess may be undefined (NaN) for some parameters: assembly reports it.
                 let q0 = if b.fixed[k] {
                     self.constant(&b.initial[k], *d, &what)
@@ -438,10 +447,21 @@ impl Compiler<'_> {
                 initial_coefs.push(q0);
                 initial.q.push(f64::NAN);
                 initial.fixed.push(b.fixed[k]);
+            }
+            if b.kind == BodyKind::Free {
+                let k = initial_coefs.len() - 4;
+                quaternions.push((k, b));
+            }
+            for (k, (c, d)) in b.vels.iter().zip(&b.vdims).enumerate() {
+                velocity_is_rate.push(b.kind.velocities_are_rates());
                 match &b.velocity[k] {
                     Some(f) => {
-                        let rate = d.div(Dim::TIME);
-                        velocity_coefs.push(self.constant(f, rate, &format!("{what} velocity")));
+                        let what = if b.kind.velocities_are_rates() {
+                            format!("`{}.{c}` velocity", b.name)
+                        } else {
+                            format!("the velocity `{}.{c}`", b.name)
+                        };
+                        velocity_coefs.push(self.constant(f, *d, &what));
                         initial.v_given.push(true);
                     }
                     None => {
@@ -457,6 +477,7 @@ impl Compiler<'_> {
                     name: b.name.clone(),
                     kind: b.kind.clone(),
                     offset: self.body_offset(i),
+                    voff: self.body_voffset(i),
                     mass: f64::NAN,
                     inertia: f64::NAN,
                     tensor: [f64::NAN; 6],
@@ -744,6 +765,7 @@ impl Compiler<'_> {
         for (c, f, what) in [
             (&ground.x, &g.x, "x"),
             (&ground.y, &g.y, "y"),
+            (&ground.z, &g.z, "z"),
             (&ground.theta, &g.theta, "theta"),
         ] {
             if let (Some(c), Some(f)) = (c, f) {
@@ -758,36 +780,54 @@ impl Compiler<'_> {
                 }
             }
         }
+        // A free body's orientation is normalized: it must not be zero.
+        for &(k, b) in &quaternions {
+            let c: Vec<f64> = initial_coefs[k..k + 4]
+                .iter()
+                .map(|&i| self.live.coefs[i])
+                .collect();
+            if c.iter().all(|&x| x == 0.0) {
+                let (a, z) = (&b.initial[3].span, &b.initial[6].span);
+                failures.push(
+                    Diagnostic::new(format!("the orientation of `{}` is zero", b.name))
+                        .at(a.start.min(z.start)..a.end.max(z.end))
+                        .help("give a quaternion [qw, qx, qy, qz] (normalized when loaded): [1, 0, 0, 0] is the identity"),
+                );
+            }
+        }
         if !failures.is_empty() {
             self.diags = failures;
             return None;
         }
-        let n = self.coordinates.len();
-        // Where each coordinate lives, and the block of A of each constraint.
+        let nv = model.bodies.iter().map(|b| b.vels.len()).sum();
+        // Where each body's velocities start (and its coordinates, in planar models), and
+        // the body and direction of each velocity.
         let offsets: Vec<usize> = (0..model.bodies.len())
-            .map(|i| self.body_offset(i))
+            .map(|i| self.body_voffset(i))
             .collect();
-        let mut coord_body = Vec::with_capacity(n);
+        let mut coord_body = Vec::with_capacity(nv);
         for (k, b) in model.bodies.iter().enumerate() {
-            coord_body.extend((0..b.coords.len()).map(|d| (k, d)));
+            coord_body.extend((0..b.vels.len()).map(|d| (k, d)));
         }
         let geoms3: Vec<Geom3> = if model.spatial {
             model
                 .bodies
                 .iter()
-                .zip(&offsets)
-                .map(|(b, &offset)| Geom3 {
-                    offset,
+                .enumerate()
+                .map(|(i, b)| Geom3 {
+                    offset: self.body_offset(i),
+                    voff: self.body_voffset(i),
                     axes: match &b.kind {
                         BodyKind::Spatial { axes } => axes.clone(),
-                        BodyKind::Planar => Vec::new(),
+                        BodyKind::Planar | BodyKind::Free => Vec::new(),
                     },
+                    free: b.kind == BodyKind::Free,
                 })
                 .collect()
         } else {
             Vec::new()
         };
-        let nrot = geoms3.iter().map(|g| g.axes.len()).collect();
+        let nrot = geoms3.iter().map(|g| g.nrot()).collect();
         let trim = self.trim();
         if let Some(t) = trim.as_ref().filter(|t| t.off.is_none()) {
             // the held coordinates are held while the pose is assembled
@@ -803,6 +843,9 @@ impl Compiler<'_> {
             elements,
             coordinates: self.coordinates.clone(),
             coordinate_dims,
+            velocities: model.velocity_names(),
+            velocity_is_rate,
+            angle_coords,
             constraint_names: names,
             bodies,
             offsets,
@@ -814,9 +857,9 @@ impl Compiler<'_> {
             gravity_coefs,
             gravity: [0.0; 3],
             ground,
-            mass_matrix: DMatrix::zeros(n, n),
-            mass_inv_sqrt: DMatrix::zeros(n, n),
-            mass_inv_diag: vec![0.0; n],
+            mass_matrix: DMatrix::zeros(nv, nv),
+            mass_inv_sqrt: DMatrix::zeros(nv, nv),
+            mass_inv_diag: vec![0.0; nv],
             initial,
             initial_coefs,
             velocity_coefs,
@@ -874,8 +917,11 @@ impl Compiler<'_> {
     /// axis the body's angles cannot turn about).
     fn check_inertia(&self, sys: &System) -> Option<Diagnostic> {
         for (b, mb) in sys.bodies.iter().zip(self.model.bodies.iter()) {
-            let BodyKind::Spatial { axes } = &b.kind else {
-                continue;
+            // the number of rotations the body has
+            let rotations = match &b.kind {
+                BodyKind::Planar => continue,
+                BodyKind::Spatial { axes } => axes.len(),
+                BodyKind::Free => 3,
             };
             let t = super::spatial::tensor(b.tensor);
             let m = nalgebra::Matrix3::from_fn(|i, j| t[i][j]);
@@ -888,7 +934,7 @@ impl Compiler<'_> {
             [e0, e1, e2] = sorted;
             let bad = if e0 < -tol {
                 Some(format!("has a negative principal value {e0:.6e} kg·m²"))
-            } else if axes.len() == 3 && e0 + e1 < e2 - tol {
+            } else if rotations == 3 && e0 + e1 < e2 - tol {
                 // (a body with fewer angles may be an equivalent element: a gearbox's
                 // reflected inertia about its shaft exceeds any rigid body's; its other
                 // components do not enter the dynamics)
@@ -905,7 +951,7 @@ impl Compiler<'_> {
                         .help("give the inertia about the CG in the body frame: principal values [Ixx, Iyy, Izz] or [Ixx, Iyy, Izz, Ixy, Ixz, Iyz]"),
                 );
             }
-            let n = axes.len();
+            let n = rotations;
             let g = &sys.geoms3[sys.bodies.iter().position(|x| x.name == b.name)?];
             let mut q = sys.initial.q.clone();
             for x in &mut q {
@@ -1003,9 +1049,13 @@ impl System {
         let mut names = Vec::new();
         let (mut row0, mut val0) = (0, 0);
         for (c, name) in self.constraints.iter().zip(&self.elements) {
-            let mut cols = c.coordinates();
+            let mut cols: Vec<usize> = c
+                .coordinates()
+                .into_iter()
+                .flat_map(|i| self.coordinate_columns(i))
+                .collect();
             for k in c.bodies() {
-                cols.extend(self.offsets[k]..self.offsets[k] + self.body_len(&self.bodies[k]));
+                cols.extend(self.offsets[k]..self.offsets[k] + self.body_nv(&self.bodies[k]));
             }
             cols.sort_unstable();
             cols.dedup();
@@ -1031,6 +1081,22 @@ impl System {
         self.blocks = blocks;
         self.nvals = val0;
         self.constraint_names = names;
+    }
+
+    /// The velocities (columns of A) along which coordinate `i` moves: its rate, or a
+    /// free body's three rotations for a quaternion component.
+    fn coordinate_columns(&self, i: usize) -> std::ops::Range<usize> {
+        let b = self
+            .bodies
+            .iter()
+            .rfind(|b| b.offset <= i)
+            .expect("a coordinate belongs to a body");
+        let d = i - b.offset;
+        if b.kind == BodyKind::Free && d >= 3 {
+            b.voff + 3..b.voff + 6
+        } else {
+            b.voff + d..b.voff + d + 1
+        }
     }
 
     /// Drop the rows of spatial joints that the bodies' own coordinates satisfy

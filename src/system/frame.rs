@@ -269,9 +269,11 @@ pub struct Frames<'a, D, E> {
     pub poses: &'a [Pose<D>],
     /// Spatial bodies' poses (empty in planar models).
     pub poses3: &'a [Pose3<D>],
-    /// Number of angles of each spatial body.
+    /// Number of rotational velocities of each spatial body (its angles, or a free
+    /// body's 3 body rates).
     pub nrot: &'a [usize],
-    /// Coordinate offset of each body (for generalized forces).
+    /// Velocity offset of each body (where its velocities and generalized forces start;
+    /// its coordinates too, unless a free body precedes it).
     pub offsets: &'a [usize],
     pub ground: GroundPose<D>,
     pub env: E,

@@ -5,14 +5,18 @@
 //! Everything here is generic over the number type and over where parameter values come
 //! from ([`Env`]): the constraint function is written once over any [`Scalar`], so
 //!
-//! * `A = ∂Φ/∂q` comes from one `Dual64` pass per coordinate (column j: seed `q_j + ε`),
-//! * `b = −d²/ds² Φ(q + s·v, t + s)|s=0` from one `Dual2_64` pass along the motion,
+//! * `A = ∂Φ/∂q` comes from one `Dual64` pass per coordinate (column j: seed `q_j + ε`;
+//!   in general the derivative along tangent direction j, `q ⊕ ε e_j`),
+//! * `b = −d²/ds² Φ(q ⊕ s·v, t + s)|s=0` from one `Dual2_64` pass along the motion,
 //! * `∂Φ/∂p`, `∂f/∂p` from one pass with the parameter seeded ([`System::seeded`]).
 //!
 //! Parameters stay live: [`System::set_param`] changes one without recompiling (a sweep's
 //! frequency, a continuation's parameter), and everything defined from it follows.
 //!
-//! Planar bodies have `q = (x, y, θ)` of the centre of gravity and `v = q̇`.
+//! Planar bodies have `q = (x, y, θ)` of the centre of gravity and `v = q̇`; spatial bodies
+//! with a sequence of angles likewise. A free body (a unit quaternion) has 7 coordinates
+//! and 6 velocities (see [`spatial`]): q has nq entries, v and the columns of A nv, and
+//! every step in q goes through [`System::retract`].
 //!
 //! Layout: [`compile`] turns a model into a system, [`live`] holds the parameters and
 //! element coefficients, [`frame`] the frames and points (and the moving ground),
@@ -39,8 +43,10 @@ use spatial::{Geom3, Pose3};
 pub struct SysBody {
     pub name: String,
     pub kind: BodyKind,
-    /// Index of the body's first coordinate in q (and v).
+    /// Index of the body's first coordinate in q.
     pub offset: usize,
+    /// Index of the body's first velocity in v (= `offset` unless a free body precedes).
+    pub voff: usize,
     /// kg (current value).
     pub mass: f64,
     /// Centroidal moment of inertia, kg·m² (current value; planar bodies).
@@ -100,14 +106,23 @@ pub struct InitialGuess {
 pub struct System {
     /// `<body>.<coordinate>` for each entry of q.
     pub coordinates: Vec<String>,
-    /// The dimension of each coordinate (length, or angle: none).
+    /// The dimension of each coordinate (length, or angle and quaternion: none).
     pub coordinate_dims: Vec<Dim>,
+    /// `<body>.<velocity>` for each entry of v: the coordinate's name where the velocity
+    /// is its rate (planar bodies, angle sequences), `b.vx` ... `b.wz` for a free body.
+    pub velocities: Vec<String>,
+    /// Whether each velocity is its coordinate's rate (every body but a free one).
+    velocity_is_rate: Vec<bool>,
+    /// Whether each coordinate is an angle (a quaternion component is not).
+    angle_coords: Vec<bool>,
     /// One name per constraint row (`joint.x`, `constraint2`, ...).
     pub constraint_names: Vec<String>,
     pub bodies: Vec<SysBody>,
-    /// Coordinate offset of each body.
+    /// Velocity offset of each body (its first column of A, its first generalized force;
+    /// also its first coordinate in planar models).
     offsets: Vec<usize>,
-    /// For each coordinate: its body and direction (planar: 0 = x, 1 = y, 2 = θ).
+    /// For each velocity (tangent direction, column of A): its body and direction
+    /// (planar: 0 = x, 1 = y, 2 = θ; spatial: 0..3 the CG, then the rotations).
     coord_body: Vec<(usize, usize)>,
     constraints: Vec<joints::Constraint>,
     /// The block of A of each constraint element.
@@ -131,9 +146,10 @@ pub struct System {
     nrot: Vec<usize>,
     /// The ground's prescribed motion (none: fixed).
     pub ground: GroundMotion,
-    /// Mass matrix M (n × n), constant for planar bodies.
+    /// Mass matrix M (nv × nv), constant for planar bodies (spatial angle sequences: its
+    /// diagonal at zero angles, a weighting only; see [`System::mass_matrix_at`]).
     pub mass_matrix: DMatrix<f64>,
-    /// M^-½ (n × n).
+    /// M^-½ (nv × nv).
     pub mass_inv_sqrt: DMatrix<f64>,
     /// The inverse of M's diagonal (planar bodies: 1/m, 1/m, 1/I).
     pub mass_inv_diag: Vec<f64>,
@@ -172,7 +188,7 @@ pub struct Workspace {
 
 impl Workspace {
     pub fn new(sys: &System) -> Self {
-        let n = sys.n();
+        let n = sys.nq();
         let m = sys.m();
         let nb = sys.offsets.len();
         let nb3 = sys.geoms3.len();
@@ -193,7 +209,8 @@ impl Workspace {
 }
 
 impl System {
-    /// Number of coordinates (= velocities for planar bodies).
+    /// Number of coordinates q (= velocities, unless the model has a free body: see
+    /// [`System::nq`], [`System::nv`]).
     pub fn n(&self) -> usize {
         self.coordinates.len()
     }
@@ -208,59 +225,187 @@ impl System {
     }
 
     /// Number of velocities v: the dimension of the tangent space, the columns of A. (A
-    /// planar body has q = v-rates; a body with a unit quaternion has 7 coordinates and
-    /// 6 velocities.) Every analysis steps through [`System::retract`], so it holds for
-    /// either.
+    /// planar body has q = v-rates; a free body, with a unit quaternion, has 7
+    /// coordinates and 6 velocities.) Every analysis steps through [`System::retract`],
+    /// so it holds for either.
     pub fn nv(&self) -> usize {
-        self.coordinates.len()
+        self.velocities.len()
+    }
+
+    /// Whether any body is free (a unit quaternion: nq ≠ nv).
+    pub fn has_free_bodies(&self) -> bool {
+        self.bodies.iter().any(|b| b.kind == BodyKind::Free)
+    }
+
+    /// Refuse a model with free bodies in `what`: the analyses that still differentiate
+    /// with respect to the coordinates themselves (statics' second derivatives, the
+    /// linearization) are not written along the retraction yet.
+    pub fn refuse_free_bodies(&self, what: &str) -> Result<()> {
+        match self.bodies.iter().find(|b| b.kind == BodyKind::Free) {
+            Some(b) => Err(Error::request(
+                format!(
+                    "{what} of free bodies not supported yet (body `{}` has `rotation = \"free\"`)",
+                    b.name
+                ),
+                "simulate the model, or describe the body's orientation by a rotation sequence (`rotation = [[\"z\", \"a\"], [\"x\", \"b\"], [\"z\", \"c\"]]`) away from its singular poses",
+            )),
+            None => Ok(()),
+        }
     }
 
     /// q ⊕ s·δ in place: the configuration reached from q along the tangent δ (nv) by
-    /// s. Planar bodies: q + s·δ. Newton updates, projections and predictors step
+    /// s. Planar bodies and angle sequences: q + s·δ; a free body's quaternion:
+    /// `q ⊗ exp(s δ_ω)`, normalized. Newton updates, projections and predictors step
     /// through this, never by adding to q.
     pub fn retract(&self, q: &mut [f64], delta: &[f64], s: f64) {
         for b in &self.bodies {
+            let (o, vo) = (b.offset, b.voff);
             match b.kind {
                 BodyKind::Planar | BodyKind::Spatial { .. } => {
-                    for i in b.offset..b.offset + self.body_len(b) {
-                        q[i] += s * delta[i];
+                    for i in 0..self.body_nv(b) {
+                        q[o + i] += s * delta[vo + i];
                     }
+                }
+                BodyKind::Free => {
+                    for i in 0..3 {
+                        q[o + i] += s * delta[vo + i];
+                    }
+                    let d = [0, 1, 2].map(|i| s * delta[vo + 3 + i]);
+                    let r = spatial::quat_normalize(spatial::quat_mul(
+                        quat_at(q, o + 3),
+                        spatial::quat_exp(d),
+                    ));
+                    q[o + 3..o + 7].copy_from_slice(&r);
                 }
             }
         }
     }
 
-    /// The tangent δ (nv) with q0 ⊕ δ = q1, for q1 near q0 (planar bodies: q1 − q0).
+    /// The tangent δ (nv) with q0 ⊕ δ = q1, for q1 near q0 (planar bodies: q1 − q0; a
+    /// free body's rotation: `log(q0⁻¹ ⊗ q1)`, the shorter way).
     pub fn difference(&self, q1: &[f64], q0: &[f64], out: &mut [f64]) {
         for b in &self.bodies {
+            let (o, vo) = (b.offset, b.voff);
             match b.kind {
                 BodyKind::Planar | BodyKind::Spatial { .. } => {
-                    for i in b.offset..b.offset + self.body_len(b) {
-                        out[i] = q1[i] - q0[i];
+                    for i in 0..self.body_nv(b) {
+                        out[vo + i] = q1[o + i] - q0[o + i];
                     }
+                }
+                BodyKind::Free => {
+                    for i in 0..3 {
+                        out[vo + i] = q1[o + i] - q0[o + i];
+                    }
+                    let a = spatial::quat_normalize(quat_at(q0, o + 3));
+                    let c = spatial::quat_normalize(quat_at(q1, o + 3));
+                    let rel = spatial::quat_mul([a[0], -a[1], -a[2], -a[3]], c);
+                    out[vo + 3..vo + 6].copy_from_slice(&spatial::quat_log(rel));
                 }
             }
         }
     }
 
-    /// q̇ = N(q) v (nq): how the coordinates move with the velocities (planar: q̇ = v).
-    pub fn qdot(&self, _q: &[f64], v: &[f64], out: &mut [f64]) {
+    /// q̇ = N(q) v (nq): how the coordinates move with the velocities (planar: q̇ = v; a
+    /// free body's quaternion: `q̇ = ½ q ⊗ (0, ω_b)`).
+    pub fn qdot(&self, q: &[f64], v: &[f64], out: &mut [f64]) {
         for b in &self.bodies {
+            let (o, vo) = (b.offset, b.voff);
             match b.kind {
                 BodyKind::Planar | BodyKind::Spatial { .. } => {
-                    let r = b.offset..b.offset + self.body_len(b);
-                    out[r.clone()].copy_from_slice(&v[r]);
+                    let n = self.body_nv(b);
+                    out[o..o + n].copy_from_slice(&v[vo..vo + n]);
+                }
+                BodyKind::Free => {
+                    out[o..o + 3].copy_from_slice(&v[vo..vo + 3]);
+                    let w = [v[vo + 3], v[vo + 4], v[vo + 5]];
+                    out[o + 3..o + 7].copy_from_slice(&spatial::quat_rate(quat_at(q, o + 3), w));
                 }
             }
         }
+    }
+
+    /// The largest |1 − |q|| of the free bodies' quaternions in q (0 without any).
+    pub fn norm_drift(&self, q: &[f64]) -> f64 {
+        let mut worst = 0.0f64;
+        for b in self.bodies.iter().filter(|b| b.kind == BodyKind::Free) {
+            let o = b.offset + 3;
+            let n = q[o..o + 4].iter().map(|x| x * x).sum::<f64>().sqrt();
+            worst = crate::linalg::amax(&[worst, 1.0 - n]);
+        }
+        worst
+    }
+
+    /// Normalize every free body's quaternion in q; returns the largest |1 − |q|| found
+    /// (0 without free bodies). R does not depend on the norm (see
+    /// [`spatial::Pose3::from_quat`]): this only keeps the coordinates tidy.
+    pub fn normalize(&self, q: &mut [f64]) -> f64 {
+        let mut worst = 0.0f64;
+        for b in self.bodies.iter().filter(|b| b.kind == BodyKind::Free) {
+            let o = b.offset + 3;
+            let n = q[o..o + 4].iter().map(|x| x * x).sum::<f64>().sqrt();
+            worst = crate::linalg::amax(&[worst, 1.0 - n]);
+            for x in &mut q[o..o + 4] {
+                *x /= n;
+            }
+        }
+        worst
+    }
+
+    /// The coordinates (indices into q) that are held during assembly, and the tangent
+    /// directions (indices into v) they hold: a free body's orientation holds its three
+    /// rotations (and its four quaternion components).
+    pub fn held(&self) -> (Vec<usize>, Vec<bool>) {
+        let fixed = &self.initial.fixed;
+        let coords = (0..self.nq()).filter(|&i| fixed[i]).collect();
+        let mut tangent = vec![false; self.nv()];
+        for b in &self.bodies {
+            match b.kind {
+                BodyKind::Planar | BodyKind::Spatial { .. } => {
+                    for i in 0..self.body_nv(b) {
+                        tangent[b.voff + i] = fixed[b.offset + i];
+                    }
+                }
+                BodyKind::Free => {
+                    for i in 0..3 {
+                        tangent[b.voff + i] = fixed[b.offset + i];
+                    }
+                    tangent[b.voff + 3..b.voff + 6].fill(fixed[b.offset + 3]);
+                }
+            }
+        }
+        (coords, tangent)
     }
 
     /// Number of coordinates of a body.
-    fn body_len(&self, b: &SysBody) -> usize {
+    fn body_nq(&self, b: &SysBody) -> usize {
         match &b.kind {
             BodyKind::Planar => 3,
             BodyKind::Spatial { axes } => 3 + axes.len(),
+            BodyKind::Free => 7,
         }
+    }
+
+    /// Number of velocities of a body.
+    fn body_nv(&self, b: &SysBody) -> usize {
+        match &b.kind {
+            BodyKind::Free => 6,
+            _ => self.body_nq(b),
+        }
+    }
+
+    /// Index of a velocity by name.
+    pub fn velocity_index(&self, name: &str) -> Option<usize> {
+        self.velocities.iter().position(|c| c == name)
+    }
+
+    /// The trajectory CSV's velocity columns: `<coordinate>_dot` for a coordinate's
+    /// rate, the velocity's name otherwise (`b.wx`).
+    pub fn velocity_columns(&self) -> Vec<String> {
+        self.velocities
+            .iter()
+            .zip(&self.velocity_is_rate)
+            .map(|(c, &rate)| if rate { format!("{c}_dot") } else { c.clone() })
+            .collect()
     }
 
     /// The spatial bodies' rotation sequences (empty in planar models).
@@ -278,9 +423,9 @@ impl System {
         (0..self.nq()).map(|i| self.is_angle(i)).collect()
     }
 
-    /// Whether coordinate `i` is an angle (rad).
+    /// Whether coordinate `i` is an angle (rad; a quaternion component is not).
     pub fn is_angle(&self, i: usize) -> bool {
-        self.coordinate_dims[i] == Dim::NONE
+        self.angle_coords[i]
     }
 
     /// The current values of the parameters and coefficients.
@@ -409,7 +554,7 @@ impl System {
     /// Recompute what depends on the coefficients: masses, gravity, initial guess.
     fn refresh(&mut self) {
         let c = &self.live.coefs;
-        let n = self.n();
+        let n = self.nv();
         let mut mdiag = DVector::zeros(n);
         for b in &mut self.bodies {
             b.mass = c[b.mass_coef];
@@ -420,12 +565,21 @@ impl System {
                     mdiag[b.offset + 1] = b.mass;
                     mdiag[b.offset + 2] = b.inertia;
                 }
+                BodyKind::Free => {
+                    for (k, &i) in b.inertia_coefs.iter().enumerate() {
+                        b.tensor[k] = c[i];
+                    }
+                    for i in 0..3 {
+                        mdiag[b.voff + i] = b.mass;
+                        mdiag[b.voff + 3 + i] = b.tensor[i];
+                    }
+                }
                 BodyKind::Spatial { axes } => {
                     for (k, &i) in b.inertia_coefs.iter().enumerate() {
                         b.tensor[k] = c[i];
                     }
                     for i in 0..3 {
-                        mdiag[b.offset + i] = b.mass;
+                        mdiag[b.voff + i] = b.mass;
                     }
                     // the angles' mass depends on the pose: see `mass_matrix_at`; here
                     // its value at zero angles
@@ -434,7 +588,7 @@ impl System {
                     let mut m = [0.0; 9];
                     spatial::rotational_mass(&p, na, &spatial::tensor(b.tensor), &mut m);
                     for i in 0..na {
-                        mdiag[b.offset + 3 + i] = m[i * na + i];
+                        mdiag[b.voff + 3 + i] = m[i * na + i];
                     }
                 }
             }
@@ -451,6 +605,11 @@ impl System {
         for (k, &i) in self.initial_coefs.iter().enumerate() {
             self.initial.q[k] = c[i];
         }
+        // a free body's orientation is normalized (a zero one becomes NaN: an undefined
+        // guess, reported by the assembly)
+        let mut q = std::mem::take(&mut self.initial.q);
+        self.normalize(&mut q);
+        self.initial.q = q;
         for (k, v) in self.velocity_coefs.iter().enumerate() {
             self.initial.v[k] = v.map_or(0.0, |i| c[i]);
         }
@@ -602,7 +761,22 @@ impl System {
             for (ci, &j) in b.cols.iter().enumerate() {
                 let (k, d) = self.coord_body[j];
                 ws.pose3_d[k] = ws.pose3_f[k].seeded(d);
-                ws.qd[j].eps = 1.0;
+                let g = &self.geoms3[k];
+                // the coordinates' derivative along the tangent direction (for custom
+                // constraints, which read q): e_j, or a quaternion's ½ q ⊗ (0, e_i)
+                let seeded = if g.free && d >= 3 {
+                    let mut e = [0.0; 3];
+                    e[d - 3] = 1.0;
+                    let qq = spatial::quat_normalize(quat_at(q, g.offset + 3));
+                    let dq = spatial::quat_rate(qq, e);
+                    for (i, x) in dq.iter().enumerate() {
+                        ws.qd[g.offset + 3 + i].eps = *x;
+                    }
+                    g.offset + 3..g.offset + 7
+                } else {
+                    ws.qd[g.offset + d].eps = 1.0;
+                    g.offset + d..g.offset + d + 1
+                };
                 let fr = Frames {
                     q: &ws.qd,
                     poses: &[],
@@ -613,7 +787,9 @@ impl System {
                     env,
                 };
                 c.phi(&fr, td, &mut ws.phid[..b.rows]);
-                ws.qd[j].eps = 0.0;
+                for x in &mut ws.qd[seeded] {
+                    x.eps = 0.0;
+                }
                 ws.pose3_d[k] = ws.pose3_f[k].lift();
                 for r in 0..b.rows {
                     ws.vals[b.val0 + r * ncols + ci] = ws.phid[r].eps;
@@ -629,7 +805,8 @@ impl System {
         out
     }
 
-    /// Constraint Jacobian A = ∂Φ/∂q (m × n), dense (from [`System::jacobian_blocks`]).
+    /// Constraint Jacobian A = ∂Φ/∂q (m × nv, along the tangent directions), dense (from
+    /// [`System::jacobian_blocks`]).
     pub fn jacobian(&self, ws: &mut Workspace, q: &[f64], t: f64, a: &mut DMatrix<f64>) {
         self.jacobian_blocks(ws, q, t);
         self.blocks_to_dense(ws, a);
@@ -672,14 +849,34 @@ impl System {
     /// [`System::bias`] with the poses already in the workspace: one `Dual2_64` pass along
     /// the motion, each body's pose along it from its f64 pose by the chain rule.
     fn bias_posed(&self, ws: &mut Workspace, q: &[f64], v: &[f64], t: f64, b: &mut DVector<f64>) {
-        for ((d, &x), &dx) in ws.q2.iter_mut().zip(q).zip(v) {
-            *d = Dual2_64::new(x, dx, 0.0);
-        }
         if self.spatial {
+            // q ⊕ s·v body by body: angles along q + s·v, a free body's quaternion along
+            // q ⊗ exp(s ω/2) (rate ½ q ⊗ (0, ω), second derivative −¼ |ω|² q)
             for (k, g) in self.geoms3.iter().enumerate() {
-                ws.pose3_2[k] = Pose3::from_q(&ws.q2, g);
+                let (o, vo) = (g.offset, g.voff);
+                if g.free {
+                    for i in 0..3 {
+                        ws.q2[o + i] = Dual2_64::new(q[o + i], v[vo + i], 0.0);
+                    }
+                    let qq = spatial::quat_normalize(quat_at(q, o + 3));
+                    let w = [v[vo + 3], v[vo + 4], v[vo + 5]];
+                    let rate = spatial::quat_rate(qq, w);
+                    let w2 = -0.25 * spatial::dot(w, w);
+                    for i in 0..4 {
+                        ws.q2[o + 3 + i] = Dual2_64::new(qq[i], rate[i], w2 * qq[i]);
+                    }
+                    ws.pose3_2[k] = ws.pose3_f[k].along_free(&v[vo..vo + 6]);
+                } else {
+                    for i in 0..g.nq() {
+                        ws.q2[o + i] = Dual2_64::new(q[o + i], v[vo + i], 0.0);
+                    }
+                    ws.pose3_2[k] = Pose3::from_q(&ws.q2, g);
+                }
             }
         } else {
+            for ((d, &x), &dx) in ws.q2.iter_mut().zip(q).zip(v) {
+                *d = Dual2_64::new(x, dx, 0.0);
+            }
             for (k, &o) in self.offsets.iter().enumerate() {
                 ws.pose_2[k] = ws.pose_f[k].along(v, o);
             }
@@ -756,32 +953,39 @@ impl System {
             for b in &self.bodies {
                 let m = env.coef(b.mass_coef);
                 for k in 0..dims {
-                    f[b.offset + k] += m * g[k];
+                    f[b.voff + k] += m * g[k];
                 }
             }
         }
     }
 
-    /// Add the spatial bodies' velocity forces `∂T/∂θ − Ṁ θ̇` (see [`spatial`]).
+    /// Add the spatial bodies' velocity forces: `∂T/∂θ − Ṁ θ̇` of an angle sequence, the
+    /// gyroscopic `−ω × (I ω)` of a free body (see [`spatial`]).
     #[inline]
     fn velocity_forces_in<D: Scalar, E: Env<D>>(&self, q: &[D], v: &[D], env: E, f: &mut [D]) {
         for (b, g) in self.bodies.iter().zip(&self.geoms3) {
-            let n = g.axes.len();
-            let o = g.offset + 3;
+            let n = g.nrot();
+            let (o, vo) = (g.offset + 3, g.voff + 3);
             // quadratic in the rates: at rest it and its first derivatives vanish
-            if v[o..o + n].iter().all(|w| w.re() == 0.0) {
+            if v[vo..vo + n].iter().all(|w| w.re() == 0.0) {
                 continue;
             }
             let mut i6 = [D::from(0.0); 6];
             for (x, &c) in i6.iter_mut().zip(&b.inertia_coefs) {
                 *x = env.coef(c);
             }
+            let inertia = spatial::tensor(i6);
+            if g.free {
+                let w = [v[vo], v[vo + 1], v[vo + 2]];
+                spatial::gyroscopic(w, &inertia, &mut f[vo..vo + 3]);
+                continue;
+            }
             spatial::velocity_forces(
                 &g.axes,
                 &q[o..o + n],
-                &v[o..o + n],
-                &spatial::tensor(i6),
-                &mut f[o..o + n],
+                &v[vo..vo + n],
+                &inertia,
+                &mut f[vo..vo + n],
             );
         }
     }
@@ -822,7 +1026,7 @@ impl System {
     /// The velocity of the ground frame carried to each body's centre of gravity at pose q
     /// and time t (n): what a body at rest relative to the moving ground has.
     pub fn ground_velocity(&self, q: &[f64], t: f64) -> Vec<f64> {
-        let mut v = vec![0.0; self.n()];
+        let mut v = vec![0.0; self.nv()];
         if !self.ground.is_moving() {
             return v;
         }
@@ -830,7 +1034,7 @@ impl System {
         if self.spatial {
             // the ground translates (it does not rotate in spatial models)
             for b in &self.bodies {
-                v[b.offset..b.offset + 3].copy_from_slice(&g.vel);
+                v[b.voff..b.voff + 3].copy_from_slice(&g.vel);
             }
             return v;
         }
@@ -869,32 +1073,48 @@ impl System {
     }
 
     /// The mass matrix M(q) (nv × nv): constant for planar bodies; for spatial bodies,
-    /// block-diagonal with the angles' block `J_bᵀ I J_b` at the pose.
+    /// block-diagonal with the angles' block `J_bᵀ I J_b` at the pose (a free body's: its
+    /// inertia tensor, constant).
     pub fn mass_matrix_at(&self, q: &[f64]) -> DMatrix<f64> {
         if !self.spatial {
             return self.mass_matrix.clone();
         }
         let mut m = DMatrix::zeros(self.nv(), self.nv());
         for (b, g) in self.bodies.iter().zip(&self.geoms3) {
+            let o = g.voff;
             for i in 0..3 {
-                m[(g.offset + i, g.offset + i)] = b.mass;
+                m[(o + i, o + i)] = b.mass;
             }
-            let n = g.axes.len();
+            let n = g.nrot();
             let mut blk = [0.0; 9];
             self.rotational_mass(b, g, q, &mut blk);
             for i in 0..n {
                 for j in 0..n {
-                    m[(g.offset + 3 + i, g.offset + 3 + j)] = blk[i * n + j];
+                    m[(o + 3 + i, o + 3 + j)] = blk[i * n + j];
                 }
             }
         }
         m
     }
 
-    /// The mass matrix of a spatial body's angles at q (n × n row-major into `out`).
+    /// The mass matrix of a spatial body's rotational velocities at q (n × n row-major
+    /// into `out`): `J_bᵀ I J_b` for an angle sequence, I for a free body.
     pub fn rotational_mass(&self, b: &SysBody, g: &Geom3, q: &[f64], out: &mut [f64]) {
+        if g.free {
+            let t = spatial::tensor(b.tensor);
+            for i in 0..3 {
+                out[i * 3..i * 3 + 3].copy_from_slice(&t[i]);
+            }
+            return;
+        }
         let n = g.axes.len();
         let p = Pose3::from_parts([0.0; 3], &q[g.offset + 3..g.offset + 3 + n], &g.axes);
         spatial::rotational_mass(&p, n, &spatial::tensor(b.tensor), out);
     }
+}
+
+/// The quaternion at `q[o..o + 4]`.
+#[inline]
+fn quat_at(q: &[f64], o: usize) -> spatial::Quat {
+    [q[o], q[o + 1], q[o + 2], q[o + 3]]
 }

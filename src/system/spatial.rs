@@ -1,17 +1,31 @@
 //! Spatial bodies, joints and forces.
 //!
-//! A spatial body has the coordinates `x, y, z` of its centre of gravity (CG) and the
-//! angles of a sequence of rotations about body axes, `R = R_a1(θ1) R_a2(θ2) R_a3(θ3)`
-//! (active, right-handed: `R p` takes a body-frame vector to the ground frame). Its
-//! velocities are the rates of its coordinates.
+//! A spatial body has the coordinates `x, y, z` of its centre of gravity (CG) and either
+//!
+//! * the angles of a sequence of rotations about body axes, `R = R_a1(θ1) R_a2(θ2)
+//!   R_a3(θ3)` (active, right-handed: `R p` takes a body-frame vector to the ground
+//!   frame), its velocities the rates of its coordinates; or
+//! * (a free body, `rotation = "free"`) a unit quaternion `(qw, qx, qy, qz)`, with the
+//!   CG's velocity and the angular velocity ω_b **in the body frame** as its velocities:
+//!   7 coordinates, 6 velocities. It moves by `q̇ = ½ q ⊗ (0, ω_b)` and is stepped by
+//!   the retraction `q ⊕ δ = q ⊗ exp(δ_ω)` (normalized), so it has no singular pose. R is
+//!   computed from q/|q| ([`Pose3::from_quat`]).
 //!
 //! * The world angular velocity is `ω = Σ θ̇_i (R_a1 … R_a(i−1)) e_ai`: the columns
 //!   `jw` of [`Pose3`], computed with R. A generalized force from a world torque τ is
-//!   `jwᵀ τ`; the derivative of R along angle i is `[jw_i]× R`.
+//!   `jwᵀ τ`; the derivative of R along angle i is `[jw_i]× R`. For a free body
+//!   `jw = R` (ω = R ω_b): a world torque gives the body-frame torque `Rᵀ τ`, and the
+//!   derivative along a rotation about body axis k, `R [e_k]× = [R e_k]× R`, is the same
+//!   formula. Along the motion `R exp(s [ω_b]×)` (for the bias b), `d/ds R = R [ω_b]×`
+//!   and `d²/ds² R = R [ω_b]×²` ([`Pose3::along_free`]).
 //! * The kinetic energy is `T = ½ m |ṙ|² + ½ ω_bᵀ I ω_b` with `ω_b = Rᵀ ω` and I the
 //!   inertia tensor about the CG in the body frame. The mass matrix of the angles is
 //!   `∂²T/∂θ̇² = J_bᵀ I J_b`; the velocity forces `∂T/∂θ − Ṁ θ̇` come from T by dual
 //!   numbers ([`velocity_forces`]): no hand-derived velocity terms, for any sequence.
+//!   For a free body the body rates are quasi-velocities (not the rates of any
+//!   coordinates): with `T = ½ m |ṙ|² + ½ ω_bᵀ I ω_b` its mass matrix is the constant
+//!   `diag(m I₃, I)` and its equations are Euler's, `I ω̇_b = Rᵀ τ − ω_b × (I ω_b)`: the
+//!   velocity force is the gyroscopic `−ω_b × (I ω_b)` ([`gyroscopic`]).
 //!
 //! Joints relate point 1 on body 1 to point 2 on body 2 (or the ground), with axes given
 //! in each body's frame. Rows that the bodies' own coordinates satisfy identically (a
@@ -65,23 +79,90 @@ pub fn mat_t_vec<D: Scalar>(m: &M3<D>, v: V3<D>) -> V3<D> {
     ]
 }
 
-/// The rotation of a spatial body: its axes sequence (0 = x, 1 = y, 2 = z) and where
-/// its coordinates start.
+/// The rotation of a spatial body: its axes sequence (0 = x, 1 = y, 2 = z), or a unit
+/// quaternion (a free body), and where its coordinates and velocities start.
 #[derive(Debug, Clone)]
 pub struct Geom3 {
+    /// The body's first coordinate in q.
     pub offset: usize,
+    /// The body's first velocity in v.
+    pub voff: usize,
+    /// The rotation sequence (empty for a free body).
     pub axes: Vec<usize>,
+    /// A free body: q = (x, y, z, qw, qx, qy, qz), v = (ẋ, ẏ, ż, ω_b).
+    pub free: bool,
 }
 
 impl Geom3 {
-    /// Number of coordinates (3 + angles).
-    pub fn len(&self) -> usize {
-        3 + self.axes.len()
+    /// Number of coordinates (3 + angles, or 7).
+    pub fn nq(&self) -> usize {
+        if self.free { 7 } else { 3 + self.axes.len() }
+    }
+
+    /// Number of velocities (3 + angles, or 6).
+    pub fn nv(&self) -> usize {
+        3 + self.nrot()
+    }
+
+    /// Number of rotational velocities (angle rates, or the 3 body rates).
+    pub fn nrot(&self) -> usize {
+        if self.free { 3 } else { self.axes.len() }
     }
 }
 
+// ---- quaternions (w, x, y, z), active: R(q) v = q (0, v) q* ----------------------------
+
+pub type Quat = [f64; 4];
+
+/// The Hamilton product a ⊗ b.
+#[inline]
+pub fn quat_mul(a: Quat, b: Quat) -> Quat {
+    [
+        a[0] * b[0] - a[1] * b[1] - a[2] * b[2] - a[3] * b[3],
+        a[0] * b[1] + a[1] * b[0] + a[2] * b[3] - a[3] * b[2],
+        a[0] * b[2] - a[1] * b[3] + a[2] * b[0] + a[3] * b[1],
+        a[0] * b[3] + a[1] * b[2] - a[2] * b[1] + a[3] * b[0],
+    ]
+}
+
+/// q / |q|.
+#[inline]
+pub fn quat_normalize(q: Quat) -> Quat {
+    let n = (q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]).sqrt();
+    q.map(|x| x / n)
+}
+
+/// exp of a rotation vector φ: the unit quaternion (cos(|φ|/2), sin(|φ|/2) φ/|φ|).
+#[inline]
+pub fn quat_exp(phi: V3<f64>) -> Quat {
+    let a = dot(phi, phi).sqrt();
+    let h = 0.5 * a;
+    // sin(h)/a, with its series near 0 (h²/6 below 1e-17 there)
+    let k = if a < 1e-8 { 0.5 } else { h.sin() / a };
+    [h.cos(), k * phi[0], k * phi[1], k * phi[2]]
+}
+
+/// The rotation vector φ of a unit quaternion (the inverse of [`quat_exp`] with |φ| ≤ π:
+/// q and −q are the same rotation).
+#[inline]
+pub fn quat_log(q: Quat) -> V3<f64> {
+    let q = if q[0] < 0.0 { q.map(|x| -x) } else { q };
+    let s = (q[1] * q[1] + q[2] * q[2] + q[3] * q[3]).sqrt();
+    let a = 2.0 * s.atan2(q[0]);
+    // a / s, with its limit 2/w at s → 0
+    let k = if s < 1e-12 { 2.0 / q[0] } else { a / s };
+    [k * q[1], k * q[2], k * q[3]]
+}
+
+/// q ⊗ (0, ω) / 2: the quaternion's rate for the body-frame angular velocity ω.
+#[inline]
+pub fn quat_rate(q: Quat, w: V3<f64>) -> Quat {
+    quat_mul(q, [0.0, w[0], w[1], w[2]]).map(|x| 0.5 * x)
+}
+
 /// A spatial body's pose in type D: CG r, rotation R (body → world), and the world
-/// angular velocity per angle rate (`jw[i]`, for i < the number of angles).
+/// angular velocity per angle rate (`jw[i]`, for i < the number of angles; a free body:
+/// per body rate, R's columns).
 #[derive(Debug, Clone, Copy)]
 pub struct Pose3<D> {
     pub r: V3<D>,
@@ -118,6 +199,12 @@ impl<D: Scalar> Pose3<D> {
     #[inline]
     pub fn from_q(q: &[D], g: &Geom3) -> Self {
         let o = g.offset;
+        if g.free {
+            return Self::from_quat(
+                [q[o], q[o + 1], q[o + 2]],
+                [q[o + 3], q[o + 4], q[o + 5], q[o + 6]],
+            );
+        }
         Self::from_parts(
             [q[o], q[o + 1], q[o + 2]],
             &q[o + 3..o + 3 + g.axes.len()],
@@ -137,6 +224,38 @@ impl<D: Scalar> Pose3<D> {
             post_rotate(&mut rot, a, s, c);
         }
         Pose3 { r, rot, jw }
+    }
+
+    /// The pose from the CG and a quaternion (w, x, y, z): R is the rotation of q/|q|, so
+    /// a quaternion off unit norm (between normalizations) still gives a rotation. The
+    /// velocities are the body rates: `jw` are R's columns (ω = R ω_b).
+    #[inline]
+    pub fn from_quat(r: V3<D>, q: [D; 4]) -> Self {
+        let [w, x, y, z] = q;
+        let s = D::from(2.0) / (w * w + x * x + y * y + z * z);
+        let one = D::from(1.0);
+        let rot = [
+            [
+                one - s * (y * y + z * z),
+                s * (x * y - w * z),
+                s * (x * z + w * y),
+            ],
+            [
+                s * (x * y + w * z),
+                one - s * (x * x + z * z),
+                s * (y * z - w * x),
+            ],
+            [
+                s * (x * z - w * y),
+                s * (y * z + w * x),
+                one - s * (x * x + y * y),
+            ],
+        ];
+        Pose3 {
+            r,
+            rot,
+            jw: columns(&rot),
+        }
     }
 
     /// The body-frame angular velocity per angle rate, `J_b = Rᵀ jw` (columns).
@@ -162,9 +281,10 @@ impl Pose3<f64> {
         }
     }
 
-    /// This pose carrying its derivative along direction `d` of the body (0..3: the CG's
-    /// x, y, z; 3 + i: angle i): `∂R/∂θ_i = [jw_i]× R`. Only r and R carry the
-    /// derivative (what constraints read).
+    /// This pose carrying its derivative along tangent direction `d` of the body (0..3:
+    /// the CG's x, y, z; 3 + i: angle i, or a free body's rotation about body axis i):
+    /// `∂R/∂θ_i = [jw_i]× R` (for a free body `R [e_i]× = [R e_i]× R`, the same with
+    /// jw_i = R e_i). Only r and R carry the derivative (what constraints read).
     #[inline]
     pub fn seeded(&self, d: usize) -> Pose3<Dual64> {
         let mut p = self.lift();
@@ -182,6 +302,37 @@ impl Pose3<f64> {
         }
         p
     }
+}
+
+impl Pose3<f64> {
+    /// A free body's pose along the motion `q ⊕ s·v` as second-order dual numbers in s
+    /// (for the bias b): r + s ṙ, and `R exp(s [ω]×)`, whose derivatives at s = 0 are
+    /// `R [ω]×` and `R [ω]×²`. `v` holds ṙ then ω (body frame).
+    #[inline]
+    pub fn along_free(&self, v: &[f64]) -> Pose3<num_dual::Dual2_64> {
+        use num_dual::Dual2_64 as D2;
+        let w = [v[3], v[4], v[5]];
+        // a row r of R [ω]× is r [ω]× = r × ω; R [ω]×² = (R [ω]×) [ω]×
+        let rw: M3<f64> = self.rot.map(|row| cross(row, w));
+        let rw2: M3<f64> = rw.map(|row| cross(row, w));
+        let mut rot = [[D2::from(0.0); 3]; 3];
+        for i in 0..3 {
+            for j in 0..3 {
+                rot[i][j] = D2::new(self.rot[i][j], rw[i][j], rw2[i][j]);
+            }
+        }
+        Pose3 {
+            r: [0, 1, 2].map(|i| D2::new(self.r[i], v[i], 0.0)),
+            rot,
+            jw: columns(&rot),
+        }
+    }
+}
+
+/// The columns of a matrix.
+#[inline]
+fn columns<D: Copy>(m: &M3<D>) -> [V3<D>; 3] {
+    [0, 1, 2].map(|k| [m[0][k], m[1][k], m[2][k]])
 }
 
 /// A point fixed in a spatial body (or the ground): body-frame coordinates from the
@@ -619,6 +770,17 @@ pub fn rotational_mass<D: Scalar>(p: &Pose3<D>, n: usize, inertia: &M3<D>, out: 
         for j in 0..n {
             out[j * n + i] = dot(jb[j], ij);
         }
+    }
+}
+
+/// A free body's velocity forces: with the body-frame angular velocity ω as its
+/// velocities (quasi-velocities), `T = ½ ωᵀ I ω` gives Euler's equations
+/// `I ω̇ = Rᵀ τ − ω × (I ω)`; this adds `−ω × (I ω)` to `out` (3).
+#[inline]
+pub fn gyroscopic<D: Scalar>(w: V3<D>, inertia: &M3<D>, out: &mut [D]) {
+    let g = cross(w, mat_vec(inertia, w));
+    for (o, x) in out.iter_mut().zip(g) {
+        *o -= x;
     }
 }
 
