@@ -6,6 +6,7 @@ mod cli;
 use clap::{Parser, Subcommand};
 use cli::check::CheckArgs;
 use cli::r#continue::ContinueArgs;
+use cli::draw::DrawArgs;
 use cli::equilibrium::EquilibriumArgs;
 use cli::frf::FrfArgs;
 use cli::modes::ModesArgs;
@@ -50,6 +51,10 @@ enum Command {
     /// simulation, resonances located by refinement.
     #[command(allow_negative_numbers = true)]
     Sweep(SweepArgs),
+    /// Draw the assembled initial pose as SVG: front, side, top and isometric views
+    /// (spatial models) or the X–Y plane (planar models), joints marked by type.
+    #[command(allow_negative_numbers = true)]
+    Draw(DrawArgs),
 }
 
 fn main() {
@@ -69,6 +74,7 @@ fn main() {
         Command::Modes(a) => cli::modes::run(a),
         Command::Frf(a) => cli::frf::run(a),
         Command::Sweep(a) => cli::sweep::run(a),
+        Command::Draw(a) => cli::draw::run(a),
     };
     if let Err(e) = result {
         eprint!(
