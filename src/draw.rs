@@ -1120,6 +1120,10 @@ impl<'a> Drawing<'a> {
                     let (x0, y0) = (x - 32.0 * ux, y - 32.0 * uy);
                     arrow(s, (x0, y0), (x - R * ux, y - R * uy), FORCE_COLOR, 2.0);
                     labels.segments.push(((x0, y0), (x, y)));
+                } else if dot(force, force) > 0.0 {
+                    // along the line of sight: into or out of the page
+                    sight(s, x, y, 8.0, p.view.depth(force) < 0.0, FORCE_COLOR);
+                    labels.boxes.push(Rect(x - 9.0, y - 9.0, x + 9.0, y + 9.0));
                 } else {
                     // zero at this time: a diamond on the point
                     let _ = write!(
@@ -1169,33 +1173,7 @@ impl<'a> Drawing<'a> {
                 cy + 4.0
             );
         } else {
-            let into = p.view.depth(g) < 0.0;
-            let _ = write!(
-                s,
-                r##"<circle cx="{x:.2}" cy="{:.2}" r="6" fill="none" stroke="#444" stroke-width="1.5"/>"##,
-                y + 14.0
-            );
-            if into {
-                let c = 6.0 * S2;
-                let _ = write!(
-                    s,
-                    r##"<path d="M{:.2},{:.2} l{:.2},{:.2} M{:.2},{:.2} l{:.2},{:.2}" stroke="#444" stroke-width="1.5"/>"##,
-                    x - c,
-                    y + 14.0 - c,
-                    2.0 * c,
-                    2.0 * c,
-                    x - c,
-                    y + 14.0 + c,
-                    2.0 * c,
-                    -2.0 * c
-                );
-            } else {
-                let _ = write!(
-                    s,
-                    r##"<circle cx="{x:.2}" cy="{:.2}" r="1.8" fill="#444"/>"##,
-                    y + 14.0
-                );
-            }
+            sight(s, x, y + 14.0, 6.0, p.view.depth(g) < 0.0, "#444");
             let _ = write!(
                 s,
                 r##"<text x="{:.2}" y="{:.2}" font-style="italic" fill="#444">g</text>"##,
@@ -1242,7 +1220,7 @@ impl<'a> Drawing<'a> {
             let _ = write!(
                 s,
                 r##"<text x="{:.2}" y="{:.2}" fill="#333">{}</text>"##,
-                *x + 22.0,
+                *x + 24.0,
                 y + 4.0,
                 esc(text)
             );
@@ -1339,10 +1317,39 @@ fn marker_only(s: &mut String, x: f64, y: f64, j: &JointGeometry) {
     };
     let mut j = j.clone();
     if j.kind == JointType::Distance {
-        j.p2 = [14.0, 0.0, 0.0];
-        j.p1 = [-4.0, 0.0, 0.0];
+        j.p1 = [-6.0, 0.0, 0.0];
+        j.p2 = [8.0, 0.0, 0.0];
     }
     d.joint(s, &p, &j, &mut labels);
+}
+
+/// A vector along the line of sight: ⊗ into the page, ⊙ out of it.
+fn sight(s: &mut String, x: f64, y: f64, r: f64, into: bool, color: &str) {
+    let _ = write!(
+        s,
+        r#"<circle cx="{x:.2}" cy="{y:.2}" r="{r}" fill="none" stroke="{color}" stroke-width="1.5"/>"#
+    );
+    if into {
+        let c = r * S2;
+        let _ = write!(
+            s,
+            r#"<path d="M{:.2},{:.2} l{:.2},{:.2} M{:.2},{:.2} l{:.2},{:.2}" stroke="{color}" stroke-width="1.5"/>"#,
+            x - c,
+            y - c,
+            2.0 * c,
+            2.0 * c,
+            x - c,
+            y + c,
+            2.0 * c,
+            -2.0 * c
+        );
+    } else {
+        let _ = write!(
+            s,
+            r#"<circle cx="{x:.2}" cy="{y:.2}" r="{:.2}" fill="{color}"/>"#,
+            0.3 * r
+        );
+    }
 }
 
 /// The centre-of-gravity symbol: a circle with two opposite quarters filled.

@@ -237,3 +237,188 @@ fn an_output_that_cannot_be_written_is_refused() {
     assert_ne!(code, 0);
     assert!(err.contains("--output"), "{err}");
 }
+
+/// A spatial model with one joint of each other type, a point force and a torque.
+const SPATIAL_KINDS: &str = r#"
+[model]
+name = "joint-kinds"
+
+[parameters]
+g = { value = 9.81, unit = "m/s^2" }
+
+[[bodies]]
+name = "b1"
+rotation = [["z", "a"], ["x", "b"]]
+mass = 1
+inertia = [0.01, 0.01, 0.01]
+x = 0
+y = -0.2
+z = 0
+points = { top = [0, 0.2, 0] }
+
+[[bodies]]
+name = "b2"
+rotation = [["z", "a"]]
+mass = 1
+inertia = [0.01, 0.01, 0.01]
+x = 0.5
+y = 0
+z = 0
+
+[[bodies]]
+name = "b3"
+rotation = [["z", "a"]]
+mass = 1
+inertia = [0.01, 0.01, 0.01]
+x = 1.0
+y = 0
+z = 0.2
+
+[[bodies]]
+name = "b4"
+rotation = [["z", "a"]]
+mass = 1
+inertia = [0.01, 0.01, 0.01]
+x = 1.5
+y = 0.1
+z = 0
+
+[[bodies]]
+name = "b5"
+rotation = [["z", "a"]]
+mass = 1
+inertia = [0.01, 0.01, 0.01]
+x = 0.3
+y = 0.6
+z = 0.1
+
+[[joints]]
+name = "U"
+type = "universal"
+body1 = "b1"
+point1 = [0, 0.2, 0]
+body2 = "ground"
+point2 = [0, 0, 0]
+axis = [1, 0, 0]
+axis2 = [0, 0, 1]
+
+[[joints]]
+name = "P"
+type = "prismatic"
+body1 = "b2"
+point1 = [0, 0, 0]
+body2 = "ground"
+point2 = [0.5, 0, 0]
+axis = [0, 1, 0]
+
+[[joints]]
+name = "Cy"
+type = "cylindrical"
+body1 = "b3"
+point1 = [0, 0, 0]
+body2 = "ground"
+point2 = [1.0, 0, 0.2]
+axis = [0, 0, 1]
+
+[[joints]]
+name = "Fx"
+type = "fixed"
+body1 = "b4"
+point1 = [-0.1, 0, 0]
+body2 = "ground"
+point2 = [1.4, 0.1, 0]
+
+[[joints]]
+name = "D"
+type = "distance"
+body1 = "b5"
+point1 = [0, 0, 0]
+body2 = "b1"
+point2 = [0, 0, 0]
+length = 0.85
+
+[[forces]]
+name = "gravity"
+type = "gravity"
+acceleration = [0, "-g", 0]
+
+[[forces]]
+name = "push"
+type = "point_force"
+body1 = "b4"
+point = [0.1, 0, 0]
+force = [0, -10, 0]
+
+[[forces]]
+name = "twist"
+type = "torque"
+body1 = "b5"
+torque = [0, 0, 1]
+"#;
+
+/// A planar model with a prismatic and a fixed joint.
+const PLANAR_KINDS: &str = r#"
+[model]
+name = "planar-kinds"
+
+[[bodies]]
+name = "slider"
+mass = 1
+inertia = 0.1
+x = 1
+y = 0.5
+theta = 0.3
+
+[[bodies]]
+name = "bracket"
+mass = 1
+inertia = 0.1
+x = 0.2
+y = 1
+theta = 0
+
+[[joints]]
+name = "P"
+type = "prismatic"
+body1 = "slider"
+point1 = [0, 0]
+body2 = "ground"
+point2 = [0, 0.5]
+axis = [1, 0]
+angle = 0.3
+
+[[joints]]
+name = "W"
+type = "fixed"
+body1 = "bracket"
+point1 = [-0.2, 0]
+body2 = "ground"
+point2 = [0, 1]
+"#;
+
+#[test]
+fn every_joint_type_has_its_marker() {
+    let dir = tempfile::tempdir().unwrap();
+    for (name, text, kinds) in [
+        (
+            "spatial.toml",
+            SPATIAL_KINDS,
+            &["universal", "prismatic", "cylindrical", "fixed", "distance"][..],
+        ),
+        ("planar.toml", PLANAR_KINDS, &["prismatic", "fixed"][..]),
+    ] {
+        let path = dir.path().join(name);
+        std::fs::write(&path, text).unwrap();
+        let svg = draw(path.to_str().unwrap(), &[]);
+        for k in kinds {
+            assert!(svg.contains(&format!("class=\"joint {k}\"")), "{name}: {k}");
+            // and in the legend
+            assert!(svg.contains(&format!(">{k}</text>")), "{name}: legend {k}");
+        }
+    }
+    let path = dir.path().join("spatial.toml");
+    let svg = draw(path.to_str().unwrap(), &[]);
+    for name in ["U", "P", "Cy", "Fx", "D", "push", "twist", "b1", "b5"] {
+        assert!(svg.contains(&format!(">{name}</text>")), "{name}");
+    }
+}
