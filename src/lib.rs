@@ -16,6 +16,7 @@
 
 pub mod check;
 pub mod diag;
+pub mod draw;
 pub mod dynamics;
 pub mod failure;
 pub mod frequency;

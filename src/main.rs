@@ -6,6 +6,7 @@ mod cli;
 use clap::{Parser, Subcommand};
 use cli::check::CheckArgs;
 use cli::r#continue::ContinueArgs;
+use cli::draw::DrawArgs;
 use cli::equilibrium::EquilibriumArgs;
 use cli::frf::FrfArgs;
 use cli::kinematics::KinematicsArgs;
@@ -55,6 +56,10 @@ enum Command {
     /// pose, with transmission ratios d<drive>/d<NAME> from its tangent.
     #[command(allow_negative_numbers = true)]
     Kinematics(KinematicsArgs),
+    /// Draw the assembled initial pose as SVG: front, side, top and isometric views
+    /// (spatial models) or the X–Y plane (planar models), joints marked by type.
+    #[command(allow_negative_numbers = true)]
+    Draw(DrawArgs),
 }
 
 fn main() {
@@ -75,6 +80,7 @@ fn main() {
         Command::Frf(a) => cli::frf::run(a),
         Command::Sweep(a) => cli::sweep::run(a),
         Command::Kinematics(a) => cli::kinematics::run(a),
+        Command::Draw(a) => cli::draw::run(a),
     };
     if let Err(e) = result {
         eprint!(

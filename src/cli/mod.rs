@@ -8,6 +8,7 @@ pub mod advice;
 pub mod args;
 pub mod check;
 pub mod r#continue;
+pub mod draw;
 pub mod equilibrium;
 pub mod frf;
 pub mod kinematics;

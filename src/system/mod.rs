@@ -25,6 +25,7 @@
 mod compile;
 pub mod forces;
 pub mod frame;
+pub mod inspect;
 pub mod joints;
 pub mod live;
 pub mod spatial;

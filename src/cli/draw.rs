@@ -1,0 +1,28 @@
+//! `detune draw`: the assembled initial pose as an SVG drawing (front, side, top and
+//! isometric views of a spatial model; the X–Y plane of a planar one).
+
+use super::args::ModelArgs;
+use clap::Args;
+use detune::diag::Result;
+use detune::draw::{force_names, write_pose_svg};
+use detune::dynamics::assemble;
+use detune::output::check_outputs;
+
+#[derive(Args)]
+#[command(allow_negative_numbers = true)]
+pub struct DrawArgs {
+    #[command(flatten)]
+    pub model: ModelArgs,
+    /// Output SVG.
+    #[arg(short = 'o', long = "output", value_name = "OUT.svg")]
+    pub output: String,
+}
+
+pub fn run(a: DrawArgs) -> Result<()> {
+    let (model, sys) = a.model.load()?;
+    check_outputs(&model.source.path, &[Some(&a.output)])?;
+    let start = assemble(&sys)?;
+    write_pose_svg(&a.output, &sys, &start.q, &model.name, &force_names(&model))?;
+    println!("wrote {}", a.output);
+    Ok(())
+}
