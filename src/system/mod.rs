@@ -761,7 +761,7 @@ impl System {
             let ncols = b.cols.len();
             for (ci, &j) in b.cols.iter().enumerate() {
                 let (k, d) = self.coord_body[j];
-                ws.pose3_d[k] = ws.pose3_f[k].seeded(d);
+                ws.pose3_f[k].seed_into(&mut ws.pose3_d[k], d);
                 let g = &self.geoms3[k];
                 // the coordinates' derivative along the tangent direction (for custom
                 // constraints, which read q): e_j, or a quaternion's ½ q ⊗ (0, e_i)
@@ -791,7 +791,7 @@ impl System {
                 for x in &mut ws.qd[seeded] {
                     x.eps = 0.0;
                 }
-                ws.pose3_d[k] = ws.pose3_f[k].lift();
+                Pose3::unseed(&mut ws.pose3_d[k]);
                 for r in 0..b.rows {
                     ws.vals[b.val0 + r * ncols + ci] = ws.phid[r].eps;
                 }
@@ -967,8 +967,9 @@ impl System {
         for (b, g) in self.bodies.iter().zip(&self.geoms3) {
             let n = g.nrot();
             let (o, vo) = (g.offset + 3, g.voff + 3);
-            // quadratic in the rates: at rest it and its first derivatives vanish
-            if v[vo..vo + n].iter().all(|w| w.re() == 0.0) {
+            // quadratic in the rates: at rest it and its first derivatives vanish; a body
+            // turning about one axis has a constant mass (T = ½ I θ̇²): none
+            if (!g.free && n == 1) || v[vo..vo + n].iter().all(|w| w.re() == 0.0) {
                 continue;
             }
             let mut i6 = [D::from(0.0); 6];
@@ -1109,6 +1110,12 @@ impl System {
             return;
         }
         let n = g.axes.len();
+        if n == 1 {
+            // about one body axis: the tensor's diagonal entry, whatever the angle
+            let a = g.axes[0];
+            out[0] = spatial::tensor(b.tensor)[a][a];
+            return;
+        }
         let p = Pose3::from_parts([0.0; 3], &q[g.offset + 3..g.offset + 3 + n], &g.axes);
         spatial::rotational_mass(&p, n, &spatial::tensor(b.tensor), out);
     }

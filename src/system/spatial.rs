@@ -288,6 +288,14 @@ impl Pose3<f64> {
     #[inline]
     pub fn seeded(&self, d: usize) -> Pose3<Dual64> {
         let mut p = self.lift();
+        self.seed_into(&mut p, d);
+        p
+    }
+
+    /// [`Pose3::seeded`] in place on this pose's lift `p` (whose derivative parts are
+    /// zero): only the derivative parts are written. Undo with [`Pose3::unseed`].
+    #[inline]
+    pub fn seed_into(&self, p: &mut Pose3<Dual64>, d: usize) {
         if d < 3 {
             p.r[d].eps = 1.0;
         } else {
@@ -300,7 +308,19 @@ impl Pose3<f64> {
                 }
             }
         }
-        p
+    }
+
+    /// Clear the derivative parts [`Pose3::seed_into`] wrote.
+    #[inline]
+    pub fn unseed(p: &mut Pose3<Dual64>) {
+        for x in &mut p.r {
+            x.eps = 0.0;
+        }
+        for row in &mut p.rot {
+            for x in row {
+                x.eps = 0.0;
+            }
+        }
     }
 }
 
@@ -528,9 +548,12 @@ impl Joint3 {
             SpatialJoint::Spherical => out[..3].copy_from_slice(&d),
             SpatialJoint::Revolute => {
                 out[..3].copy_from_slice(&d);
-                let a1 = frame(self.f1, b1, 0);
-                out[3] = dot(a1, frame(self.f2, b2, 1));
-                out[4] = dot(a1, frame(self.f2, b2, 2));
+                // (the axis rows are often dropped as identical: not computed then)
+                if self.keep.len() > 3 {
+                    let a1 = frame(self.f1, b1, 0);
+                    out[3] = dot(a1, frame(self.f2, b2, 1));
+                    out[4] = dot(a1, frame(self.f2, b2, 2));
+                }
             }
             SpatialJoint::Universal => {
                 out[..3].copy_from_slice(&d);
@@ -797,24 +820,27 @@ pub fn velocity_forces<D: Scalar>(
     let n = axes.len();
     let lift = |x: D| Dual::from_re(x);
     let i_d: M3<Dual<D>> = inertia.map(|r| r.map(lift));
-    let wd: Vec<Dual<D>> = w.iter().map(|&x| lift(x)).collect();
+    let zero = lift(D::from(0.0));
+    let mut wd = [zero; 3];
+    for (d, &x) in wd.iter_mut().zip(w) {
+        *d = lift(x);
+    }
+    let mut thd = [zero; 3];
     for i in 0..n {
-        let thd: Vec<Dual<D>> = th
-            .iter()
-            .enumerate()
-            .map(|(j, &x)| {
-                if j == i {
-                    Dual::new(x, D::from(1.0))
-                } else {
-                    lift(x)
-                }
-            })
-            .collect();
-        out[i] += rot_energy(axes, &thd, &wd, &i_d).eps;
+        for (j, (d, &x)) in thd.iter_mut().zip(th).enumerate() {
+            *d = if j == i {
+                Dual::new(x, D::from(1.0))
+            } else {
+                lift(x)
+            };
+        }
+        out[i] += rot_energy(axes, &thd[..n], &wd[..n], &i_d).eps;
     }
     // p(s) = M(θ + s θ̇) θ̇ = ∂T/∂θ̇ at θ + s θ̇
-    let thd: Vec<Dual<D>> = th.iter().zip(w).map(|(&x, &dx)| Dual::new(x, dx)).collect();
-    let p = Pose3::from_parts([lift(D::from(0.0)); 3], &thd, axes);
+    for (d, (&x, &dx)) in thd.iter_mut().zip(th.iter().zip(w)) {
+        *d = Dual::new(x, dx);
+    }
+    let p = Pose3::from_parts([zero; 3], &thd[..n], axes);
     let mut m = [lift(D::from(0.0)); 9];
     rotational_mass(&p, n, &i_d, &mut m);
     for i in 0..n {
