@@ -156,10 +156,18 @@ impl CheckReport {
             constraints: sys.constraint_names.clone(),
             ground_motion: {
                 let g = &model.ground;
-                [("x", &g.x), ("y", &g.y), ("z", &g.z), ("theta", &g.theta)]
-                    .into_iter()
-                    .filter_map(|(c, f)| f.as_ref().map(|f| format!("{c} = {}", f.expr)))
-                    .collect()
+                [
+                    ("x", &g.x),
+                    ("y", &g.y),
+                    ("z", &g.z),
+                    ("theta", &g.theta),
+                    ("rx", &g.rx),
+                    ("ry", &g.ry),
+                    ("rz", &g.rz),
+                ]
+                .into_iter()
+                .filter_map(|(c, f)| f.as_ref().map(|f| format!("{c} = {}", f.expr)))
+                .collect()
             },
             assembly,
         }

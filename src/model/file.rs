@@ -442,6 +442,10 @@ pub struct RawMotion {
     /// Spatial models: the ground's z translation, m.
     pub z: Option<SValue>,
     pub theta: Option<SValue>,
+    /// Spatial models: the ground's rotation angles (rad), R = Rz(rz) Ry(ry) Rx(rx).
+    pub rx: Option<SValue>,
+    pub ry: Option<SValue>,
+    pub rz: Option<SValue>,
 }
 
 /// The whole file.

@@ -328,6 +328,10 @@ pub struct GroundDef {
     pub y: Option<Field>,
     pub z: Option<Field>,
     pub theta: Option<Field>,
+    /// Spatial models: rotation angles, R = Rz(rz) Ry(ry) Rx(rx).
+    pub rx: Option<Field>,
+    pub ry: Option<Field>,
+    pub rz: Option<Field>,
 }
 
 /// `[trim]`: parameters solved so that the held coordinates' initial values are a static
@@ -463,7 +467,14 @@ impl Model {
             None => GroundDef::default(),
             Some(m) => {
                 let mm = m.get_ref();
-                if mm.x.is_none() && mm.y.is_none() && mm.z.is_none() && mm.theta.is_none() {
+                if mm.x.is_none()
+                    && mm.y.is_none()
+                    && mm.z.is_none()
+                    && mm.theta.is_none()
+                    && mm.rx.is_none()
+                    && mm.ry.is_none()
+                    && mm.rz.is_none()
+                {
                     b.diags.push(
                         Diagnostic::new("`[ground] motion` gives no component")
                             .at(m.span())
@@ -472,10 +483,19 @@ impl Model {
                 }
                 if spatial && let Some(t) = &mm.theta {
                     b.diags.push(
-                        Diagnostic::new("a rotating ground is not supported in spatial models yet")
+                        Diagnostic::new("`theta` motion of the ground in a spatial model")
                             .at(t.span())
-                            .help("give the ground's translation x, y, z; a shaker table that rotates can be a body driven by a custom constraint"),
+                            .help("a spatial ground turns by rx, ry, rz (rad, R = Rz(rz) Ry(ry) Rx(rx)); theta is the planar ground's angle"),
                     );
+                }
+                if !spatial {
+                    for r in [&mm.rx, &mm.ry, &mm.rz].into_iter().flatten() {
+                        b.diags.push(
+                            Diagnostic::new("`rx`/`ry`/`rz` motion of the ground in a planar model")
+                                .at(r.span())
+                                .help("the planar ground turns by theta; give the model's bodies a `rotation` to make it spatial"),
+                        );
+                    }
                 }
                 if !spatial && let Some(z) = &mm.z {
                     b.diags.push(
@@ -489,6 +509,9 @@ impl Model {
                     y: mm.y.as_ref().and_then(|v| b.field(v)),
                     z: mm.z.as_ref().and_then(|v| b.field(v)),
                     theta: mm.theta.as_ref().and_then(|v| b.field(v)),
+                    rx: mm.rx.as_ref().and_then(|v| b.field(v)),
+                    ry: mm.ry.as_ref().and_then(|v| b.field(v)),
+                    rz: mm.rz.as_ref().and_then(|v| b.field(v)),
                 }
             }
         };

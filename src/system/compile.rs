@@ -358,6 +358,9 @@ impl Compiler<'_> {
             y: component(&g.y, Dim::LENGTH, "the ground's y motion"),
             z: component(&g.z, Dim::LENGTH, "the ground's z motion"),
             theta: component(&g.theta, Dim::NONE, "the ground's theta motion"),
+            rx: component(&g.rx, Dim::NONE, "the ground's rx motion"),
+            ry: component(&g.ry, Dim::NONE, "the ground's ry motion"),
+            rz: component(&g.rz, Dim::NONE, "the ground's rz motion"),
             frozen: None,
         }
     }
@@ -767,6 +770,9 @@ impl Compiler<'_> {
             (&ground.y, &g.y, "y"),
             (&ground.z, &g.z, "z"),
             (&ground.theta, &g.theta, "theta"),
+            (&ground.rx, &g.rx, "rx"),
+            (&ground.ry, &g.ry, "ry"),
+            (&ground.rz, &g.rz, "rz"),
         ] {
             if let (Some(c), Some(f)) = (c, f) {
                 let v: f64 = c.eval_in(&[], 0.0, env);

@@ -27,16 +27,29 @@ pub struct GroundMotion {
     /// Spatial models.
     pub z: Option<Compiled>,
     pub theta: Option<Compiled>,
-    /// Held at this pose (x, y, z, theta), at rest: statics and linearizations see the
-    /// ground at its mean over the forcing period.
-    pub frozen: Option<[f64; 4]>,
+    /// Spatial models: rotation angles of the ground, R = Rz(rz) Ry(ry) Rx(rx).
+    pub rx: Option<Compiled>,
+    pub ry: Option<Compiled>,
+    pub rz: Option<Compiled>,
+    /// Held at this pose (x, y, z, theta, rx, ry, rz), at rest: statics and
+    /// linearizations see the ground at its mean over the forcing period.
+    pub frozen: Option<[f64; 7]>,
 }
 
 impl GroundMotion {
     /// Whether the ground moves at all.
     pub fn is_moving(&self) -> bool {
         self.frozen.is_none()
-            && (self.x.is_some() || self.y.is_some() || self.z.is_some() || self.theta.is_some())
+            && (self.x.is_some()
+                || self.y.is_some()
+                || self.z.is_some()
+                || self.theta.is_some()
+                || self.rotates3())
+    }
+
+    /// Whether the ground of a spatial model rotates.
+    pub fn rotates3(&self) -> bool {
+        self.rx.is_some() || self.ry.is_some() || self.rz.is_some()
     }
 
     fn component<D: Scalar, E: Env<D>>(c: &Option<Compiled>, t: D, env: E) -> (D, D) {
@@ -81,6 +94,9 @@ pub struct GroundPose<D> {
     /// Velocity of the ground origin.
     pub vel: [D; 3],
     omega: D,
+    /// Spatial models with a rotating ground: R (row-major), the world angular velocity
+    /// ω, and the angles (rz, ry, rx).
+    pub rot3: Option<([[D; 3]; 3], [D; 3], [D; 3])>,
 }
 
 impl<D: Scalar> GroundPose<D> {
@@ -93,7 +109,18 @@ impl<D: Scalar> GroundPose<D> {
             sc: None,
             vel: [z, z, z],
             omega: z,
+            rot3: None,
         }
+    }
+
+    /// The rotation of a spatial model's ground (None: it does not rotate).
+    pub fn rotation3(&self) -> Option<&[[D; 3]; 3]> {
+        self.rot3.as_ref().map(|r| &r.0)
+    }
+
+    /// The world angular velocity of a spatial model's ground.
+    pub fn omega3(&self) -> [D; 3] {
+        self.rot3.map_or([D::from(0.0); 3], |r| r.1)
     }
 
     /// The ground's angle (planar).
@@ -119,6 +146,11 @@ impl<D: Scalar> GroundPose<D> {
                 g.theta = D::from(f[3]);
                 g.sc = Some(g.theta.sin_cos());
             }
+            if motion.rotates3() {
+                let angles = [D::from(f[6]), D::from(f[5]), D::from(f[4])];
+                let p = Pose3::from_parts(g.r, &angles, &[2, 1, 0]);
+                g.rot3 = Some((p.rot, [D::from(0.0); 3], angles));
+            }
             return g;
         }
         if !motion.is_moving() {
@@ -129,12 +161,30 @@ impl<D: Scalar> GroundPose<D> {
         let (z, vz) = GroundMotion::component(&motion.z, t, env);
         let (theta, omega) = GroundMotion::component(&motion.theta, t, env);
         let sc = motion.theta.as_ref().map(|_| theta.sin_cos());
+        let rot3 = if motion.rotates3() {
+            let (rx, wx) = GroundMotion::component(&motion.rx, t, env);
+            let (ry, wy) = GroundMotion::component(&motion.ry, t, env);
+            let (rz, wz) = GroundMotion::component(&motion.rz, t, env);
+            // R = Rz Ry Rx; ω = Σ rate_i (R_1 … R_(i−1)) e_(a_i): the sequence's columns
+            let angles = [rz, ry, rx];
+            let p = Pose3::from_parts([x, y, z], &angles, &[2, 1, 0]);
+            let mut w = [D::from(0.0); 3];
+            for (col, rate) in p.jw.iter().zip([wz, wy, wx]) {
+                for k in 0..3 {
+                    w[k] += col[k] * rate;
+                }
+            }
+            Some((p.rot, w, angles))
+        } else {
+            None
+        };
         GroundPose {
             r: [x, y, z],
             theta,
             sc,
             vel: [vx, vy, vz],
             omega,
+            rot3,
         }
     }
 }

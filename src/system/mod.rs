@@ -478,13 +478,20 @@ impl System {
         if !self.ground.is_moving() || times.is_empty() {
             return s;
         }
-        let mut mean = [0.0; 4];
+        let mut mean = [0.0; 7];
         for &t in times {
             let g = GroundPose::<f64>::at(&self.ground, t, self.env());
+            let w = 1.0 / times.len() as f64;
             for k in 0..3 {
-                mean[k] += g.r[k] / times.len() as f64;
+                mean[k] += g.r[k] * w;
             }
-            mean[3] += g.angle() / times.len() as f64;
+            mean[3] += g.angle() * w;
+            if let Some((_, _, a)) = g.rot3 {
+                // angles (rz, ry, rx) → stored as rx, ry, rz
+                mean[4] += a[2] * w;
+                mean[5] += a[1] * w;
+                mean[6] += a[0] * w;
+            }
         }
         s.ground.frozen = Some(mean);
         s.rheonomic = self.constraints.iter().any(|c| match c {
@@ -1034,9 +1041,31 @@ impl System {
         }
         let g = GroundPose::<f64>::at(&self.ground, t, self.env());
         if self.spatial {
-            // the ground translates (it does not rotate in spatial models)
-            for b in &self.bodies {
-                v[b.voff..b.voff + 3].copy_from_slice(&g.vel);
+            // v_CG = v_g + ω_g × (r − r_g); the angle rates that turn with ω_g (least
+            // squares through the body's angular-velocity columns; a free body's body-frame
+            // rate is Rᵀ ω_g)
+            let w = g.omega3();
+            for (b, geom) in self.bodies.iter().zip(&self.geoms3) {
+                let r = [q[b.offset], q[b.offset + 1], q[b.offset + 2]];
+                let arm = spatial::sub(r, g.r);
+                let vc = spatial::add(g.vel, spatial::cross(w, arm));
+                v[b.voff..b.voff + 3].copy_from_slice(&vc);
+                if w == [0.0; 3] {
+                    continue;
+                }
+                let p = Pose3::from_q(q, geom);
+                let n = geom.nrot();
+                if geom.free {
+                    let wb = spatial::mat_t_vec(&p.rot, w);
+                    v[b.voff + 3..b.voff + 6].copy_from_slice(&wb);
+                } else if n > 0 {
+                    let jw = DMatrix::from_fn(3, n, |i, k| p.jw[k][i]);
+                    let rates =
+                        crate::linalg::solve_least_squares(jw, &DVector::from_row_slice(&w));
+                    for k in 0..n {
+                        v[b.voff + 3 + k] = rates[k];
+                    }
+                }
             }
             return v;
         }

@@ -381,7 +381,13 @@ impl<D: Scalar, E: Env<D>> Frames<'_, D, E> {
                 }
                 out
             }
-            None => [e.coef(v[0]), e.coef(v[1]), e.coef(v[2])],
+            None => {
+                let g = [e.coef(v[0]), e.coef(v[1]), e.coef(v[2])];
+                match self.ground.rotation3() {
+                    Some(r) => mat_vec(r, g),
+                    None => g,
+                }
+            }
         }
     }
 
@@ -401,7 +407,7 @@ impl<D: Scalar, E: Env<D>> Frames<'_, D, E> {
                 };
                 mat_vec(&self.poses3[k].rot, local)
             }
-            None => [e.coef(pt.p[0]), e.coef(pt.p[1]), e.coef(pt.p[2])],
+            None => self.rotate3(None, pt.p),
         }
     }
 
@@ -427,8 +433,9 @@ impl<D: Scalar, E: Env<D>> Frames<'_, D, E> {
                     *x += p.jw[i][c] * v[o + i];
                 }
             }
+            return w;
         }
-        w
+        self.ground.omega3()
     }
 
     /// World velocity of a point: ṙ + ω × arm.
@@ -440,7 +447,10 @@ impl<D: Scalar, E: Env<D>> Frames<'_, D, E> {
                 let w = self.omega3(v, pt.body);
                 add([v[o], v[o + 1], v[o + 2]], cross(w, self.arm3(pt)))
             }
-            None => self.ground.vel,
+            None => match self.ground.rot3 {
+                Some((_, w, _)) => add(self.ground.vel, cross(w, self.arm3(pt))),
+                None => self.ground.vel,
+            },
         }
     }
 
