@@ -23,6 +23,7 @@ pub mod forces;
 pub mod frame;
 pub mod joints;
 pub mod live;
+pub mod outputs;
 pub mod spatial;
 
 use crate::diag::{Error, Result, SourceFile};
