@@ -136,27 +136,32 @@ pub fn num(x: f64) -> String {
     }
 }
 
-/// The header of a trajectory CSV: `t,<coordinates>...[,<coordinate>_dot...]`.
+/// The header of a trajectory CSV: `t,<coordinates>...[,<coordinate>_dot...]`, then one
+/// column per requested response (named as requested).
 pub fn trajectory_header(
     w: &mut dyn Write,
     coordinates: &[String],
     velocities: bool,
+    responses: &[String],
 ) -> std::io::Result<()> {
     let mut header = vec!["t".to_string()];
     header.extend(coordinates.iter().cloned());
     if velocities {
         header.extend(coordinates.iter().map(|c| format!("{c}_dot")));
     }
+    header.extend(responses.iter().cloned());
     writeln!(w, "{}", header.join(","))
 }
 
-/// One row of a trajectory CSV (see [`trajectory_header`]): streamed as the samples come.
+/// One row of a trajectory CSV (see [`trajectory_header`]): streamed as the samples come;
+/// `responses` are the requested responses' values.
 pub fn trajectory_row(
     w: &mut dyn Write,
     t: f64,
     q: &[f64],
     v: &[f64],
     velocities: bool,
+    responses: &[f64],
 ) -> std::io::Result<()> {
     write!(w, "{}", num(t))?;
     for x in q {
@@ -166,6 +171,9 @@ pub fn trajectory_row(
         for x in v {
             write!(w, ",{}", num(*x))?;
         }
+    }
+    for x in responses {
+        write!(w, ",{}", num(*x))?;
     }
     writeln!(w)
 }
