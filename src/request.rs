@@ -36,8 +36,9 @@ arguments! {
     FrequencyParameter => "the frequency parameter",
     /// The parameter a continuation varies (`ContinuationOptions::param`).
     ContinuationParameter => "the parameter of a continuation",
-    /// A coordinate whose response is reported (`responses`).
-    Response => "the response coordinate",
+    /// A response reported (`responses`): a coordinate, a force element's quantity, a
+    /// named point's position or rate, a joint's reaction.
+    Response => "the response",
     /// The coordinate the mode shapes are normalized to (`normalize`).
     Normalize => "the shapes' reference coordinate",
     /// The coordinate a branch figure draws against the parameter.
@@ -100,6 +101,16 @@ pub enum Invalid {
         name: String,
         /// The model's coordinates.
         known: Vec<String>,
+    },
+    /// A response name the model does not have (see `System::output`).
+    #[error("{argument} `{name}` is not a response of this model")]
+    UnknownResponse {
+        argument: Argument,
+        name: String,
+        /// Every response name of the model.
+        known: Vec<String>,
+        /// Each kind of response of the model, described.
+        kinds: Vec<String>,
     },
     #[error(
         "the forcing of this model does not depend on `{name}` (the frequency parameter); it turns at `{forcing}`"
@@ -201,6 +212,12 @@ impl Invalid {
                 crate::model::suggest(name, known.iter().map(|s| s.as_str()))
                     .unwrap_or_else(|| format!("coordinates: {}", known.join(", ")))
             }
+            UnknownResponse {
+                name, known, kinds, ..
+            } => match crate::model::suggest(name, known.iter().map(|s| s.as_str())) {
+                Some(s) => format!("{s} responses: {}", kinds.join("; ")),
+                None => format!("responses: {}", kinds.join("; ")),
+            },
             NotForcingFrequency { forcing, .. } => format!("use `{forcing}`"),
             NoForcingFrequency => "add `forcing_frequency = \"omega\"` to [model]".into(),
             DerivedForcingFrequency { name, .. } => format!(
@@ -318,6 +335,12 @@ mod tests {
                     argument,
                     name: name.into(),
                     known: known.clone(),
+                });
+                all.push(UnknownResponse {
+                    argument,
+                    name: name.into(),
+                    known: known.clone(),
+                    kinds: vec!["coordinates (bar1.x)".into()],
                 });
             }
             for (from, to) in [(3.0, 1.0), (f64::INFINITY, 1.0)] {

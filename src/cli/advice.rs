@@ -95,6 +95,13 @@ pub fn wording(invalid: &Invalid) -> Option<Wording> {
             ),
             &hint,
         ),
+        UnknownResponse { argument, name, .. } => said(
+            format!(
+                "{} {name}: the model has no response `{name}`",
+                flag(*argument)?
+            ),
+            &hint,
+        ),
         NotForcingFrequency { name, forcing } => said(
             format!(
                 "--param {name}: the forcing of this model does not depend on `{name}`; it turns at `{forcing}`"

@@ -80,13 +80,16 @@ pub struct FrequencyGrid {
     /// Frequency step, rad/s.
     #[arg(long, value_name = "S", allow_hyphen_values = true)]
     pub step: f64,
-    /// Coordinate to report (repeatable) [default: every coordinate].
+    /// Response to report (repeatable) [default: every coordinate]: a coordinate, a force
+    /// element's `<name>.tension|elongation|rate` (`.torque|twist|twist_rate`), a named
+    /// point's `<body>.<point>.x` (`y`, `z`, with `_rel`, `_dot`, `_ddot`), or (sweep) a
+    /// joint's reaction `<joint>.force_x` (`force_y`, `force_z`).
     #[arg(long, value_name = "NAME")]
     pub response: Vec<String>,
 }
 
 impl FrequencyGrid {
-    /// The frequencies and the reported coordinates (every one when none is named).
+    /// The frequencies and the reported responses (every coordinate when none is named).
     pub fn resolve(&self, model: &Model) -> Result<(Vec<f64>, Vec<String>)> {
         let values = detune::linear::grid(self.from, self.to, self.step)?;
         let responses = if self.response.is_empty() {

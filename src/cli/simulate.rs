@@ -13,6 +13,7 @@ use detune::output::plot::write_line_plot;
 use detune::output::{
     Provenance, check_outputs, trajectory_header, trajectory_row, write_atomic, write_json,
 };
+use detune::system::outputs::Probe;
 
 #[derive(Args)]
 pub struct SimulateArgs {
@@ -39,6 +40,12 @@ pub struct SimulateArgs {
     /// Add velocity columns `<name>_dot`.
     #[arg(long)]
     pub velocities: bool,
+    /// Add a column for a response (repeatable), after the coordinates (and velocities):
+    /// a force element's `<name>.tension|elongation|rate` or `.torque|twist|twist_rate`, a
+    /// named point's `<body>.<point>.x` (`y`, `z`, with `_rel`, `_dot`, `_ddot`), a joint's
+    /// reaction `<joint>.force_x` (`force_y`, `force_z`), or a coordinate.
+    #[arg(long, value_name = "NAME")]
+    pub response: Vec<String>,
     /// Output CSV: `t,<body>.<coordinate>,...` in SI.
     #[arg(short = 'o', long = "output", value_name = "OUT.csv")]
     pub output: String,
@@ -56,6 +63,8 @@ pub fn run(a: SimulateArgs) -> Result<()> {
         &model.source.path,
         &[Some(&a.output), a.plot.as_deref(), a.json.as_deref()],
     )?;
+    let mut probe = Probe::new(&sys, sys.outputs(&a.response)?);
+    let mut values = vec![0.0; a.response.len()];
     let start = assemble(&sys)?;
     let opts = SimOptions {
         t_end: a.t_end,
@@ -77,14 +86,15 @@ pub fn run(a: SimulateArgs) -> Result<()> {
     let mut outcome = None;
     let written = write_atomic(&a.output, |w| {
         let columns = a.velocities.then(|| sys.velocity_columns());
-        trajectory_header(w, &sys.coordinates, columns.as_deref())?;
+        trajectory_header(w, &sys.coordinates, columns.as_deref(), &a.response)?;
         let mut io_error = None;
         let run = simulate_with(
             &sys,
             &start,
             &opts,
             &mut |t, q, v| {
-                if let Err(e) = trajectory_row(w, t, q, v, a.velocities) {
+                probe.eval(&sys, t, q, v, &mut values);
+                if let Err(e) = trajectory_row(w, t, q, v, a.velocities, &values) {
                     io_error = Some(e);
                     return false;
                 }

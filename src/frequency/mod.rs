@@ -27,6 +27,7 @@ use crate::linalg::amax;
 use crate::request::{Argument, Invalid};
 use crate::statics::{Equilibrium, Statics};
 use crate::system::System;
+use crate::system::outputs::{Output, Probe};
 use measure::Measures;
 use nalgebra::{DMatrix, DVector};
 use rayon::prelude::*;
@@ -74,7 +75,7 @@ pub struct SteadyState {
     pub periods: usize,
     /// 1 for a response with the forcing's period, k for a period-k (subharmonic) one.
     pub period_multiple: usize,
-    /// One per requested response coordinate.
+    /// One per requested response.
     pub measures: Vec<Measures>,
     /// State at the end (forcing phase 0), to start the next frequency of a sequential sweep.
     pub end: State,
@@ -82,7 +83,8 @@ pub struct SteadyState {
 
 /// Steady response from `start` (t = 0 at forcing phase 0) at the system's forcing
 /// frequency ω (its live `forcing_frequency` parameter: the one value the loads and the
-/// sampling both read).
+/// sampling both read). The responses are measured from their values at the samples
+/// (coordinates read from q; other responses evaluated at each sample's t, q, v).
 ///
 /// The motion is integrated continuously across periods (one integration, sampled
 /// `opts.samples` times a period); a run is restarted only where the Poincaré sequence is
@@ -90,10 +92,11 @@ pub struct SteadyState {
 pub fn steady_state(
     sys: &System,
     start: &State,
-    responses: &[usize],
+    responses: &[Output],
     opts: &SteadyOptions,
     cancel: &AtomicBool,
 ) -> Result<SteadyState> {
+    let mut probe = Probe::new(sys, responses.to_vec());
     let omega = sys.forcing_frequency().ok_or(Invalid::NoForcingFrequency)?;
     let period = 2.0 * std::f64::consts::PI / omega;
     let per = opts.samples;
@@ -110,7 +113,7 @@ pub fn steady_state(
         extrapolate: opts.extrapolate,
         pending_check: None,
         last_change: f64::INFINITY,
-        responses,
+        responses: responses.len(),
         opts,
         omega,
     };
@@ -132,14 +135,17 @@ pub fn steady_state(
         };
         // this period's samples (q, v), the first one being the previous period's end
         let mut buf: Vec<(Vec<f64>, Vec<f64>)> = Vec::with_capacity(per + 1);
+        // and the responses at each of them
+        let mut vals: Vec<Vec<f64>> = Vec::with_capacity(per + 1);
         let mut restart: Option<State> = None;
         let mut last = state.clone();
         crate::dynamics::simulate::simulate_with(
             sys,
             &state,
             &sim,
-            &mut |_, q, v| {
+            &mut |t, q, v| {
                 buf.push((q.to_vec(), v.to_vec()));
+                vals.push(probe.values(sys, t, q, v));
                 if buf.len() < per + 1 {
                     return true;
                 }
@@ -150,13 +156,14 @@ pub fn steady_state(
                     v: v.to_vec(),
                 };
                 let action = if opts.fixed_periods.is_some() {
-                    map.record(&buf);
+                    map.record(&vals);
                     Action::Continue
                 } else {
-                    map.period_end(&buf, &end, done)
+                    map.period_end(&buf, &vals, &end, done)
                 };
                 last = end;
                 buf.drain(..per);
+                vals.drain(..per);
                 match action {
                     Action::Continue => done < total,
                     Action::Settled(s) => {
@@ -211,7 +218,8 @@ struct Poincare<'a> {
     extrapolate: bool,
     pending_check: Option<(f64, State)>,
     last_change: f64,
-    responses: &'a [usize],
+    /// Number of responses.
+    responses: usize,
     opts: &'a SteadyOptions,
     omega: f64,
 }
@@ -221,13 +229,13 @@ impl Poincare<'_> {
         pack(self.sys, &self.q_ref, s)
     }
 
-    /// Keep the response samples of a period (`buf`: its samples and its end).
-    fn record(&mut self, buf: &[(Vec<f64>, Vec<f64>)]) {
-        let k_last = buf.len() - 1;
+    /// Keep the response samples of a period (`vals`: the responses at its samples and
+    /// its end).
+    fn record(&mut self, vals: &[Vec<f64>]) {
+        let k_last = vals.len() - 1;
         self.recent.push(
-            self.responses
-                .iter()
-                .map(|&i| buf[..k_last].iter().map(|s| s.0[i]).collect())
+            (0..self.responses)
+                .map(|r| vals[..k_last].iter().map(|s| s[r]).collect())
                 .collect(),
         );
         if self.recent.len() > 4 {
@@ -235,10 +243,17 @@ impl Poincare<'_> {
         }
     }
 
-    /// The end of period `p` (`buf` its samples, `end` its end state).
-    fn period_end(&mut self, buf: &[(Vec<f64>, Vec<f64>)], end: &State, p: usize) -> Action {
+    /// The end of period `p` (`buf` its samples, `vals` the responses at them, `end` its
+    /// end state).
+    fn period_end(
+        &mut self,
+        buf: &[(Vec<f64>, Vec<f64>)],
+        vals: &[Vec<f64>],
+        end: &State,
+        p: usize,
+    ) -> Action {
         let opts = self.opts;
-        self.record(buf);
+        self.record(vals);
         let y = self.pack(end);
         let scale = amplitude_scale(buf);
         let change = relative_change(&y, self.points.last().expect("non-empty"), &scale);
@@ -272,7 +287,7 @@ impl Poincare<'_> {
                 });
                 if c <= opts.settle_tol && !shorter {
                     let window = &self.recent[self.recent.len() - k..];
-                    let measures = (0..self.responses.len())
+                    let measures = (0..self.responses)
                         .map(|r| {
                             let samples: Vec<f64> =
                                 window.iter().flat_map(|w| w[r].iter().copied()).collect();
@@ -433,7 +448,7 @@ pub struct SweepOptions {
     /// Coarse grid, rad/s, ascending.
     pub values: Vec<f64>,
     pub mode: SweepMode,
-    /// Response coordinates (names).
+    /// Responses (names: coordinates, or any response `System::output` resolves).
     pub responses: Vec<String>,
     /// Final resolution of the located peaks, rad/s (None: no refinement).
     pub refine: Option<f64>,
@@ -475,6 +490,8 @@ pub struct Hysteresis {
 pub struct Sweep {
     pub param: String,
     pub responses: Vec<String>,
+    /// The SI unit of each response.
+    pub units: Vec<&'static str>,
     pub coordinates: Vec<String>,
     /// Equilibrium the sweep starts from.
     pub equilibrium: Vec<f64>,
@@ -523,18 +540,14 @@ fn check_request(sys: &System, opts: &SweepOptions) -> Result<usize> {
     Ok(index)
 }
 
-/// Everything a sweep checks before it simulates: the request, the response
-/// coordinates, the equilibrium it starts from (under the loads' mean over a forcing
+/// Everything a sweep checks before it simulates: the request, the responses, the
+/// equilibrium it starts from (under the loads' mean over a forcing
 /// period, see [`crate::linear::at_frequency`]) and a non-zero forcing. Cheap (no
 /// simulation): call it on every model of a family before sweeping any of them.
-pub fn prepare(sys: &System, opts: &SweepOptions) -> Result<(System, Vec<usize>, Equilibrium)> {
+pub fn prepare(sys: &System, opts: &SweepOptions) -> Result<(System, Vec<Output>, Equilibrium)> {
     let index = check_request(sys, opts)?;
     let sys0 = crate::linear::at_frequency(sys, index, opts.values[0])?;
-    let responses: Vec<usize> = opts
-        .responses
-        .iter()
-        .map(|r| crate::linear::coordinate(&sys0, r, Argument::Response))
-        .collect::<Result<_>>()?;
+    let responses = sys0.outputs(&opts.responses)?;
     let start = crate::dynamics::assemble(&sys0)?;
     let st = Statics::new(&sys0, &start.q)?;
     let eq = st.nearest(&start)?;
@@ -698,6 +711,7 @@ pub fn sweep(
     Ok(Sweep {
         param: opts.param.clone(),
         responses: opts.responses.clone(),
+        units: responses.iter().map(|o| o.unit(&sys0)).collect(),
         coordinates: sys0.coordinates.clone(),
         equilibrium: eq.q,
         points,

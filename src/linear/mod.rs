@@ -31,6 +31,7 @@ use crate::failure::Failure;
 use crate::request::{Argument, Invalid, parameter};
 use crate::statics::{Equilibrium, Statics, generalized_eigenvalues};
 use crate::system::System;
+use crate::system::outputs::Output;
 use nalgebra::{Complex, DMatrix, DVector};
 use num_dual::Dual64;
 
@@ -499,9 +500,101 @@ fn golden_max(
     Ok((x, v, (b - a) / 2.0))
 }
 
+/// A response linearized about an equilibrium q*: its position-level quantity
+/// h(q, v, t) ([`System::output_state`]) is h(q*, 0, t) + H_q δq + H_v δv to first order,
+/// and the response is its `order`-th time derivative.
+#[derive(Debug, Clone)]
+pub struct LinearOutput {
+    pub output: Output,
+    /// ∂h/∂q and ∂h/∂v at (q*, 0) with the ground at its mean pose (empty for a
+    /// coordinate, which is read from the response directly).
+    pub hq: Vec<f64>,
+    pub hv: Vec<f64>,
+}
+
+impl LinearOutput {
+    /// Linearize `output` about `q` of `sys` (a moving ground held at its mean pose over
+    /// the forcing period of ω = `omega`). Joint reactions are refused: their linear
+    /// response needs the multipliers' linearization, which is not computed.
+    pub fn new(sys: &System, output: Output, name: &str, q: &[f64], omega: f64) -> Result<Self> {
+        match output {
+            Output::Coordinate(_) => {
+                return Ok(LinearOutput {
+                    output,
+                    hq: Vec::new(),
+                    hv: Vec::new(),
+                });
+            }
+            Output::Reaction { .. } => {
+                return Err(Error::request(
+                    format!(
+                        "the response `{name}` is a joint reaction: the linear frequency response does not linearize the constraint multipliers"
+                    ),
+                    "compute it in the time domain: a stepped-sine sweep or a simulation reports joint reactions",
+                ));
+            }
+            _ => {}
+        }
+        let frozen = sys.with_ground_at_mean(&period_samples(omega));
+        let (hq, hv) = frozen.output_gradient(&output, q, 0.0);
+        Ok(LinearOutput { output, hq, hv })
+    }
+
+    /// The complex amplitude of the response at ω from the coordinates' Y: with
+    /// q − q* = Im[Y e^{iωt}] (so δv = Im[iωY e^{iωt}]), the response less its mean is
+    /// Im[(iω)^order (H_q Y + iω H_v Y + G) e^{iωt}], G the first harmonic of h(q*, 0, t)
+    /// over a period (the moving ground's share: a spring's anchor, a `_rel` position).
+    /// `sys` is the system at ω, moving ground and all.
+    pub fn amplitude(
+        &self,
+        sys: &System,
+        q: &[f64],
+        omega: f64,
+        y: &DVector<Complex<f64>>,
+    ) -> Complex<f64> {
+        if let Output::Coordinate(i) = self.output {
+            return y[i];
+        }
+        let iw = Complex::new(0.0, omega);
+        let mut z = Complex::new(0.0, 0.0);
+        for (j, yj) in y.iter().enumerate() {
+            z += yj * self.hq[j] + iw * yj * self.hv[j];
+        }
+        if sys.depends_on_time() {
+            let zero = vec![0.0; sys.nv()];
+            let w = 2.0 / PERIOD_SAMPLES as f64;
+            for t in period_samples(omega) {
+                let h: f64 = sys.output_state(&self.output, q, &zero, t);
+                let (s, c) = (omega * t).sin_cos();
+                z += Complex::new(h * s, h * c) * w;
+            }
+        }
+        for _ in 0..self.output.order() {
+            z *= iw;
+        }
+        z
+    }
+}
+
+/// Samples of the forcing's period for the harmonics of the linear response.
+const PERIOD_SAMPLES: usize = 64;
+
+/// `PERIOD_SAMPLES` times over one period of ω.
+fn period_samples(omega: f64) -> Vec<f64> {
+    if omega == 0.0 {
+        return vec![0.0];
+    }
+    let period = 2.0 * std::f64::consts::PI / omega.abs();
+    (0..PERIOD_SAMPLES)
+        .map(|k| k as f64 * period / PERIOD_SAMPLES as f64)
+        .collect()
+}
+
 /// The steady harmonic response of the linearized system about the equilibrium nearest
 /// the initial pose, to the model's forcing at each value of `param` (the forcing's
-/// angular frequency, rad/s). Exact for the linear system.
+/// angular frequency, rad/s). Exact for the linear system. The responses are coordinates
+/// or any response [`System::output`] resolves except joint reactions (see
+/// [`LinearOutput`]).
 pub fn frequency_response(
     sys: &System,
     param: &str,
@@ -510,11 +603,22 @@ pub fn frequency_response(
 ) -> Result<FrequencyResponse> {
     let index = check_frequencies(sys, param, values)?;
     let mut at = at_frequency(sys, index, values[0])?;
-    let idx: Vec<usize> = responses
+    let outputs = at.outputs(responses)?;
+    if let Some((o, name)) = outputs
         .iter()
-        .map(|r| coordinate(&at, r, Argument::Response))
-        .collect::<Result<_>>()?;
+        .zip(responses)
+        .find(|(o, _)| matches!(o, Output::Reaction { .. }))
+    {
+        // refused before the modal analysis
+        LinearOutput::new(&at, *o, name, &[], values[0])?;
+    }
     let modal = modal_analysis(&at, None)?;
+    let q = modal.equilibrium.q.clone();
+    let linear: Vec<LinearOutput> = outputs
+        .iter()
+        .zip(responses)
+        .map(|(o, name)| LinearOutput::new(&at, *o, name, &q, values[0]))
+        .collect::<Result<_>>()?;
     let rows = modal.rows.clone();
     let mut out = Vec::with_capacity(values.len());
     for &w in values {
@@ -522,13 +626,17 @@ pub fn frequency_response(
         let forcing = harmonic_forcing(&at, &modal.equilibrium, &rows, param, w)?;
         let y = modal.linearization.response(w, &forcing)?;
         out.push(
-            idx.iter()
-                .map(|&i| (y[i].norm(), y[i].arg().to_degrees()))
+            linear
+                .iter()
+                .map(|l| {
+                    let z = l.amplitude(&at, &q, w, &y);
+                    (z.norm(), z.arg().to_degrees())
+                })
                 .collect::<Vec<_>>(),
         );
     }
     let mut peaks = Vec::new();
-    for (r, &i) in idx.iter().enumerate() {
+    for (r, l) in linear.iter().enumerate() {
         let a: Vec<f64> = out.iter().map(|row: &Vec<(f64, f64)>| row[r].0).collect();
         for k in 1..a.len().saturating_sub(1) {
             if !(a[k] > a[k - 1] && a[k] >= a[k + 1]) {
@@ -537,7 +645,8 @@ pub fn frequency_response(
             let amp = |w: f64| -> Result<f64> {
                 at.set_param(index, w)?;
                 let forcing = harmonic_forcing(&at, &modal.equilibrium, &rows, param, w)?;
-                Ok(modal.linearization.response(w, &forcing)?[i].norm())
+                let y = modal.linearization.response(w, &forcing)?;
+                Ok(l.amplitude(&at, &q, w, &y).norm())
             };
             let (lo, hi) = (values[k - 1], values[k + 1]);
             let tol = 1e-10 * hi.abs().max(1.0);

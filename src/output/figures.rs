@@ -102,11 +102,7 @@ pub fn branch_figure(name: &str, b: &Branch, idx: usize, angle: bool) -> LinePlo
 pub fn sweep_figures(runs: &[SweepRun], natural: &[NaturalFrequency]) -> Vec<LinePlot> {
     let first = &runs[0].sweep;
     let name = &first.responses[0];
-    let angle = first
-        .coordinates
-        .iter()
-        .position(|c| c == name)
-        .is_some_and(|i| runs[0].angles[i]);
+    let unit = first.units[0];
     let vertical: Vec<(f64, String)> = natural
         .iter()
         .map(|n| {
@@ -163,7 +159,7 @@ pub fn sweep_figures(runs: &[SweepRun], natural: &[NaturalFrequency]) -> Vec<Lin
     let mut plots = vec![LinePlot {
         title: format!("{name}: stepped-sine amplitude"),
         x_label: format!("{} [rad/s]", first.param),
-        y_label: format!("{name} amplitude [{}]", unit(angle)),
+        y_label: format!("{name} amplitude [{unit}]"),
         series: curves(false),
         vertical: vertical.clone(),
     }];

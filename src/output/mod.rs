@@ -138,27 +138,31 @@ pub fn num(x: f64) -> String {
 
 /// The header of a trajectory CSV: `t,<coordinates>...[,<velocity columns>...]`, the
 /// velocity columns as [`crate::System::velocity_columns`] names them (`<coordinate>_dot`
-/// for a coordinate's rate).
+/// for a coordinate's rate), then one column per requested response (named as requested).
 pub fn trajectory_header(
     w: &mut dyn Write,
     coordinates: &[String],
     velocities: Option<&[String]>,
+    responses: &[String],
 ) -> std::io::Result<()> {
     let mut header = vec!["t".to_string()];
     header.extend(coordinates.iter().cloned());
     if let Some(v) = velocities {
         header.extend(v.iter().cloned());
     }
+    header.extend(responses.iter().cloned());
     writeln!(w, "{}", header.join(","))
 }
 
-/// One row of a trajectory CSV (see [`trajectory_header`]): streamed as the samples come.
+/// One row of a trajectory CSV (see [`trajectory_header`]): streamed as the samples come;
+/// `responses` are the requested responses' values.
 pub fn trajectory_row(
     w: &mut dyn Write,
     t: f64,
     q: &[f64],
     v: &[f64],
     velocities: bool,
+    responses: &[f64],
 ) -> std::io::Result<()> {
     write!(w, "{}", num(t))?;
     for x in q {
@@ -168,6 +172,9 @@ pub fn trajectory_row(
         for x in v {
             write!(w, ",{}", num(*x))?;
         }
+    }
+    for x in responses {
+        write!(w, ",{}", num(*x))?;
     }
     writeln!(w)
 }

@@ -28,6 +28,7 @@ pub mod frame;
 pub mod inspect;
 pub mod joints;
 pub mod live;
+pub mod outputs;
 pub mod spatial;
 
 use crate::diag::{Error, Result, SourceFile};
