@@ -569,6 +569,7 @@ impl KinematicPath {
                     })
                     .collect(),
                 vertical: Vec::new(),
+                marks: Vec::new(),
             }];
         }
         let mut plots = Vec::new();
@@ -589,6 +590,7 @@ impl KinematicPath {
                     y_label: y_label.into(),
                     series,
                     vertical: Vec::new(),
+                    marks: Vec::new(),
                 });
             }
         }

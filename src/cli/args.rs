@@ -5,6 +5,8 @@ use clap::Args;
 use detune::Model;
 use detune::System;
 use detune::diag::{Error, Result};
+use detune::model::expr;
+use detune::model::units::Dim;
 
 #[derive(Args)]
 pub struct ModelArgs {
@@ -99,4 +101,85 @@ impl FrequencyGrid {
         };
         Ok((values, responses))
     }
+}
+
+/// A value of the drive as given to `flag`: a number (SI) or a quantity with a unit of
+/// the drive's dimension ("-15 deg", "3 mm"), or an expression of them ("-15 deg + 1
+/// deg"); no parameters.
+pub fn quantity(flag: &str, text: &str, drive: &str, dim: Dim) -> Result<f64> {
+    let example = if dim == Dim::NONE {
+        "\"-15 deg\" or -0.26 (rad)"
+    } else if dim == Dim::FREQUENCY {
+        "\"4.3 Hz\", \"258 rpm\" or 27.0 (rad/s)"
+    } else {
+        "\"3 mm\" or 0.003 (m)"
+    };
+    let bad = |message: String, help: Option<String>| Error::Request {
+        message: format!("{flag} {text}: {message}"),
+        help: Some(
+            help.unwrap_or_else(|| format!("give a number (SI) or a quantity, e.g. {example}")),
+        ),
+    };
+    let e = expr::parse(text).map_err(|e| bad(e.message.clone(), e.help.clone()))?;
+    if let Some((name, _)) = e.variables().first() {
+        return Err(bad(
+            format!("`{name}` is not a unit here (a value of {drive} is a number or a quantity)"),
+            None,
+        ));
+    }
+    e.check_dims(&|_| None)
+        .map_err(|e| bad(e.message.clone(), e.help.clone()))?;
+    if let Some(got) = e.dim(&|_| None)
+        && got != dim
+    {
+        let what = if dim == Dim::NONE {
+            "an angle".to_string()
+        } else {
+            format!("a quantity in {dim}")
+        };
+        let given = if got == Dim::NONE {
+            "an angle".to_string()
+        } else {
+            format!("in {got}")
+        };
+        return Err(bad(
+            format!("`{drive}` is {what}, the value given is {given}"),
+            None,
+        ));
+    }
+    expr::eval_const(&e, &mut |n, span| {
+        Err(expr::ExprError::new(
+            span.clone(),
+            format!("unknown name `{n}`"),
+        ))
+    })
+    .map_err(|e| bad(e.message.clone(), e.help.clone()))
+}
+
+/// `--mark LABEL=VALUE`: a labelled frequency to draw on a response plot (a rotor's 1P
+/// line: `--mark "UH-60 1P=258 rpm"`); VALUE a number (rad/s) or a frequency quantity.
+pub fn frequency_mark(text: &str) -> Result<(String, f64)> {
+    let Some((label, value)) = text.rsplit_once('=') else {
+        return Err(Error::request(
+            format!("--mark {text}: expected LABEL=VALUE"),
+            "for example --mark \"UH-60 main rotor 1P=258 rpm\" or --mark \"1P=27.0\" (rad/s)",
+        ));
+    };
+    let v = value.trim();
+    let w = match v.parse::<f64>() {
+        Ok(x) => x,
+        Err(_) => quantity(
+            "--mark",
+            v,
+            "a forcing frequency",
+            detune::model::units::Dim::FREQUENCY,
+        )?,
+    };
+    if !w.is_finite() {
+        return Err(Error::request(
+            format!("--mark {text}: the frequency is not finite"),
+            "give a finite frequency, e.g. 27.0 (rad/s) or \"4.3 Hz\"",
+        ));
+    }
+    Ok((label.trim().to_string(), w))
 }

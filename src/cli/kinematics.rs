@@ -1,12 +1,10 @@
 //! `detune kinematics`: the closure solved along a driven coordinate on the branch
 //! through the assembled pose, with transmission ratios from its tangent.
 
-use super::args::ModelArgs;
+use super::args::{ModelArgs, quantity};
 use clap::Args;
-use detune::diag::{Error, Result};
+use detune::diag::Result;
 use detune::kinematics::{KinematicPath, KinematicsOptions, drive_index, kinematics};
-use detune::model::expr;
-use detune::model::units::Dim;
 use detune::output::check_outputs;
 use detune::output::plot::write_panels;
 
@@ -135,55 +133,4 @@ fn print_table(path: &KinematicPath) {
         }
         println!("{}", line(cells));
     }
-}
-
-/// A value of the drive as given to `flag`: a number (SI) or a quantity with a unit of
-/// the drive's dimension ("-15 deg", "3 mm"), or an expression of them ("-15 deg + 1
-/// deg"); no parameters.
-fn quantity(flag: &str, text: &str, drive: &str, dim: Dim) -> Result<f64> {
-    let example = if dim == Dim::NONE {
-        "\"-15 deg\" or -0.26 (rad)"
-    } else {
-        "\"3 mm\" or 0.003 (m)"
-    };
-    let bad = |message: String, help: Option<String>| Error::Request {
-        message: format!("{flag} {text}: {message}"),
-        help: Some(
-            help.unwrap_or_else(|| format!("give a number (SI) or a quantity, e.g. {example}")),
-        ),
-    };
-    let e = expr::parse(text).map_err(|e| bad(e.message.clone(), e.help.clone()))?;
-    if let Some((name, _)) = e.variables().first() {
-        return Err(bad(
-            format!("`{name}` is not a unit here (a value of {drive} is a number or a quantity)"),
-            None,
-        ));
-    }
-    e.check_dims(&|_| None)
-        .map_err(|e| bad(e.message.clone(), e.help.clone()))?;
-    if let Some(got) = e.dim(&|_| None)
-        && got != dim
-    {
-        let what = if dim == Dim::NONE {
-            "an angle".to_string()
-        } else {
-            format!("a quantity in {dim}")
-        };
-        let given = if got == Dim::NONE {
-            "an angle".to_string()
-        } else {
-            format!("in {got}")
-        };
-        return Err(bad(
-            format!("`{drive}` is {what}, the value given is {given}"),
-            None,
-        ));
-    }
-    expr::eval_const(&e, &mut |n, span| {
-        Err(expr::ExprError::new(
-            span.clone(),
-            format!("unknown name `{n}`"),
-        ))
-    })
-    .map_err(|e| bad(e.message.clone(), e.help.clone()))
 }

@@ -62,6 +62,10 @@ pub struct SweepArgs {
     /// normalized by the value), the linear natural frequencies marked.
     #[arg(long, value_name = "OUT.svg")]
     pub plot: Option<String>,
+    /// A labelled frequency drawn on the plot, LABEL=VALUE (VALUE in rad/s or a
+    /// quantity): `--mark "UH-60 main rotor 1P=258 rpm"`. Repeatable.
+    #[arg(long, value_name = "LABEL=VALUE")]
+    pub mark: Vec<String>,
 }
 
 pub fn run(a: SweepArgs) -> Result<()> {
@@ -70,6 +74,12 @@ pub fn run(a: SweepArgs) -> Result<()> {
         &model.source.path,
         &[a.output.as_deref(), a.plot.as_deref()],
     )?;
+    // checked before any simulation: a bad mark must not cost a sweep
+    let marks: Vec<(String, f64)> = a
+        .mark
+        .iter()
+        .map(|m| super::args::frequency_mark(m))
+        .collect::<Result<_>>()?;
     let (values, responses) = a.grid.resolve(&model)?;
     let opts = SweepOptions {
         param: a.grid.param.clone(),
@@ -117,7 +127,7 @@ pub fn run(a: SweepArgs) -> Result<()> {
     }
     if let Some(p) = &a.plot {
         let natural = study.natural_frequencies(runs.len())?;
-        write_panels(p, &sweep_figures(&runs, &natural))?;
+        write_panels(p, &sweep_figures(&runs, &natural, &marks))?;
         eprintln!("wrote {p}");
     }
     if a.json {

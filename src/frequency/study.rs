@@ -32,6 +32,8 @@ pub struct SweepStudy {
 pub struct SweepRun {
     /// The varied parameter and its SI value for this sweep (None: no family).
     pub value: Option<(String, f64)>,
+    /// The SI unit of the varied parameter (`m`; empty if dimensionless or unknown).
+    pub unit: String,
     pub sweep: Sweep,
     /// Whether each of the sweep's coordinates is an angle (rad).
     pub angles: Vec<bool>,
@@ -169,8 +171,17 @@ impl SweepStudy {
                 cancel,
             )?;
             let complete = s.complete;
+            let unit = run
+                .value
+                .as_ref()
+                .and_then(|(n, _)| run.model.parameters.index(n))
+                .and_then(|i| run.model.parameters.dims[i])
+                .filter(|d| !d.is_dimensionless())
+                .map(|d| d.to_string())
+                .unwrap_or_default();
             out.push(SweepRun {
                 value: run.value.clone(),
+                unit,
                 sweep: s,
                 angles: run.system.angles(),
             });

@@ -42,6 +42,7 @@ pub fn trajectory_figure(name: &str, traj: &Trajectory) -> LinePlot {
             })
             .collect(),
         vertical: Vec::new(),
+        marks: Vec::new(),
     }
 }
 
@@ -93,13 +94,18 @@ pub fn branch_figure(name: &str, b: &Branch, idx: usize, angle: bool) -> LinePlo
         y_label: format!("{} [{}]", b.coordinates[idx], unit(angle)),
         series,
         vertical: Vec::new(),
+        marks: Vec::new(),
     }
 }
 
 /// Amplitude of the first response against frequency, one curve per run (`--values`
 /// entry) and direction, the natural frequencies as vertical lines; for a family, a
 /// second panel with the amplitude divided by the run's value (the paper's Figures 8–9).
-pub fn sweep_figures(runs: &[SweepRun], natural: &[NaturalFrequency]) -> Vec<LinePlot> {
+pub fn sweep_figures(
+    runs: &[SweepRun],
+    natural: &[NaturalFrequency],
+    marks: &[(String, f64)],
+) -> Vec<LinePlot> {
     let first = &runs[0].sweep;
     let name = &first.responses[0];
     let unit = first.units[0];
@@ -113,6 +119,10 @@ pub fn sweep_figures(runs: &[SweepRun], natural: &[NaturalFrequency]) -> Vec<Lin
                 .unwrap_or_default();
             (n.omega, format!("linear ω_n = {:.4} rad/s{tag}", n.omega))
         })
+        .collect();
+    let marks: Vec<(f64, String)> = marks
+        .iter()
+        .map(|(label, w)| (*w, format!("{label} ({w:.4} rad/s)")))
         .collect();
     let curves = |normalized: bool| -> Vec<Series> {
         let mut out = Vec::new();
@@ -134,7 +144,7 @@ pub fn sweep_figures(runs: &[SweepRun], natural: &[NaturalFrequency]) -> Vec<Lin
                 };
                 let mut label = run
                     .tag()
-                    .map(|(n, v)| format!("{n} = {v}"))
+                    .map(|(n, v)| format!("{n} = {v} {}", run.unit).trim_end().to_string())
                     .unwrap_or_else(|| name.clone());
                 if dir != Direction::Independent {
                     label.push_str(&format!(" ({})", dir.name()));
@@ -162,14 +172,20 @@ pub fn sweep_figures(runs: &[SweepRun], natural: &[NaturalFrequency]) -> Vec<Lin
         y_label: format!("{name} amplitude [{unit}]"),
         series: curves(false),
         vertical: vertical.clone(),
+        marks: marks.clone(),
     }];
     if let Some((vname, _)) = runs[0].tag() {
         plots.push(LinePlot {
             title: format!("{name}: amplitude / {vname}"),
             x_label: format!("{} [rad/s]", first.param),
-            y_label: format!("{name} amplitude / {vname}"),
+            y_label: if runs[0].unit.is_empty() {
+                format!("{name} amplitude / {vname}")
+            } else {
+                format!("{name} amplitude / {vname} [{unit}/{}]", runs[0].unit)
+            },
             series: curves(true),
             vertical,
+            marks,
         });
     }
     plots

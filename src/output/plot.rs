@@ -32,6 +32,9 @@ pub struct LinePlot {
     pub series: Vec<Series>,
     /// Vertical reference lines (x, label), e.g. a linear natural frequency.
     pub vertical: Vec<(f64, String)>,
+    /// Vertical lines of the environment (x, label), e.g. a rotor's forcing frequency:
+    /// drawn solid in a colour of their own.
+    pub marks: Vec<(f64, String)>,
 }
 
 const COLORS: [RGBColor; 6] = [
@@ -134,7 +137,20 @@ fn draw_panel(
             .label(label.clone())
             .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], BLACK.stroke_width(1)));
     }
-    if !plot.series.is_empty() {
+    let mark_color = RGBColor(230, 120, 0);
+    for (x, label) in &plot.marks {
+        chart
+            .draw_series(LineSeries::new(
+                vec![(*x, y0), (*x, y1)],
+                mark_color.stroke_width(2),
+            ))
+            .map_err(|e| e.to_string())?
+            .label(label.clone())
+            .legend(move |(x, y)| {
+                PathElement::new(vec![(x, y), (x + 20, y)], mark_color.stroke_width(2))
+            });
+    }
+    if !plot.series.is_empty() || !plot.marks.is_empty() {
         chart
             .configure_series_labels()
             .background_style(WHITE.mix(0.8))
