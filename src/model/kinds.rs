@@ -353,6 +353,29 @@ pub(super) const FORCES: Family<ForceKind> = Family {
             ],
             build: point_force,
         },
+        // planar: about the plane's normal; the twist is θ1 − θ2
+        Kind {
+            name: "torsion",
+            fields: &[
+                BODY1,
+                BODY2,
+                FieldSpec::optional("stiffness", Omitted::Zero), // N·m/rad
+                FieldSpec::optional("damping", Omitted::Zero),   // N·m·s/rad
+                FieldSpec::optional("free_angle", Omitted::Zero), // rad
+            ],
+            build: |_, v| {
+                let body1 = v.body("body1");
+                let body2 = v.body("body2");
+                Some(ForceKind::Torsion {
+                    body1: body1?,
+                    body2: body2?,
+                    axis: Vec::new(),
+                    stiffness: v.scalar("stiffness")?,
+                    damping: v.scalar("damping")?,
+                    free_angle: v.scalar("free_angle")?,
+                })
+            },
+        },
     ],
 };
 

@@ -19,6 +19,16 @@ pub enum Force {
     Point { at: SysPoint, f: [Compiled; 2] },
     /// A force of a spatial model.
     Spatial(super::spatial::Force3),
+    /// Planar torsional spring–damper: twist θ1 − θ2 (a body or the ground, whose angle
+    /// may move), torque on body 1 −(k (twist − free) + c twist_rate), the opposite on
+    /// body 2 (coefficient indices).
+    Torsion {
+        b1: Option<usize>,
+        b2: Option<usize>,
+        k: usize,
+        c: usize,
+        free: usize,
+    },
 }
 
 impl Force {
@@ -48,7 +58,38 @@ impl Force {
                 fr.apply(at, [fx, fy], out);
             }
             Force::Spatial(f) => f.add(fr, v, t, out),
+            Force::Torsion { b1, b2, .. } => {
+                let Some(s) = self.torsion_state(fr, v) else {
+                    return;
+                };
+                for (b, sign) in [(b1, -1.0), (b2, 1.0)] {
+                    if let Some(k) = b {
+                        out[fr.offsets[*k] + 2] += s.2 * sign;
+                    }
+                }
+            }
         }
+    }
+
+    /// A planar torsion's (twist, twist rate, torque).
+    #[inline]
+    pub fn torsion_state<D: Scalar, E: Env<D>>(
+        &self,
+        fr: &Frames<'_, D, E>,
+        v: &[D],
+    ) -> Option<(D, D, D)> {
+        let Force::Torsion { b1, b2, k, c, free } = self else {
+            return None;
+        };
+        let rate_of = |b: &Option<usize>| match b {
+            Some(k) => v[fr.offsets[*k] + 2],
+            None => fr.ground.motion().2,
+        };
+        let twist = fr.angle(*b1) - fr.angle(*b2);
+        let rate = rate_of(b1) - rate_of(b2);
+        let e = fr.env;
+        let torque = (twist - e.coef(*free)) * e.coef(*k) + rate * e.coef(*c);
+        Some((twist, rate, torque))
     }
 
     /// Whether the force depends on time explicitly (not through a moving ground).
@@ -57,6 +98,7 @@ impl Force {
             Force::Point { f, .. } => f.iter().any(|c| c.depends_on_time()),
             Force::Spring { .. } => false,
             Force::Spatial(f) => f.depends_on_time(),
+            Force::Torsion { .. } => false,
         }
     }
 
@@ -71,6 +113,12 @@ impl Force {
             }
             Force::Point { .. } => 0.0,
             Force::Spatial(f) => f.potential(fr),
+            Force::Torsion {
+                b1, b2, k, free, ..
+            } => {
+                let twist = fr.angle(*b1) - fr.angle(*b2);
+                0.5 * fr.env.coef(*k) * (twist - fr.env.coef(*free)).powi(2)
+            }
         }
     }
 }

@@ -314,6 +314,15 @@ impl System {
                 Force::Spatial(Force3::Torque { body, .. }) => {
                     ForceGeometry::Torque { body: *body }
                 }
+                Force::Torsion {
+                    b1, b2, k, c: d, ..
+                } => ForceGeometry::Torsion {
+                    body1: *b1,
+                    body2: *b2,
+                    axis: [0.0, 0.0, 1.0],
+                    stiffness: c[*k],
+                    damping: c[*d],
+                },
             })
             .collect()
     }

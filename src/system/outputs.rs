@@ -245,6 +245,7 @@ impl System {
                         ForceKind::Torsion { .. },
                         Force::Spatial(Force3::Torsion { .. })
                     )
+                    | (ForceKind::Torsion { .. }, Force::Torsion { .. })
                     | (ForceKind::PointForce { .. }, Force::Point { .. })
                     | (
                         ForceKind::PointForce { .. },
@@ -513,6 +514,13 @@ impl System {
                         _ => D::from(0.0),
                     };
                     (s.stretch, s.rate, s.load, free)
+                }
+                Force::Torsion { .. } => {
+                    let Some((twist, rate, torque)) = self.forces[force].torsion_state(fr, v)
+                    else {
+                        return nan;
+                    };
+                    (twist, rate, torque, D::from(0.0))
                 }
                 Force::Point { .. } => return nan,
             };

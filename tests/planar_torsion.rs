@@ -1,0 +1,96 @@
+//! The planar `torsion` element (the same type name as in spatial models): a disc held to
+//! the ground by a torsion spring with a free angle, and an arm coupled to the disc by a
+//! second one. Closed forms: the equilibrium sits at the free angle; the undamped ω² are
+//! the eigenvalues of M⁻¹K with M = diag(I_disc, I_arm), K = [[k + k2, −k2], [−k2, k2]];
+//! the twist and torque responses follow the definition.
+
+use std::process::Command;
+
+const MODEL: &str = "tests/data/planar_torsion.toml";
+
+fn json(args: &[&str]) -> serde_json::Value {
+    let out = Command::new(env!("CARGO_BIN_EXE_detune"))
+        .args(args)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    serde_json::from_slice(&out.stdout).unwrap()
+}
+
+#[test]
+fn the_equilibrium_is_at_the_free_angle_and_the_frequencies_are_the_closed_form() {
+    let eq = json(&["equilibrium", MODEL, "--json"]);
+    for c in ["disc.theta", "arm.theta"] {
+        let th = eq["coordinates"][c].as_f64().unwrap();
+        assert!((th - 0.1).abs() < 1e-12, "{c} = {th}");
+    }
+    let modes = json(&["modes", MODEL, "--set", "c=0", "--json"]);
+    let (i1, i2, k, k2): (f64, f64, f64, f64) = (0.1, 0.05, 40.0, 10.0);
+    // M⁻¹K = [[(k + k2)/i1, −k2/i1], [−k2/i2, k2/i2]]
+    let (a, b, c, d) = ((k + k2) / i1, -k2 / i1, -k2 / i2, k2 / i2);
+    let (tr, det) = (a + d, a * d - b * c);
+    let disc = (tr * tr / 4.0 - det).sqrt();
+    let want = [tr / 2.0 - disc, tr / 2.0 + disc];
+    let got = modes["undamped_omega2"].as_array().unwrap();
+    assert_eq!(got.len(), 2);
+    for (g, w) in got.iter().zip(want) {
+        let g = g.as_f64().unwrap();
+        assert!((g - w).abs() < 1e-9 * w, "ω² = {g}, closed form {w}");
+    }
+}
+
+#[test]
+fn twist_and_torque_responses_follow_the_definition() {
+    let dir = tempfile::tempdir().unwrap();
+    let csv = dir.path().join("out.csv");
+    let out = Command::new(env!("CARGO_BIN_EXE_detune"))
+        .args([
+            "simulate",
+            MODEL,
+            "--t-end",
+            "0.5",
+            "--dt-out",
+            "0.05",
+            "-o",
+            csv.to_str().unwrap(),
+            "--velocities",
+            "--response",
+            "spring.twist",
+            "--response",
+            "spring.torque",
+            "--response",
+            "coupling.twist_rate",
+        ])
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let text = std::fs::read_to_string(csv).unwrap();
+    let mut lines = text.lines();
+    let head: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let col = |n: &str| head.iter().position(|h| *h == n).unwrap();
+    let mut rows = 0;
+    for line in lines {
+        let v: Vec<f64> = line.split(',').map(|x| x.parse().unwrap()).collect();
+        let (th, w) = (v[col("disc.theta")], v[col("disc.theta_dot")]);
+        let wa = v[col("arm.theta_dot")];
+        assert!((v[col("spring.twist")] - th).abs() < 1e-12);
+        // torque = k (twist − free) + c twist_rate
+        let want = 40.0 * (th - 0.1) + 0.3 * w;
+        assert!(
+            (v[col("spring.torque")] - want).abs() < 1e-9,
+            "{} vs {want}",
+            v[col("spring.torque")]
+        );
+        assert!((v[col("coupling.twist_rate")] - (wa - w)).abs() < 1e-12);
+        rows += 1;
+    }
+    assert_eq!(rows, 11);
+}
