@@ -260,27 +260,8 @@ pub(super) const FORCES3: Family<ForceKind> = Family {
         },
         Kind {
             name: "torsion",
-            fields: &[
-                BODY1,
-                BODY2,
-                AXIS3,
-                FieldSpec::optional("stiffness", Omitted::Zero), // N·m/rad
-                FieldSpec::optional("damping", Omitted::Zero),   // N·m·s/rad
-                FieldSpec::optional("free_angle", Omitted::Zero), // rad
-            ],
-            build: |_, v| {
-                let body1 = v.body("body1");
-                let body2 = v.body("body2");
-                let axis = v.vector("axis");
-                Some(ForceKind::Torsion {
-                    body1: body1?,
-                    body2: body2?,
-                    axis: axis?,
-                    stiffness: v.scalar("stiffness")?,
-                    damping: v.scalar("damping")?,
-                    free_angle: v.scalar("free_angle")?,
-                })
-            },
+            fields: &[BODY1, BODY2, AXIS3, STIFFNESS_T, DAMPING_T, FREE_ANGLE],
+            build: |_, v| torsion(v, true),
         },
         Kind {
             name: "torque",
@@ -301,6 +282,29 @@ pub(super) const FORCES3: Family<ForceKind> = Family {
         },
     ],
 };
+
+const STIFFNESS_T: FieldSpec = FieldSpec::optional("stiffness", Omitted::Zero); // N·m/rad
+const DAMPING_T: FieldSpec = FieldSpec::optional("damping", Omitted::Zero); // N·m·s/rad
+const FREE_ANGLE: FieldSpec = FieldSpec::optional("free_angle", Omitted::Zero); // rad
+
+/// A torsion spring–damper; spatial ones have an axis.
+fn torsion(v: &mut Values, spatial: bool) -> Option<ForceKind> {
+    let body1 = v.body("body1");
+    let body2 = v.body("body2");
+    let axis = if spatial {
+        v.vector("axis")
+    } else {
+        Some(Vec::new())
+    };
+    Some(ForceKind::Torsion {
+        body1: body1?,
+        body2: body2?,
+        axis: axis?,
+        stiffness: v.scalar("stiffness")?,
+        damping: v.scalar("damping")?,
+        free_angle: v.scalar("free_angle")?,
+    })
+}
 
 const SPRING_DAMPER: Kind<ForceKind> = Kind {
     name: "spring_damper",
@@ -356,25 +360,8 @@ pub(super) const FORCES: Family<ForceKind> = Family {
         // planar: about the plane's normal; the twist is θ1 − θ2
         Kind {
             name: "torsion",
-            fields: &[
-                BODY1,
-                BODY2,
-                FieldSpec::optional("stiffness", Omitted::Zero), // N·m/rad
-                FieldSpec::optional("damping", Omitted::Zero),   // N·m·s/rad
-                FieldSpec::optional("free_angle", Omitted::Zero), // rad
-            ],
-            build: |_, v| {
-                let body1 = v.body("body1");
-                let body2 = v.body("body2");
-                Some(ForceKind::Torsion {
-                    body1: body1?,
-                    body2: body2?,
-                    axis: Vec::new(),
-                    stiffness: v.scalar("stiffness")?,
-                    damping: v.scalar("damping")?,
-                    free_angle: v.scalar("free_angle")?,
-                })
-            },
+            fields: &[BODY1, BODY2, STIFFNESS_T, DAMPING_T, FREE_ANGLE],
+            build: |_, v| torsion(v, false),
         },
     ],
 };

@@ -640,41 +640,6 @@ impl Compiler<'_> {
                 ForceKind::Torsion {
                     body1,
                     body2,
-                    stiffness,
-                    damping,
-                    free_angle,
-                    ..
-                } if !model.spatial => {
-                    let b1 = self.body_of(&PointRef {
-                        body: *body1,
-                        point: Vec::new(),
-                    });
-                    let b2 = self.body_of(&PointRef {
-                        body: *body2,
-                        point: Vec::new(),
-                    });
-                    if b1 == b2 {
-                        self.diags.push(
-                            Diagnostic::new(format!(
-                                "torsion `{}` acts between a body and itself",
-                                f.name
-                            ))
-                            .at(f.span.clone())
-                            .help("name two different bodies (or a body and \"ground\")"),
-                        );
-                        continue;
-                    }
-                    let k =
-                        self.constant(stiffness, Dim::ANGULAR_STIFFNESS, "the torsional stiffness");
-                    let c = self.constant(damping, Dim::ANGULAR_DAMPING, "the torsional damping");
-                    let free = self.constant(free_angle, Dim::NONE, "the free angle");
-                    if let (Some(k), Some(c), Some(free)) = (k, c, free) {
-                        forces.push(Force::Torsion { b1, b2, k, c, free });
-                    }
-                }
-                ForceKind::Torsion {
-                    body1,
-                    body2,
                     axis,
                     stiffness,
                     damping,
@@ -699,22 +664,33 @@ impl Compiler<'_> {
                         );
                         continue;
                     }
-                    let ax = self.axis3(axis, &format!("the axis of `{}`", f.name));
+                    // planar: about the plane's normal (no axis)
+                    let ax = if model.spatial {
+                        match self.axis3(axis, &format!("the axis of `{}`", f.name)) {
+                            Some(ax) => Some(ax),
+                            None => continue,
+                        }
+                    } else {
+                        None
+                    };
                     let k =
                         self.constant(stiffness, Dim::ANGULAR_STIFFNESS, "the torsional stiffness");
                     let c = self.constant(damping, Dim::ANGULAR_DAMPING, "the torsional damping");
                     let free = self.constant(free_angle, Dim::NONE, "the free angle");
-                    if let (Some(ax), Some(k), Some(c), Some(free)) = (ax, k, c, free) {
-                        let frame = self.live.axis_frame(ax);
-                        forces.push(Force::Spatial(Force3::Torsion {
+                    let (Some(k), Some(c), Some(free)) = (k, c, free) else {
+                        continue;
+                    };
+                    forces.push(match ax {
+                        Some(ax) => Force::Spatial(Force3::Torsion {
                             b1,
                             b2,
-                            frame,
+                            frame: self.live.axis_frame(ax),
                             k,
                             c,
                             free,
-                        }));
-                    }
+                        }),
+                        None => Force::Torsion { b1, b2, k, c, free },
+                    });
                 }
                 ForceKind::Torque { body, torque } => {
                     let Some(b) = self.body_of(&PointRef {

@@ -36,19 +36,10 @@ impl Force {
     #[inline]
     pub fn add<D: Scalar, E: Env<D>>(&self, fr: &Frames<'_, D, E>, v: &[D], t: D, out: &mut [D]) {
         match self {
-            Force::Spring { a, b, k, c, l0 } => {
-                let pa = fr.position(a);
-                let pb = fr.position(b);
-                let d = [pb[0] - pa[0], pb[1] - pa[1]];
-                let len = (d[0] * d[0] + d[1] * d[1]).sqrt();
-                if len.re() == 0.0 {
+            Force::Spring { a, b, .. } => {
+                let Some((_, _, tension, u)) = self.spring_state(fr, v) else {
                     return;
-                }
-                let u = [d[0] / len, d[1] / len];
-                let va = fr.velocity(v, a);
-                let vb = fr.velocity(v, b);
-                let rate = u[0] * (vb[0] - va[0]) + u[1] * (vb[1] - va[1]);
-                let tension = (len - fr.env.coef(*l0)) * fr.env.coef(*k) + rate * fr.env.coef(*c);
+                };
                 fr.apply(a, [tension * u[0], tension * u[1]], out);
                 fr.apply(b, [-(tension * u[0]), -(tension * u[1])], out);
             }
@@ -69,6 +60,32 @@ impl Force {
                 }
             }
         }
+    }
+
+    /// A planar spring's (length, length rate, tension, unit vector from point 1 to 2);
+    /// None where its points coincide.
+    #[inline]
+    pub fn spring_state<D: Scalar, E: Env<D>>(
+        &self,
+        fr: &Frames<'_, D, E>,
+        v: &[D],
+    ) -> Option<(D, D, D, [D; 2])> {
+        let Force::Spring { a, b, k, c, l0 } = self else {
+            return None;
+        };
+        let pa = fr.position(a);
+        let pb = fr.position(b);
+        let d = [pb[0] - pa[0], pb[1] - pa[1]];
+        let len = (d[0] * d[0] + d[1] * d[1]).sqrt();
+        if len.re() == 0.0 {
+            return None;
+        }
+        let u = [d[0] / len, d[1] / len];
+        let va = fr.velocity(v, a);
+        let vb = fr.velocity(v, b);
+        let rate = u[0] * (vb[0] - va[0]) + u[1] * (vb[1] - va[1]);
+        let tension = (len - fr.env.coef(*l0)) * fr.env.coef(*k) + rate * fr.env.coef(*c);
+        Some((len, rate, tension, u))
     }
 
     /// A planar torsion's (twist, twist rate, torque).

@@ -491,19 +491,12 @@ impl System {
             let nan = D::from(f64::NAN);
             let e = fr.env;
             let (stretch, rate, load, free) = match &self.forces[force] {
-                Force::Spring { a, b, k, c, l0 } => {
-                    let pa = fr.position(a);
-                    let pb = fr.position(b);
-                    let d = [pb[0] - pa[0], pb[1] - pa[1]];
-                    let len = (d[0] * d[0] + d[1] * d[1]).sqrt();
-                    if len.re() == 0.0 {
+                Force::Spring { l0, .. } => {
+                    let Some((len, rate, tension, _)) = self.forces[force].spring_state(fr, v)
+                    else {
                         return nan;
-                    }
-                    let va = fr.velocity(v, a);
-                    let vb = fr.velocity(v, b);
-                    let rate = (d[0] * (vb[0] - va[0]) + d[1] * (vb[1] - va[1])) / len;
-                    let (l0, k, c): (D, D, D) = (e.coef(*l0), e.coef(*k), e.coef(*c));
-                    (len, rate, (len - l0) * k + rate * c, l0)
+                    };
+                    (len, rate, tension, e.coef(*l0))
                 }
                 Force::Spatial(f) => {
                     let Some(s) = f.state(fr, v) else {
