@@ -22,12 +22,20 @@ impl ModelArgs {
     /// The model file with the `--set` overrides applied, and compiled (names,
     /// dimensions and values checked).
     pub fn load(&self) -> Result<(Model, System)> {
+        let (model, sys) = self.load_untrimmed()?;
+        // parameters solved for a datum ([trim]) follow every other change
+        let (sys, _) = detune::statics::trim::trim(&sys)?;
+        Ok((model, sys))
+    }
+
+    /// [`ModelArgs::load`] without solving the model's `[trim]`: for what depends on the
+    /// geometry only (`check`, `draw`, `kinematics`), which a trim that fails must not
+    /// stop.
+    pub fn load_untrimmed(&self) -> Result<(Model, System)> {
         let model = Model::load(&self.model)?;
         let overrides = parse_sets(&self.set)?;
         let model = model.with_overrides(&overrides)?;
         let sys = System::new(&model)?;
-        // parameters solved for a datum ([trim]) follow every other change
-        let (sys, _) = detune::statics::trim::trim(&sys)?;
         Ok((model, sys))
     }
 }

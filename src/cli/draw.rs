@@ -19,7 +19,7 @@ pub struct DrawArgs {
 }
 
 pub fn run(a: DrawArgs) -> Result<()> {
-    let (model, sys) = a.model.load()?;
+    let (model, sys) = a.model.load_untrimmed()?;
     check_outputs(&model.source.path, &[Some(&a.output)])?;
     let start = assemble(&sys)?;
     write_pose_svg(&a.output, &sys, &start.q, &model.name, &force_names(&model))?;

@@ -37,7 +37,7 @@ pub struct KinematicsArgs {
 }
 
 pub fn run(a: KinematicsArgs) -> Result<()> {
-    let (model, sys) = a.model.load()?;
+    let (model, sys) = a.model.load_untrimmed()?;
     check_outputs(
         &model.source.path,
         &[a.output.as_deref(), a.plot.as_deref()],
