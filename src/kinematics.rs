@@ -168,6 +168,23 @@ pub fn kinematics(sys: &System, opts: &KinematicsOptions) -> Result<KinematicPat
     }
     let values = drive_grid(opts.from, opts.to, opts.step)?;
     let start = crate::dynamics::assemble(sys)?;
+    // a drive the constraints fix (its unit vector in the row space of A) cannot move
+    {
+        let mut ws = crate::dynamics::DynWorkspace::new(sys);
+        sys.jacobian(&mut ws.sys, &start.q, 0.0, &mut ws.a);
+        if sys.m() > 0 {
+            let mut e = nalgebra::DVector::zeros(sys.nv());
+            e[drive] = 1.0;
+            let at = ws.a.transpose();
+            let y = crate::linalg::solve_least_squares(at.clone(), &e);
+            if (&at * y - &e).amax() < 1e-8 {
+                return Err(Invalid::FixedDrive {
+                    drive: opts.drive.clone(),
+                }
+                .into());
+            }
+        }
+    }
     let mut closure = Closure::new(sys, drive, &moving);
     let d0 = start.q[drive];
     let mut q0 = start.q.clone();

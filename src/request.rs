@@ -156,6 +156,10 @@ pub enum Invalid {
         "`{name}` does not move with the driven coordinate `{drive}` (no constraint couples them): d{drive}/d{name} is undefined"
     )]
     NotDriven { name: String, drive: String },
+    /// A driven coordinate that the constraints hold fixed at the assembled pose (a
+    /// revolute's centre): it cannot be driven.
+    #[error("`{drive}` is fixed by the constraints at the assembled pose: it cannot be driven")]
+    FixedDrive { drive: String },
     /// A peak's bracket is its two neighbours, 2 steps wide.
     #[error(
         "the refinement resolution {refine} is not finer than a peak's bracket (2 × the frequency step {step}): nothing would be refined"
@@ -271,6 +275,9 @@ impl Invalid {
             NotDriven { drive, .. } => {
                 format!("name a coordinate that the constraints move with `{drive}`")
             }
+            FixedDrive { .. } => {
+                "drive a coordinate the mechanism can move (an angle of a degree of freedom, e.g. the stick's angle)".into()
+            }
             FamilySyntax { .. } | FamilyUnnamed { .. } => "for example F0=0.1,1,2,3,4".into(),
             FamilyVariesSwept { .. } => {
                 "vary a different parameter, e.g. the forcing amplitude F0".into()
@@ -322,6 +329,9 @@ mod tests {
             NotDriven {
                 name: "gearbox.theta".into(),
                 drive: "stick.phi".into(),
+            },
+            FixedDrive {
+                drive: "gearbox.x".into(),
             },
         ];
         for &argument in Argument::ALL {

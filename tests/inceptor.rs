@@ -295,3 +295,30 @@ fn the_constraints_are_fifteen_independent_rows() {
     assert!(text.contains("constraints (15 equations)"), "{text}");
     assert!(text.contains("degrees of freedom: 2"), "{text}");
 }
+
+/// Loads may read velocities (`crank.delta_dot`): the rotary damper written as a torque
+/// `−c_d θ̇g` about X on the gearbox, with the `damper` element off, gives the same damped
+/// modes (a second formulation of the same damping, to 1e-12).
+#[test]
+fn a_torque_that_reads_a_velocity_is_a_damper() {
+    let text = std::fs::read_to_string(MODEL).unwrap()
+        + r#"
+[[forces]]
+name = "damper_as_torque"
+type = "torque"
+body = "gearbox"
+torque = ["-5.649*gearbox.theta_dot", 0, 0]
+"#;
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("inceptor_torque.toml");
+    std::fs::write(&path, text).unwrap();
+    let a = detune(&["modes", MODEL, "--json"]);
+    let b = detune(&["modes", path.to_str().unwrap(), "--set", "c_d=0", "--json"]);
+    for k in 0..2 {
+        for part in ["re", "im"] {
+            let x = a["modes"][k]["eigenvalue"][part].as_f64().unwrap();
+            let y = b["modes"][k]["eigenvalue"][part].as_f64().unwrap();
+            close(y, x, 1e-12, 1e-12, "eigenvalue with the damper as a torque");
+        }
+    }
+}

@@ -496,11 +496,12 @@ fn names_refused_with_reasons() {
             order: 2
         }
     );
-    // a body and a force of the same name
+    // a body and a force of the same name: refused where the model is read
     let text = common::overcentre_text().replace("name = \"spring\"", "name = \"bar1\"");
-    let clash = System::new(&common::from_text("clash.toml", &text, &[])).unwrap();
-    let e = clash.output("bar1.tension").unwrap_err().to_string();
-    assert!(e.contains("ambiguous"), "{e}");
+    let e = detune::Model::from_str("clash.toml", &text)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("the force `bar1` has the name of a body"), "{e}");
     // the linear response does not linearize the multipliers
     let out = detune(&[
         "frf",

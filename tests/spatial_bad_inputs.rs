@@ -230,3 +230,68 @@ fn an_unsolvable_trim() {
     );
     assert!(err.contains("help"), "{err}");
 }
+
+/// Mistakes in a spatial body's mass, inertia or CG (an unknown name, a wrong unit, a
+/// coordinate where a constant is needed): located errors, never a crash (the joints and
+/// forces that refer to the body are still read).
+#[test]
+fn mistakes_in_a_spatial_bodys_mass_inertia_and_cg() {
+    let (t, o) = run("mass = \"m1\"", "mass = \"m9\"");
+    assert_located(&t, &o, "unknown parameter `m9`", "m9");
+    let (t, o) = run(
+        "inertia = [0.003, 0.098, 0.098]",
+        "inertia = [\"0.003 kg\", 0.098, 0.098]",
+    );
+    assert_located(
+        &t,
+        &o,
+        "the inertia Ixx of `stick` is a quantity in kg·m^2",
+        "\"0.003 kg\"",
+    );
+    let (t, o) = run(
+        "inertia = [0.003, 0.098, 0.098]",
+        "inertia = [\"stick.phi\", 0.098, 0.098]",
+    );
+    assert_located(
+        &t,
+        &o,
+        "`stick.phi` is a coordinate; this value must be constant",
+        "stick.phi\", 0.098",
+    );
+    let (t, o) = run("cg = [0.36, 0.014, 0.0]", "cg = [\"q\", 0.014, 0.0]");
+    assert_located(&t, &o, "unknown parameter `q`", "q\", 0.014");
+}
+
+/// A name is one thing across bodies, joints and forces (responses name them).
+#[test]
+fn a_force_named_like_a_body_or_another_force() {
+    let (t, o) = run("name = \"shaft\"", "name = \"crank\"");
+    assert_located(
+        &t,
+        &o,
+        "the force `crank` has the name of a body",
+        "[[forces]]\nname = \"crank\"",
+    );
+    let (t, o) = run("name = \"damper\"", "name = \"sensor\"");
+    assert_located(
+        &t,
+        &o,
+        "the force `sensor` has the name of another force",
+        "[[forces]]\nname = \"sensor\"\ntype = \"torsion\"",
+    );
+}
+
+/// A velocity in a constraint is refused where it is written (loads may read them).
+#[test]
+fn a_velocity_in_a_constraint() {
+    let (t, o) = run(
+        "[[forces]]\nname = \"gravity\"",
+        "[[constraints]]\nexpr = \"crank.delta_dot\"\n\n[[forces]]\nname = \"gravity\"",
+    );
+    assert_located(
+        &t,
+        &o,
+        "`crank.delta_dot` is a velocity; this value cannot depend on velocities",
+        "crank.delta_dot",
+    );
+}

@@ -166,6 +166,10 @@ pub fn wording(invalid: &Invalid) -> Option<Wording> {
             ),
             &hint,
         ),
+        FixedDrive { drive } => said(
+            format!("--drive {drive}: `{drive}` is fixed by the constraints at the assembled pose"),
+            &hint,
+        ),
         FamilySyntax { spec } => said(
             format!("--values {spec}: expected PARAM=v1,v2,..."),
             "for example --values F0=0.1,1,2,3,4",

@@ -183,10 +183,10 @@ pub fn frequency_mark(text: &str) -> Result<(String, f64)> {
             detune::model::units::Dim::FREQUENCY,
         )?,
     };
-    if !w.is_finite() {
+    if !(w.is_finite() && w > 0.0) {
         return Err(Error::request(
-            format!("--mark {text}: the frequency is not finite"),
-            "give a finite frequency, e.g. 27.0 (rad/s) or \"4.3 Hz\"",
+            format!("--mark {text}: the frequency must be positive and finite, it is {w} rad/s"),
+            "give a forcing frequency, e.g. 27.0 (rad/s), \"4.3 Hz\" or \"258 rpm\"",
         ));
     }
     Ok((label.trim().to_string(), w))

@@ -81,6 +81,19 @@ pub fn run(a: SweepArgs) -> Result<()> {
         .map(|m| super::args::frequency_mark(m))
         .collect::<Result<_>>()?;
     let (values, responses) = a.grid.resolve(&model)?;
+    let (lo, hi) = (values[0], values[values.len() - 1]);
+    let marks: Vec<(String, f64)> = marks
+        .into_iter()
+        .filter(|(label, w)| {
+            let inside = *w >= lo && *w <= hi;
+            if !inside {
+                eprintln!(
+                    "note: --mark {label} at {w:.4} rad/s is outside the swept {lo}–{hi} rad/s: not drawn"
+                );
+            }
+            inside
+        })
+        .collect();
     let opts = SweepOptions {
         param: a.grid.param.clone(),
         values,

@@ -1281,6 +1281,8 @@ pub struct Compiled {
     time: bool,
     coords: bool,
     params: bool,
+    /// The largest coordinate index read.
+    max_coord: Option<usize>,
 }
 
 impl Compiled {
@@ -1296,6 +1298,13 @@ impl Compiled {
             time: ops.iter().any(|op| matches!(op, Op::Time)),
             coords: ops.iter().any(|op| matches!(op, Op::Coord(_))),
             params: ops.iter().any(|op| matches!(op, Op::Param(_))),
+            max_coord: ops
+                .iter()
+                .filter_map(|op| match op {
+                    Op::Coord(i) => Some(*i),
+                    _ => None,
+                })
+                .max(),
             depth: depth as usize,
             ops,
         }
@@ -1348,13 +1357,21 @@ impl Compiled {
     /// The largest coordinate index used, if any (`q` passed to [`Compiled::eval`] must be
     /// longer than this).
     pub fn max_coord(&self) -> Option<usize> {
-        self.ops
-            .iter()
-            .filter_map(|op| match op {
-                Op::Coord(i) => Some(*i),
-                _ => None,
-            })
-            .max()
+        self.max_coord
+    }
+
+    /// Evaluate a load (a force or torque component), which may read velocities: slot
+    /// `q.len() + j` is velocity j of `v` (see the compiler). Without velocities it is
+    /// [`Compiled::eval_in`] over q.
+    #[inline]
+    pub fn eval_load<D: Scalar, E: Env<D>>(&self, q: &[D], v: &[D], t: D, env: E) -> D {
+        match self.max_coord {
+            Some(m) if m >= q.len() => {
+                let qv: Vec<D> = q.iter().chain(v).copied().collect();
+                self.eval_in(&qv, t, env)
+            }
+            _ => self.eval_in(q, t, env),
+        }
     }
 
     /// Evaluate with coordinates `q` (indexed by [`Slot::Coord`]) and time `t`.

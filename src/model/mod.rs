@@ -463,6 +463,41 @@ impl Model {
             .enumerate()
             .filter_map(|(i, r)| b.force(i, r))
             .collect();
+        // Responses name bodies' points, joints and force elements (`sensor.tension`,
+        // `J2.force_x`, `stick.grip.x`): a name is one thing across bodies, joints and
+        // constraints, and forces.
+        {
+            let mut seen: Vec<(&str, &str)> = bodies
+                .iter()
+                .map(|x| (x.name.as_str(), "a body"))
+                .chain(joints.iter().map(|j| (j.name.as_str(), "a joint")))
+                .chain(
+                    constraints
+                        .iter()
+                        .map(|c| (c.name.as_str(), "a constraint")),
+                )
+                .collect();
+            for f in &forces {
+                if let Some((_, what)) = seen.iter().find(|(n, _)| *n == f.name) {
+                    b.diags.push(
+                        Diagnostic::new(format!("the force `{}` has the name of {what}", f.name))
+                            .at(f.span.clone())
+                            .help("give each force its own `name`: responses such as `<force>.tension` name it"),
+                    );
+                } else {
+                    seen.push((f.name.as_str(), "another force"));
+                }
+            }
+            for j in joints.iter() {
+                if bodies.iter().any(|x| x.name == j.name) {
+                    b.diags.push(
+                        Diagnostic::new(format!("the joint `{}` has the name of a body", j.name))
+                            .at(j.span.clone())
+                            .help("give the joint its own `name`: responses such as `<joint>.force_x` name it"),
+                    );
+                }
+            }
+        }
         let ground = match &raw.ground.motion {
             None => GroundDef::default(),
             Some(m) => {

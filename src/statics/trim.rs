@@ -66,6 +66,10 @@ pub fn trimmed(sys: &System, start: &State) -> Result<(System, Vec<(String, f64)
             if let Some(t) = s.trim.as_mut() {
                 t.solved = true;
             }
+            // the datum is the initial pose: a simulation starts there, at rest (the
+            // model's guesses for coordinates no constraint reaches, such as a gearbox
+            // behind a compliant shaft, would start it twisted)
+            s.initial.q.copy_from_slice(&q);
             let solved = names
                 .iter()
                 .zip(&trim.params)
@@ -112,9 +116,15 @@ pub fn trimmed(sys: &System, start: &State) -> Result<(System, Vec<(String, f64)
         for (k, l) in lambda.iter_mut().enumerate() {
             *l -= dx[n + k];
         }
+        // a step to a value the model cannot take (a negative length, a non-finite
+        // value: no trim, e.g. with a zero stiffness) ends the trim, as a failed trim
+        let mut refused = false;
         for (p, d) in dps {
             let v = s.param(p) - d;
-            s.set_param(p, v)?;
+            refused |= !v.is_finite() || s.set_param(p, v).is_err();
+        }
+        if refused {
+            break;
         }
     }
     Err(Failure::TrimFailed {

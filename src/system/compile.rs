@@ -24,9 +24,22 @@ impl System {
 
     /// Compile a model with its current parameter values (which stay live).
     pub fn new(model: &Model) -> Result<System> {
+        let velocity_names = model
+            .velocity_names()
+            .into_iter()
+            .zip(
+                model
+                    .bodies
+                    .iter()
+                    .flat_map(|b| std::iter::repeat_n(b.kind.velocities_are_rates(), b.vels.len())),
+            )
+            .map(|(v, rate)| if rate { format!("{v}_dot") } else { v })
+            .collect();
         let mut c = Compiler {
             model,
             coordinates: model.coordinate_names(),
+            velocity_names,
+            allow_velocities: false,
             diags: Vec::new(),
             live: live_parameters(model),
         };
@@ -88,6 +101,12 @@ fn live_parameters(model: &Model) -> Live {
 struct Compiler<'a> {
     model: &'a Model,
     coordinates: Vec<String>,
+    /// The velocities' names as expressions read them: `<coordinate>_dot` for a
+    /// coordinate's rate, `b.wx` etc. for a free body's.
+    velocity_names: Vec<String>,
+    /// Whether the field being compiled may read velocities (applied forces and torques):
+    /// velocity j is slot `Coord(nq + j)`, evaluated over (q, v) concatenated.
+    allow_velocities: bool,
     diags: Vec<Diagnostic>,
     live: Live,
 }
@@ -147,6 +166,16 @@ impl Compiler<'_> {
                 help: Some(help.into()),
             });
         }
+        if coords && let Some(j) = self.velocity_names.iter().position(|c| c == name) {
+            if self.allow_velocities {
+                return Ok(Slot::Coord(self.coordinates.len() + j));
+            }
+            return Err(ExprError {
+                span: span.clone(),
+                message: format!("`{name}` is a velocity; this value cannot depend on velocities"),
+                help: Some("velocities may appear in applied forces and torques (`point_force`, `torque`), not in constraints".into()),
+            });
+        }
         if name == "t" {
             if time {
                 return Ok(Slot::Time);
@@ -190,6 +219,15 @@ impl Compiler<'_> {
             message,
             help: Some(help),
         })
+    }
+
+    /// A load's expression (a force or torque component): parameters, time, coordinates
+    /// and velocities.
+    fn compile_load(&mut self, f: &Field) -> Option<Compiled> {
+        self.allow_velocities = true;
+        let c = self.compile_field(f, true, true);
+        self.allow_velocities = false;
+        c
     }
 
     fn compile_field(&mut self, f: &Field, coords: bool, time: bool) -> Option<Compiled> {
@@ -291,7 +329,8 @@ impl Compiler<'_> {
         Some(SysPoint3 {
             body,
             p: [c[0]?, c[1]?, c[2]?],
-            cg: body.and_then(|k| cgs[k]),
+            // (a body that failed to compile has no entry: its errors are reported)
+            cg: body.and_then(|k| cgs.get(k).copied().flatten()),
         })
     }
 
@@ -382,6 +421,7 @@ impl Compiler<'_> {
         let mut velocity_is_rate = Vec::new();
         // free bodies: where their quaternion's initial coefficients are
         let mut quaternions = Vec::new();
+        let mut cgs: Vec<Option<[usize; 3]>> = Vec::new();
         for (i, b) in model.bodies.iter().enumerate() {
             let mass = self.checked(
                 &b.mass,
@@ -475,6 +515,8 @@ impl Compiler<'_> {
                 initial.v.push(0.0);
             }
             let inertia: Option<Vec<usize>> = inertia.into_iter().collect();
+            // by the model's body index (joints and forces look bodies up by it)
+            cgs.push(cg.flatten());
             if let (Some(mass_coef), Some(inertia_coefs), Some(cg)) = (mass, inertia, cg) {
                 bodies.push(SysBody {
                     name: b.name.clone(),
@@ -491,7 +533,6 @@ impl Compiler<'_> {
                 });
             }
         }
-        let cgs: Vec<Option<[usize; 3]>> = bodies.iter().map(|b| b.cg).collect();
         let zero = self.live.coef(Compiled::constant(0.0));
         let one = self.live.coef(Compiled::constant(1.0));
         let unit = UnitCoefs { zero, one };
@@ -626,7 +667,7 @@ impl Compiler<'_> {
                         .iter()
                         .map(|c| {
                             self.check_dim(c, Dim::FORCE, "a force");
-                            self.compile_field(c, true, true)
+                            self.compile_load(c)
                         })
                         .collect();
                     if let (Some(at), Some(fs)) = (p, fs.into_iter().collect::<Option<Vec<_>>>()) {
@@ -711,7 +752,7 @@ impl Compiler<'_> {
                         .iter()
                         .map(|c| {
                             self.check_dim(c, Dim::TORQUE, "a torque");
-                            self.compile_field(c, true, true)
+                            self.compile_load(c)
                         })
                         .collect();
                     if let Some(ts) = ts.into_iter().collect::<Option<Vec<_>>>() {
@@ -747,8 +788,8 @@ impl Compiler<'_> {
                     let p = self.point(at, &format!("the point of `{}`", f.name));
                     self.check_dim(&force[0], Dim::FORCE, "a force");
                     self.check_dim(&force[1], Dim::FORCE, "a force");
-                    let fx = self.compile_field(&force[0], true, true);
-                    let fy = self.compile_field(&force[1], true, true);
+                    let fx = self.compile_load(&force[0]);
+                    let fy = self.compile_load(&force[1]);
                     if let (Some(at), Some(fx), Some(fy)) = (p, fx, fy) {
                         forces.push(Force::Point { at, f: [fx, fy] });
                     }

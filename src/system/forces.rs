@@ -44,8 +44,8 @@ impl Force {
                 fr.apply(b, [-(tension * u[0]), -(tension * u[1])], out);
             }
             Force::Point { at, f } => {
-                let fx = f[0].eval_in(fr.q, t, fr.env);
-                let fy = f[1].eval_in(fr.q, t, fr.env);
+                let fx = f[0].eval_load(fr.q, v, t, fr.env);
+                let fy = f[1].eval_load(fr.q, v, t, fr.env);
                 fr.apply(at, [fx, fy], out);
             }
             Force::Spatial(f) => f.add(fr, v, t, out),

@@ -268,6 +268,8 @@ impl System {
         t: f64,
     ) -> Vec<ForceGeometry> {
         let c = &self.live.coefs;
+        // drawn at rest: a load that reads velocities reads zeros
+        let rest = vec![0.0; self.nv()];
         self.forces
             .iter()
             .map(|f| match f {
@@ -282,7 +284,11 @@ impl System {
                 Force::Point { at, f } => ForceGeometry::Point {
                     body: at.body,
                     at: p2(fr.position(at)),
-                    force: [f[0].eval_in(q, t, fr.env), f[1].eval_in(q, t, fr.env), 0.0],
+                    force: [
+                        f[0].eval_load(q, &rest, t, fr.env),
+                        f[1].eval_load(q, &rest, t, fr.env),
+                        0.0,
+                    ],
                 },
                 Force::Spatial(Force3::Spring { a, b, k, c: d, .. }) => ForceGeometry::Spring {
                     body1: a.body,
@@ -309,7 +315,7 @@ impl System {
                 Force::Spatial(Force3::Point { at, f }) => ForceGeometry::Point {
                     body: at.body,
                     at: fr.position3(at),
-                    force: [0, 1, 2].map(|i| f[i].eval_in(q, t, fr.env)),
+                    force: [0, 1, 2].map(|i| f[i].eval_load(q, &rest, t, fr.env)),
                 },
                 Force::Spatial(Force3::Torque { body, .. }) => {
                     ForceGeometry::Torque { body: *body }

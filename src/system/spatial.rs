@@ -716,11 +716,11 @@ impl Force3 {
                 fr.apply_torque3(*b2, tau.map(|x| -x), out);
             }
             Force3::Torque { body, torque } => {
-                let tau = [0, 1, 2].map(|i| torque[i].eval_in(fr.q, t, fr.env));
+                let tau = [0, 1, 2].map(|i| torque[i].eval_load(fr.q, v, t, fr.env));
                 fr.apply_torque3(Some(*body), tau, out);
             }
             Force3::Point { at, f } => {
-                let f = [0, 1, 2].map(|i| f[i].eval_in(fr.q, t, fr.env));
+                let f = [0, 1, 2].map(|i| f[i].eval_load(fr.q, v, t, fr.env));
                 fr.apply3(at, f, out);
             }
         }
