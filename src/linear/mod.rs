@@ -526,12 +526,13 @@ impl LinearOutput {
                 });
             }
             Output::Reaction { .. } => {
-                return Err(Error::request(
-                    format!(
-                        "the response `{name}` is a joint reaction: the linear frequency response does not linearize the constraint multipliers"
-                    ),
-                    "compute it in the time domain: a stepped-sine sweep or a simulation reports joint reactions",
-                ));
+                // linearized through the multipliers (see `reaction_amplitude`)
+                let _ = name;
+                return Ok(LinearOutput {
+                    output,
+                    hq: Vec::new(),
+                    hv: Vec::new(),
+                });
             }
             _ => {}
         }
@@ -576,6 +577,56 @@ impl LinearOutput {
     }
 }
 
+/// The complex amplitude of a joint reaction at ω, from the coordinates' response Y: the
+/// multipliers' change Λ solves Āᵀ Λ = Z Y − F (the linearized equations of motion, Z =
+/// K − ω²M + iωC, F the forcing's first harmonic), and δR = Bᵀ Λ + (∂B/∂q · Y)ᵀ λ* plus
+/// the first harmonic of B(q*, t)ᵀ λ* (a constraint that moves with the ground).
+fn reaction_amplitude(
+    sys: &System,
+    modal: &ModalAnalysis,
+    forcing: &Forcing,
+    y: &DVector<Complex<f64>>,
+    omega: f64,
+    element: usize,
+    axis: usize,
+) -> Complex<f64> {
+    let lin = &modal.linearization;
+    let eq = &modal.equilibrium;
+    let c = |m: &DMatrix<f64>| m.map(|v| Complex::new(v, 0.0));
+    let z = c(&lin.full_stiffness) - c(&lin.full_mass) * Complex::new(omega * omega, 0.0)
+        + c(&lin.full_damping) * Complex::new(0.0, omega);
+    let r = &z * y - &forcing.force;
+    // Ā_r Ā_rᵀ Λ = Ā_r r, real and imaginary parts
+    let ar = lin.jacobian.select_rows(modal.rows.iter());
+    let g = &ar * ar.transpose();
+    let solve = |b: DVector<f64>| crate::statics::solve_least_squares(g.clone(), &(&ar * b));
+    let lre = solve(r.map(|x| x.re));
+    let lim = solve(r.map(|x| x.im));
+    let m = sys.m();
+    let (mut lam, mut dre, mut dim) = (vec![0.0; m], vec![0.0; m], vec![0.0; m]);
+    for (k, &row) in modal.rows.iter().enumerate() {
+        lam[row] = eq.lambda[k];
+        dre[row] = lre[k];
+        dim[row] = lim[k];
+    }
+    let frozen = sys.with_ground_at_mean(&period_samples(omega));
+    let yre: Vec<f64> = y.iter().map(|x| x.re).collect();
+    let yim: Vec<f64> = y.iter().map(|x| x.im).collect();
+    let mut out = Complex::new(
+        frozen.reaction_variation(element, axis, &eq.q, 0.0, &lam, &dre, &yre),
+        frozen.reaction_variation(element, axis, &eq.q, 0.0, &lam, &dim, &yim),
+    );
+    if sys.rheonomic {
+        let w = 2.0 / PERIOD_SAMPLES as f64;
+        for t in period_samples(omega) {
+            let h = sys.reaction(element, axis, &eq.q, t, &lam);
+            let (s, co) = (omega * t).sin_cos();
+            out += Complex::new(h * s, h * co) * w;
+        }
+    }
+    out
+}
+
 /// Samples of the forcing's period for the harmonics of the linear response.
 const PERIOD_SAMPLES: usize = 64;
 
@@ -604,14 +655,6 @@ pub fn frequency_response(
     let index = check_frequencies(sys, param, values)?;
     let mut at = at_frequency(sys, index, values[0])?;
     let outputs = at.outputs(responses)?;
-    if let Some((o, name)) = outputs
-        .iter()
-        .zip(responses)
-        .find(|(o, _)| matches!(o, Output::Reaction { .. }))
-    {
-        // refused before the modal analysis
-        LinearOutput::new(&at, *o, name, &[], values[0])?;
-    }
     let modal = modal_analysis(&at, None)?;
     let q = modal.equilibrium.q.clone();
     let linear: Vec<LinearOutput> = outputs
@@ -629,7 +672,12 @@ pub fn frequency_response(
             linear
                 .iter()
                 .map(|l| {
-                    let z = l.amplitude(&at, &q, w, &y);
+                    let z = match l.output {
+                        Output::Reaction { element, axis } => {
+                            reaction_amplitude(&at, &modal, &forcing, &y, w, element, axis)
+                        }
+                        _ => l.amplitude(&at, &q, w, &y),
+                    };
                     (z.norm(), z.arg().to_degrees())
                 })
                 .collect::<Vec<_>>(),
@@ -646,7 +694,13 @@ pub fn frequency_response(
                 at.set_param(index, w)?;
                 let forcing = harmonic_forcing(&at, &modal.equilibrium, &rows, param, w)?;
                 let y = modal.linearization.response(w, &forcing)?;
-                Ok(l.amplitude(&at, &q, w, &y).norm())
+                Ok(match l.output {
+                    Output::Reaction { element, axis } => {
+                        reaction_amplitude(&at, &modal, &forcing, &y, w, element, axis)
+                    }
+                    _ => l.amplitude(&at, &q, w, &y),
+                }
+                .norm())
             };
             let (lo, hi) = (values[k - 1], values[k + 1]);
             let tol = 1e-10 * hi.abs().max(1.0);

@@ -607,7 +607,7 @@ impl System {
     /// The force constraint element `e` exerts on its body 1 (world component `axis`) for
     /// multipliers λ: body 1's translational columns of the element's rows of Aᵀλ (the
     /// opposite of body 2's when body 1 is the ground).
-    fn reaction(&self, e: usize, axis: usize, q: &[f64], t: f64, lambda: &[f64]) -> f64 {
+    pub fn reaction(&self, e: usize, axis: usize, q: &[f64], t: f64, lambda: &[f64]) -> f64 {
         let (b1, b2) = match &self.constraints[e] {
             Constraint::Joint(j) => (j.a.body, j.b.body),
             Constraint::Spatial(j) => (j.a.body, j.b.body),
@@ -630,6 +630,51 @@ impl System {
         });
         sign * (0..blk.rows)
             .map(|r| out[r].eps * lambda[blk.row0 + r])
+            .sum::<f64>()
+    }
+}
+
+impl System {
+    /// The first-order change of a joint reaction ([`System::reaction`]) for changes δλ of
+    /// the multipliers (all m rows) and δq of the coordinates: Bᵀ δλ + (∂B/∂q · δq)ᵀ λ, B
+    /// the element's rows' derivatives along body 1's translation, by hyper-dual numbers
+    /// (ε₁ on the translation, ε₂ along δq). Linear in (δλ, δq): a complex amplitude is
+    /// its real and imaginary parts, each through this.
+    #[allow(clippy::too_many_arguments)]
+    pub fn reaction_variation(
+        &self,
+        e: usize,
+        axis: usize,
+        q: &[f64],
+        t: f64,
+        lambda: &[f64],
+        dlambda: &[f64],
+        dq: &[f64],
+    ) -> f64 {
+        use num_dual::HyperDual64;
+        let (b1, b2) = match &self.constraints[e] {
+            Constraint::Joint(j) => (j.a.body, j.b.body),
+            Constraint::Spatial(j) => (j.a.body, j.b.body),
+            Constraint::Custom(_) => return f64::NAN,
+        };
+        let (body, sign) = match (b1, b2) {
+            (Some(k), _) => (k, 1.0),
+            (None, Some(k)) => (k, -1.0),
+            (None, None) => return f64::NAN,
+        };
+        let col = self.bodies[body].offset + axis;
+        let blk = &self.blocks[e];
+        let qh: Vec<HyperDual64> = q
+            .iter()
+            .enumerate()
+            .map(|(j, &x)| HyperDual64::new(x, if j == col { 1.0 } else { 0.0 }, dq[j], 0.0))
+            .collect();
+        let mut out = vec![HyperDual64::from(0.0); blk.rows];
+        let c = &self.constraints[e];
+        let th = HyperDual64::from(t);
+        self.with_frames(&qh, th, self.env(), |fr| c.phi(fr, th, &mut out));
+        sign * (0..blk.rows)
+            .map(|r| out[r].eps1 * dlambda[blk.row0 + r] + out[r].eps1eps2 * lambda[blk.row0 + r])
             .sum::<f64>()
     }
 }
