@@ -191,3 +191,17 @@ pub fn frequency_mark(text: &str) -> Result<(String, f64)> {
     }
     Ok((label.trim().to_string(), w))
 }
+
+/// A value of parameter `param` given to `flag`: a number (SI) or a quantity in the
+/// parameter's dimension (`--from "-10 deg"`, `--to "1.4e5 N/m"`).
+pub fn param_value(model: &Model, param: &str, flag: &str, text: &str) -> Result<f64> {
+    if let Ok(x) = text.trim().parse::<f64>() {
+        return Ok(x);
+    }
+    let dim = model
+        .parameters
+        .index(param)
+        .and_then(|i| model.parameters.dims[i])
+        .unwrap_or(Dim::NONE);
+    quantity(flag, text, param, dim)
+}

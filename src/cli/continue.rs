@@ -21,16 +21,16 @@ pub struct ContinueArgs {
     /// Parameter to vary.
     #[arg(long, value_name = "NAME")]
     pub param: String,
-    /// Start value (SI).
+    /// Start value: a number (SI) or a quantity ("-10 deg").
     #[arg(long, value_name = "A", allow_hyphen_values = true)]
-    pub from: f64,
-    /// End value (SI).
+    pub from: String,
+    /// End value: a number (SI) or a quantity.
     #[arg(long, value_name = "B", allow_hyphen_values = true)]
-    pub to: f64,
+    pub to: String,
     /// Largest arclength step, in the units of the coordinates and the parameter
     /// [default: (B − A)/50].
     #[arg(long, value_name = "S", allow_hyphen_values = true)]
-    pub step: Option<f64>,
+    pub step: Option<String>,
     /// Most continuation steps (points after the start point).
     #[arg(long, default_value_t = 5000, value_name = "N")]
     pub max_steps: usize,
@@ -54,11 +54,17 @@ pub fn run(a: ContinueArgs) -> Result<()> {
         &model.source.path,
         &[a.output.as_deref(), a.plot.as_deref()],
     )?;
+    let value = |flag: &str, text: &str| super::args::param_value(&model, &a.param, flag, text);
+    let (from, to) = (value("--from", &a.from)?, value("--to", &a.to)?);
+    let step = match &a.step {
+        Some(s) => value("--step", s)?,
+        None => (to - from).abs() / 50.0,
+    };
     let opts = ContinuationOptions {
         param: a.param.clone(),
-        from: a.from,
-        to: a.to,
-        step: a.step.unwrap_or((a.to - a.from).abs() / 50.0),
+        from,
+        to,
+        step,
         max_steps: a.max_steps,
     };
     // Every request is checked before the work, so a bad one leaves no file behind.
@@ -83,14 +89,22 @@ pub fn run(a: ContinueArgs) -> Result<()> {
             "{} points from {} = {} to {}{}",
             branch.points.len(),
             branch.param,
-            a.from,
-            branch.points.last().map_or(a.from, |p| p.value),
+            from,
+            branch.points.last().map_or(from, |p| p.value),
             if branch.truncated {
                 " (stopped at --max-steps)"
             } else {
                 ""
             }
         );
+        if let (Some(p0), Some(p1)) = (branch.points.first(), branch.points.last()) {
+            for (k, name) in branch.solved.iter().enumerate() {
+                println!(
+                    "solved by [trim]: {name} from {} to {}",
+                    p0.solved[k], p1.solved[k]
+                );
+            }
+        }
         for (kind, points) in [
             ("fold", &branch.folds),
             ("branch point", &branch.branch_points),

@@ -58,10 +58,13 @@ fn write_rows(path: &str, header: &[String], rows: &[Vec<Cell>], footer: &[&str]
 /// CSV of a branch: `<param>,<coordinates>...,stable`.
 pub fn write_branch_csv(path: &str, b: &Branch) -> Result<()> {
     write_atomic(path, |w| {
-        writeln!(w, "{},{},stable", b.param, b.coordinates.join(","))?;
+        // the trim's solved parameters, when the model has one, after the coordinates
+        let mut header = b.coordinates.clone();
+        header.extend(b.solved.iter().cloned());
+        writeln!(w, "{},{},stable", b.param, header.join(","))?;
         for p in &b.points {
             write!(w, "{}", num(p.value))?;
-            for x in &p.q {
+            for x in p.q.iter().chain(&p.solved) {
                 write!(w, ",{}", num(*x))?;
             }
             writeln!(w, ",{}", u8::from(p.stable))?;

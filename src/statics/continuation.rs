@@ -44,6 +44,8 @@ pub struct BranchPoint {
     /// Coordinates (n).
     pub q: Vec<f64>,
     pub stable: bool,
+    /// The values of the parameters the model's `[trim]` solves (see [`Branch::solved`]).
+    pub solved: Vec<f64>,
 }
 
 /// A followed branch.
@@ -56,6 +58,9 @@ pub struct Branch {
     pub branch_points: Vec<BranchPoint>,
     /// The run ended because it reached `max_steps` before leaving the range.
     pub truncated: bool,
+    /// The parameters the model's `[trim]` solves at every point (empty: no trim, or it
+    /// is off, or it solves the continued parameter).
+    pub solved: Vec<String>,
 }
 
 /// The equilibrium equations as a function of (x, p).
@@ -355,10 +360,12 @@ pub fn continue_equilibria(sys: &System, opts: &ContinuationOptions) -> Result<B
         Ok(st.stability(&y.as_slice()[..n], &y.as_slice()[n..nr]).0)
     };
     let point = |pt: &Pt| -> Result<BranchPoint> {
+        let nr = n + fam.rows.len();
         Ok(BranchPoint {
             value: pt.y[d],
             q: pt.y.as_slice()[..n].to_vec(),
             stable: stability(&pt.y)?,
+            solved: pt.y.as_slice()[nr..d].to_vec(),
         })
     };
     let mut branch = Branch {
@@ -368,6 +375,10 @@ pub fn continue_equilibria(sys: &System, opts: &ContinuationOptions) -> Result<B
         folds: Vec::new(),
         branch_points: Vec::new(),
         truncated: false,
+        solved: trim
+            .iter()
+            .map(|&(_, p)| sys.param_names()[p].clone())
+            .collect(),
     };
     let mut ds = opts.step;
     let min_ds = opts.step * 1e-6;
