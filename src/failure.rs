@@ -151,7 +151,7 @@ impl Failure {
                         .join(", ")
                 }
             ),
-            InconsistentVelocities { .. } => "give fewer initial velocities, or velocities the joints allow".into(),
+            InconsistentVelocities { .. } => "give fewer initial velocities, or velocities the joints allow; with none given, the moving ground drives the joints in a way the bodies' coordinates cannot follow (a body turning about one axis on a ground that turns about another): give the body the angles to follow it, or move the ground differently".into(),
             ConstraintsNotKept { .. } => "tighten the integration tolerances; if that does not help, the mechanism may pass a singular pose".into(),
             ContinuationStalled { .. } => "the branch may end here (a singular pose or no equilibrium), or the step is far too large for this model: try a smaller one".into(),
             BranchTurns { .. } => "the branch may end here (a singular pose); try a smaller step".into(),
