@@ -94,3 +94,41 @@ fn twist_and_torque_responses_follow_the_definition() {
     }
     assert_eq!(rows, 11);
 }
+
+/// The planar `torque` (one value, counter-clockwise), which may read velocities: a
+/// constant T0 on the disc turns its equilibrium by T0/k from the free angle; a torque
+/// −c θ̇ on the disc with the spring's damping off gives the same damped modes as the
+/// damping (two formulations of one damper, to 1e-12).
+#[test]
+fn a_planar_torque_turns_the_equilibrium_and_can_be_a_damper() {
+    let base = std::fs::read_to_string(MODEL).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let write = |name: &str, extra: &str| {
+        let p = dir.path().join(name);
+        std::fs::write(&p, format!("{base}{extra}")).unwrap();
+        p.to_str().unwrap().to_string()
+    };
+    let constant = write(
+        "constant.toml",
+        "\n[[forces]]\nname = \"motor\"\ntype = \"torque\"\nbody = \"disc\"\ntorque = \"2 N*m\"\n",
+    );
+    let eq = json(&["equilibrium", &constant, "--json"]);
+    let th = eq["coordinates"]["disc.theta"].as_f64().unwrap();
+    assert!((th - (0.1 + 2.0 / 40.0)).abs() < 1e-12, "disc.theta = {th}");
+    let damper = write(
+        "damper.toml",
+        "\n[[forces]]\nname = \"brake\"\ntype = \"torque\"\nbody = \"disc\"\ntorque = \"-0.3*disc.theta_dot\"\n",
+    );
+    let a = json(&["modes", MODEL, "--json"]);
+    let b = json(&["modes", &damper, "--set", "c=0", "--json"]);
+    for k in 0..2 {
+        for part in ["re", "im"] {
+            let x = a["modes"][k]["eigenvalue"][part].as_f64().unwrap();
+            let y = b["modes"][k]["eigenvalue"][part].as_f64().unwrap();
+            assert!(
+                (x - y).abs() < 1e-12 * (1.0 + x.abs()),
+                "mode {k} {part}: {x} vs {y}"
+            );
+        }
+    }
+}

@@ -295,3 +295,13 @@ fn a_velocity_in_a_constraint() {
         "crank.delta_dot",
     );
 }
+
+/// A spatial torque given as one value (the planar form) is refused where it is written.
+#[test]
+fn a_spatial_torque_of_one_value() {
+    let (t, o) = run(
+        "[[forces]]\nname = \"gravity\"",
+        "[[forces]]\nname = \"motor\"\ntype = \"torque\"\nbody = \"crank\"\ntorque = \"2\"\n\n[[forces]]\nname = \"gravity\"",
+    );
+    assert_located(&t, &o, "a spatial torque has three components", "\"2\"\n");
+}

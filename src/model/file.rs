@@ -215,6 +215,24 @@ impl<'de> Deserialize<'de> for RawInertia {
     }
 }
 
+/// A value or a list of values (`torque = "T0"` in the plane, `[Tx, Ty, Tz]` in space).
+/// The spans are the whole field's, set by [`RawModel::locate`] after parsing.
+#[derive(Debug, Clone)]
+pub enum RawValueOrVector {
+    Value(SValue),
+    Vector(SVector),
+}
+
+impl<'de> Deserialize<'de> for RawValueOrVector {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let placeholder = |v: RawValue| RawValueOrVector::Value(Spanned::new(0..0, v));
+        match RawInertia::deserialize(d)? {
+            RawInertia::Value(v) => Ok(placeholder(v)),
+            RawInertia::Vector(items) => Ok(RawValueOrVector::Vector(Spanned::new(0..0, items))),
+        }
+    }
+}
+
 /// A vector of values, e.g. a point `["-L1/2", 0]`.
 pub type SVector = Spanned<Vec<SValue>>;
 
@@ -251,6 +269,8 @@ pub trait RawElement {
     fn kind(&self) -> &SString;
     fn name(&self) -> Option<&str>;
     fn ends(&self) -> RawEnds<'_>;
+    /// Set the spans of values read without one (see [`RawModel::locate`]).
+    fn locate(&mut self) {}
     /// A field that is not one of the ends: `None` if `key` is not such a field,
     /// `Some(None)` if it is but is not given.
     fn own_field(&self, key: &str) -> Option<Option<RawField<'_>>>;
@@ -388,12 +408,16 @@ pub struct RawForce {
     pub axis: Option<SVector>,
     /// torsion: the twist at which the torque is zero, rad.
     pub free_angle: Option<SValue>,
-    /// torque: world-frame components, N·m (expressions).
-    pub torque: Option<SVector>,
+    /// torque: one value about the plane's normal (planar) or world-frame components
+    /// `[Tx, Ty, Tz]` (spatial), N·m (expressions).
+    pub torque: Option<Spanned<RawValueOrVector>>,
 }
 
 impl RawElement for RawForce {
     const TABLE: &'static str = "[[forces]]";
+    fn locate(&mut self) {
+        RawForce::locate(self)
+    }
     const FIELDS: &'static [&'static str] = &[
         "acceleration",
         "body1",
@@ -418,7 +442,10 @@ impl RawElement for RawForce {
             "force" => self.force.as_ref().map(RawField::Vector),
             "axis" => self.axis.as_ref().map(RawField::Vector),
             "free_angle" => self.free_angle.as_ref().map(RawField::Value),
-            "torque" => self.torque.as_ref().map(RawField::Vector),
+            "torque" => self.torque.as_ref().map(|t| match t.get_ref() {
+                RawValueOrVector::Value(v) => RawField::Value(v),
+                RawValueOrVector::Vector(v) => RawField::Vector(v),
+            }),
             _ => return None,
         })
     }
@@ -470,6 +497,35 @@ pub struct RawModel {
     pub trim: Option<Spanned<RawTrim>>,
 }
 
+impl RawModel {
+    /// Give the values read without their own span (see [`RawValueOrVector`]) the span
+    /// of their field.
+    pub fn locate(&mut self) {
+        for f in &mut self.forces {
+            f.get_mut().locate();
+        }
+    }
+}
+
+impl RawForce {
+    /// See [`RawModel::locate`].
+    pub fn locate(&mut self) {
+        {
+            if let Some(t) = &mut self.torque {
+                let span = t.span();
+                *t.get_mut() = match t.get_ref() {
+                    RawValueOrVector::Value(v) => {
+                        RawValueOrVector::Value(Spanned::new(span, v.get_ref().clone()))
+                    }
+                    RawValueOrVector::Vector(v) => {
+                        RawValueOrVector::Vector(Spanned::new(span, v.get_ref().clone()))
+                    }
+                };
+            }
+        }
+    }
+}
+
 /// `[trim]`: `solve = ["L0"]` parameters found so that the pose with the coordinates
 /// `hold = ["stick.phi"]` at their initial values is a static equilibrium.
 #[derive(Debug, Clone, Deserialize)]
@@ -503,7 +559,8 @@ mod tests {
         got.sort();
         want.sort();
         assert_eq!(got, want, "{e}");
-        let raw: R = toml::from_str(text).unwrap();
+        let mut raw: R = toml::from_str(text).unwrap();
+        raw.locate();
         for f in R::FIELDS {
             let span = raw.field(f).unwrap_or_else(|| panic!("{f}")).span();
             assert!(text[span].contains(&format!("\"{f}\"")), "{f}");
@@ -538,7 +595,7 @@ mod tests {
                force = ["force", 0]
                axis = ["axis", 0]
                free_angle = "free_angle"
-               torque = ["torque", 0]"#,
+               torque = "torque""#,
         );
     }
 }

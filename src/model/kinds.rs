@@ -272,13 +272,7 @@ pub(super) const FORCES3: Family<ForceKind> = Family {
                     Some("add `torque = [Tx, Ty, Tz]` (N·m, world frame)"),
                 ),
             ],
-            build: |_, v| {
-                let body = v.body("body1")?;
-                Some(ForceKind::Torque {
-                    body,
-                    torque: v.vector("torque")?,
-                })
-            },
+            build: |b, v| torque(b, v, true),
         },
     ],
 };
@@ -304,6 +298,49 @@ fn torsion(v: &mut Values, spatial: bool) -> Option<ForceKind> {
         damping: v.scalar("damping")?,
         free_angle: v.scalar("free_angle")?,
     })
+}
+
+/// A torque on a body: one value about the plane's normal (planar) or world components
+/// `[Tx, Ty, Tz]` (spatial); the other form is refused where it is written.
+fn torque(b: &mut Builder<'_>, v: &mut Values, spatial: bool) -> Option<ForceKind> {
+    let body = v.body("body1")?;
+    if body == BodyRef::Ground {
+        b.diags.push(
+            Diagnostic::new(format!(
+                "{} acts on the ground, so it does nothing",
+                v.owner
+            ))
+            .at(v.span.clone())
+            .help("name the body it acts on in `body`"),
+        );
+        return None;
+    }
+    let torque = match (v.take("torque")?, spatial) {
+        (Value::Vector(t), true) => t,
+        (Value::Scalar(t), false) => vec![t],
+        (Value::Scalar(t), true) => {
+            b.diags.push(
+                Diagnostic::new(format!(
+                    "{}: a spatial torque has three components",
+                    v.owner
+                ))
+                .at(t.span.clone())
+                .help("write `torque = [Tx, Ty, Tz]` (N·m, world frame)"),
+            );
+            return None;
+        }
+        (Value::Vector(t), false) => {
+            let at = t.first().map_or(v.span.clone(), |f| f.span.clone());
+            b.diags.push(
+                Diagnostic::new(format!("{}: a planar torque is one value", v.owner))
+                    .at(at)
+                    .help("write `torque = \"T0*sin(omega*t)\"` (N·m, about the plane's normal, counter-clockwise)"),
+            );
+            return None;
+        }
+        _ => return None,
+    };
+    Some(ForceKind::Torque { body, torque })
 }
 
 const SPRING_DAMPER: Kind<ForceKind> = Kind {
@@ -362,6 +399,17 @@ pub(super) const FORCES: Family<ForceKind> = Family {
             name: "torsion",
             fields: &[BODY1, BODY2, STIFFNESS_T, DAMPING_T, FREE_ANGLE],
             build: |_, v| torsion(v, false),
+        },
+        Kind {
+            name: "torque",
+            fields: &[
+                BODY1,
+                FieldSpec::required(
+                    "torque",
+                    Some("add `torque = \"T0*sin(omega*t)\"` (N·m, counter-clockwise)"),
+                ),
+            ],
+            build: |b, v| torque(b, v, false),
         },
     ],
 };

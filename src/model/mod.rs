@@ -384,7 +384,10 @@ impl Model {
             text: Arc::from(text),
         };
         let raw: file::RawModel = match toml::from_str(text) {
-            Ok(r) => r,
+            Ok(mut r) => {
+                file::RawModel::locate(&mut r);
+                r
+            }
             Err(e) => {
                 let mut d = Diagnostic::new(toml_message(&e)).help(
                     "the model file is TOML: see docs/model-format.md for the sections and fields",

@@ -755,12 +755,20 @@ impl Compiler<'_> {
                             self.compile_load(c)
                         })
                         .collect();
-                    if let Some(ts) = ts.into_iter().collect::<Option<Vec<_>>>() {
-                        let [tx, ty, tz] = <[Compiled; 3]>::try_from(ts).ok()?;
-                        forces.push(Force::Spatial(Force3::Torque {
+                    let Some(ts) = ts.into_iter().collect::<Option<Vec<_>>>() else {
+                        continue;
+                    };
+                    match <[Compiled; 3]>::try_from(ts) {
+                        Ok([tx, ty, tz]) => forces.push(Force::Spatial(Force3::Torque {
                             body: b,
                             torque: [tx, ty, tz],
-                        }));
+                        })),
+                        // planar: one value about the plane's normal (the loader gives
+                        // one or three)
+                        Err(mut one) => forces.push(Force::Torque {
+                            body: b,
+                            t: one.remove(0),
+                        }),
                     }
                 }
                 ForceKind::SpringDamper {

@@ -19,6 +19,9 @@ pub enum Force {
     Point { at: SysPoint, f: [Compiled; 2] },
     /// A force of a spatial model.
     Spatial(super::spatial::Force3),
+    /// A planar torque on a body (N·m, counter-clockwise), an expression of t, parameters,
+    /// coordinates and velocities.
+    Torque { body: usize, t: Compiled },
     /// Planar torsional spring–damper: twist θ1 − θ2 (a body or the ground, whose angle
     /// may move), torque on body 1 −(k (twist − free) + c twist_rate), the opposite on
     /// body 2 (coefficient indices).
@@ -49,6 +52,9 @@ impl Force {
                 fr.apply(at, [fx, fy], out);
             }
             Force::Spatial(f) => f.add(fr, v, t, out),
+            Force::Torque { body, t: e } => {
+                out[fr.offsets[*body] + 2] += e.eval_load(fr.q, v, t, fr.env);
+            }
             Force::Torsion { b1, b2, .. } => {
                 let Some(s) = self.torsion_state(fr, v) else {
                     return;
@@ -116,6 +122,7 @@ impl Force {
             Force::Spring { .. } => false,
             Force::Spatial(f) => f.depends_on_time(),
             Force::Torsion { .. } => false,
+            Force::Torque { t, .. } => t.depends_on_time(),
         }
     }
 
@@ -128,7 +135,7 @@ impl Force {
                 let len = (pb[0] - pa[0]).hypot(pb[1] - pa[1]);
                 0.5 * fr.env.coef(*k) * (len - fr.env.coef(*l0)).powi(2)
             }
-            Force::Point { .. } => 0.0,
+            Force::Point { .. } | Force::Torque { .. } => 0.0,
             Force::Spatial(f) => f.potential(fr),
             Force::Torsion {
                 b1, b2, k, free, ..

@@ -317,7 +317,7 @@ impl System {
                     at: fr.position3(at),
                     force: [0, 1, 2].map(|i| f[i].eval_load(q, &rest, t, fr.env)),
                 },
-                Force::Spatial(Force3::Torque { body, .. }) => {
+                Force::Spatial(Force3::Torque { body, .. }) | Force::Torque { body, .. } => {
                     ForceGeometry::Torque { body: *body }
                 }
                 Force::Torsion {

@@ -255,6 +255,7 @@ impl System {
                         ForceKind::Torque { .. },
                         Force::Spatial(Force3::Torque { .. })
                     )
+                    | (ForceKind::Torque { .. }, Force::Torque { .. })
             );
             if !agrees {
                 return Err(mismatch());
@@ -515,7 +516,7 @@ impl System {
                     };
                     (twist, rate, torque, D::from(0.0))
                 }
-                Force::Point { .. } => return nan,
+                Force::Point { .. } | Force::Torque { .. } => return nan,
             };
             match quantity {
                 ForceQuantity::Tension | ForceQuantity::Torque => load,
