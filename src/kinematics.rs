@@ -287,17 +287,7 @@ impl<'a> Closure<'a> {
                 rows.extend(b.row0..b.row0 + b.rows);
             }
         }
-        let weight = (0..sys.nv())
-            .map(|i| {
-                // (spatial angles: the diagonal at zero angles, a weighting only)
-                let m = sys.mass_matrix[(i, i)];
-                if m > 0.0 && m.is_finite() {
-                    1.0 / m.sqrt()
-                } else {
-                    1.0
-                }
-            })
-            .collect();
+        let weight = sys.mass_weights();
         Closure {
             sys,
             drive,

@@ -25,6 +25,11 @@ impl ModelArgs {
         let (model, sys) = self.load_untrimmed()?;
         // parameters solved for a datum ([trim]) follow every other change
         let (sys, _) = detune::statics::trim::trim(&sys)?;
+        if let Some(p) = sys.trim_off() {
+            eprintln!(
+                "note: the model's [trim] is off: {p} is given with --set, so the held pose need not be at rest"
+            );
+        }
         Ok((model, sys))
     }
 
@@ -92,8 +97,8 @@ pub struct FrequencyGrid {
     pub step: f64,
     /// Response to report (repeatable) [default: every coordinate]: a coordinate, a force
     /// element's `<name>.tension|elongation|rate` (`.torque|twist|twist_rate`), a named
-    /// point's `<body>.<point>.x` (`y`, `z`, with `_rel`, `_dot`, `_ddot`), or (sweep) a
-    /// joint's reaction `<joint>.force_x` (`force_y`, `force_z`).
+    /// point's `<body>.<point>.x` (`y`, `z`, with `_rel`, `_dot`, `_ddot`), or a joint's
+    /// reaction `<joint>.force_x` (`force_y`, `force_z`).
     #[arg(long, value_name = "NAME")]
     pub response: Vec<String>,
 }

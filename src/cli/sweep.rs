@@ -86,7 +86,7 @@ pub fn run(a: SweepArgs) -> Result<()> {
         .into_iter()
         .filter(|(label, w)| {
             let inside = *w >= lo && *w <= hi;
-            if !inside {
+            if !inside && a.plot.is_some() {
                 eprintln!(
                     "note: --mark {label} at {w:.4} rad/s is outside the swept {lo}–{hi} rad/s: not drawn"
                 );

@@ -535,18 +535,8 @@ fn weighted_min_norm(
         // nothing to correct (every velocity given): nalgebra has no SVD of nothing
         return DVector::zeros(0);
     }
-    let w: Vec<f64> = cols
-        .iter()
-        .map(|&i| {
-            // (spatial angles: the diagonal at zero angles, a weighting only)
-            let m = sys.mass_matrix[(i, i)];
-            if m > 0.0 && m.is_finite() {
-                1.0 / m.sqrt()
-            } else {
-                1.0
-            }
-        })
-        .collect();
+    let weights = sys.mass_weights();
+    let w: Vec<f64> = cols.iter().map(|&i| weights[i]).collect();
     let mut af = a.select_columns(cols.iter());
     for (k, wk) in w.iter().enumerate() {
         af.column_mut(k).scale_mut(*wk);

@@ -491,12 +491,32 @@ impl Model {
                     seen.push((f.name.as_str(), "another force"));
                 }
             }
-            for j in joints.iter() {
-                if bodies.iter().any(|x| x.name == j.name) {
+            let named = joints
+                .iter()
+                .map(|j| (j.name.as_str(), j.span.clone(), "joint"))
+                .chain(
+                    constraints
+                        .iter()
+                        .map(|c| (c.name.as_str(), c.expr.span.clone(), "constraint")),
+                )
+                .chain(
+                    forces
+                        .iter()
+                        .map(|f| (f.name.as_str(), f.span.clone(), "force")),
+                );
+            for (name, span, what) in named {
+                let clash = if name == "ground" {
+                    Some("the ground")
+                } else if what != "force" && bodies.iter().any(|x| x.name == name) {
+                    Some("a body")
+                } else {
+                    None
+                };
+                if let Some(other) = clash {
                     b.diags.push(
-                        Diagnostic::new(format!("the joint `{}` has the name of a body", j.name))
-                            .at(j.span.clone())
-                            .help("give the joint its own `name`: responses such as `<joint>.force_x` name it"),
+                        Diagnostic::new(format!("the {what} `{name}` has the name of {other}"))
+                            .at(span)
+                            .help(format!("give the {what} its own `name`: responses name it")),
                     );
                 }
             }
@@ -569,7 +589,11 @@ impl Model {
                 span: t.span(),
             })
         });
-        if let Some(t) = &trim {
+        // (a body that failed to load has no coordinates to check against: its error
+        // stands alone)
+        if let Some(t) = &trim
+            && bodies.len() == raw.bodies.len()
+        {
             b.check_trim(t, &bodies, &parameters);
         }
         if bodies.is_empty() && diags.is_empty() {

@@ -166,6 +166,17 @@ impl Compiler<'_> {
                 help: Some(help.into()),
             });
         }
+        if !coords && self.velocity_names.iter().any(|c| c == name) {
+            return Err(ExprError {
+                span: span.clone(),
+                message: if time {
+                    format!("`{name}` is a velocity; this value may depend only on time `t` and the parameters")
+                } else {
+                    format!("`{name}` is a velocity; this value must be constant")
+                },
+                help: Some("velocities may appear in applied forces and torques (`point_force`, `torque`) only".into()),
+            });
+        }
         if coords && let Some(j) = self.velocity_names.iter().position(|c| c == name) {
             if self.allow_velocities {
                 return Ok(Slot::Coord(self.coordinates.len() + j));

@@ -1104,6 +1104,22 @@ impl System {
         0.5 * (v.transpose() * &self.mass_matrix_at(q) * &v)[(0, 0)]
     }
 
+    /// 1/√M_ii per velocity: the weights that make minimum-norm corrections independent
+    /// of units (assembly, kinematics). For spatial angles, the diagonal at zero angles (a
+    /// weighting only); 1 where it is not positive.
+    pub fn mass_weights(&self) -> Vec<f64> {
+        (0..self.nv())
+            .map(|i| {
+                let m = self.mass_matrix[(i, i)];
+                if m > 0.0 && m.is_finite() {
+                    1.0 / m.sqrt()
+                } else {
+                    1.0
+                }
+            })
+            .collect()
+    }
+
     /// The mass matrix M(q) (nv × nv): constant for planar bodies; for spatial bodies,
     /// block-diagonal with the angles' block `J_bᵀ I J_b` at the pose (a free body's: its
     /// inertia tensor, constant).

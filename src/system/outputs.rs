@@ -609,17 +609,9 @@ impl System {
     /// multipliers λ: body 1's translational columns of the element's rows of Aᵀλ (the
     /// opposite of body 2's when body 1 is the ground).
     pub fn reaction(&self, e: usize, axis: usize, q: &[f64], t: f64, lambda: &[f64]) -> f64 {
-        let (b1, b2) = match &self.constraints[e] {
-            Constraint::Joint(j) => (j.a.body, j.b.body),
-            Constraint::Spatial(j) => (j.a.body, j.b.body),
-            Constraint::Custom(_) => return f64::NAN,
+        let Some((col, sign)) = self.reaction_column(e, axis) else {
+            return f64::NAN;
         };
-        let (body, sign) = match (b1, b2) {
-            (Some(k), _) => (k, 1.0),
-            (None, Some(k)) => (k, -1.0),
-            (None, None) => return f64::NAN,
-        };
-        let col = self.bodies[body].offset + axis;
         let blk = &self.blocks[e];
         // ∂Φ_rows/∂q_col by one dual pass of the element alone
         let mut qd: Vec<Dual64> = q.iter().map(|&x| Dual64::from(x)).collect();
@@ -636,6 +628,23 @@ impl System {
 }
 
 impl System {
+    /// The column of A along which joint `e`'s reaction (world component `axis`) is
+    /// measured, body 1's translation, and its sign (−1 when body 1 is the ground: the
+    /// force on body 2, reversed). None for a custom constraint.
+    fn reaction_column(&self, e: usize, axis: usize) -> Option<(usize, f64)> {
+        let (b1, b2) = match &self.constraints[e] {
+            Constraint::Joint(j) => (j.a.body, j.b.body),
+            Constraint::Spatial(j) => (j.a.body, j.b.body),
+            Constraint::Custom(_) => return None,
+        };
+        let (body, sign) = match (b1, b2) {
+            (Some(k), _) => (k, 1.0),
+            (None, Some(k)) => (k, -1.0),
+            (None, None) => return None,
+        };
+        Some((self.bodies[body].offset + axis, sign))
+    }
+
     /// The first-order change of a joint reaction ([`System::reaction`]) for changes δλ of
     /// the multipliers (all m rows) and δq of the coordinates: Bᵀ δλ + (∂B/∂q · δq)ᵀ λ, B
     /// the element's rows' derivatives along body 1's translation, by hyper-dual numbers
@@ -653,17 +662,9 @@ impl System {
         dq: &[f64],
     ) -> f64 {
         use num_dual::HyperDual64;
-        let (b1, b2) = match &self.constraints[e] {
-            Constraint::Joint(j) => (j.a.body, j.b.body),
-            Constraint::Spatial(j) => (j.a.body, j.b.body),
-            Constraint::Custom(_) => return f64::NAN,
+        let Some((col, sign)) = self.reaction_column(e, axis) else {
+            return f64::NAN;
         };
-        let (body, sign) = match (b1, b2) {
-            (Some(k), _) => (k, 1.0),
-            (None, Some(k)) => (k, -1.0),
-            (None, None) => return f64::NAN,
-        };
-        let col = self.bodies[body].offset + axis;
         let blk = &self.blocks[e];
         let qh: Vec<HyperDual64> = q
             .iter()
