@@ -322,3 +322,52 @@ torque = ["-5.649*gearbox.theta_dot", 0, 0]
         }
     }
 }
+
+/// `frf --plot`: one panel per response with the undamped natural frequencies, the
+/// refined peaks and the `--mark` line labelled (the figure of docs/inceptor.md).
+#[test]
+fn the_linear_response_figure_marks_modes_peaks_and_the_rotor_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let svg = dir.path().join("frf.svg");
+    let out = Command::new(env!("CARGO_BIN_EXE_detune"))
+        .args([
+            "frf",
+            MODEL,
+            "--set",
+            "D0=7 mm",
+            "--param",
+            "omega",
+            "--from",
+            "5",
+            "--to",
+            "40",
+            "--step",
+            "0.5",
+            "--response",
+            "stick.phi",
+            "--response",
+            "gearbox.theta",
+            "--mark",
+            "UH-60 main rotor 1P=258 rpm",
+            "--plot",
+            svg.to_str().unwrap(),
+        ])
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let text = std::fs::read_to_string(svg).unwrap();
+    for label in [
+        "stick.phi: linear frequency response",
+        "gearbox.theta: linear frequency response",
+        "undamped ω_n = 12.9748 rad/s",
+        "undamped ω_n = 26.7664 rad/s",
+        "peak 13.2015 rad/s, peak 26.7021 rad/s",
+        "UH-60 main rotor 1P (27.0177 rad/s)",
+    ] {
+        assert!(text.contains(label), "`{label}` not in the figure");
+    }
+}

@@ -22,16 +22,68 @@ pub struct FrfArgs {
     /// CSV: `<param>,<name>_amplitude,<name>_phase_deg,...`.
     #[arg(short = 'o', long = "output", value_name = "OUT.csv")]
     pub output: Option<String>,
+    /// SVG: each response's amplitude against frequency, the undamped natural
+    /// frequencies and the refined peaks marked.
+    #[arg(long, value_name = "OUT.svg")]
+    pub plot: Option<String>,
+    /// A labelled frequency drawn on the plot, LABEL=VALUE (VALUE in rad/s or a
+    /// quantity): `--mark "UH-60 main rotor 1P=258 rpm"`. Repeatable.
+    #[arg(long, value_name = "LABEL=VALUE")]
+    pub mark: Vec<String>,
 }
 
 pub fn run(a: FrfArgs) -> Result<()> {
     let (model, sys) = a.model.load()?;
-    check_outputs(&model.source.path, &[a.output.as_deref()])?;
+    check_outputs(
+        &model.source.path,
+        &[a.output.as_deref(), a.plot.as_deref()],
+    )?;
+    let marks: Vec<(String, f64)> = a
+        .mark
+        .iter()
+        .map(|m| super::args::frequency_mark(m))
+        .collect::<Result<_>>()?;
     let (values, responses) = a.grid.resolve(&model)?;
     let fr = frequency_response(&sys, &a.grid.param, &values, &responses)?;
     if let Some(o) = &a.output {
         write_frf_csv(o, &fr)?;
         eprintln!("wrote {o}");
+    }
+    if let Some(p) = &a.plot {
+        let units: Vec<&str> = responses
+            .iter()
+            .map(|r| sys.output(r).map(|o| o.unit(&sys)).unwrap_or(""))
+            .collect();
+        let index = sys.param_index(&a.grid.param);
+        let natural: Vec<f64> = index
+            .and_then(|i| detune::linear::at_frequency(&sys, i, values[0]).ok())
+            .and_then(|at| detune::linear::modal_analysis(&at, None).ok())
+            .map(|m| {
+                m.undamped_omega2
+                    .iter()
+                    .filter(|w| **w > 0.0)
+                    .map(|w| w.sqrt())
+                    .collect()
+            })
+            .unwrap_or_default();
+        let (lo, hi) = (values[0], values[values.len() - 1]);
+        let marks: Vec<(String, f64)> = marks
+            .into_iter()
+            .filter(|(label, w)| {
+                let inside = *w >= lo && *w <= hi;
+                if !inside {
+                    eprintln!(
+                        "note: --mark {label} at {w:.4} rad/s is outside {lo}–{hi} rad/s: not drawn"
+                    );
+                }
+                inside
+            })
+            .collect();
+        detune::output::plot::write_panels(
+            p,
+            &detune::output::figures::frf_figures(&fr, &units, &natural, &marks),
+        )?;
+        eprintln!("wrote {p}");
     }
     if a.json {
         print_json(&FrfReport::new(&fr, &Provenance::of(&model)));

@@ -190,3 +190,57 @@ pub fn sweep_figures(
     }
     plots
 }
+
+/// The linear frequency response: one panel per response (amplitude against frequency,
+/// up to six), the undamped natural frequencies `natural` (rad/s) as dashed lines, the
+/// refined peaks marked, and `marks` (a rotor's forcing lines) in their own colour.
+pub fn frf_figures(
+    fr: &crate::linear::FrequencyResponse,
+    units: &[&str],
+    natural: &[f64],
+    marks: &[(String, f64)],
+) -> Vec<LinePlot> {
+    let vertical: Vec<(f64, String)> = natural
+        .iter()
+        .map(|w| (*w, format!("undamped ω_n = {w:.4} rad/s")))
+        .collect();
+    let marks: Vec<(f64, String)> = marks
+        .iter()
+        .map(|(label, w)| (*w, format!("{label} ({w:.4} rad/s)")))
+        .collect();
+    fr.responses
+        .iter()
+        .enumerate()
+        .take(6)
+        .map(|(r, name)| {
+            let unit = units.get(r).copied().unwrap_or("");
+            let peaks: Vec<_> = fr.peaks.iter().filter(|p| &p.response == name).collect();
+            let mut series = vec![Series {
+                label: format!("{name} (linear)"),
+                x: fr.omega.clone(),
+                y: fr.values.iter().map(|row| row[r].0).collect(),
+                style: Style::Solid,
+            }];
+            if !peaks.is_empty() {
+                series.push(Series {
+                    label: peaks
+                        .iter()
+                        .map(|p| format!("peak {:.4} rad/s", p.omega))
+                        .collect::<Vec<_>>()
+                        .join(", "),
+                    x: peaks.iter().map(|p| p.omega).collect(),
+                    y: peaks.iter().map(|p| p.amplitude).collect(),
+                    style: Style::Markers,
+                });
+            }
+            LinePlot {
+                title: format!("{name}: linear frequency response"),
+                x_label: format!("{} [rad/s]", fr.param),
+                y_label: format!("{name} amplitude [{unit}]"),
+                series,
+                vertical: vertical.clone(),
+                marks: marks.clone(),
+            }
+        })
+        .collect()
+}
