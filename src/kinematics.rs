@@ -167,7 +167,7 @@ pub fn kinematics(sys: &System, opts: &KinematicsOptions) -> Result<KinematicPat
         ratio_indices.push(i);
     }
     let values = drive_grid(opts.from, opts.to, opts.step)?;
-    let start = crate::dynamics::assemble(sys)?;
+    let start = crate::dynamics::assemble_at_rest(sys)?;
     // a drive the constraints fix (its unit vector in the row space of A) cannot move
     {
         let mut ws = crate::dynamics::DynWorkspace::new(sys);

@@ -132,3 +132,69 @@ fn a_planar_torque_turns_the_equilibrium_and_can_be_a_damper() {
         }
     }
 }
+
+/// A compound pendulum with a torsional spring–damper and a torque at its pivot
+/// (`tests/data/torsion_pendulum.toml`): about the hanging pose, ω_n² = (k + m g l)/I_O
+/// and ζ = c / (2 √((k + m g l) I_O)), with l = L/2 and I_O = m L²/3; a constant torque
+/// T turns it to the angle φ (from hanging) with k φ + m g l sin φ = T.
+#[test]
+fn a_torsion_pendulum_has_the_closed_form_frequency_damping_and_static_angle() {
+    const P: &str = "tests/data/torsion_pendulum.toml";
+    let (m, len, g, k, c): (f64, f64, f64, f64, f64) = (1.5, 0.8, 9.81, 12.0, 0.4);
+    let (l, io) = (len / 2.0, m * len * len / 3.0);
+    let modes = json(&["modes", P, "--json"]);
+    let w2 = modes["undamped_omega2"][0].as_f64().unwrap();
+    let want = (k + m * g * l) / io;
+    assert!(
+        (w2 - want).abs() < 1e-10 * want,
+        "ω² = {w2}, closed form {want}"
+    );
+    let zeta = modes["modes"][0]["damping_ratio"].as_f64().unwrap();
+    let want_z = c / (2.0 * ((k + m * g * l) * io).sqrt());
+    assert!(
+        (zeta - want_z).abs() < 1e-10,
+        "ζ = {zeta}, closed form {want_z}"
+    );
+    let t = 3.0;
+    let eq = json(&["equilibrium", P, "--set", "T=3", "--json"]);
+    let phi = eq["coordinates"]["bar.theta"].as_f64().unwrap() + std::f64::consts::FRAC_PI_2;
+    // k φ + m g l sin φ = T by Newton
+    let mut x = 0.1;
+    for _ in 0..50 {
+        x -= (k * x + m * g * l * x.sin() - t) / (k + m * g * l * x.cos());
+    }
+    assert!(
+        (phi - x).abs() < 1e-10,
+        "static angle {phi}, closed form {x}"
+    );
+}
+
+/// Given initial velocities the joints do not allow stop a simulation (with a hint), but
+/// not the statics: equilibria do not depend on them.
+#[test]
+fn statics_do_not_refuse_a_model_for_its_initial_velocities() {
+    let text = std::fs::read_to_string(MODEL).unwrap().replacen(
+        "mass = 2",
+        "mass = 2\nvelocity = { x = 1 }",
+        1,
+    );
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("v.toml");
+    std::fs::write(&path, text).unwrap();
+    let p = path.to_str().unwrap();
+    let eq = json(&["equilibrium", p, "--json"]);
+    assert!((eq["coordinates"]["disc.theta"].as_f64().unwrap() - 0.1).abs() < 1e-12);
+    json(&["modes", p, "--json"]);
+    let out = Command::new(env!("CARGO_BIN_EXE_detune"))
+        .args([
+            "simulate",
+            p,
+            "-o",
+            dir.path().join("o.csv").to_str().unwrap(),
+        ])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(err.contains("initial velocities are inconsistent"), "{err}");
+}

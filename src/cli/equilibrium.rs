@@ -5,7 +5,6 @@ use super::args::ModelArgs;
 use super::print_json;
 use clap::Args;
 use detune::diag::Result;
-use detune::dynamics::assemble;
 use detune::output::Provenance;
 use detune::output::json::{EquilibriaReport, EquilibriumJson, EquilibriumReport};
 use detune::statics::Statics;
@@ -24,7 +23,7 @@ pub struct EquilibriumArgs {
 
 pub fn run(a: EquilibriumArgs) -> Result<()> {
     let (model, sys) = a.model.load()?;
-    let start = assemble(&sys)?;
+    let start = detune::dynamics::assemble_at_rest(&sys)?;
     let st = Statics::new(&sys, &start.q)?;
     let list = if a.all {
         st.all(&start)?

@@ -565,6 +565,46 @@ pub struct State {
 /// velocities the model does not give from A v + Φ_t = 0, nearest to rest relative to the
 /// ground.
 pub fn assemble(sys: &System) -> Result<State> {
+    let (q, mut ws) = assemble_pose(sys)?;
+    let (n, t, init) = (sys.nv(), 0.0, &sys.initial);
+    // Velocities: the given ones are held; the others start at rest relative to the
+    // ground (which may move) and are corrected to the constraints, minimum norm.
+    let mut v = init.v.clone();
+    let carried = sys.ground_velocity(&q, t);
+    for i in 0..n {
+        if !init.v_given[i] {
+            v[i] = carried[i];
+        }
+    }
+    if sys.m() > 0 {
+        let vfree: Vec<usize> = (0..n).filter(|&i| !init.v_given[i]).collect();
+        let psi = velocity_residual(sys, &mut ws, &q, &v, t);
+        let dv = weighted_min_norm(sys, &ws.a, &vfree, &psi);
+        for (k, &i) in vfree.iter().enumerate() {
+            v[i] -= dv[k];
+        }
+        let after = velocity_residual(sys, &mut ws, &q, &v, t).amax();
+        if after > 1e-8 * (1.0 + v.iter().fold(0.0f64, |a, x| a.max(x.abs()))) {
+            return Err(Failure::InconsistentVelocities { residual: after }.into());
+        }
+    }
+    Ok(State { t, q, v })
+}
+
+/// The assembled initial pose at rest (velocities zero): what statics start from. A
+/// model's given initial velocities do not matter to its equilibria and are not checked.
+pub fn assemble_at_rest(sys: &System) -> Result<State> {
+    let (q, _) = assemble_pose(sys)?;
+    Ok(State {
+        t: 0.0,
+        v: vec![0.0; sys.nv()],
+        q,
+    })
+}
+
+/// The coordinates of the initial pose: Φ(q, 0) = 0 solved for the coordinates the model
+/// does not fix, from its guesses (see [`assemble`]); the workspace, for what follows.
+fn assemble_pose(sys: &System) -> Result<(Vec<f64>, DynWorkspace)> {
     let n = sys.nv();
     let init = &sys.initial;
     let mut q = init.q.clone();
@@ -636,26 +676,5 @@ pub fn assemble(sys: &System) -> Result<State> {
         }
         .into());
     }
-    // Velocities: the given ones are held; the others start at rest relative to the
-    // ground (which may move) and are corrected to the constraints, minimum norm.
-    let mut v = init.v.clone();
-    let carried = sys.ground_velocity(&q, t);
-    for i in 0..n {
-        if !init.v_given[i] {
-            v[i] = carried[i];
-        }
-    }
-    if sys.m() > 0 {
-        let vfree: Vec<usize> = (0..n).filter(|&i| !init.v_given[i]).collect();
-        let psi = velocity_residual(sys, &mut ws, &q, &v, t);
-        let dv = weighted_min_norm(sys, &ws.a, &vfree, &psi);
-        for (k, &i) in vfree.iter().enumerate() {
-            v[i] -= dv[k];
-        }
-        let after = velocity_residual(sys, &mut ws, &q, &v, t).amax();
-        if after > 1e-8 * (1.0 + v.iter().fold(0.0f64, |a, x| a.max(x.abs()))) {
-            return Err(Failure::InconsistentVelocities { residual: after }.into());
-        }
-    }
-    Ok(State { t, q, v })
+    Ok((q, ws))
 }

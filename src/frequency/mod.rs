@@ -548,7 +548,7 @@ pub fn prepare(sys: &System, opts: &SweepOptions) -> Result<(System, Vec<Output>
     let index = check_request(sys, opts)?;
     let sys0 = crate::linear::at_frequency(sys, index, opts.values[0])?;
     let responses = sys0.outputs(&opts.responses)?;
-    let start = crate::dynamics::assemble(&sys0)?;
+    let start = crate::dynamics::assemble_at_rest(&sys0)?;
     let st = Statics::new(&sys0, &start.q)?;
     let eq = st.nearest(&start)?;
     crate::linear::harmonic_forcing(&sys0, &eq, &st.rows, &opts.param, opts.values[0])?;

@@ -356,7 +356,7 @@ pub fn modal_analysis(sys: &System, normalize: Option<&str>) -> Result<ModalAnal
         Some(name) => coordinate(sys, name, Argument::Normalize)?,
         None => default_reference(sys),
     };
-    let start = crate::dynamics::assemble(sys)?;
+    let start = crate::dynamics::assemble_at_rest(sys)?;
     let st = Statics::new(sys, &start.q)?;
     let equilibrium = st.nearest(&start)?;
     let linearization = Linearization::new(&st, &equilibrium);

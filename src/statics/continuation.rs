@@ -320,7 +320,7 @@ pub fn continue_equilibria(sys: &System, opts: &ContinuationOptions) -> Result<B
             .map_err(|e| e.context(&format!("continuation at {} = {}", opts.param, opts.from)))?
             .0
     };
-    let start = crate::dynamics::assemble(&sys0)?;
+    let start = crate::dynamics::assemble_at_rest(&sys0)?;
     let st0 = Statics::new(&sys0, &start.q)?;
     let eq = st0.nearest(&start)?;
     let n = sys0.n();

@@ -19,7 +19,7 @@ pub fn trim(sys: &System) -> Result<(System, Vec<(String, f64)>)> {
     if sys.trim.as_ref().is_none_or(|t| t.off.is_some()) {
         return Ok((sys.clone(), Vec::new()));
     }
-    let start = crate::dynamics::assemble(sys)?;
+    let start = crate::dynamics::assemble_at_rest(sys)?;
     trimmed(sys, &start)
 }
 
