@@ -197,6 +197,31 @@ pub fn frequency_mark(text: &str) -> Result<(String, f64)> {
     Ok((label.trim().to_string(), w))
 }
 
+/// The `--mark`s of a frequency plot over `values`: each parsed (checked before any
+/// work), those outside the range left off with a note when a plot is drawn.
+pub fn frequency_marks(marks: &[String], values: &[f64], plot: bool) -> Result<Vec<(String, f64)>> {
+    let marks: Vec<(String, f64)> = marks
+        .iter()
+        .map(|m| frequency_mark(m))
+        .collect::<Result<_>>()?;
+    let (lo, hi) = match (values.first(), values.last()) {
+        (Some(&lo), Some(&hi)) => (lo, hi),
+        _ => return Ok(marks),
+    };
+    Ok(marks
+        .into_iter()
+        .filter(|(label, w)| {
+            let inside = *w >= lo && *w <= hi;
+            if !inside && plot {
+                eprintln!(
+                    "note: --mark {label} at {w:.4} rad/s is outside the swept {lo}–{hi} rad/s: not drawn"
+                );
+            }
+            inside
+        })
+        .collect())
+}
+
 /// A value of parameter `param` given to `flag`: a number (SI) or a quantity in the
 /// parameter's dimension (`--from "-10 deg"`, `--to "1.4e5 N/m"`).
 pub fn param_value(model: &Model, param: &str, flag: &str, text: &str) -> Result<f64> {

@@ -38,12 +38,8 @@ pub fn run(a: FrfArgs) -> Result<()> {
         &model.source.path,
         &[a.output.as_deref(), a.plot.as_deref()],
     )?;
-    let marks: Vec<(String, f64)> = a
-        .mark
-        .iter()
-        .map(|m| super::args::frequency_mark(m))
-        .collect::<Result<_>>()?;
     let (values, responses) = a.grid.resolve(&model)?;
+    let marks = super::args::frequency_marks(&a.mark, &values, a.plot.is_some())?;
     let fr = frequency_response(&sys, &a.grid.param, &values, &responses)?;
     if let Some(o) = &a.output {
         write_frf_csv(o, &fr)?;
@@ -66,19 +62,6 @@ pub fn run(a: FrfArgs) -> Result<()> {
                     .collect()
             })
             .unwrap_or_default();
-        let (lo, hi) = (values[0], values[values.len() - 1]);
-        let marks: Vec<(String, f64)> = marks
-            .into_iter()
-            .filter(|(label, w)| {
-                let inside = *w >= lo && *w <= hi;
-                if !inside {
-                    eprintln!(
-                        "note: --mark {label} at {w:.4} rad/s is outside {lo}–{hi} rad/s: not drawn"
-                    );
-                }
-                inside
-            })
-            .collect();
         detune::output::plot::write_panels(
             p,
             &detune::output::figures::frf_figures(&fr, &units, &natural, &marks),

@@ -74,26 +74,9 @@ pub fn run(a: SweepArgs) -> Result<()> {
         &model.source.path,
         &[a.output.as_deref(), a.plot.as_deref()],
     )?;
-    // checked before any simulation: a bad mark must not cost a sweep
-    let marks: Vec<(String, f64)> = a
-        .mark
-        .iter()
-        .map(|m| super::args::frequency_mark(m))
-        .collect::<Result<_>>()?;
     let (values, responses) = a.grid.resolve(&model)?;
-    let (lo, hi) = (values[0], values[values.len() - 1]);
-    let marks: Vec<(String, f64)> = marks
-        .into_iter()
-        .filter(|(label, w)| {
-            let inside = *w >= lo && *w <= hi;
-            if !inside && a.plot.is_some() {
-                eprintln!(
-                    "note: --mark {label} at {w:.4} rad/s is outside the swept {lo}–{hi} rad/s: not drawn"
-                );
-            }
-            inside
-        })
-        .collect();
+    // checked before any simulation: a bad mark must not cost a sweep
+    let marks = super::args::frequency_marks(&a.mark, &values, a.plot.is_some())?;
     let opts = SweepOptions {
         param: a.grid.param.clone(),
         values,
