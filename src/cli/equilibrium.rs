@@ -77,6 +77,14 @@ pub fn run(a: EquilibriumArgs) -> Result<()> {
             println!("  {c:<16} {v:>22.12}");
         }
         let w2: Vec<String> = e.omega2.iter().map(|w| format!("{w:.6}")).collect();
+        if e.omega2.is_empty() {
+            // nothing can move: the constraints (perhaps driven in time) fix the pose
+            println!(
+                "  no degrees of freedom: the constraints fix the pose; residual {:.2e} after {} iterations",
+                e.residual, e.iterations
+            );
+            continue;
+        }
         println!(
             "  {} (ω² = {} rad²/s²), residual {:.2e} after {} iterations",
             if e.stable { "stable" } else { "UNSTABLE" },

@@ -555,20 +555,35 @@ impl<'a> Statics<'a> {
             );
             ranges.push((d, lo, hi));
         }
+        // Poses equal modulo 2π in their angles are one equilibrium (a crank that revolves
+        // reaches each twice): the first found is kept (the seeds start at the initial
+        // pose and move away from it).
+        let angles = sys.angles();
+        let apart = |a: &[f64], b: &[f64]| {
+            a.iter()
+                .zip(b)
+                .zip(&angles)
+                .map(|((x, y), &angle)| {
+                    let d = (x - y).abs();
+                    if angle {
+                        let r = d.rem_euclid(std::f64::consts::TAU);
+                        r.min(std::f64::consts::TAU - r)
+                    } else {
+                        d
+                    }
+                })
+                .fold(0.0, f64::max)
+        };
         let mut found: Vec<Equilibrium> = Vec::new();
         for seed in &seeds {
             let Ok(e) = self.solve(seed) else { continue };
             let inside = ranges
                 .iter()
                 .all(|&(d, lo, hi)| e.q[d] >= lo - 1e-9 && e.q[d] <= hi + 1e-9);
-            let dup = found.iter().any(|f| {
-                f.q.iter()
-                    .zip(&e.q)
-                    .map(|(a, b)| (a - b).abs())
-                    .fold(0.0, f64::max)
-                    < 1e-7
-            });
-            if inside && !dup {
+            if !inside {
+                continue;
+            }
+            if !found.iter().any(|f| apart(&f.q, &e.q) < 1e-7) {
                 found.push(e);
             }
         }
