@@ -18,6 +18,10 @@ pub struct CheckedParameter {
     pub dim: Option<Dim>,
     /// The `--set` text that gave it, if any.
     pub set: Option<String>,
+    /// The unit the value is shown in: the declared one when it is SI-coherent (`rad/s`,
+    /// `N*m/rad`), else the SI unit of the dimension (`rad` for a dimensionless one
+    /// declared as an angle).
+    pub unit: String,
 }
 
 /// The initial pose, assembled.
@@ -104,6 +108,22 @@ fn element_ranks(model: &Model, sys: &System, q: &[f64]) -> Vec<CheckedElement> 
     out
 }
 
+/// The unit a parameter's SI value is shown in (see [`CheckedParameter::unit`]).
+fn shown_unit(declared: Option<&(String, Dim)>, dim: Option<Dim>) -> String {
+    if let Some((text, d)) = declared
+        && let Ok((factor, _)) = crate::model::units::parse_unit(text)
+    {
+        if factor == 1.0 {
+            return text.clone();
+        }
+        if *d == Dim::NONE {
+            // an angle declared in degrees or revolutions: its SI value is in rad
+            return "rad".into();
+        }
+    }
+    dim.map(|d| d.to_string()).unwrap_or_default()
+}
+
 /// What `detune check` reports; [`fmt::Display`] gives its text.
 #[derive(Debug)]
 pub struct CheckReport {
@@ -134,6 +154,7 @@ impl CheckReport {
                 value: p.values[i],
                 dim: p.dims[i],
                 set: p.overridden[i].clone(),
+                unit: shown_unit(par.unit.as_ref(), p.dims[i]),
             })
             .collect();
         let assembly = assemble(sys).map(|s| {
@@ -184,7 +205,11 @@ impl fmt::Display for CheckReport {
         }
         writeln!(f, "\nparameters (SI):")?;
         for par in &self.parameters {
-            let dim = par.dim.map(|d| format!(" {d}")).unwrap_or_default();
+            let dim = if par.unit.is_empty() {
+                String::new()
+            } else {
+                format!(" {}", par.unit)
+            };
             let set = par
                 .set
                 .as_ref()
