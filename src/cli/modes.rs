@@ -62,6 +62,23 @@ pub fn run(a: ModesArgs) -> Result<()> {
         "mode", "ω_n [rad/s]", "ω_d [rad/s]", "f [Hz]", "ζ", "eigenvalue"
     );
     for (k, md) in m.modes.iter().enumerate() {
+        if md.omega_d_rad_s == 0.0 {
+            // a real eigenvalue: no oscillation, so no frequency or damping ratio to show
+            let lambda = md.eigenvalue.re;
+            let (what, rate) = if lambda > 0.0 {
+                ("DIVERGENT: grows", lambda)
+            } else {
+                ("non-oscillatory: decays", -lambda)
+            };
+            println!(
+                "{:>4} {what} as e^({lambda:+.8} t): rate {rate:.8} 1/s, time constant {:.6} s{:>13.8} {:+13.8}i",
+                k + 1,
+                1.0 / rate,
+                md.eigenvalue.re,
+                md.eigenvalue.im
+            );
+            continue;
+        }
         println!(
             "{:>4} {:>14.8} {:>14.8} {:>12.6} {:>10.6} {:>13.8} {:+13.8}i",
             k + 1,
