@@ -85,12 +85,24 @@ pub fn run(a: ContinueArgs) -> Result<()> {
     if a.json {
         print_json(&BranchReport::new(&branch, &Provenance::of(&model)));
     } else {
+        // the requested ends as given; a run that turned back at a fold says so
+        let end = branch.points.last().map_or(from, |p| p.value);
+        let param = &branch.param;
+        let reached = (end - to).abs() <= 1e-9 * (1.0 + to.abs());
+        let how = if reached {
+            format!("to {}", a.to)
+        } else if let Some(f) = branch.folds.first() {
+            format!(
+                "turned at the fold at {param} = {:.6}; ends at {param} = {end}",
+                f.value
+            )
+        } else {
+            format!("ends at {param} = {end} (before {})", a.to)
+        };
         println!(
-            "{} points from {} = {} to {}{}",
+            "{} points from {param} = {} {how}{}",
             branch.points.len(),
-            branch.param,
-            from,
-            branch.points.last().map_or(from, |p| p.value),
+            a.from,
             if branch.truncated {
                 " (stopped at --max-steps)"
             } else {
