@@ -134,6 +134,9 @@ pub struct CheckReport {
     pub coordinates: Vec<String>,
     /// Coordinates held during assembly.
     pub fixed: Vec<bool>,
+    /// Whether each coordinate is an angle (rad; shown in degrees too) or a length (m).
+    pub angles: Vec<bool>,
+    pub lengths: Vec<bool>,
     pub constraints: Vec<String>,
     /// The ground's prescribed motion as written (`x = ...`), if it moves.
     pub ground_motion: Vec<String>,
@@ -174,6 +177,12 @@ impl CheckReport {
             parameters,
             coordinates: sys.coordinates.clone(),
             fixed: sys.initial.fixed.clone(),
+            angles: sys.angles(),
+            lengths: sys
+                .coordinate_dims
+                .iter()
+                .map(|d| *d == Dim::LENGTH)
+                .collect(),
             constraints: sys.constraint_names.clone(),
             ground_motion: {
                 let g = &model.ground;
@@ -222,7 +231,14 @@ impl fmt::Display for CheckReport {
             Ok(a) => {
                 for (i, c) in self.coordinates.iter().enumerate() {
                     let fixed = if self.fixed[i] { "  (fixed)" } else { "" };
-                    writeln!(f, "  {c:<16} initial {:>22.15}{fixed}", a.q[i])?;
+                    let deg = if self.angles.get(i).copied().unwrap_or(false) {
+                        format!(" rad ({:.6}°)", a.q[i].to_degrees())
+                    } else if self.lengths.get(i).copied().unwrap_or(false) {
+                        " m".to_string()
+                    } else {
+                        String::new()
+                    };
+                    writeln!(f, "  {c:<16} initial {:>22.15}{deg}{fixed}", a.q[i])?;
                 }
             }
             Err(_) => {

@@ -74,7 +74,10 @@ pub fn run(a: EquilibriumArgs) -> Result<()> {
             println!("equilibrium {} of {}:", k + 1, list.len());
         }
         for (c, v) in sys.coordinates.iter().zip(&e.q) {
-            println!("  {c:<16} {v:>22.12}");
+            println!(
+                "  {c:<16} {v:>22.12}{}",
+                super::unit_and_degrees(&sys, c, *v)
+            );
         }
         let w2: Vec<String> = e.omega2.iter().map(|w| format!("{w:.6}")).collect();
         if e.omega2.is_empty() {

@@ -41,3 +41,13 @@ pub fn progress_bar(len: u64, template: &str) -> indicatif::ProgressBar {
 pub fn print_json(v: &impl serde::Serialize) {
     println!("{}", serde_json::to_string_pretty(v).unwrap_or_default());
 }
+
+/// A coordinate's unit after its printed value: ` m`, or ` rad (12.000000°)` for an
+/// angle (a quaternion component has none).
+pub fn unit_and_degrees(sys: &detune::System, name: &str, v: f64) -> String {
+    match sys.coordinate_index(name) {
+        Some(i) if sys.is_angle(i) => format!(" rad ({:.6}°)", v.to_degrees()),
+        Some(i) if sys.coordinate_dims[i] == detune::model::units::Dim::LENGTH => " m".into(),
+        _ => String::new(),
+    }
+}

@@ -37,7 +37,10 @@ pub fn run(a: ModesArgs) -> Result<()> {
         }
     );
     for (c, v) in m.coordinates.iter().zip(&m.equilibrium.q) {
-        println!("  {c:<16} {v:>22.12}");
+        println!(
+            "  {c:<16} {v:>22.12}{}",
+            super::unit_and_degrees(&sys, c, *v)
+        );
     }
     if m.linearization.dof() == 0 {
         println!(
