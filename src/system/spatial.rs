@@ -648,6 +648,9 @@ pub struct ForceState<D> {
     pub stretch: D,
     pub rate: D,
     pub load: D,
+    /// The direction the load acts along: the spring's unit vector from point 1 to 2, or
+    /// the torsion's world axis.
+    pub dir: V3<D>,
 }
 
 impl Force3 {
@@ -673,6 +676,7 @@ impl Force3 {
                     stretch: len,
                     rate,
                     load: tension,
+                    dir: u,
                 })
             }
             Force3::Torsion {
@@ -690,6 +694,7 @@ impl Force3 {
                     stretch: twist,
                     rate,
                     load: torque,
+                    dir: axis,
                 })
             }
             _ => None,
@@ -702,16 +707,13 @@ impl Force3 {
         match self {
             Force3::Spring { a, b, .. } => {
                 let Some(s) = self.state(fr, v) else { return };
-                let d = sub(fr.position3(b), fr.position3(a));
-                let u = d.map(|x| x / s.stretch);
-                let f = u.map(|x| x * s.load);
+                let f = s.dir.map(|x| x * s.load);
                 fr.apply3(a, f, out);
                 fr.apply3(b, f.map(|x| -x), out);
             }
-            Force3::Torsion { b1, b2, frame, .. } => {
+            Force3::Torsion { b1, b2, .. } => {
                 let Some(s) = self.state(fr, v) else { return };
-                let axis = fr.rotate3(*b1, frame[0]);
-                let tau = axis.map(|x| -(x * s.load));
+                let tau = s.dir.map(|x| -(x * s.load));
                 fr.apply_torque3(*b1, tau, out);
                 fr.apply_torque3(*b2, tau.map(|x| -x), out);
             }
