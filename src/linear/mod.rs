@@ -513,32 +513,16 @@ pub struct LinearOutput {
 }
 
 impl LinearOutput {
-    /// Linearize `output` about `q` of `sys` (a moving ground held at its mean pose over
-    /// the forcing period of ω = `omega`). Joint reactions are refused: their linear
-    /// response needs the multipliers' linearization, which is not computed.
-    pub fn new(sys: &System, output: Output, name: &str, q: &[f64], omega: f64) -> Result<Self> {
-        match output {
-            Output::Coordinate(_) => {
-                return Ok(LinearOutput {
-                    output,
-                    hq: Vec::new(),
-                    hv: Vec::new(),
-                });
-            }
-            Output::Reaction { .. } => {
-                // linearized through the multipliers (see `reaction_amplitude`)
-                let _ = name;
-                return Ok(LinearOutput {
-                    output,
-                    hq: Vec::new(),
-                    hv: Vec::new(),
-                });
-            }
-            _ => {}
-        }
-        let frozen = sys.with_ground_at_mean(&period_samples(omega));
-        let (hq, hv) = frozen.output_gradient(&output, q, 0.0);
-        Ok(LinearOutput { output, hq, hv })
+    /// Linearize `output` about `q` of `frozen`: the system with a moving ground held at
+    /// its mean pose over the forcing period. A coordinate is read from the response
+    /// directly, and a joint reaction is linearized through the multipliers (see
+    /// `reaction_amplitude`): neither needs a gradient.
+    pub fn new(frozen: &System, output: Output, q: &[f64]) -> Self {
+        let (hq, hv) = match output {
+            Output::Coordinate(_) | Output::Reaction { .. } => (Vec::new(), Vec::new()),
+            _ => frozen.output_gradient(&output, q, 0.0),
+        };
+        LinearOutput { output, hq, hv }
     }
 
     /// The complex amplitude of the response at ω from the coordinates' Y: with
@@ -580,9 +564,12 @@ impl LinearOutput {
 /// The complex amplitude of a joint reaction at ω, from the coordinates' response Y: the
 /// multipliers' change Λ solves Āᵀ Λ = Z Y − F (the linearized equations of motion, Z =
 /// K − ω²M + iωC, F the forcing's first harmonic), and δR = Bᵀ Λ + (∂B/∂q · Y)ᵀ λ* plus
-/// the first harmonic of B(q*, t)ᵀ λ* (a constraint that moves with the ground).
+/// the first harmonic of B(q*, t)ᵀ λ* (a constraint that moves with the ground). `sys` is
+/// the system at ω, `frozen` the one the linearization saw (its ground at its mean pose).
+#[allow(clippy::too_many_arguments)]
 fn reaction_amplitude(
     sys: &System,
+    frozen: &System,
     modal: &ModalAnalysis,
     forcing: &Forcing,
     y: &DVector<Complex<f64>>,
@@ -609,7 +596,6 @@ fn reaction_amplitude(
         dre[row] = lre[k];
         dim[row] = lim[k];
     }
-    let frozen = sys.with_ground_at_mean(&period_samples(omega));
     let yre: Vec<f64> = y.iter().map(|x| x.re).collect();
     let yim: Vec<f64> = y.iter().map(|x| x.im).collect();
     let mut out = Complex::new(
@@ -643,9 +629,8 @@ fn period_samples(omega: f64) -> Vec<f64> {
 
 /// The steady harmonic response of the linearized system about the equilibrium nearest
 /// the initial pose, to the model's forcing at each value of `param` (the forcing's
-/// angular frequency, rad/s). Exact for the linear system. The responses are coordinates
-/// or any response [`System::output`] resolves except joint reactions (see
-/// [`LinearOutput`]).
+/// angular frequency, rad/s). Exact for the linear system. The responses are any that
+/// [`System::output`] resolves (see [`LinearOutput`]).
 pub fn frequency_response(
     sys: &System,
     param: &str,
@@ -657,11 +642,12 @@ pub fn frequency_response(
     let outputs = at.outputs(responses)?;
     let modal = modal_analysis(&at, None)?;
     let q = modal.equilibrium.q.clone();
+    // what the linearization saw of a moving ground (its mean pose at rest), once
+    let frozen = at.with_ground_at_mean(&period_samples(values[0]));
     let linear: Vec<LinearOutput> = outputs
         .iter()
-        .zip(responses)
-        .map(|(o, name)| LinearOutput::new(&at, *o, name, &q, values[0]))
-        .collect::<Result<_>>()?;
+        .map(|o| LinearOutput::new(&frozen, *o, &q))
+        .collect();
     let rows = modal.rows.clone();
     let mut out = Vec::with_capacity(values.len());
     for &w in values {
@@ -674,7 +660,7 @@ pub fn frequency_response(
                 .map(|l| {
                     let z = match l.output {
                         Output::Reaction { element, axis } => {
-                            reaction_amplitude(&at, &modal, &forcing, &y, w, element, axis)
+                            reaction_amplitude(&at, &frozen, &modal, &forcing, &y, w, element, axis)
                         }
                         _ => l.amplitude(&at, &q, w, &y),
                     };
@@ -696,7 +682,7 @@ pub fn frequency_response(
                 let y = modal.linearization.response(w, &forcing)?;
                 Ok(match l.output {
                     Output::Reaction { element, axis } => {
-                        reaction_amplitude(&at, &modal, &forcing, &y, w, element, axis)
+                        reaction_amplitude(&at, &frozen, &modal, &forcing, &y, w, element, axis)
                     }
                     _ => l.amplitude(&at, &q, w, &y),
                 }
