@@ -657,9 +657,14 @@ impl Compiler<'_> {
                     stiffness,
                     damping,
                     free_length,
-                } if model.spatial => {
-                    let a = self.point3(p1, &format!("point1 of `{}`", f.name), &cgs);
-                    let b = self.point3(p2, &format!("point2 of `{}`", f.name), &cgs);
+                } => {
+                    let w1 = format!("point1 of `{}`", f.name);
+                    let w2 = format!("point2 of `{}`", f.name);
+                    let ends3 = model
+                        .spatial
+                        .then(|| (self.point3(p1, &w1, &cgs), self.point3(p2, &w2, &cgs)));
+                    let ends2 =
+                        (!model.spatial).then(|| (self.point(p1, &w1), self.point(p2, &w2)));
                     let k = self.constant(stiffness, Dim::STIFFNESS, "the stiffness");
                     let c = self.constant(damping, Dim::DAMPING, "the damping");
                     let l0 = self.checked(
@@ -668,25 +673,44 @@ impl Compiler<'_> {
                         "the free length",
                         CheckKind::NonNegative,
                     );
-                    if let (Some(a), Some(b), Some(k), Some(c), Some(l0)) = (a, b, k, c, l0) {
-                        forces.push(Force::Spatial(Force3::Spring { a, b, k, c, l0 }));
+                    let (Some(k), Some(c), Some(l0)) = (k, c, l0) else {
+                        continue;
+                    };
+                    match (ends3, ends2) {
+                        (Some((Some(a), Some(b))), _) => {
+                            forces.push(Force::Spatial(Force3::Spring { a, b, k, c, l0 }))
+                        }
+                        (_, Some((Some(a), Some(b)))) => {
+                            forces.push(Force::Spring { a, b, k, c, l0 })
+                        }
+                        _ => {}
                     }
                 }
-                ForceKind::PointForce { at, force } if model.spatial => {
-                    let p = self.point3(at, &format!("the point of `{}`", f.name), &cgs);
-                    let fs: Vec<Option<Compiled>> = force
-                        .iter()
-                        .map(|c| {
-                            self.check_dim(c, Dim::FORCE, "a force");
-                            self.compile_load(c)
-                        })
-                        .collect();
-                    if let (Some(at), Some(fs)) = (p, fs.into_iter().collect::<Option<Vec<_>>>()) {
-                        let [fx, fy, fz] = <[Compiled; 3]>::try_from(fs).ok()?;
-                        forces.push(Force::Spatial(Force3::Point {
-                            at,
-                            f: [fx, fy, fz],
-                        }));
+                ForceKind::PointForce { at, force } => {
+                    let what = format!("the point of `{}`", f.name);
+                    let at3 = model.spatial.then(|| self.point3(at, &what, &cgs));
+                    let at2 = (!model.spatial).then(|| self.point(at, &what));
+                    for c in force {
+                        self.check_dim(c, Dim::FORCE, "a force");
+                    }
+                    // every component compiled (and its problems reported) before giving up
+                    let fs: Vec<Option<Compiled>> =
+                        force.iter().map(|c| self.compile_load(c)).collect();
+                    let Some(fs) = fs.into_iter().collect::<Option<Vec<_>>>() else {
+                        continue;
+                    };
+                    match (at3, at2) {
+                        (Some(Some(at)), _) => {
+                            if let Ok(f) = <[Compiled; 3]>::try_from(fs) {
+                                forces.push(Force::Spatial(Force3::Point { at, f }));
+                            }
+                        }
+                        (_, Some(Some(at))) => {
+                            if let Ok(f) = <[Compiled; 2]>::try_from(fs) {
+                                forces.push(Force::Point { at, f });
+                            }
+                        }
+                        _ => {}
                     }
                 }
                 ForceKind::Torsion {
@@ -780,37 +804,6 @@ impl Compiler<'_> {
                             body: b,
                             t: one.remove(0),
                         }),
-                    }
-                }
-                ForceKind::SpringDamper {
-                    p1,
-                    p2,
-                    stiffness,
-                    damping,
-                    free_length,
-                } => {
-                    let a = self.point(p1, &format!("point1 of `{}`", f.name));
-                    let b = self.point(p2, &format!("point2 of `{}`", f.name));
-                    let k = self.constant(stiffness, Dim::STIFFNESS, "the stiffness");
-                    let c = self.constant(damping, Dim::DAMPING, "the damping");
-                    let l0 = self.checked(
-                        free_length,
-                        Dim::LENGTH,
-                        "the free length",
-                        CheckKind::NonNegative,
-                    );
-                    if let (Some(a), Some(b), Some(k), Some(c), Some(l0)) = (a, b, k, c, l0) {
-                        forces.push(Force::Spring { a, b, k, c, l0 });
-                    }
-                }
-                ForceKind::PointForce { at, force } => {
-                    let p = self.point(at, &format!("the point of `{}`", f.name));
-                    self.check_dim(&force[0], Dim::FORCE, "a force");
-                    self.check_dim(&force[1], Dim::FORCE, "a force");
-                    let fx = self.compile_load(&force[0]);
-                    let fy = self.compile_load(&force[1]);
-                    if let (Some(at), Some(fx), Some(fy)) = (p, fx, fy) {
-                        forces.push(Force::Point { at, f: [fx, fy] });
                     }
                 }
             }
