@@ -27,7 +27,6 @@
 //! is the same on every machine.
 
 use crate::diag::Result;
-use crate::model::{ForceKind, Model};
 use crate::system::System;
 use crate::system::inspect::{ForceGeometry, JointGeometry, JointType, P3};
 use std::fmt::Write as _;
@@ -67,17 +66,6 @@ pub struct Scene {
     pub gravity: P3,
     /// Named points of the bodies, `body.point`.
     pub named: Vec<(String, P3)>,
-}
-
-/// The names of a model's force elements in the order [`System::geometry`] lists them
-/// (gravity excepted): [`Scene::name_forces`].
-pub fn force_names(model: &Model) -> Vec<String> {
-    model
-        .forces
-        .iter()
-        .filter(|f| !matches!(f.kind, ForceKind::Gravity { .. }))
-        .map(|f| f.name.clone())
-        .collect()
 }
 
 fn sub(a: P3, b: P3) -> P3 {
@@ -291,7 +279,7 @@ fn shortest_path(pts: Vec<P3>) -> Vec<P3> {
 }
 
 impl Scene {
-    /// Names the force elements (the model's names, in order: [`force_names`]); a
+    /// Names the force elements (the model's names, in order: `System::force_names`); a
     /// list of another length leaves them as they are.
     pub fn name_forces(mut self, names: &[String]) -> Scene {
         if names.len() == self.forces.len() {
@@ -1471,7 +1459,7 @@ fn rotation_arrow(s: &mut String, x: f64, y: f64, r: f64, color: &str) {
 
 /// Draw pose q of a system (assembled: [`crate::assemble`]) and write it to `path` as SVG
 /// (atomically); `title` is the model's name, `force_names` the names of its force
-/// elements ([`force_names`]).
+/// elements (`System::force_names`).
 pub fn write_pose_svg(
     path: &str,
     sys: &System,

@@ -1,7 +1,7 @@
 //! `detune draw`: the assembled pose as SVG, through the binary, and the drawn points
 //! where the model's geometry puts them.
 
-use detune::draw::{View, force_names, scene};
+use detune::draw::{View, scene};
 use detune::{Model, System, assemble};
 use std::process::Command;
 
@@ -95,8 +95,8 @@ fn inceptor_is_drawn_in_four_views_with_every_name() {
 /// front and side views, +Z down the page in the top view, equal scales on both axes.
 #[test]
 fn inceptor_joint_centres_are_the_datum_and_project_correctly() {
-    let (m, sys, q) = model("models/inceptor.toml");
-    let sc = scene(&sys, &q).name_forces(&force_names(&m));
+    let (_, sys, q) = model("models/inceptor.toml");
+    let sc = scene(&sys, &q).name_forces(&sys.force_names);
     let pts = sc.points();
     let s = [0.071778, -0.097201, 0.0];
     let c = [0.03, 0.009943, 0.070710];
@@ -156,8 +156,8 @@ fn overcentre_is_drawn_in_the_plane_with_j_at_its_closed_form() {
     assert!(svg.contains("class=\"joint pin_in_slot\""));
     // bar 1 at theta1_0 = 45° from A at the origin: J = L1 (cos, sin) = (2, 2); B on
     // y = 0 at 2 + sqrt(L2² − 2²) = 4
-    let (m, sys, q) = model("models/overcentre.toml");
-    let pts = scene(&sys, &q).name_forces(&force_names(&m)).points();
+    let (_, sys, q) = model("models/overcentre.toml");
+    let pts = scene(&sys, &q).name_forces(&sys.force_names).points();
     assert_at(point(&pts, "J"), [2.0, 2.0, 0.0], 1e-12, "J");
     assert_at(
         point(&pts, "J.point2"),

@@ -4,7 +4,7 @@
 use super::args::ModelArgs;
 use clap::Args;
 use detune::diag::Result;
-use detune::draw::{force_names, write_pose_svg};
+use detune::draw::write_pose_svg;
 use detune::output::check_outputs;
 
 #[derive(Args)]
@@ -21,7 +21,7 @@ pub fn run(a: DrawArgs) -> Result<()> {
     let (model, sys) = a.model.load_untrimmed()?;
     check_outputs(&model.source.path, &[Some(&a.output)])?;
     let start = detune::dynamics::assemble_at_rest(&sys)?;
-    write_pose_svg(&a.output, &sys, &start.q, &model.name, &force_names(&model))?;
+    write_pose_svg(&a.output, &sys, &start.q, &model.name, &sys.force_names)?;
     println!("wrote {}", a.output);
     Ok(())
 }

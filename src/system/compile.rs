@@ -637,175 +637,188 @@ impl Compiler<'_> {
                 elements.push(c.name.clone());
             }
         }
-        // Forces.
+        // Forces, and their names (each element's, in order; gravity's apart).
         let mut gravity_coefs = Vec::new();
         let mut forces = Vec::new();
+        let mut force_names: Vec<String> = Vec::new();
+        let mut gravity_names: Vec<String> = Vec::new();
         for f in model.forces.iter() {
-            match &f.kind {
-                ForceKind::Gravity { acceleration } => {
-                    let g: Vec<Option<usize>> = acceleration
-                        .iter()
-                        .map(|f| self.constant(f, Dim::ACCELERATION, "gravity"))
-                        .collect();
-                    if let Some(g) = g.into_iter().collect::<Option<Vec<usize>>>() {
-                        gravity_coefs.push([g[0], g[1], g.get(2).copied().unwrap_or(zero)]);
+            let before = forces.len();
+            'element: {
+                match &f.kind {
+                    ForceKind::Gravity { acceleration } => {
+                        let g: Vec<Option<usize>> = acceleration
+                            .iter()
+                            .map(|f| self.constant(f, Dim::ACCELERATION, "gravity"))
+                            .collect();
+                        if let Some(g) = g.into_iter().collect::<Option<Vec<usize>>>() {
+                            gravity_coefs.push([g[0], g[1], g.get(2).copied().unwrap_or(zero)]);
+                        }
                     }
-                }
-                ForceKind::SpringDamper {
-                    p1,
-                    p2,
-                    stiffness,
-                    damping,
-                    free_length,
-                } => {
-                    let w1 = format!("point1 of `{}`", f.name);
-                    let w2 = format!("point2 of `{}`", f.name);
-                    let ends3 = model
-                        .spatial
-                        .then(|| (self.point3(p1, &w1, &cgs), self.point3(p2, &w2, &cgs)));
-                    let ends2 =
-                        (!model.spatial).then(|| (self.point(p1, &w1), self.point(p2, &w2)));
-                    let k = self.constant(stiffness, Dim::STIFFNESS, "the stiffness");
-                    let c = self.constant(damping, Dim::DAMPING, "the damping");
-                    let l0 = self.checked(
+                    ForceKind::SpringDamper {
+                        p1,
+                        p2,
+                        stiffness,
+                        damping,
                         free_length,
-                        Dim::LENGTH,
-                        "the free length",
-                        CheckKind::NonNegative,
-                    );
-                    let (Some(k), Some(c), Some(l0)) = (k, c, l0) else {
-                        continue;
-                    };
-                    match (ends3, ends2) {
-                        (Some((Some(a), Some(b))), _) => {
-                            forces.push(Force::Spatial(Force3::Spring { a, b, k, c, l0 }))
-                        }
-                        (_, Some((Some(a), Some(b)))) => {
-                            forces.push(Force::Spring { a, b, k, c, l0 })
-                        }
-                        _ => {}
-                    }
-                }
-                ForceKind::PointForce { at, force } => {
-                    let what = format!("the point of `{}`", f.name);
-                    let at3 = model.spatial.then(|| self.point3(at, &what, &cgs));
-                    let at2 = (!model.spatial).then(|| self.point(at, &what));
-                    for c in force {
-                        self.check_dim(c, Dim::FORCE, "a force");
-                    }
-                    // every component compiled (and its problems reported) before giving up
-                    let fs: Vec<Option<Compiled>> =
-                        force.iter().map(|c| self.compile_load(c)).collect();
-                    let Some(fs) = fs.into_iter().collect::<Option<Vec<_>>>() else {
-                        continue;
-                    };
-                    match (at3, at2) {
-                        (Some(Some(at)), _) => {
-                            if let Ok(f) = <[Compiled; 3]>::try_from(fs) {
-                                forces.push(Force::Spatial(Force3::Point { at, f }));
-                            }
-                        }
-                        (_, Some(Some(at))) => {
-                            if let Ok(f) = <[Compiled; 2]>::try_from(fs) {
-                                forces.push(Force::Point { at, f });
-                            }
-                        }
-                        _ => {}
-                    }
-                }
-                ForceKind::Torsion {
-                    body1,
-                    body2,
-                    axis,
-                    stiffness,
-                    damping,
-                    free_angle,
-                } => {
-                    let b1 = self.body_of(&PointRef {
-                        body: *body1,
-                        point: Vec::new(),
-                    });
-                    let b2 = self.body_of(&PointRef {
-                        body: *body2,
-                        point: Vec::new(),
-                    });
-                    if b1 == b2 {
-                        self.diags.push(
-                            Diagnostic::new(format!(
-                                "torsion `{}` acts between a body and itself",
-                                f.name
-                            ))
-                            .at(f.span.clone())
-                            .help("name two different bodies (or a body and \"ground\")"),
+                    } => {
+                        let w1 = format!("point1 of `{}`", f.name);
+                        let w2 = format!("point2 of `{}`", f.name);
+                        let ends3 = model
+                            .spatial
+                            .then(|| (self.point3(p1, &w1, &cgs), self.point3(p2, &w2, &cgs)));
+                        let ends2 =
+                            (!model.spatial).then(|| (self.point(p1, &w1), self.point(p2, &w2)));
+                        let k = self.constant(stiffness, Dim::STIFFNESS, "the stiffness");
+                        let c = self.constant(damping, Dim::DAMPING, "the damping");
+                        let l0 = self.checked(
+                            free_length,
+                            Dim::LENGTH,
+                            "the free length",
+                            CheckKind::NonNegative,
                         );
-                        continue;
-                    }
-                    // planar: about the plane's normal (no axis)
-                    let ax = if model.spatial {
-                        match self.axis3(axis, &format!("the axis of `{}`", f.name)) {
-                            Some(ax) => Some(ax),
-                            None => continue,
+                        let (Some(k), Some(c), Some(l0)) = (k, c, l0) else {
+                            break 'element;
+                        };
+                        match (ends3, ends2) {
+                            (Some((Some(a), Some(b))), _) => {
+                                forces.push(Force::Spatial(Force3::Spring { a, b, k, c, l0 }))
+                            }
+                            (_, Some((Some(a), Some(b)))) => {
+                                forces.push(Force::Spring { a, b, k, c, l0 })
+                            }
+                            _ => {}
                         }
-                    } else {
-                        None
-                    };
-                    let k =
-                        self.constant(stiffness, Dim::ANGULAR_STIFFNESS, "the torsional stiffness");
-                    let c = self.constant(damping, Dim::ANGULAR_DAMPING, "the torsional damping");
-                    let free = self.constant(free_angle, Dim::NONE, "the free angle");
-                    let (Some(k), Some(c), Some(free)) = (k, c, free) else {
-                        continue;
-                    };
-                    forces.push(match ax {
-                        Some(ax) => Force::Spatial(Force3::Torsion {
-                            b1,
-                            b2,
-                            frame: self.live.axis_frame(ax),
-                            k,
-                            c,
-                            free,
-                        }),
-                        None => Force::Torsion { b1, b2, k, c, free },
-                    });
-                }
-                ForceKind::Torque { body, torque } => {
-                    let Some(b) = self.body_of(&PointRef {
-                        body: *body,
-                        point: Vec::new(),
-                    }) else {
-                        self.diags.push(
-                            Diagnostic::new(format!(
-                                "torque `{}` acts on the ground, so it does nothing",
-                                f.name
-                            ))
-                            .at(f.span.clone())
-                            .help("name the body it acts on in `body`"),
+                    }
+                    ForceKind::PointForce { at, force } => {
+                        let what = format!("the point of `{}`", f.name);
+                        let at3 = model.spatial.then(|| self.point3(at, &what, &cgs));
+                        let at2 = (!model.spatial).then(|| self.point(at, &what));
+                        for c in force {
+                            self.check_dim(c, Dim::FORCE, "a force");
+                        }
+                        // every component compiled (and its problems reported) before giving up
+                        let fs: Vec<Option<Compiled>> =
+                            force.iter().map(|c| self.compile_load(c)).collect();
+                        let Some(fs) = fs.into_iter().collect::<Option<Vec<_>>>() else {
+                            break 'element;
+                        };
+                        match (at3, at2) {
+                            (Some(Some(at)), _) => {
+                                if let Ok(f) = <[Compiled; 3]>::try_from(fs) {
+                                    forces.push(Force::Spatial(Force3::Point { at, f }));
+                                }
+                            }
+                            (_, Some(Some(at))) => {
+                                if let Ok(f) = <[Compiled; 2]>::try_from(fs) {
+                                    forces.push(Force::Point { at, f });
+                                }
+                            }
+                            _ => {}
+                        }
+                    }
+                    ForceKind::Torsion {
+                        body1,
+                        body2,
+                        axis,
+                        stiffness,
+                        damping,
+                        free_angle,
+                    } => {
+                        let b1 = self.body_of(&PointRef {
+                            body: *body1,
+                            point: Vec::new(),
+                        });
+                        let b2 = self.body_of(&PointRef {
+                            body: *body2,
+                            point: Vec::new(),
+                        });
+                        if b1 == b2 {
+                            self.diags.push(
+                                Diagnostic::new(format!(
+                                    "torsion `{}` acts between a body and itself",
+                                    f.name
+                                ))
+                                .at(f.span.clone())
+                                .help("name two different bodies (or a body and \"ground\")"),
+                            );
+                            break 'element;
+                        }
+                        // planar: about the plane's normal (no axis)
+                        let ax = if model.spatial {
+                            match self.axis3(axis, &format!("the axis of `{}`", f.name)) {
+                                Some(ax) => Some(ax),
+                                None => break 'element,
+                            }
+                        } else {
+                            None
+                        };
+                        let k = self.constant(
+                            stiffness,
+                            Dim::ANGULAR_STIFFNESS,
+                            "the torsional stiffness",
                         );
-                        continue;
-                    };
-                    let ts: Vec<Option<Compiled>> = torque
-                        .iter()
-                        .map(|c| {
-                            self.check_dim(c, Dim::TORQUE, "a torque");
-                            self.compile_load(c)
-                        })
-                        .collect();
-                    let Some(ts) = ts.into_iter().collect::<Option<Vec<_>>>() else {
-                        continue;
-                    };
-                    match <[Compiled; 3]>::try_from(ts) {
-                        Ok([tx, ty, tz]) => forces.push(Force::Spatial(Force3::Torque {
-                            body: b,
-                            torque: [tx, ty, tz],
-                        })),
-                        // planar: one value about the plane's normal (the loader gives
-                        // one or three)
-                        Err(mut one) => forces.push(Force::Torque {
-                            body: b,
-                            t: one.remove(0),
-                        }),
+                        let c =
+                            self.constant(damping, Dim::ANGULAR_DAMPING, "the torsional damping");
+                        let free = self.constant(free_angle, Dim::NONE, "the free angle");
+                        let (Some(k), Some(c), Some(free)) = (k, c, free) else {
+                            break 'element;
+                        };
+                        forces.push(match ax {
+                            Some(ax) => Force::Spatial(Force3::Torsion {
+                                b1,
+                                b2,
+                                frame: self.live.axis_frame(ax),
+                                k,
+                                c,
+                                free,
+                            }),
+                            None => Force::Torsion { b1, b2, k, c, free },
+                        });
+                    }
+                    ForceKind::Torque { body, torque } => {
+                        let Some(b) = self.body_of(&PointRef {
+                            body: *body,
+                            point: Vec::new(),
+                        }) else {
+                            self.diags.push(
+                                Diagnostic::new(format!(
+                                    "torque `{}` acts on the ground, so it does nothing",
+                                    f.name
+                                ))
+                                .at(f.span.clone())
+                                .help("name the body it acts on in `body`"),
+                            );
+                            break 'element;
+                        };
+                        let ts: Vec<Option<Compiled>> = torque
+                            .iter()
+                            .map(|c| {
+                                self.check_dim(c, Dim::TORQUE, "a torque");
+                                self.compile_load(c)
+                            })
+                            .collect();
+                        let Some(ts) = ts.into_iter().collect::<Option<Vec<_>>>() else {
+                            break 'element;
+                        };
+                        match <[Compiled; 3]>::try_from(ts) {
+                            Ok([tx, ty, tz]) => forces.push(Force::Spatial(Force3::Torque {
+                                body: b,
+                                torque: [tx, ty, tz],
+                            })),
+                            // planar: one value about the plane's normal (the loader gives
+                            // one or three)
+                            Err(mut one) => forces.push(Force::Torque {
+                                body: b,
+                                t: one.remove(0),
+                            }),
+                        }
                     }
                 }
+            }
+            force_names.extend(std::iter::repeat_n(f.name.clone(), forces.len() - before));
+            if let ForceKind::Gravity { .. } = f.kind {
+                gravity_names.push(f.name.clone());
             }
         }
         if !self.diags.is_empty() {
@@ -924,6 +937,8 @@ impl Compiler<'_> {
             blocks: Vec::new(),
             nvals: 0,
             forces,
+            force_names,
+            gravity_names,
             gravity_coefs,
             gravity: [0.0; 3],
             ground,

@@ -132,6 +132,10 @@ pub struct System {
     /// Number of values of A stored by blocks.
     nvals: usize,
     forces: Vec<forces::Force>,
+    /// The name of each force element (the model's `[[forces]]` other than gravity, in
+    /// order), and of the gravity tables.
+    pub force_names: Vec<String>,
+    pub gravity_names: Vec<String>,
     /// Gravity entries (coefficients, m/s²; planar: the third is 0), summed.
     gravity_coefs: Vec<[usize; 3]>,
     /// Gravitational acceleration, m/s² (current value; planar: z = 0).

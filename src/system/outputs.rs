@@ -34,7 +34,6 @@ use super::frame::SysPoint;
 use super::joints::Constraint;
 use super::spatial::{Force3, SysPoint3};
 use crate::diag::{Error, Result};
-use crate::model::{ForceKind, Model};
 use crate::request::{Argument, Invalid};
 use crate::scalar::{Env, Scalar};
 use nalgebra::{DMatrix, DVector};
@@ -181,7 +180,7 @@ impl System {
         if let Some(i) = self.coordinate_index(name) {
             return Ok(Output::Coordinate(i));
         }
-        self.catalog()?.resolve(name)
+        self.catalog().resolve(name)
     }
 
     /// Resolve several response names (the model's names are gathered once).
@@ -191,20 +190,17 @@ impl System {
         if let Some(i) = coordinates {
             return Ok(i.into_iter().map(Output::Coordinate).collect());
         }
-        let catalog = self.catalog()?;
+        let catalog = self.catalog();
         names.iter().map(|n| catalog.resolve(n)).collect()
     }
 
     /// Every response name of the model, in order (coordinates first).
-    pub fn output_names(&self) -> Result<Vec<String>> {
-        Ok(self.catalog()?.entries.into_iter().map(|e| e.0).collect())
+    pub fn output_names(&self) -> Vec<String> {
+        self.catalog().entries.into_iter().map(|e| e.0).collect()
     }
 
-    /// The model's names as responses. The system keeps no force names: they are read
-    /// back from the model file it was compiled from (the impressed forces are the file's
-    /// `[[forces]]` other than gravity, in order).
-    fn catalog(&self) -> Result<Catalog> {
-        let model = Model::from_str(&self.source.path, &self.source.text)?;
+    /// The model's names as responses.
+    fn catalog(&self) -> Catalog {
         let mut entries: Vec<(String, Output)> = Vec::new();
         let mut kinds = Vec::new();
         let mut heads: Vec<(String, &'static str)> = Vec::new();
@@ -217,72 +213,35 @@ impl System {
             heads.push((b.name.clone(), "body"));
         }
         // force elements
-        let mut k = 0;
-        let mut described = Vec::new();
-        for f in model.forces.iter() {
-            heads.push((f.name.clone(), "force"));
-            let what = match &f.kind {
-                ForceKind::Gravity { .. } => {
-                    silent.push((f.name.clone(), "gravity".to_string()));
-                    continue;
-                }
-                ForceKind::SpringDamper { .. } => Some(&SPRING),
-                ForceKind::Torsion { .. } => Some(&TORSION),
-                ForceKind::PointForce { .. } => None,
-                ForceKind::Torque { .. } => None,
-            };
-            let Some(compiled) = self.forces.get(k) else {
-                return Err(mismatch());
-            };
-            let agrees = matches!(
-                (&f.kind, compiled),
-                (ForceKind::SpringDamper { .. }, Force::Spring { .. })
-                    | (
-                        ForceKind::SpringDamper { .. },
-                        Force::Spatial(Force3::Spring { .. })
-                    )
-                    | (
-                        ForceKind::Torsion { .. },
-                        Force::Spatial(Force3::Torsion { .. })
-                    )
-                    | (ForceKind::Torsion { .. }, Force::Torsion { .. })
-                    | (ForceKind::PointForce { .. }, Force::Point { .. })
-                    | (
-                        ForceKind::PointForce { .. },
-                        Force::Spatial(Force3::Point { .. })
-                    )
-                    | (
-                        ForceKind::Torque { .. },
-                        Force::Spatial(Force3::Torque { .. })
-                    )
-                    | (ForceKind::Torque { .. }, Force::Torque { .. })
-            );
-            if !agrees {
-                return Err(mismatch());
-            }
-            match what {
-                Some(list) => {
-                    for &quantity in list {
-                        entries.push((
-                            format!("{}.{}", f.name, quantity.suffix()),
-                            Output::Force { force: k, quantity },
-                        ));
-                    }
-                    let s: Vec<&str> = list.iter().map(|q| q.suffix()).collect();
-                    described.push(format!("`{}.{}`", f.name, s.join("|")));
-                }
-                None => silent.push((
-                    f.name.clone(),
-                    match f.kind {
-                        ForceKind::PointForce { .. } => "point_force".to_string(),
-                        _ => "torque".to_string(),
-                    },
-                )),
-            }
-            k += 1;
+        for name in &self.gravity_names {
+            heads.push((name.clone(), "force"));
+            silent.push((name.clone(), "gravity".to_string()));
         }
-        if k != self.forces.len() {
-            return Err(mismatch());
+        let mut described = Vec::new();
+        for (k, (name, force)) in self.force_names.iter().zip(&self.forces).enumerate() {
+            heads.push((name.clone(), "force"));
+            let what = match force {
+                Force::Spring { .. } | Force::Spatial(Force3::Spring { .. }) => Some(&SPRING),
+                Force::Torsion { .. } | Force::Spatial(Force3::Torsion { .. }) => Some(&TORSION),
+                Force::Point { .. } | Force::Spatial(Force3::Point { .. }) => {
+                    silent.push((name.clone(), "point_force".to_string()));
+                    None
+                }
+                Force::Torque { .. } | Force::Spatial(Force3::Torque { .. }) => {
+                    silent.push((name.clone(), "torque".to_string()));
+                    None
+                }
+            };
+            if let Some(list) = what {
+                for &quantity in list {
+                    entries.push((
+                        format!("{name}.{}", quantity.suffix()),
+                        Output::Force { force: k, quantity },
+                    ));
+                }
+                let s: Vec<&str> = list.iter().map(|q| q.suffix()).collect();
+                described.push(format!("`{name}.{}`", s.join("|")));
+            }
         }
         kinds.push(if described.is_empty() {
             "force elements: none in this model (a spring_damper's `<name>.tension|elongation|rate`, a torsion's `<name>.torque|twist|twist_rate`)".into()
@@ -343,20 +302,13 @@ impl System {
                 points.join(", ")
             )
         });
-        Ok(Catalog {
+        Catalog {
             entries,
             kinds,
             heads,
             silent,
-        })
+        }
     }
-}
-
-fn mismatch() -> Error {
-    Error::request(
-        "the model file no longer matches the compiled model's forces",
-        "load the model again",
-    )
 }
 
 impl Catalog {
