@@ -127,6 +127,15 @@ impl Live {
         lift: impl Fn(usize, f64) -> D,
         free: Option<usize>,
     ) -> (Vec<D>, Vec<D>) {
+        self.evaluate_holding(lift, free.as_slice())
+    }
+
+    /// [`Live::evaluate`] with every parameter of `free` held at its lifted value.
+    fn evaluate_holding<D: Scalar>(
+        &self,
+        lift: impl Fn(usize, f64) -> D,
+        free: &[usize],
+    ) -> (Vec<D>, Vec<D>) {
         let mut p: Vec<D> = self
             .values
             .iter()
@@ -135,7 +144,7 @@ impl Live {
             .collect();
         let zero = D::from(0.0);
         for &i in &self.order {
-            if Some(i) == free {
+            if free.contains(&i) {
                 continue;
             }
             if let Some(d) = &self.defs[i] {
@@ -201,6 +210,18 @@ impl Live {
     /// `value` (its dual part the seed) and the rest follow.
     pub fn seeded<D: Scalar>(&self, i: usize, value: D) -> (Vec<D>, Vec<D>) {
         self.evaluate(|j, v| if j == i { value } else { D::from(v) }, Some(i))
+    }
+
+    /// Parameters and coefficients with several parameters given in type D (`seeds`:
+    /// index and value, e.g. dual parts along a direction in parameter space); each
+    /// seeded parameter is held at its value, the rest follow.
+    pub fn seeded_many<D: Scalar>(&self, seeds: &[(usize, D)]) -> (Vec<D>, Vec<D>) {
+        let mut lifted: Vec<D> = self.values.iter().map(|&v| D::from(v)).collect();
+        for &(i, d) in seeds {
+            lifted[i] = d;
+        }
+        let held: Vec<usize> = seeds.iter().map(|s| s.0).collect();
+        self.evaluate_holding(|j, _| lifted[j], &held)
     }
 
     /// The value checks that fail for `values`/`coefs`; `overrides` (the user's `--set`)

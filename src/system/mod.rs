@@ -564,6 +564,12 @@ impl System {
         self.live.seeded(i, value)
     }
 
+    /// [`System::seeded`] for several parameters at once (a direction in parameter space:
+    /// each `(index, value)` with its dual part the direction's component).
+    pub fn seeded_many<D: Scalar>(&self, seeds: &[(usize, D)]) -> (Vec<D>, Vec<D>) {
+        self.live.seeded_many(seeds)
+    }
+
     /// Recompute what depends on the coefficients: masses, gravity, initial guess.
     fn refresh(&mut self) {
         let c = &self.live.coefs;
@@ -1143,6 +1149,57 @@ impl System {
             for i in 0..n {
                 for j in 0..n {
                     m[(o + 3 + i, o + 3 + j)] = blk[i * n + j];
+                }
+            }
+        }
+        m
+    }
+
+    /// The mass matrix M(q) (nv × nv, row-major) in any scalar type, with the masses and
+    /// inertias read from `env`: what [`System::mass_matrix_at`] gives, differentiable
+    /// with respect to the coordinates and the parameters.
+    pub fn mass_matrix_in<D: Scalar, E: Env<D>>(&self, q: &[D], env: E) -> Vec<D> {
+        let nv = self.nv();
+        let mut m = vec![D::from(0.0); nv * nv];
+        for (k, b) in self.bodies.iter().enumerate() {
+            let o = b.voff;
+            let mass = env.coef(b.mass_coef);
+            match &b.kind {
+                BodyKind::Planar => {
+                    m[o * nv + o] = mass;
+                    m[(o + 1) * nv + o + 1] = mass;
+                    m[(o + 2) * nv + o + 2] = env.coef(b.inertia_coefs[0]);
+                }
+                _ => {
+                    let g = &self.geoms3[k];
+                    for i in 0..3 {
+                        m[(o + i) * nv + o + i] = mass;
+                    }
+                    let mut t = [D::from(0.0); 6];
+                    for (x, &c) in t.iter_mut().zip(&b.inertia_coefs) {
+                        *x = env.coef(c);
+                    }
+                    let t = spatial::tensor(t);
+                    let n = g.nrot();
+                    let mut blk = [D::from(0.0); 9];
+                    if g.free {
+                        for i in 0..3 {
+                            blk[i * 3..i * 3 + 3].copy_from_slice(&t[i]);
+                        }
+                    } else {
+                        let z = D::from(0.0);
+                        let p = Pose3::from_parts(
+                            [z; 3],
+                            &q[g.offset + 3..g.offset + 3 + n],
+                            &g.axes,
+                        );
+                        spatial::rotational_mass(&p, n, &t, &mut blk);
+                    }
+                    for i in 0..n {
+                        for j in 0..n {
+                            m[(o + 3 + i) * nv + o + 3 + j] = blk[i * n + j];
+                        }
+                    }
                 }
             }
         }

@@ -1,0 +1,455 @@
+//! Sensitivity of the modes to the model's parameters: analytic eigenvalue derivatives of
+//! the damped constrained system, and their cross-checks.
+//!
+//! At an equilibrium x* = (q*, λ*) the modes are the eigenvalues of the quadratic pencil
+//! P(s) = s² M_r + s C_r + K_r on the constraint manifold (see [`super`]). A parameter
+//! p moves them three ways: directly (a stiffness in K, a mass in M), through the shift of
+//! the equilibrium it causes (dq*/dp, dλ*/dp: the pose and the constraint reactions'
+//! stiffness move) and through any `[trim]` parameter re-solved with it (the inceptor's
+//! force-sensor length L0, re-chosen so that the stick stays at φ0). All three are one
+//! direction d = (dq*, dλ*, e_p + dp_trim) in (q, λ, parameters), found from the
+//! statics' Jacobian (the KKT matrix, with the held coordinates' columns replaced by the
+//! trim parameters' as in [`crate::statics::trim`]):
+//!
+//! ```text
+//! J dx = −∂R/∂p
+//! ```
+//!
+//! The matrices' derivatives along d come from automatic differentiation of the same
+//! functions that build them: hyper-dual numbers for ∂f̄/∂q, ∂f̄/∂v and the constraint
+//! Jacobian (a derivative along d of a first derivative), hyper-hyper-dual numbers for
+//! Σ λ_i ∇²Φ_i, dual numbers for M(q). The null-space basis follows as
+//! N(s) = (I − A_r⁺A_r)(s) N₀, whose derivative is dN = −A_r⁺ dA_r N₀ (any basis of the
+//! tangent space gives the same eigenvalues). With the right and left null vectors x, y of
+//! P(λ):
+//!
+//! ```text
+//! dλ = −yᴴ (λ² dM_r + λ dC_r + dK_r) x / yᴴ (2λ M_r + C_r) x
+//! ω_n = |λ|:  dω_n = Re(λ̄ dλ)/|λ|;   ζ = −Re λ/|λ|:  dζ = −Re dλ/|λ| − Re λ · dω_n/|λ|²
+//! ```
+//!
+//! and for the undamped frequencies (C = 0), with K_r φ = ω² M_r φ:
+//! dω² = φᵀ (dK_r − ω² dM_r) φ / φᵀ M_r φ. A repeated eigenvalue has no derivative in
+//! this sense (its modes mix): it is reported as such rather than as a number.
+//!
+//! Written here because no crate differentiates the eigenvalues of a constrained
+//! multibody linearization; the linear algebra is nalgebra's.
+
+use super::{Linearization, ModalAnalysis, Mode, modal_analysis};
+use crate::diag::Result;
+use crate::linalg::solve_least_squares;
+use crate::scalar::Seeded;
+use crate::statics::{Equilibrium, Statics};
+use crate::system::System;
+use nalgebra::{Complex, DMatrix, DVector};
+use num_dual::{Dual64, HyperDual64, HyperHyperDual64};
+
+/// A direction of change of the equilibrium and the parameters: per unit change of the
+/// varied parameter.
+#[derive(Debug, Clone)]
+pub struct Shift {
+    /// dq*/dp (n).
+    pub dq: Vec<f64>,
+    /// dλ*/dp (independent rows).
+    pub dlambda: Vec<f64>,
+    /// Parameter components: the varied one (1) and every re-solved trim parameter.
+    pub dparams: Vec<(usize, f64)>,
+}
+
+/// How the equilibrium and the trim move with parameter `param`: the direction d of the
+/// module doc, or `include_equilibrium = false` for the direct effect alone (the
+/// equilibrium and trim held; to show what the shift contributes).
+pub fn equilibrium_shift(
+    sys: &System,
+    eq: &Equilibrium,
+    rows: &[usize],
+    param: usize,
+    include_equilibrium: bool,
+) -> Result<Shift> {
+    let n = sys.n();
+    let r = rows.len();
+    if !include_equilibrium {
+        return Ok(Shift {
+            dq: vec![0.0; n],
+            dlambda: vec![0.0; r],
+            dparams: vec![(param, 1.0)],
+        });
+    }
+    let st = Statics::with_rows(sys, rows.to_vec())?;
+    let mut x = eq.q.clone();
+    x.extend(&eq.lambda);
+    let mut j = st.kkt_jacobian(&x);
+    let rhs = -st.residual_dp(&x, param);
+    let trim: Vec<(usize, usize)> = match (&sys.trim, sys.trim_solved()) {
+        (Some(t), Some(_)) => t.coords.iter().copied().zip(t.params.iter().copied()).collect(),
+        _ => Vec::new(),
+    };
+    let trim: Vec<(usize, usize)> = trim.into_iter().filter(|&(_, p)| p != param).collect();
+    for &(c, p) in &trim {
+        j.set_column(c, &st.residual_dp(&x, p));
+    }
+    // equilibrated rows and columns, as in the trim (the columns differ by orders of
+    // magnitude: a stiffness against a unit constraint row)
+    let (nr, nc) = j.shape();
+    let rs: Vec<f64> = (0..nr)
+        .map(|i| 1.0 / j.row(i).amax().max(f64::MIN_POSITIVE))
+        .collect();
+    for (i, w) in rs.iter().enumerate() {
+        j.row_mut(i).scale_mut(*w);
+    }
+    let cs: Vec<f64> = (0..nc)
+        .map(|k| 1.0 / j.column(k).amax().max(f64::MIN_POSITIVE))
+        .collect();
+    for (k, w) in cs.iter().enumerate() {
+        j.column_mut(k).scale_mut(*w);
+    }
+    let b = DVector::from_fn(nr, |i, _| rhs[i] * rs[i]);
+    let mut dx = solve_least_squares(j, &b);
+    for (k, w) in cs.iter().enumerate() {
+        dx[k] *= w;
+    }
+    let mut dq: Vec<f64> = dx.as_slice()[..n].to_vec();
+    let mut dparams = vec![(param, 1.0)];
+    for &(c, p) in &trim {
+        dparams.push((p, dq[c]));
+        dq[c] = 0.0;
+    }
+    Ok(Shift {
+        dq,
+        dlambda: dx.as_slice()[n..n + r].to_vec(),
+        dparams,
+    })
+}
+
+/// d/ds of the full matrices M, C, K (n × n) and of the independent rows A_r (r × n) of
+/// the mean constraint Jacobian along the direction `d` (see the module doc).
+pub struct MatrixDerivatives {
+    pub mass: DMatrix<f64>,
+    pub damping: DMatrix<f64>,
+    pub stiffness: DMatrix<f64>,
+    pub jacobian_rows: DMatrix<f64>,
+}
+
+/// The derivatives of the linearization's matrices along `d`, by automatic
+/// differentiation.
+pub fn matrix_derivatives(
+    st: &Statics,
+    q: &[f64],
+    lambda: &[f64],
+    d: &Shift,
+) -> MatrixDerivatives {
+    let sys: &System = &st.sys;
+    let n = sys.n();
+    let m = sys.m();
+    let rows = &st.rows;
+
+    // ∂/∂q_j (eps1) and along d (eps2)
+    let seeds: Vec<(usize, HyperDual64)> = d
+        .dparams
+        .iter()
+        .map(|&(i, c)| (i, HyperDual64::new(sys.param(i), 0.0, c, 0.0)))
+        .collect();
+    let (ph, ch) = sys.seeded_many(&seeds);
+    let envh = Seeded {
+        params: &ph,
+        coefs: &ch,
+    };
+    let mut qh: Vec<HyperDual64> = q
+        .iter()
+        .zip(&d.dq)
+        .map(|(&x, &dx)| HyperDual64::new(x, 0.0, dx, 0.0))
+        .collect();
+    let mut stiffness = DMatrix::zeros(n, n);
+    let mut jacobian_rows = DMatrix::zeros(rows.len(), n);
+    let mut f = vec![HyperDual64::from(0.0); n];
+    let mut phi = vec![HyperDual64::from(0.0); m];
+    for j in 0..n {
+        qh[j].eps1 = 1.0;
+        st.static_force_in(&qh, envh, &mut f);
+        st.static_phi_in(&qh, envh, &mut phi);
+        qh[j].eps1 = 0.0;
+        for i in 0..n {
+            stiffness[(i, j)] = -f[i].eps1eps2;
+        }
+        for (k, &row) in rows.iter().enumerate() {
+            jacobian_rows[(k, j)] = phi[row].eps1eps2;
+        }
+    }
+
+    // −Σ λ_r ∇²Φ_r along d (eps1, eps2: the Hessian; eps3: along d) and −Σ dλ_r ∇²Φ_r
+    let seeds3: Vec<(usize, HyperHyperDual64)> = d
+        .dparams
+        .iter()
+        .map(|&(i, c)| {
+            let mut x = HyperHyperDual64::from(sys.param(i));
+            x.eps3 = c;
+            (i, x)
+        })
+        .collect();
+    let (p3, c3) = sys.seeded_many(&seeds3);
+    let env3 = Seeded {
+        params: &p3,
+        coefs: &c3,
+    };
+    let mut q3: Vec<HyperHyperDual64> = q
+        .iter()
+        .zip(&d.dq)
+        .map(|(&x, &dx)| {
+            let mut v = HyperHyperDual64::from(x);
+            v.eps3 = dx;
+            v
+        })
+        .collect();
+    let mut phi3 = vec![HyperHyperDual64::from(0.0); m];
+    for j in 0..n {
+        for k in j..n {
+            q3[j].eps1 = 1.0;
+            q3[k].eps2 = 1.0;
+            st.static_phi_in(&q3, env3, &mut phi3);
+            q3[j].eps1 = 0.0;
+            q3[k].eps2 = 0.0;
+            let v: f64 = rows
+                .iter()
+                .enumerate()
+                .map(|(r, &row)| {
+                    lambda[r] * phi3[row].eps1eps2eps3 + d.dlambda[r] * phi3[row].eps1eps2
+                })
+                .sum();
+            stiffness[(j, k)] -= v;
+            if k != j {
+                stiffness[(k, j)] -= v;
+            }
+        }
+    }
+
+    // C = −∂f̄/∂v at rest, along d
+    let times = st.times();
+    let zero = HyperDual64::from(0.0);
+    let mut vh = vec![zero; n];
+    let mut damping = DMatrix::zeros(n, n);
+    for j in 0..n {
+        vh[j].eps1 = 1.0;
+        for &t in times {
+            sys.forces_in(&qh, &vh, HyperDual64::from(t), envh, &mut f);
+            for i in 0..n {
+                damping[(i, j)] -= f[i].eps1eps2 / times.len() as f64;
+            }
+        }
+        vh[j].eps1 = 0.0;
+    }
+
+    // M(q; p) along d
+    let seeds1: Vec<(usize, Dual64)> = d
+        .dparams
+        .iter()
+        .map(|&(i, c)| (i, Dual64::new(sys.param(i), c)))
+        .collect();
+    let (p1, c1) = sys.seeded_many(&seeds1);
+    let env1 = Seeded {
+        params: &p1,
+        coefs: &c1,
+    };
+    let q1: Vec<Dual64> = q
+        .iter()
+        .zip(&d.dq)
+        .map(|(&x, &dx)| Dual64::new(x, dx))
+        .collect();
+    let mm = sys.mass_matrix_in(&q1, env1);
+    let mass = DMatrix::from_fn(n, n, |i, j| mm[i * n + j].eps);
+    MatrixDerivatives {
+        mass,
+        damping,
+        stiffness,
+        jacobian_rows,
+    }
+}
+
+/// The derivatives of one damped mode and of its undamped counterpart.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ModeDerivative {
+    /// dλ/dp (1/s per unit of p).
+    pub dlambda: Complex<f64>,
+    /// dω_n/dp, ω_n = |λ| (rad/s per unit of p).
+    pub domega_n: f64,
+    /// dζ/dp.
+    pub dzeta: f64,
+    /// dω/dp of the undamped mode paired with it (C = 0), when there is one.
+    pub dundamped: Option<f64>,
+    /// The undamped mode's ω, rad/s.
+    pub undamped_omega: Option<f64>,
+}
+
+/// The undamped modes (C = 0) in reduced coordinates: ω² ascending and M_r-normalized
+/// vectors (columns).
+pub fn undamped_modes(lin: &Linearization) -> (Vec<f64>, DMatrix<f64>) {
+    let k = lin.dof();
+    if k == 0 {
+        return (Vec::new(), DMatrix::zeros(0, 0));
+    }
+    let Some(chol) = lin.mass.clone().cholesky() else {
+        return (Vec::new(), DMatrix::zeros(k, 0));
+    };
+    let l = chol.l();
+    let li = l.clone().try_inverse().unwrap_or_else(|| DMatrix::identity(k, k));
+    let s = &li * &lin.stiffness * li.transpose();
+    let s = (&s + s.transpose()) * 0.5;
+    let eig = s.symmetric_eigen();
+    let mut idx: Vec<usize> = (0..k).collect();
+    idx.sort_by(|&a, &b| eig.eigenvalues[a].total_cmp(&eig.eigenvalues[b]));
+    let w2: Vec<f64> = idx.iter().map(|&i| eig.eigenvalues[i]).collect();
+    let mut phi = DMatrix::zeros(k, k);
+    for (c, &i) in idx.iter().enumerate() {
+        phi.set_column(c, &(li.transpose() * eig.eigenvectors.column(i)));
+    }
+    (w2, phi)
+}
+
+/// Right and left null vectors of P(λ) = λ²M_r + λC_r + K_r (reduced coordinates): x
+/// with P x = 0 and y with yᴴ P = 0, each the right singular vector of the smallest
+/// singular value (of P and of Pᴴ).
+fn null_vectors(
+    lin: &Linearization,
+    lam: Complex<f64>,
+) -> (DVector<Complex<f64>>, DVector<Complex<f64>>) {
+    let c = |m: &DMatrix<f64>| m.map(|v| Complex::new(v, 0.0));
+    let p = c(&lin.mass) * (lam * lam) + c(&lin.damping) * lam + c(&lin.stiffness);
+    let right = |p: DMatrix<Complex<f64>>| {
+        let k = p.ncols();
+        let svd = p.svd(false, true);
+        let imin = (0..k)
+            .min_by(|&i, &j| svd.singular_values[i].total_cmp(&svd.singular_values[j]))
+            .unwrap_or(0);
+        svd.v_t
+            .expect("requested")
+            .row(imin)
+            .transpose()
+            .map(|z| z.conj())
+    };
+    (right(p.clone()), right(p.adjoint()))
+}
+
+/// Reduced-coordinate vector of a mode (the shape is stored in the model's coordinates:
+/// x = Nᵀ shape, N orthonormal).
+fn reduced(lin: &Linearization, mode: &Mode) -> DVector<Complex<f64>> {
+    let full = DVector::from_iterator(
+        mode.shape.len(),
+        mode.shape.iter().map(|z| Complex::new(z.re, z.im)),
+    );
+    lin.basis.map(|v| Complex::new(v, 0.0)).transpose() * full
+}
+
+/// Mass-weighted MAC of two reduced vectors, |aᴴ M b|² / ((aᴴ M a)(bᴴ M b)).
+pub fn mac(m: &DMatrix<f64>, a: &DVector<Complex<f64>>, b: &DVector<Complex<f64>>) -> f64 {
+    let mc = m.map(|v| Complex::new(v, 0.0));
+    let ab = (a.adjoint() * &mc * b)[(0, 0)].norm_sqr();
+    let aa = (a.adjoint() * &mc * a)[(0, 0)].re;
+    let bb = (b.adjoint() * &mc * b)[(0, 0)].re;
+    if aa <= 0.0 || bb <= 0.0 {
+        return 0.0;
+    }
+    ab / (aa * bb)
+}
+
+/// For each of `modes`, the undamped mode (index into the ascending ω²) with the best MAC,
+/// one-to-one where possible.
+fn pair_undamped(lin: &Linearization, modes: &[Mode], phi: &DMatrix<f64>) -> Vec<Option<usize>> {
+    let mut taken = vec![false; phi.ncols()];
+    modes
+        .iter()
+        .map(|md| {
+            let x = reduced(lin, md);
+            let best = (0..phi.ncols())
+                .filter(|&k| !taken[k])
+                .map(|k| {
+                    let u = phi.column(k).map(|v| Complex::new(v, 0.0));
+                    (k, mac(&lin.mass, &x, &u))
+                })
+                .max_by(|a, b| a.1.total_cmp(&b.1));
+            best.map(|(k, _)| {
+                taken[k] = true;
+                k
+            })
+        })
+        .collect()
+}
+
+/// The analytic derivatives of every mode of `ma` (a modal analysis of `sys`) with
+/// respect to parameter `param`: per mode of `ma.modes`.
+pub fn mode_derivatives(
+    sys: &System,
+    ma: &ModalAnalysis,
+    param: usize,
+    include_equilibrium: bool,
+) -> Result<Vec<ModeDerivative>> {
+    let eq = &ma.equilibrium;
+    let lin = &ma.linearization;
+    let d = equilibrium_shift(sys, eq, &ma.rows, param, include_equilibrium)?;
+    let st = Statics::with_rows(sys, ma.rows.clone())?;
+    let dm = matrix_derivatives(&st, &eq.q, &eq.lambda, &d);
+    let n0 = &lin.basis;
+    let ar = lin.jacobian.select_rows(ma.rows.iter());
+    let dn = if ar.nrows() == 0 {
+        DMatrix::zeros(n0.nrows(), n0.ncols())
+    } else {
+        let pinv = ar
+            .clone()
+            .pseudo_inverse(1e-14 * ar.amax().max(f64::MIN_POSITIVE))
+            .unwrap_or_else(|_| DMatrix::zeros(ar.ncols(), ar.nrows()));
+        -(pinv * &dm.jacobian_rows * n0)
+    };
+    let red = |full: &DMatrix<f64>, dfull: &DMatrix<f64>| -> DMatrix<f64> {
+        dn.transpose() * full * n0 + n0.transpose() * dfull * n0 + n0.transpose() * full * &dn
+    };
+    let dmr = red(&lin.full_mass, &dm.mass);
+    let dcr = red(&lin.full_damping, &dm.damping);
+    let dkr = red(&lin.full_stiffness, &dm.stiffness);
+    let c = |m: &DMatrix<f64>| m.map(|v| Complex::new(v, 0.0));
+    let (w2, phi) = undamped_modes(lin);
+    let pairs = pair_undamped(lin, &ma.modes, &phi);
+    let mut out = Vec::new();
+    for (md, pair) in ma.modes.iter().zip(pairs) {
+        let lam = Complex::new(md.eigenvalue.re, md.eigenvalue.im);
+        let (x, y) = null_vectors(lin, lam);
+        let dp = c(&dmr) * (lam * lam) + c(&dcr) * lam + c(&dkr);
+        let num = (y.adjoint() * dp * &x)[(0, 0)];
+        let den = (y.adjoint() * (c(&lin.mass) * (lam * 2.0) + c(&lin.damping)) * &x)[(0, 0)];
+        let dlambda = -num / den;
+        let wn = lam.norm();
+        let domega_n = (lam.conj() * dlambda).re / wn;
+        let dzeta = -dlambda.re / wn + lam.re * domega_n / (wn * wn);
+        let (dundamped, undamped_omega) = match pair {
+            Some(k) if w2[k] > 0.0 => {
+                let p = phi.column(k);
+                let dw2 = (p.transpose() * (&dkr - &dmr * w2[k]) * p)[(0, 0)]
+                    / (p.transpose() * &lin.mass * p)[(0, 0)];
+                let w = w2[k].sqrt();
+                (Some(dw2 / (2.0 * w)), Some(w))
+            }
+            _ => (None, None),
+        };
+        out.push(ModeDerivative {
+            dlambda,
+            domega_n,
+            dzeta,
+            dundamped,
+            undamped_omega,
+        });
+    }
+    Ok(out)
+}
+
+/// `sys` with each `(parameter, value)` set, its `[trim]` re-solved, and its modes about
+/// the equilibrium nearest the initial pose (shapes normalized to `normalize`).
+pub fn modes_at(
+    sys: &System,
+    values: &[(usize, f64)],
+    normalize: Option<&str>,
+) -> Result<(System, ModalAnalysis)> {
+    let mut s = sys.clone();
+    for &(i, v) in values {
+        s.set_param(i, v)?;
+    }
+    let (s, _) = crate::statics::trim::trim(&s)?;
+    let ma = modal_analysis(&s, normalize)?;
+    Ok((s, ma))
+}
