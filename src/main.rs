@@ -11,6 +11,7 @@ use cli::equilibrium::EquilibriumArgs;
 use cli::frf::FrfArgs;
 use cli::kinematics::KinematicsArgs;
 use cli::modes::ModesArgs;
+use cli::sensitivity::SensitivityArgs;
 use cli::simulate::SimulateArgs;
 use cli::sweep::SweepArgs;
 use std::io::IsTerminal;
@@ -60,6 +61,10 @@ enum Command {
     /// (spatial models) or the X–Y plane (planar models), joints marked by type.
     #[command(allow_negative_numbers = true)]
     Draw(DrawArgs),
+    /// How each mode moves with each varied parameter: cases, analytic derivatives (with
+    /// finite-difference checks), the worst case over the tolerance box, a tornado chart.
+    #[command(allow_negative_numbers = true)]
+    Sensitivity(SensitivityArgs),
 }
 
 fn main() {
@@ -77,6 +82,7 @@ fn main() {
         Command::Equilibrium(a) => cli::equilibrium::run(a),
         Command::Continue(a) => cli::r#continue::run(a),
         Command::Modes(a) => cli::modes::run(a),
+        Command::Sensitivity(a) => cli::sensitivity::run(a),
         Command::Frf(a) => cli::frf::run(a),
         Command::Sweep(a) => cli::sweep::run(a),
         Command::Kinematics(a) => cli::kinematics::run(a),

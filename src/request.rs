@@ -77,6 +77,9 @@ arguments! {
     DriveRange => "the drive range",
     /// The step of the driven coordinate (`KinematicsOptions::step`).
     DriveStep => "the drive step",
+    /// A parameter varied by a sensitivity study, a margins check or a tuning
+    /// ([`crate::linear::sensitivity::Vary`]).
+    Varied => "a varied parameter",
 }
 
 impl fmt::Display for Argument {

@@ -235,3 +235,153 @@ pub fn param_value(model: &Model, param: &str, flag: &str, text: &str) -> Result
         .unwrap_or(Dim::NONE);
     quantity(flag, text, param, dim)
 }
+
+/// `--vary NAME=CHANGE`: the cases and the range of one varied parameter.
+///
+/// CHANGE is a relative change `±10%` (ASCII `+-10%`; or one-sided `+10%`, `-5%`), an
+/// absolute one `±0.5 N/m` (a number is SI), a range of levels `80%..120%` (p0·80/100 …
+/// p0·120/100), or a list of values `1.1e5,1.4e5` (numbers SI, or quantities). Labels are
+/// `k_fs+10%`, `k_fs-10%`, `k_fs+0.5 N/m`, `k_fs=80%`, `k_fs=1.1e5`. Each value is tried on
+/// a copy of the system so that one the model cannot take (a negative mass) is refused
+/// here, with the model's located message, before any work.
+pub fn vary(model: &Model, sys: &System, text: &str) -> Result<detune::linear::sensitivity::Vary> {
+    let bad = |message: String| {
+        Error::request(
+            format!("--vary {text}: {message}"),
+            "write NAME=±10% (or +-10%), NAME=±0.5 N/m, NAME=80%..120%, or NAME=1.1e5,1.4e5",
+        )
+    };
+    let Some((name, change)) = text.split_once('=') else {
+        return Err(bad("expected NAME=CHANGE".into()));
+    };
+    let (name, change) = (name.trim(), change.trim());
+    let param = detune::request::parameter(
+        sys.param_names(),
+        name,
+        detune::request::Argument::Varied,
+    )
+    .map_err(|e| detune::diag::Error::Invalid {
+        invalid: e,
+        context: Vec::new(),
+    })?;
+    if let Some(t) = &sys.trim
+        && t.off.is_none()
+        && t.params.contains(&param)
+    {
+        return Err(Error::request(
+            format!("--vary {text}: `{name}` is solved by the model's [trim] at every change, so varying it has no effect"),
+            format!("vary another parameter (the trim re-solves `{name}` for it), or fix `{name}` with --set {name}=VALUE, which turns the trim off"),
+        ));
+    }
+    let p0 = sys.param(param);
+    let dim = model
+        .parameters
+        .index(name)
+        .and_then(|i| model.parameters.dims[i])
+        .unwrap_or(Dim::NONE);
+    let value = |t: &str| -> Result<f64> {
+        match t.trim().parse::<f64>() {
+            Ok(x) => Ok(x),
+            Err(_) => quantity("--vary", t.trim(), name, dim).map_err(|e| match e {
+                Error::Request { message, .. } => Error::request(
+                    format!(
+                        "--vary {text}: {}",
+                        message.split_once(": ").map_or(message.as_str(), |m| m.1)
+                    ),
+                    format!(
+                        "give a relative change (±10%) or a number in SI{}, or a quantity of that dimension",
+                        if dim == Dim::NONE { String::new() } else { format!(" ({dim})") }
+                    ),
+                ),
+                other => other,
+            }),
+        }
+    };
+    let percent = |t: &str| -> Option<f64> { t.trim().strip_suffix('%')?.trim().parse::<f64>().ok() };
+    let relative = |frac: f64| -> Result<f64> {
+        if p0 == 0.0 {
+            return Err(Error::request(
+                format!("--vary {text}: `{name}` is 0, so a relative change of it is 0"),
+                format!("give an absolute change, e.g. --vary \"{name}=±0.1 {}\"", dim_unit(dim)),
+            ));
+        }
+        Ok(p0 * frac)
+    };
+    let (plusminus, rest) = if let Some(r) = change.strip_prefix('±') {
+        (true, r)
+    } else if let Some(r) = change.strip_prefix("+-") {
+        (true, r)
+    } else {
+        (false, change)
+    };
+    let mut cases: Vec<(String, f64)> = Vec::new();
+    if plusminus {
+        if let Some(pc) = percent(rest) {
+            let d = relative(pc / 100.0)?;
+            let r = rest.trim();
+            cases.push((format!("{name}+{r}"), p0 + d));
+            cases.push((format!("{name}-{r}"), p0 - d));
+        } else {
+            let d = value(rest)?;
+            let r = rest.trim();
+            cases.push((format!("{name}+{r}"), p0 + d));
+            cases.push((format!("{name}-{r}"), p0 - d));
+        }
+    } else if let Some((a, b)) = change.split_once("..") {
+        let (Some(a), Some(b)) = (percent(a), percent(b)) else {
+            return Err(bad("a range of levels is written a%..b%, e.g. 80%..120%".into()));
+        };
+        if a >= b {
+            return Err(bad(format!("the range {a}%..{b}% is empty: give the lower level first")));
+        }
+        cases.push((format!("{name}={a}%"), relative(a / 100.0)?));
+        cases.push((format!("{name}={b}%"), relative(b / 100.0)?));
+    } else if (change.starts_with('+') || change.starts_with('-')) && percent(change).is_some() {
+        let pc = percent(change).unwrap_or(0.0);
+        cases.push((format!("{name}{change}"), p0 + relative(pc / 100.0)?));
+    } else {
+        for v in change.split(',') {
+            if v.trim().is_empty() {
+                return Err(bad("an empty value in the list".into()));
+            }
+            cases.push((format!("{name}={}", v.trim()), value(v)?));
+        }
+    }
+    for (label, v) in &cases {
+        if !v.is_finite() {
+            return Err(bad(format!("{label} gives {name} = {v}")));
+        }
+        let mut s = sys.clone();
+        s.set_param(param, *v)
+            .map_err(|e| e.context(&format!("--vary {text}: the case {label} ({name} = {v} SI)")))?;
+    }
+    let lo = cases.iter().map(|c| c.1).fold(p0, f64::min);
+    let hi = cases.iter().map(|c| c.1).fold(p0, f64::max);
+    Ok(detune::linear::sensitivity::Vary {
+        param,
+        name: name.to_string(),
+        cases,
+        range: (lo, hi),
+    })
+}
+
+/// Every `--vary`, each parameter at most once.
+pub fn varies(model: &Model, sys: &System, texts: &[String]) -> Result<Vec<detune::linear::sensitivity::Vary>> {
+    let mut out: Vec<detune::linear::sensitivity::Vary> = Vec::new();
+    for t in texts {
+        let v = vary(model, sys, t)?;
+        if out.iter().any(|o| o.param == v.param) {
+            return Err(Error::request(
+                format!("--vary {t}: `{}` is varied twice", v.name),
+                "give each parameter one --vary (a list of values goes in one: NAME=a,b,c)",
+            ));
+        }
+        out.push(v);
+    }
+    Ok(out)
+}
+
+/// An SI unit to suggest for a dimension in a hint.
+fn dim_unit(dim: Dim) -> String {
+    if dim == Dim::NONE { String::new() } else { format!("{dim}") }
+}

@@ -439,17 +439,392 @@ pub fn mode_derivatives(
 }
 
 /// `sys` with each `(parameter, value)` set, its `[trim]` re-solved, and its modes about
-/// the equilibrium nearest the initial pose (shapes normalized to `normalize`).
+/// the equilibrium reached by Newton from `start` (the baseline's equilibrium: a case stays
+/// on the baseline's branch and in its well), or, without a start, about the equilibrium
+/// nearest the initial pose. Shapes normalized to `normalize`.
 pub fn modes_at(
     sys: &System,
     values: &[(usize, f64)],
     normalize: Option<&str>,
+    start: Option<&ModalAnalysis>,
 ) -> Result<(System, ModalAnalysis)> {
     let mut s = sys.clone();
     for &(i, v) in values {
         s.set_param(i, v)?;
     }
-    let (s, _) = crate::statics::trim::trim(&s)?;
-    let ma = modal_analysis(&s, normalize)?;
+    let Some(base) = start else {
+        let (s, _) = crate::statics::trim::trim(&s)?;
+        let ma = modal_analysis(&s, normalize)?;
+        return Ok((s, ma));
+    };
+    let state = crate::dynamics::State {
+        t: 0.0,
+        q: base.equilibrium.q.clone(),
+        v: vec![0.0; s.nv()],
+    };
+    let (s, _) = crate::statics::trim::trimmed(&s, &state)?;
+    let st = Statics::with_rows(&s, base.rows.clone())?;
+    let equilibrium = st.solve(&base.equilibrium.q)?;
+    let linearization = Linearization::new(&st, &equilibrium);
+    let modes = linearization.modes(base.reference);
+    let undamped_omega2 = linearization.undamped_omega2();
+    let ma = ModalAnalysis {
+        coordinates: s.coordinates.clone(),
+        equilibrium,
+        linearization,
+        modes,
+        undamped_omega2,
+        reference: base.reference,
+        rows: base.rows.clone(),
+    };
     Ok((s, ma))
+}
+
+// ---- the study: cases, derivatives, cross-checks, the tolerance box -------------------
+
+/// One varied parameter: the cases to evaluate and the range it may take (the tolerance
+/// box's side).
+#[derive(Debug, Clone)]
+pub struct Vary {
+    pub param: usize,
+    pub name: String,
+    /// `(label, SI value)`: `k_fs+10%` at 1.4245e5.
+    pub cases: Vec<(String, f64)>,
+    /// Lowest and highest value (SI).
+    pub range: (f64, f64),
+}
+
+/// One case of one parameter, for one mode.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct CaseResult {
+    pub param: String,
+    pub label: String,
+    pub value: f64,
+    pub omega_n_rad_s: f64,
+    pub damping_ratio: f64,
+    /// ω of the undamped system (C = 0 in the linearization), rad/s.
+    pub undamped_omega_rad_s: Option<f64>,
+    /// The stepped-sine peak nearest this mode (with `--method sweep|both`), rad/s.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub peak_omega_rad_s: Option<f64>,
+    pub change_pct_omega_n: f64,
+    pub change_pct_undamped: Option<f64>,
+    /// Mass-weighted MAC of this case's mode with the baseline mode it was matched to.
+    pub mac: f64,
+}
+
+/// The derivatives of one mode with respect to one parameter, with their central
+/// finite-difference cross-checks.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct Derivative {
+    pub param: String,
+    /// dω_n/dp, rad/s per SI unit of p.
+    pub domega_n_dp: f64,
+    /// dζ/dp, per SI unit of p.
+    pub dzeta_dp: f64,
+    /// (p/ω_n) dω_n/dp.
+    pub elasticity: f64,
+    /// Central finite difference of dω_n/dp (equilibrium, trim and modes re-solved).
+    pub fd: f64,
+    pub fd_dzeta_dp: f64,
+    /// dω/dp of the undamped mode (C = 0), rad/s per SI unit of p, its elasticity and its
+    /// finite difference.
+    pub dundamped_dp: Option<f64>,
+    pub undamped_elasticity: Option<f64>,
+    pub fd_dundamped_dp: Option<f64>,
+    /// The finite-difference step, SI units of p.
+    pub fd_step: f64,
+}
+
+/// The extreme frequencies of one mode over the whole tolerance box.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct WorstCase {
+    /// Lowest and highest ω_n found: baseline, cases, and the corners of the box evaluated
+    /// by full modal analyses, rad/s.
+    pub min_rad_s: f64,
+    pub max_rad_s: f64,
+    /// The first-order estimate ω_n + Σ min/max(dω_n/dp · Δp), rad/s.
+    pub first_order_min_rad_s: f64,
+    pub first_order_max_rad_s: f64,
+    /// Number of corners evaluated (all 2^k up to k = 4 parameters; beyond, the two the
+    /// derivatives predict to be the extremes).
+    pub corners_evaluated: usize,
+}
+
+/// One mode's sensitivity.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct ModeSensitivity {
+    pub name: String,
+    pub omega_n_rad_s: f64,
+    pub damping_ratio: f64,
+    pub undamped_omega_rad_s: Option<f64>,
+    pub cases: Vec<CaseResult>,
+    pub derivatives: Vec<Derivative>,
+    pub worst_case: WorstCase,
+}
+
+/// The sensitivity of every oscillatory mode to the varied parameters.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct Sensitivity {
+    pub modes: Vec<ModeSensitivity>,
+}
+
+/// The baseline's modes, and their undamped partners.
+struct Evaluated {
+    /// ω_n, ζ, undamped ω (when paired) of every mode in `ma.modes` order.
+    modes: Vec<(f64, f64, Option<f64>)>,
+    /// Shapes (model coordinates) for matching.
+    shapes: Vec<DVector<Complex<f64>>>,
+}
+
+fn evaluate(ma: &ModalAnalysis) -> Evaluated {
+    let lin = &ma.linearization;
+    let (w2, phi) = undamped_modes(lin);
+    let pairs = pair_undamped(lin, &ma.modes, &phi);
+    Evaluated {
+        modes: ma
+            .modes
+            .iter()
+            .zip(pairs)
+            .map(|(m, p)| {
+                let w = p.and_then(|k| (w2[k] > 0.0).then(|| w2[k].sqrt()));
+                (m.omega_n_rad_s, m.damping_ratio, w)
+            })
+            .collect(),
+        shapes: ma
+            .modes
+            .iter()
+            .map(|m| {
+                DVector::from_iterator(
+                    m.shape.len(),
+                    m.shape.iter().map(|z| Complex::new(z.re, z.im)),
+                )
+            })
+            .collect(),
+    }
+}
+
+/// For each baseline mode, the case's mode with the best mass-weighted MAC (the full mass
+/// matrix at the baseline equilibrium), one-to-one; with the MAC.
+fn match_modes(mass: &DMatrix<f64>, base: &Evaluated, case: &Evaluated) -> Vec<Option<(usize, f64)>> {
+    let mut taken = vec![false; case.shapes.len()];
+    base.shapes
+        .iter()
+        .map(|a| {
+            let best = (0..case.shapes.len())
+                .filter(|&k| !taken[k])
+                .map(|k| (k, mac(mass, a, &case.shapes[k])))
+                .max_by(|x, y| x.1.total_cmp(&y.1));
+            if let Some((k, _)) = best {
+                taken[k] = true;
+            }
+            best
+        })
+        .collect()
+}
+
+/// Whether a mode oscillates (a complex pair): real eigenvalues have no frequency to
+/// place against a forcing line.
+fn oscillatory(m: &Mode) -> bool {
+    m.omega_d_rad_s > 0.0
+}
+
+/// The sensitivity study: for every oscillatory mode of `sys` (already trimmed), the cases
+/// of every `vary`, the analytic derivatives with their finite-difference checks, and the
+/// tolerance box. `names` gives the modes' names in `ma.modes` order (default `mode 1`,
+/// `mode 2`, … by frequency). Cases and corners run in parallel.
+pub fn sensitivity(
+    sys: &System,
+    varies: &[Vary],
+    names: Option<&[String]>,
+    normalize: Option<&str>,
+) -> Result<Sensitivity> {
+    use rayon::prelude::*;
+    let ma = modal_analysis(sys, normalize)?;
+    let base = evaluate(&ma);
+    let mass = ma.linearization.full_mass.clone();
+    let keep: Vec<usize> = (0..ma.modes.len())
+        .filter(|&i| oscillatory(&ma.modes[i]))
+        .collect();
+    let name_of = |i: usize| -> String {
+        match names {
+            Some(n) if i < n.len() => n[i].clone(),
+            _ => format!("mode {}", keep.iter().position(|&k| k == i).unwrap_or(i) + 1),
+        }
+    };
+    let run = |label: &str, param: &str, values: &[(usize, f64)]| -> Result<(Evaluated, Vec<Option<(usize, f64)>>)> {
+        let (_, m) = modes_at(sys, values, normalize, Some(&ma))
+            .map_err(|e| e.context(&format!("{param}: the case {label}")))?;
+        let ev = evaluate(&m);
+        let matched = match_modes(&mass, &base, &ev);
+        Ok((ev, matched))
+    };
+
+    // the cases
+    let jobs: Vec<(usize, usize)> = varies
+        .iter()
+        .enumerate()
+        .flat_map(|(v, vary)| (0..vary.cases.len()).map(move |c| (v, c)))
+        .collect();
+    let cases: Vec<(Evaluated, Vec<Option<(usize, f64)>>)> = jobs
+        .par_iter()
+        .map(|&(v, c)| {
+            let vary = &varies[v];
+            let (label, value) = &vary.cases[c];
+            run(label, &vary.name, &[(vary.param, *value)])
+        })
+        .collect::<Result<_>>()?;
+
+    // derivatives and their finite differences (4-point central, h = 1e-4 |p|)
+    let derivs: Vec<Vec<ModeDerivative>> = varies
+        .iter()
+        .map(|v| mode_derivatives(sys, &ma, v.param, true))
+        .collect::<Result<_>>()?;
+    let steps: Vec<f64> = varies
+        .iter()
+        .map(|v| {
+            let p = sys.param(v.param).abs();
+            if p > 0.0 {
+                1e-4 * p
+            } else {
+                1e-4 * (v.range.1 - v.range.0).abs().max(1e-6)
+            }
+        })
+        .collect();
+    let fd_jobs: Vec<(usize, f64)> = (0..varies.len())
+        .flat_map(|v| [-2.0, -1.0, 1.0, 2.0].map(|k| (v, k)))
+        .collect();
+    let fd_runs: Vec<(Evaluated, Vec<Option<(usize, f64)>>)> = fd_jobs
+        .par_iter()
+        .map(|&(v, k)| {
+            let vary = &varies[v];
+            let value = sys.param(vary.param) + k * steps[v];
+            run(&format!("{}{:+e}", vary.name, k * steps[v]), &vary.name, &[(vary.param, value)])
+        })
+        .collect::<Result<_>>()?;
+
+    // the tolerance box's corners
+    let k = varies.len();
+    let corners: Vec<Vec<bool>> = if k <= 4 {
+        (0..1usize << k)
+            .map(|bits| (0..k).map(|j| bits >> j & 1 == 1).collect())
+            .collect()
+    } else {
+        let mut c = Vec::new();
+        for &i in &keep {
+            let up: Vec<bool> = (0..k).map(|v| derivs[v][i].domega_n >= 0.0).collect();
+            c.push(up.iter().map(|b| !b).collect());
+            c.push(up);
+        }
+        c.sort();
+        c.dedup();
+        c
+    };
+    let corner_runs: Vec<(Evaluated, Vec<Option<(usize, f64)>>)> = if k == 0 {
+        Vec::new()
+    } else {
+        corners
+            .par_iter()
+            .map(|hi| {
+                let values: Vec<(usize, f64)> = varies
+                    .iter()
+                    .zip(hi)
+                    .map(|(v, &h)| (v.param, if h { v.range.1 } else { v.range.0 }))
+                    .collect();
+                let label = varies
+                    .iter()
+                    .zip(hi)
+                    .map(|(v, &h)| format!("{}={}", v.name, if h { v.range.1 } else { v.range.0 }))
+                    .collect::<Vec<_>>()
+                    .join(", ");
+                run(&label, "the tolerance box's corner", &values)
+            })
+            .collect::<Result<_>>()?
+    };
+
+    let pct = |x: f64, x0: f64| (x - x0) / x0 * 100.0;
+    let mut modes = Vec::new();
+    for &i in &keep {
+        let (w0, z0, u0) = base.modes[i];
+        let mut case_rows = Vec::new();
+        for (&(v, c), (ev, matched)) in jobs.iter().zip(&cases) {
+            let vary = &varies[v];
+            let Some((j, macv)) = matched[i] else { continue };
+            let (w, z, u) = ev.modes[j];
+            case_rows.push(CaseResult {
+                param: vary.name.clone(),
+                label: vary.cases[c].0.clone(),
+                value: vary.cases[c].1,
+                omega_n_rad_s: w,
+                damping_ratio: z,
+                undamped_omega_rad_s: u,
+                peak_omega_rad_s: None,
+                change_pct_omega_n: pct(w, w0),
+                change_pct_undamped: u.zip(u0).map(|(u, u0)| pct(u, u0)),
+                mac: macv,
+            });
+        }
+        let mut derivatives = Vec::new();
+        for (v, vary) in varies.iter().enumerate() {
+            let d = derivs[v][i];
+            let h = steps[v];
+            let at = |s: usize| -> (f64, f64, Option<f64>) {
+                let (ev, matched) = &fd_runs[v * 4 + s];
+                match matched[i] {
+                    Some((j, _)) => ev.modes[j],
+                    None => (f64::NAN, f64::NAN, None),
+                }
+            };
+            let (m2, m1, p1, p2) = (at(0), at(1), at(2), at(3));
+            let stencil = |a: f64, b: f64, c: f64, e: f64| (a - 8.0 * b + 8.0 * c - e) / (12.0 * h);
+            let p = sys.param(vary.param);
+            let fd_u = match (m2.2, m1.2, p1.2, p2.2) {
+                (Some(a), Some(b), Some(c), Some(e)) => Some(stencil(a, b, c, e)),
+                _ => None,
+            };
+            derivatives.push(Derivative {
+                param: vary.name.clone(),
+                domega_n_dp: d.domega_n,
+                dzeta_dp: d.dzeta,
+                elasticity: p / w0 * d.domega_n,
+                fd: stencil(m2.0, m1.0, p1.0, p2.0),
+                fd_dzeta_dp: stencil(m2.1, m1.1, p1.1, p2.1),
+                dundamped_dp: d.dundamped,
+                undamped_elasticity: d.dundamped.zip(u0).map(|(du, u)| p / u * du),
+                fd_dundamped_dp: fd_u,
+                fd_step: h,
+            });
+        }
+        let (mut lo1, mut hi1) = (w0, w0);
+        for (v, vary) in varies.iter().enumerate() {
+            let p = sys.param(vary.param);
+            let a = derivs[v][i].domega_n * (vary.range.0 - p);
+            let b = derivs[v][i].domega_n * (vary.range.1 - p);
+            lo1 += a.min(b).min(0.0);
+            hi1 += a.max(b).max(0.0);
+        }
+        let mut found: Vec<f64> = vec![w0];
+        found.extend(case_rows.iter().map(|c| c.omega_n_rad_s));
+        for (ev, matched) in &corner_runs {
+            if let Some((j, _)) = matched[i] {
+                found.push(ev.modes[j].0);
+            }
+        }
+        modes.push(ModeSensitivity {
+            name: name_of(i),
+            omega_n_rad_s: w0,
+            damping_ratio: z0,
+            undamped_omega_rad_s: u0,
+            cases: case_rows,
+            derivatives,
+            worst_case: WorstCase {
+                min_rad_s: found.iter().copied().fold(f64::INFINITY, f64::min),
+                max_rad_s: found.iter().copied().fold(f64::NEG_INFINITY, f64::max),
+                first_order_min_rad_s: lo1,
+                first_order_max_rad_s: hi1,
+                corners_evaluated: corner_runs.len(),
+            },
+        });
+    }
+    Ok(Sensitivity { modes })
 }

@@ -7,6 +7,7 @@ pub mod figures;
 pub mod json;
 pub mod plot;
 pub mod results;
+pub mod sensitivity;
 
 use crate::diag::{Error, Result};
 use crate::model::Model;
