@@ -65,6 +65,7 @@ fn flag(argument: Argument) -> Option<&'static str> {
         Drive => "--drive",
         Ratio => "--ratio",
         DriveStep => "--step",
+        Margin => "--margin",
         Frequencies | ContinuationRange | FixedPeriods | DriveRange => return None,
     })
 }
