@@ -760,7 +760,28 @@ impl Reader {
         let bands = Self::get(root, "bands")
             .map(|v| self.bands(v))
             .unwrap_or_default();
-        let mut env = Environment {
+        // the profile is read even when the rest failed, so that all problems are reported
+        // at once; its tones may name the lines, known only when the rotors are
+        let profile = Self::get(root, "profile").map(|v| {
+            let known = main_rotor.as_ref().map(|m| {
+                let partial = Environment {
+                    name: String::new(),
+                    id: String::new(),
+                    source: String::new(),
+                    notes: None,
+                    file: String::new(),
+                    shipped: false,
+                    main_rotor: m.clone(),
+                    tail_rotor: tail_rotor.clone(),
+                    lines: lines.clone(),
+                    bands: bands.clone(),
+                    profile: None,
+                };
+                partial.forcing_lines()
+            });
+            self.profile(v, known.as_deref())
+        });
+        Some(Environment {
             name: name?,
             id: id?,
             source: source?,
@@ -771,13 +792,11 @@ impl Reader {
             tail_rotor,
             lines,
             bands,
-            profile: None,
-        };
-        if let Some(v) = Self::get(root, "profile") {
-            let lines = env.forcing_lines();
-            env.profile = self.profile(v, &lines);
-        }
-        Some(env)
+            profile: match profile {
+                None => None,
+                Some(p) => Some(p?),
+            },
+        })
     }
 
     fn rotor(&mut self, v: &Value<'_>, what: &str) -> Option<Rotor> {
@@ -936,7 +955,9 @@ impl Reader {
             .collect()
     }
 
-    fn profile(&mut self, v: &Value<'_>, lines: &[ForcingLine]) -> Option<Profile> {
+    /// `[profile]`; `lines`: the environment's forcing lines, for tones that name one
+    /// (`None` when the rotors could not be read: such a tone is then not reported).
+    fn profile(&mut self, v: &Value<'_>, lines: Option<&[ForcingLine]>) -> Option<Profile> {
         let what = "[profile]";
         let t = self.table(v, what, "[profile] with unit, tones and random")?;
         let at = v.span();
@@ -982,13 +1003,25 @@ impl Reader {
                             self.missing(at.clone(), "frequency", what, "frequency = \"4P\" (a line's label) or \"17.2 Hz\"");
                             None
                         }
-                        Some(f) => match f.get_ref().as_str().and_then(|s| {
-                            lines.iter().find(|l| l.label.eq_ignore_ascii_case(s.trim()))
+                        Some(f) => match f.get_ref().as_str().map(|s| {
+                            lines.map(|ls| ls.iter().find(|l| l.label.eq_ignore_ascii_case(s.trim())))
                         }) {
-                            Some(l) => Some((l.label.clone(), l.omega_rad_s)),
-                            None => self
-                                .frequency(f, "`frequency` of a tone (a forcing line's label, or a quantity)")
-                                .map(|w| (f.get_ref().as_str().unwrap_or_default().to_string(), w)),
+                            Some(Some(Some(l))) => Some((l.label.clone(), l.omega_rad_s)),
+                            // the lines are unknown and this is no quantity: already an error
+                            Some(None) if f.get_ref().as_str().is_some_and(|s| parse_frequency(s).is_err()) => None,
+                            _ => {
+                                let w = self.frequency(f, "`frequency` of a tone (a forcing line's label, or a quantity)");
+                                if w.is_none()
+                                    && let (Some(ls), Some(d)) = (lines, self.diags.last_mut())
+                                {
+                                    let labels: Vec<&str> = ls.iter().map(|l| l.label.as_str()).collect();
+                                    d.help = Some(format!(
+                                        "give one of this environment's lines ({}) or a frequency with its unit, e.g. \"17.2 Hz\"",
+                                        labels.join(", ")
+                                    ));
+                                }
+                                w.map(|w| (f.get_ref().as_str().unwrap_or_default().to_string(), w))
+                            }
                         },
                     };
                     let level = match Self::get(tt, "level") {

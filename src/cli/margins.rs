@@ -302,11 +302,10 @@ fn summary(check: &MarginCheck, env: &Environment) -> Vec<String> {
     out
 }
 
-/// A percentage, with as many decimals as it needs (1.8 %, 10 %, 0.25 %).
+/// A percentage: whole as given (10 %), else to 0.1 (1.8 %), or 0.01 below 0.1 %.
 fn pct(x: f64) -> String {
-    let r = (x * 10.0).round() / 10.0;
-    if r == r.trunc() {
-        format!("{r:.0} %")
+    if x == x.trunc() {
+        format!("{x:.0} %")
     } else if x.abs() >= 0.1 {
         format!("{x:.1} %")
     } else {
