@@ -244,7 +244,12 @@ impl Environment {
             }
         };
         let n = self.main_rotor.blades;
-        rotor(&self.main_rotor, RotorKind::Main, 'P', &[1, n, 2 * n, 3 * n]);
+        rotor(
+            &self.main_rotor,
+            RotorKind::Main,
+            'P',
+            &[1, n, 2 * n, 3 * n],
+        );
         if let Some(t) = &self.tail_rotor {
             rotor(t, RotorKind::Tail, 'T', &[1, t.blades]);
         }
@@ -286,9 +291,8 @@ impl Environment {
         let root = match DeTable::parse(text) {
             Ok(t) => t,
             Err(e) => {
-                let mut d = Diagnostic::new(e.message().trim().to_string()).help(
-                    "an environment file is TOML: see docs/environments.md for its fields",
-                );
+                let mut d = Diagnostic::new(e.message().trim().to_string())
+                    .help("an environment file is TOML: see docs/environments.md for its fields");
                 if let Some(span) = e.span() {
                     d = d.at(span).label("here");
                 }
@@ -354,7 +358,8 @@ pub fn shipped_environments() -> Result<Vec<Environment>> {
 /// spaces ignored: `uh60` is `UH-60`). An unknown name lists the shipped ones.
 pub fn resolve(name_or_path: &str) -> Result<Environment> {
     let given = name_or_path.trim();
-    if std::path::Path::new(given).is_file() || given.to_lowercase().ends_with(".toml") {
+    let path = std::path::Path::new(given);
+    if path.is_file() || (path.exists() && given.to_lowercase().ends_with(".toml")) {
         return Environment::load(given);
     }
     let key = |s: &str| -> String {
@@ -373,10 +378,21 @@ pub fn resolve(name_or_path: &str) -> Result<Environment> {
     }
     let list: Vec<String> = all
         .iter()
-        .map(|e| format!("{} ({})", e.id, e.name))
+        .map(|e| {
+            if e.name == e.id {
+                e.id.clone()
+            } else {
+                format!("{} [{}]", e.id, e.name)
+            }
+        })
         .collect();
+    let message = if given.to_lowercase().ends_with(".toml") {
+        format!("{given}: no such environment file")
+    } else {
+        format!("no environment `{given}`: it is neither a file nor a shipped environment")
+    };
     Err(Error::request(
-        format!("no environment `{given}`: it is neither a file nor a shipped environment"),
+        message,
         format!(
             "give a shipped one: {}; or the path of your own environment file (docs/environments.md)",
             list.join(", ")
@@ -539,12 +555,8 @@ impl Reader {
         } else {
             span
         };
-        self.diags.push(
-            Diagnostic::new(message)
-                .at(span)
-                .label("here")
-                .help(help),
-        );
+        self.diags
+            .push(Diagnostic::new(message).at(span).label("here").help(help));
     }
 
     /// Unknown keys of `table` (with a "did you mean").
@@ -641,7 +653,10 @@ impl Reader {
             None => {
                 self.err(
                     v.span(),
-                    format!("{what} must be a number, it is a {}", v.get_ref().type_str()),
+                    format!(
+                        "{what} must be a number, it is a {}",
+                        v.get_ref().type_str()
+                    ),
                     format!("e.g. {example}"),
                 );
                 None
@@ -717,7 +732,10 @@ impl Reader {
         let DeValue::Array(items) = v.get_ref() else {
             self.err(
                 v.span(),
-                format!("{what} must be a list of tables, it is a {}", v.get_ref().type_str()),
+                format!(
+                    "{what} must be a list of tables, it is a {}",
+                    v.get_ref().type_str()
+                ),
                 format!("write it as {example}"),
             );
             return Vec::new();
@@ -731,7 +749,13 @@ impl Reader {
     fn environment(&mut self, path: &str, root: &DeTable<'_>) -> Option<Environment> {
         let at = 0..0;
         self.check_keys(root, ROOT_KEYS, "an environment file");
-        let name = self.string(root, &at, "name", "the environment", Some("name = \"UH-60\""));
+        let name = self.string(
+            root,
+            &at,
+            "name",
+            "the environment",
+            Some("name = \"UH-60\""),
+        );
         let id = self.string(root, &at, "id", "the environment", Some("id = \"UH-60\""));
         let source = self.string(
             root,
@@ -804,20 +828,27 @@ impl Reader {
         let at = v.span();
         self.check_keys(t, ROTOR_KEYS, what);
         let rpm = match Self::get(t, "rpm") {
-            Some(r) => self.number(r, &format!("`rpm` of {what}"), "rpm = 258").and_then(|x| {
-                if x > 0.0 {
-                    Some(x)
-                } else {
-                    self.err(
-                        r.span(),
-                        format!("`rpm` of {what} is {x}: a rotor speed must be positive"),
-                        "give the nominal speed in revolutions per minute, e.g. rpm = 258",
-                    );
-                    None
-                }
-            }),
+            Some(r) => self
+                .number(r, &format!("`rpm` of {what}"), "rpm = 258")
+                .and_then(|x| {
+                    if x > 0.0 {
+                        Some(x)
+                    } else {
+                        self.err(
+                            r.span(),
+                            format!("`rpm` of {what} is {x}: a rotor speed must be positive"),
+                            "give the nominal speed in revolutions per minute, e.g. rpm = 258",
+                        );
+                        None
+                    }
+                }),
             None => {
-                self.missing(at.clone(), "rpm", what, "rpm = 258 (revolutions per minute)");
+                self.missing(
+                    at.clone(),
+                    "rpm",
+                    what,
+                    "rpm = 258 (revolutions per minute)",
+                );
                 None
             }
         };
@@ -854,10 +885,19 @@ impl Reader {
     }
 
     /// `rpm_range = [lo, hi]`, 0 < lo ≤ rpm ≤ hi. `Some(None)`: nothing to read.
-    fn rpm_range(&mut self, v: &Value<'_>, what: &str, rpm: Option<f64>) -> Option<Option<[f64; 2]>> {
+    fn rpm_range(
+        &mut self,
+        v: &Value<'_>,
+        what: &str,
+        rpm: Option<f64>,
+    ) -> Option<Option<[f64; 2]>> {
         let help = "give the operating range a source states, rpm = [lo, hi], e.g. rpm_range = [250, 265]; leave it out when no source gives one";
         let DeValue::Array(items) = v.get_ref() else {
-            self.err(v.span(), format!("`rpm_range` of {what} must be a list [lo, hi]"), help);
+            self.err(
+                v.span(),
+                format!("`rpm_range` of {what} must be a list [lo, hi]"),
+                help,
+            );
             return None;
         };
         if items.len() != 2 {
@@ -868,12 +908,22 @@ impl Reader {
             );
             return None;
         }
-        let lo = self.number(&items[0], &format!("the low end of `rpm_range` of {what}"), "250")?;
-        let hi = self.number(&items[1], &format!("the high end of `rpm_range` of {what}"), "265")?;
+        let lo = self.number(
+            &items[0],
+            &format!("the low end of `rpm_range` of {what}"),
+            "250",
+        )?;
+        let hi = self.number(
+            &items[1],
+            &format!("the high end of `rpm_range` of {what}"),
+            "265",
+        )?;
         if !(lo > 0.0 && lo <= hi) {
             self.err(
                 v.span(),
-                format!("`rpm_range` of {what} is [{lo}, {hi}] rpm: it must be positive and low to high"),
+                format!(
+                    "`rpm_range` of {what} is [{lo}, {hi}] rpm: it must be positive and low to high"
+                ),
                 help,
             );
             return None;
@@ -897,12 +947,23 @@ impl Reader {
             .into_iter()
             .filter_map(|(t, at)| {
                 self.check_keys(t, LINE_KEYS, "a [[lines]] entry");
-                let name = self.string(t, &at, "name", "a [[lines]] entry", Some("name = \"engine\""));
+                let name = self.string(
+                    t,
+                    &at,
+                    "name",
+                    "a [[lines]] entry",
+                    Some("name = \"engine\""),
+                );
                 let source = self.string(t, &at, "source", "a [[lines]] entry", None);
                 let w = match Self::get(t, "frequency") {
                     Some(f) => self.frequency(f, "`frequency` of a [[lines]] entry"),
                     None => {
-                        self.missing(at, "frequency", "a [[lines]] entry", "frequency = \"100 Hz\"");
+                        self.missing(
+                            at,
+                            "frequency",
+                            "a [[lines]] entry",
+                            "frequency = \"100 Hz\"",
+                        );
                         None
                     }
                 };
@@ -963,7 +1024,13 @@ impl Reader {
         let at = v.span();
         self.check_keys(t, PROFILE_KEYS, what);
         let source = self.string(t, &at, "source", what, None);
-        let unit_text = self.string(t, &at, "unit", what, Some("unit = \"g0\" (the tone levels' unit; the PSD is in unit²/Hz)"));
+        let unit_text = self.string(
+            t,
+            &at,
+            "unit",
+            what,
+            Some("unit = \"g0\" (the tone levels' unit; the PSD is in unit²/Hz)"),
+        );
         let unit = unit_text.as_ref().and_then(|u| {
             let span = Self::get(t, "unit").map(|v| v.span()).unwrap_or(at.clone());
             match units::parse_unit(u) {
@@ -1141,7 +1208,10 @@ pub fn parse_frequency(text: &str) -> std::result::Result<f64, (String, Option<S
         None => {}
     }
     expr::eval_const(&e, &mut |n, span| {
-        Err(expr::ExprError::new(span.clone(), format!("unknown name `{n}`")))
+        Err(expr::ExprError::new(
+            span.clone(),
+            format!("unknown name `{n}`"),
+        ))
     })
     .map_err(|e| (e.message.clone(), e.help.clone()))
 }

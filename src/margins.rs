@@ -242,7 +242,8 @@ pub fn check_margins(
     let mut rows = Vec::with_capacity(modes.len() * lines.len());
     for m in modes {
         for l in lines {
-            let (sep, side) = separation(m.min_rad_s, m.max_rad_s, l.band_lo_rad_s, l.band_hi_rad_s);
+            let (sep, side) =
+                separation(m.min_rad_s, m.max_rad_s, l.band_lo_rad_s, l.band_hi_rad_s);
             let req = required(margin, m.damping_ratio, rule);
             rows.push(MarginRow {
                 mode: m.name.clone(),

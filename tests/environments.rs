@@ -34,7 +34,10 @@ fn every_shipped_environment_loads_with_its_rotor_lines() {
         let e = all.iter().find(|e| e.id == *id).unwrap();
         assert_eq!(e.name, *name);
         assert!(e.shipped && !e.source.is_empty());
-        assert_eq!(e.main_rotor.rpm_range, None, "{id}: no source gives a range");
+        assert_eq!(
+            e.main_rotor.rpm_range, None,
+            "{id}: no source gives a range"
+        );
         let lines = e.forcing_lines();
         let mut expected: Vec<(String, f64)> = [1, *n, 2 * n, 3 * n]
             .iter()
@@ -48,7 +51,10 @@ fn every_shipped_environment_loads_with_its_rotor_lines() {
         for (l, (label, w)) in lines.iter().zip(&expected) {
             assert_eq!(&l.label, label, "{id}");
             assert!((l.omega_rad_s - w).abs() < 1e-12 * w, "{id} {label}");
-            assert_eq!((l.band_lo_rad_s, l.band_hi_rad_s), (l.omega_rad_s, l.omega_rad_s));
+            assert_eq!(
+                (l.band_lo_rad_s, l.band_hi_rad_s),
+                (l.omega_rad_s, l.omega_rad_s)
+            );
             let kind = if label.ends_with('T') {
                 RotorKind::Tail
             } else {
@@ -170,7 +176,10 @@ fn coinciding_lines_keep_both_labels() {
 
 /// `mine.toml:LINE:COL` of the first `needle` in `text` (plus `offset` bytes).
 fn location(text: &str, needle: &str, offset: usize) -> String {
-    let at = text.find(needle).unwrap_or_else(|| panic!("`{needle}` in text")) + offset;
+    let at = text
+        .find(needle)
+        .unwrap_or_else(|| panic!("`{needle}` in text"))
+        + offset;
     let line = text[..at].matches('\n').count() + 1;
     let col = at - text[..at].rfind('\n').map_or(0, |i| i + 1) + 1;
     format!("mine.toml:{line}:{col}")
@@ -193,8 +202,18 @@ fn bad(from: &str, to: &str, message: &str, needle: &str) -> String {
 
 #[test]
 fn missing_fields_are_located() {
-    bad("rpm = 300\n", "", "[main_rotor] has no `rpm`", "[main_rotor]");
-    bad("blades = 2\n", "", "[tail_rotor] has no `blades`", "[tail_rotor]");
+    bad(
+        "rpm = 300\n",
+        "",
+        "[main_rotor] has no `rpm`",
+        "[main_rotor]",
+    );
+    bad(
+        "blades = 2\n",
+        "",
+        "[tail_rotor] has no `blades`",
+        "[tail_rotor]",
+    );
     bad("id = \"TR-1\"\n", "", "has no `id`", "name");
     bad(
         "frequency = \"100 Hz\"\n",
@@ -208,7 +227,12 @@ fn missing_fields_are_located() {
         "a [[bands]] entry has no `to`",
         "[[bands]]",
     );
-    bad("unit = \"g0\"\n", "", "[profile] has no `unit`", "[profile]");
+    bad(
+        "unit = \"g0\"\n",
+        "",
+        "[profile] has no `unit`",
+        "[profile]",
+    );
     bad(
         "[main_rotor]\nrpm = 300\nblades = 3\nrpm_range = [285, 315]\n",
         "",
@@ -226,9 +250,19 @@ fn bad_rotor_figures_are_located() {
         "-300",
     );
     bad("rpm = 1500", "rpm = 0", "must be positive", "0\nblades = 2");
-    bad("blades = 3", "blades = 0", "`blades` of [main_rotor] is 0", "0\nrpm_range");
+    bad(
+        "blades = 3",
+        "blades = 0",
+        "`blades` of [main_rotor] is 0",
+        "0\nrpm_range",
+    );
     bad("blades = 2", "blades = 2.5", "a whole number", "2.5");
-    bad("blades = 3", "blades = \"3\"", "must be a number, it is a string", "\"3\"");
+    bad(
+        "blades = 3",
+        "blades = \"3\"",
+        "must be a number, it is a string",
+        "\"3\"",
+    );
     bad(
         "rpm_range = [285, 315]",
         "rpm_range = [315, 285]",
@@ -252,7 +286,12 @@ fn unknown_fields_get_a_did_you_mean() {
         "blads",
     );
     assert!(e.contains("did you mean `blades`?"), "{e}");
-    let e = bad("source = \"made", "sorce = \"made", "unknown field `sorce`", "sorce");
+    let e = bad(
+        "source = \"made",
+        "sorce = \"made",
+        "unknown field `sorce`",
+        "sorce",
+    );
     assert!(e.contains("did you mean `source`?"), "{e}");
     let e = bad("psd = 0.01 }", "psf = 0.01 }", "unknown field `psf`", "psf");
     assert!(e.contains("did you mean `psd`?"), "{e}");
@@ -279,7 +318,12 @@ fn bands_and_quantities_are_checked() {
         "100\n",
     );
     assert!(e.contains("Hz and rad/s differ"), "{e}");
-    bad("to = \"45 Hz\"", "to = \"45 Hzz\"", "unknown unit", "\"45 Hzz\"");
+    bad(
+        "to = \"45 Hz\"",
+        "to = \"45 Hzz\"",
+        "unknown unit",
+        "\"45 Hzz\"",
+    );
     bad(
         "frequency = \"17 Hz\"",
         "frequency = \"17 N\"",
@@ -315,7 +359,12 @@ fn bad_profiles_are_located() {
         "\"g\"",
     );
     assert!(e.contains("g0"), "{e}");
-    bad("level = 0.5", "level = -0.5", "an amplitude is not negative", "-0.5");
+    bad(
+        "level = 0.5",
+        "level = -0.5",
+        "an amplitude is not negative",
+        "-0.5",
+    );
     let e = bad("\"3P\"", "\"5P\"", "`frequency` of a tone", "\"5P\"");
     assert!(e.contains("1P, 3P, 6P, 9P, 1T, 2T, engine, gearbox"), "{e}");
 }
@@ -385,7 +434,10 @@ fn tone_amplitudes_are_gain_times_level_and_acceleration_is_divided_by_omega_squ
     let x = 0.5 * 9.80665 / 900.0;
     assert!((t[0].forcing_si - x).abs() < 1e-15);
     assert!((t[0].amplitude - x).abs() < 1e-15);
-    assert!(random_rms(&p, |_| 1.0, &[]) == 0.0, "no floor: no random RMS");
+    assert!(
+        random_rms(&p, |_| 1.0, &[]) == 0.0,
+        "no floor: no random RMS"
+    );
 }
 
 #[test]
@@ -448,7 +500,10 @@ fn random_rms_of_a_single_degree_of_freedom_oscillator_is_miles() {
         assert!((rms - miles).abs() < 1e-4 * miles);
         // without the hint at the peak the panels still find it
         let rms = random_rms(&p, gain, &[]);
-        assert!((rms - exact).abs() < 1e-6 * exact, "no hint: {rms} vs {exact}");
+        assert!(
+            (rms - exact).abs() < 1e-6 * exact,
+            "no hint: {rms} vs {exact}"
+        );
     }
 }
 

@@ -22,7 +22,12 @@ pub struct MarginsArgs {
     pub environment: String,
     /// Required separation of every mode from every line, |ω_mode − ω_line| / ω_line:
     /// "10%" or 0.1. Your choice, not a standard.
-    #[arg(long, default_value = "10%", value_name = "PCT")]
+    #[arg(
+        long,
+        default_value = "10%",
+        value_name = "PCT",
+        allow_hyphen_values = true
+    )]
     pub margin: String,
     /// Scale the required margin by each mode's amplification factor ≈ 1/(2ζ) (a
     /// heuristic, API 684-style, not a standard: see docs/environments.md).
@@ -71,10 +76,7 @@ pub fn run(a: MarginsArgs) -> Result<Outcome> {
             println!("\nno oscillatory modes: nothing can resonate with a forcing line");
         }
         for s in &skipped {
-            println!(
-                "note: λ = {:.6} 1/s left out: {}",
-                s.eigenvalue, s.reason
-            );
+            println!("note: λ = {:.6} 1/s left out: {}", s.eigenvalue, s.reason);
         }
         print_table(&check);
         println!();
@@ -105,7 +107,8 @@ fn intervals(vary: &[String], points: Vec<ModeInterval>) -> Result<Vec<ModeInter
 /// `--margin`: "10%", "10 %" or a fraction 0.1; above 0 and below 100 %.
 pub fn parse_margin(text: &str) -> Result<f64> {
     let t = text.trim();
-    let bad = |message: String, help: &str| Error::request(format!("--margin {text}: {message}"), help);
+    let bad =
+        |message: String, help: &str| Error::request(format!("--margin {text}: {message}"), help);
     let (number, percent) = match t.strip_suffix('%') {
         Some(n) => (n.trim(), true),
         None => (t, false),
@@ -129,17 +132,18 @@ pub fn parse_margin(text: &str) -> Result<f64> {
         } else {
             format!("a number without % is a fraction: did you mean --margin {x}%?")
         };
-        return Err(bad(
-            format!("{:.4} % is 100 % or more", 100.0 * m),
-            &help,
-        ));
+        return Err(bad(format!("{:.4} % is 100 % or more", 100.0 * m), &help));
     }
     Ok(m)
 }
 
 /// ω in rad/s with Hz and rpm.
 fn freq(w: f64) -> String {
-    format!("{w:.4} rad/s = {:.4} Hz = {:.1} rpm", w / TAU, w * 60.0 / TAU)
+    format!(
+        "{w:.4} rad/s = {:.4} Hz = {:.1} rpm",
+        w / TAU,
+        w * 60.0 / TAU
+    )
 }
 
 fn print_environment(env: &Environment, lines: &[ForcingLine]) {
@@ -147,7 +151,11 @@ fn print_environment(env: &Environment, lines: &[ForcingLine]) {
         "environment: {} ({}{})",
         env.name,
         env.file,
-        if env.shipped { ", shipped with detune" } else { "" }
+        if env.shipped {
+            ", shipped with detune"
+        } else {
+            ""
+        }
     );
     println!("  source: {}", env.source);
     if let Some(n) = &env.notes {
@@ -191,7 +199,11 @@ fn print_table(check: &MarginCheck) {
         "ω_n [rad/s]",
         "f [Hz]",
         "ζ",
-        if varied { format!("{:>25} ", "interval [rad/s]") } else { String::new() },
+        if varied {
+            format!("{:>25} ", "interval [rad/s]")
+        } else {
+            String::new()
+        },
         "line",
         "ω [rad/s]",
         "f [Hz]",
@@ -256,11 +268,7 @@ fn summary(check: &MarginCheck, env: &Environment) -> Vec<String> {
     for r in &failures {
         let needs = format!("needs {}", pct(r.required_pct));
         out.push(match r.side {
-            Side::Overlap => format!(
-                "{} overlaps {}: {needs}",
-                mode_words(r),
-                line_words(r, env)
-            ),
+            Side::Overlap => format!("{} overlaps {}: {needs}", mode_words(r), line_words(r, env)),
             side => format!(
                 "{} is {} {} {}: {needs}",
                 mode_words(r),
