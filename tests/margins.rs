@@ -369,7 +369,7 @@ fn an_interval_must_clear_at_its_worst_point() {
         max_rad_s: 28.5,
         damping_ratio: 0.05,
     };
-    let c = check_margins(&[m.clone()], &[line(30.0, 30.0)], 0.1, Requirement::Fixed).unwrap();
+    let c = check_margins(std::slice::from_ref(&m), &[line(30.0, 30.0)], 0.1, Requirement::Fixed).unwrap();
     assert!(!c.pass);
     assert!((c.rows[0].separation_pct - 5.0).abs() < 1e-12);
     let point = ModeInterval::point("mode 2", 27.0, 0.05);
