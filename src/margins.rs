@@ -226,6 +226,22 @@ pub fn required(margin: f64, damping_ratio: f64, rule: Requirement) -> f64 {
 }
 
 /// Check every mode against every line: `margin` is a fraction (0.1 = 10 %), in (0, 1).
+///
+/// ```
+/// use detune::margins::{Requirement, check_margins, mode_points};
+/// let path = concat!(env!("CARGO_MANIFEST_DIR"), "/models/inceptor.toml");
+/// let sys = detune::System::new(&detune::Model::load(path).unwrap()).unwrap();
+/// let (sys, _) = detune::statics::trim::trim(&sys).unwrap();
+/// let modal = detune::linear::modal_analysis(&sys, None).unwrap();
+/// let (modes, skipped) = mode_points(&modal);
+/// assert!(skipped.is_empty());
+/// let uh60 = detune::environment::resolve("UH-60").unwrap();
+/// let check = check_margins(&modes, &uh60.forcing_lines(), 0.10, Requirement::Fixed).unwrap();
+/// let worst = check.failures()[0];
+/// assert_eq!((worst.mode.as_str(), worst.line.as_str()), ("mode 2", "1P"));
+/// assert!((worst.separation_pct - 1.803).abs() < 1e-3); // 26.53 vs 27.02 rad/s
+/// assert!(!check.pass);
+/// ```
 pub fn check_margins(
     modes: &[ModeInterval],
     lines: &[ForcingLine],
