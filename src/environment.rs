@@ -304,7 +304,7 @@ impl Environment {
         };
         let mut r = Reader {
             diags: Vec::new(),
-            len: text.len(),
+            text,
         };
         let env = r.environment(path, root.get_ref());
         let mut diags = r.diags;
@@ -542,21 +542,29 @@ const TONE_KEYS: &[&str] = &["frequency", "level"];
 const RANDOM_KEYS: &[&str] = &["frequency", "psd"];
 
 /// Collects every problem of a file while reading it.
-struct Reader {
+struct Reader<'t> {
     diags: Vec<Diagnostic>,
-    len: usize,
+    text: &'t str,
 }
 
-impl Reader {
+impl Reader<'_> {
     fn err(&mut self, span: Range<usize>, message: impl Into<String>, help: impl Into<String>) {
-        // a table without a header (the file's root) has an empty span: point at the start
+        // a table without a header (the file's root) has an empty span: point at its first
+        // character (none in an empty file: then the message names the file only)
+        let d = Diagnostic::new(message).help(help);
         let span = if span.is_empty() {
-            span.start..(span.start + 1).min(self.len.max(1))
+            let end = self.text[span.start.min(self.text.len())..]
+                .chars()
+                .next()
+                .map(|c| span.start + c.len_utf8());
+            end.map(|e| span.start..e)
         } else {
-            span
+            Some(span)
         };
-        self.diags
-            .push(Diagnostic::new(message).at(span).label("here").help(help));
+        self.diags.push(match span {
+            Some(s) => d.at(s).label("here"),
+            None => d,
+        });
     }
 
     /// Unknown keys of `table` (with a "did you mean").
@@ -620,8 +628,8 @@ impl Reader {
                     self.err(
                         v.span(),
                         format!(
-                            "`{key}` of {what} must be a string, it is a {}",
-                            v.get_ref().type_str()
+                            "`{key}` of {what} must be a string, it is {}",
+                            a_type(v.get_ref())
                         ),
                         format!("quote it, e.g. {}", example.unwrap_or("key = \"...\"")),
                     );
@@ -653,10 +661,7 @@ impl Reader {
             None => {
                 self.err(
                     v.span(),
-                    format!(
-                        "{what} must be a number, it is a {}",
-                        v.get_ref().type_str()
-                    ),
+                    format!("{what} must be a number, it is {}", a_type(v.get_ref())),
                     format!("e.g. {example}"),
                 );
                 None
@@ -714,7 +719,7 @@ impl Reader {
             other => {
                 self.err(
                     v.span(),
-                    format!("{what} must be a table, it is a {}", other.type_str()),
+                    format!("{what} must be a table, it is {}", a_type(other)),
                     format!("write it as {example}"),
                 );
                 None
@@ -733,8 +738,8 @@ impl Reader {
             self.err(
                 v.span(),
                 format!(
-                    "{what} must be a list of tables, it is a {}",
-                    v.get_ref().type_str()
+                    "{what} must be a list of tables, it is {}",
+                    a_type(v.get_ref())
                 ),
                 format!("write it as {example}"),
             );
@@ -1178,6 +1183,17 @@ impl Reader {
             random: random.into_iter().map(|(p, _)| p).collect(),
         })
     }
+}
+
+/// A TOML value's type with its article: "an integer", "a string".
+fn a_type(v: &DeValue<'_>) -> String {
+    let t = v.type_str();
+    let article = if t.starts_with(['a', 'e', 'i', 'o', 'u']) {
+        "an"
+    } else {
+        "a"
+    };
+    format!("{article} {t}")
 }
 
 /// A frequency quantity ("12 Hz", "27 rad/s", "258 rpm", "2*27 rad/s"), rad/s; an error

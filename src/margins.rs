@@ -89,7 +89,7 @@ pub fn mode_points(modal: &ModalAnalysis) -> (Vec<ModeInterval>, Vec<SkippedMode
                     "real eigenvalue, divergent: the equilibrium is unstable, it does not oscillate"
                         .into()
                 } else {
-                    "real eigenvalue: a non-oscillatory (overdamped) decay, no resonance".into()
+                    "real eigenvalue: non-oscillatory (an overdamped decay, or a neutral direction at λ = 0), no resonance".into()
                 },
             });
         } else {

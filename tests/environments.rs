@@ -388,6 +388,43 @@ fn every_problem_of_a_file_is_reported_at_once() {
 }
 
 #[test]
+fn an_empty_file_names_what_is_missing_without_panicking() {
+    // regression: the root table has an empty span, which an empty file cannot mark
+    let err = Environment::from_str("mine.toml", "")
+        .unwrap_err()
+        .render(false);
+    assert!(err.contains("--> mine.toml"), "{err}");
+    assert!(err.contains("the environment has no `main_rotor`"), "{err}");
+    assert!(err.contains("4 problems in mine.toml"), "{err}");
+    // the first character is marked whole, even when it is not ASCII
+    let err = Environment::from_str("mine.toml", "# é\n")
+        .unwrap_err()
+        .render(false);
+    assert!(
+        err.contains("mine.toml:1:1: the environment has no `name`"),
+        "{err}"
+    );
+    let err = Environment::from_str("mine.toml", "é = 1")
+        .unwrap_err()
+        .render(false);
+    assert!(err.contains("mine.toml:1:1"), "{err}");
+    let err = Environment::from_str(
+        "mine.toml",
+        &GOOD.replacen(
+            "[main_rotor]\nrpm = 300\nblades = 3\nrpm_range = [285, 315]\n",
+            "main_rotor = 5\n",
+            1,
+        ),
+    )
+    .unwrap_err()
+    .render(false);
+    assert!(
+        err.contains("[main_rotor] must be a table, it is an integer"),
+        "{err}"
+    );
+}
+
+#[test]
 fn toml_syntax_errors_are_located() {
     let text = GOOD.replacen("[tail_rotor]", "[tail_rotor", 1);
     let err = Environment::from_str("mine.toml", &text)
