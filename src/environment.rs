@@ -217,6 +217,8 @@ pub struct Environment {
     pub file: String,
     /// Shipped with detune (embedded in the library), not read from disk.
     pub shipped: bool,
+    /// SHA-256 of the file's text, hex (provenance).
+    pub sha256: String,
     pub main_rotor: Rotor,
     pub tail_rotor: Option<Rotor>,
     pub lines: Vec<NamedLine>,
@@ -800,6 +802,7 @@ impl Reader<'_> {
                     notes: None,
                     file: String::new(),
                     shipped: false,
+                    sha256: String::new(),
                     main_rotor: m.clone(),
                     tail_rotor: tail_rotor.clone(),
                     lines: lines.clone(),
@@ -817,6 +820,7 @@ impl Reader<'_> {
             notes,
             file: path.to_string(),
             shipped: false,
+            sha256: sha256_hex(self.text.as_bytes()),
             main_rotor: main_rotor?,
             tail_rotor,
             lines,
@@ -1183,6 +1187,14 @@ impl Reader<'_> {
             random: random.into_iter().map(|(p, _)| p).collect(),
         })
     }
+}
+
+fn sha256_hex(bytes: &[u8]) -> String {
+    use sha2::{Digest, Sha256};
+    Sha256::digest(bytes)
+        .iter()
+        .map(|b| format!("{b:02x}"))
+        .collect()
 }
 
 /// A TOML value's type with its article: "an integer", "a string".

@@ -15,7 +15,7 @@
 //! When the interval and the band overlap both are ≤ 0 and the separation is 0 or
 //! negative (minus the smaller relative shift that would clear it). A row passes when the
 //! separation is at least the required margin: the user's choice (default 10 %), not a
-//! standard.
+//! standard. (A mode required no separation, below, passes wherever it lies.)
 //!
 //! Damping-aware margin (a heuristic, API 684-style, not a standard): a well damped mode
 //! amplifies little at resonance and needs less separation. With the amplification
@@ -274,7 +274,8 @@ pub fn check_margins(
                 separation_pct: 100.0 * sep,
                 side,
                 required_pct: 100.0 * req,
-                pass: sep >= req,
+                // no separation required: passes even on the line (API's critically damped)
+                pass: req == 0.0 || sep >= req,
             });
         }
     }

@@ -97,6 +97,7 @@ fn the_baseline_inceptor_fails_against_the_uh60_main_rotor_1p() {
     // the document: provenance, the environment with its lines
     assert_eq!(j["provenance"]["model_file"], "models/inceptor.toml");
     assert_eq!(j["environment"]["id"], "UH-60");
+    assert_eq!(j["environment"]["sha256"].as_str().unwrap().len(), 64);
     assert_eq!(j["environment"]["lines"][5]["label"], "4T");
     for key in [
         "mode",
@@ -307,6 +308,24 @@ fn damping_aware_margins_are_scaled_by_the_amplification_factor() {
     );
     assert_eq!(required(0.1, 0.25, Requirement::DampingAware), 0.0);
     assert_eq!(required(0.1, 0.0, Requirement::DampingAware), 0.1);
+    // a mode that needs no separation passes even across a line
+    let heavy = ModeInterval {
+        name: "mode 1".into(),
+        omega_n_rad_s: 30.0,
+        min_rad_s: 29.0,
+        max_rad_s: 31.0,
+        damping_ratio: 0.3,
+    };
+    let c = check_margins(
+        std::slice::from_ref(&heavy),
+        &[line(30.0, 30.0)],
+        0.1,
+        Requirement::DampingAware,
+    )
+    .unwrap();
+    assert!(c.pass && c.rows[0].separation_pct < 0.0 && c.rows[0].side == Side::Overlap);
+    let c = check_margins(&[heavy], &[line(30.0, 30.0)], 0.1, Requirement::Fixed).unwrap();
+    assert!(!c.pass);
     // on the inceptor: mode 2 (ζ = 0.0526) needs 8.75 %, still more than its 1.8 %
     let (code, out, err) = repo(&[
         "margins",
@@ -369,7 +388,13 @@ fn an_interval_must_clear_at_its_worst_point() {
         max_rad_s: 28.5,
         damping_ratio: 0.05,
     };
-    let c = check_margins(std::slice::from_ref(&m), &[line(30.0, 30.0)], 0.1, Requirement::Fixed).unwrap();
+    let c = check_margins(
+        std::slice::from_ref(&m),
+        &[line(30.0, 30.0)],
+        0.1,
+        Requirement::Fixed,
+    )
+    .unwrap();
     assert!(!c.pass);
     assert!((c.rows[0].separation_pct - 5.0).abs() < 1e-12);
     let point = ModeInterval::point("mode 2", 27.0, 0.05);
@@ -497,5 +522,27 @@ fn a_bad_environment_file_is_reported_with_its_location() {
             "band.toml:12:6: band `shaker` runs from 8.000000 rad/s down to 7.000000 rad/s"
         ),
         "{err}"
+    );
+    // an output that would overwrite the environment file: refused before any work
+    std::fs::write(dir.path().join("good.toml"), BAND_ENV).unwrap();
+    let (code, _, err) = detune(
+        dir.path().to_str().unwrap(),
+        &[
+            "margins",
+            &model,
+            "--environment",
+            "good.toml",
+            "-o",
+            "good.toml",
+        ],
+    );
+    assert_eq!(code, 1);
+    assert!(
+        err.contains("this would overwrite the environment file"),
+        "{err}"
+    );
+    assert_eq!(
+        std::fs::read_to_string(dir.path().join("good.toml")).unwrap(),
+        BAND_ENV
     );
 }

@@ -49,6 +49,16 @@ pub fn run(a: MarginsArgs) -> Result<Outcome> {
     let margin = parse_margin(&a.margin)?;
     let env = resolve(&a.environment)?;
     check_outputs(&a.model.model, &[a.output.as_deref()])?;
+    if !env.shipped {
+        // nor the environment file (`check_outputs` calls it the model file)
+        check_outputs(&env.file, &[a.output.as_deref()]).map_err(|e| match e {
+            Error::Request { message, help } => Error::Request {
+                message: message.replace("the model file", "the environment file"),
+                help,
+            },
+            e => e,
+        })?;
+    }
     let (model, sys) = a.model.load()?;
     let modal = modal_analysis(&sys, None)?;
     let (points, skipped) = detune::margins::mode_points(&modal);

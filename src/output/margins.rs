@@ -17,6 +17,8 @@ pub struct EnvironmentReport<'a> {
     pub file: &'a str,
     /// Shipped with detune (embedded), not read from disk.
     pub shipped: bool,
+    /// SHA-256 of the environment file's text, hex.
+    pub sha256: &'a str,
     pub main_rotor: &'a Rotor,
     pub tail_rotor: Option<&'a Rotor>,
     /// Every forcing line and band checked, in order (rotor harmonics, extras, bands).
@@ -33,6 +35,7 @@ impl<'a> EnvironmentReport<'a> {
             notes: env.notes.as_deref(),
             file: &env.file,
             shipped: env.shipped,
+            sha256: &env.sha256,
             main_rotor: &env.main_rotor,
             tail_rotor: env.tail_rotor.as_ref(),
             lines: env.forcing_lines(),
