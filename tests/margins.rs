@@ -172,6 +172,7 @@ fn the_inceptor_clears_the_ah64_and_a_stiffer_shaft_clears_the_uh60() {
     let w = r["omega_n_rad_s"].as_f64().unwrap();
     let w1p = 258.0 * 2.0 * PI / 60.0;
     assert!(w > 1.1 * w1p, "{w}");
+    assert!((w - 29.92).abs() < 0.005, "docs/inceptor.md quotes 29.92 rad/s: {w}");
     assert_eq!(r["side"], "above");
     assert!((r["separation_pct"].as_f64().unwrap() - 100.0 * (w - w1p) / w1p).abs() < 1e-9);
     assert_eq!(j["provenance"]["overrides"][0], "k_t=500");
