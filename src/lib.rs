@@ -32,12 +32,14 @@
 pub mod check;
 pub mod diag;
 pub mod draw;
+pub mod environment;
 pub mod dynamics;
 pub mod failure;
 pub mod frequency;
 pub mod kinematics;
 pub mod linalg;
 pub mod linear;
+pub mod margins;
 pub mod model;
 pub mod output;
 pub mod request;

@@ -10,6 +10,7 @@ use cli::draw::DrawArgs;
 use cli::equilibrium::EquilibriumArgs;
 use cli::frf::FrfArgs;
 use cli::kinematics::KinematicsArgs;
+use cli::margins::MarginsArgs;
 use cli::modes::ModesArgs;
 use cli::sensitivity::SensitivityArgs;
 use cli::simulate::SimulateArgs;
@@ -65,6 +66,10 @@ enum Command {
     /// finite-difference checks), the worst case over the tolerance box, a tornado chart.
     #[command(allow_negative_numbers = true)]
     Sensitivity(SensitivityArgs),
+    /// Does every mode clear every forcing line of an environment (a helicopter's rotor
+    /// harmonics) by the required margin? Exit 0 when it does, 3 when one does not.
+    #[command(allow_negative_numbers = true)]
+    Margins(MarginsArgs),
 }
 
 fn main() {
@@ -76,6 +81,8 @@ fn main() {
         libc::signal(libc::SIGPIPE, libc::SIG_DFL);
     }
     let cli = Cli::parse();
+    // a command that checks something sets the exit code of its outcome (`cli::Outcome`)
+    let mut exit_code = 0;
     let result = match cli.command {
         Command::Check(a) => cli::check::run(a),
         Command::Simulate(a) => cli::simulate::run(a),
@@ -87,6 +94,7 @@ fn main() {
         Command::Sweep(a) => cli::sweep::run(a),
         Command::Kinematics(a) => cli::kinematics::run(a),
         Command::Draw(a) => cli::draw::run(a),
+        Command::Margins(a) => cli::margins::run(a).map(|o| exit_code = o.exit_code()),
     };
     if let Err(e) = result {
         eprint!(
@@ -94,5 +102,10 @@ fn main() {
             e.render_with(std::io::stderr().is_terminal(), &cli::advice::Cli)
         );
         std::process::exit(1);
+    }
+    if exit_code != 0 {
+        use std::io::Write;
+        let _ = std::io::stdout().flush();
+        std::process::exit(exit_code);
     }
 }

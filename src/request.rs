@@ -80,6 +80,9 @@ arguments! {
     /// A parameter varied by a sensitivity study, a margins check or a tuning
     /// ([`crate::linear::sensitivity::Vary`]).
     Varied => "a varied parameter",
+    /// The separation a mode must keep from a forcing line, a fraction
+    /// ([`crate::margins::check_margins`]).
+    Margin => "the required margin",
 }
 
 impl fmt::Display for Argument {
@@ -258,6 +261,7 @@ impl Invalid {
             NotFraction { argument, .. } => match argument {
                 A::RelativeTolerance => "give a relative tolerance between 0 and 1, e.g. 1e-10",
                 A::SettleTol => "give a fraction such as 1e-8",
+                A::Margin => "give a fraction above 0 and below 1, e.g. 0.1 (10 %)",
                 _ => "give a value between 0 and 1",
             }
             .into(),

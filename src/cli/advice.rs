@@ -66,6 +66,7 @@ fn flag(argument: Argument) -> Option<&'static str> {
         Ratio => "--ratio",
         DriveStep => "--step",
         Varied => "--vary",
+        Margin => "--margin",
         Frequencies | ContinuationRange | FixedPeriods | DriveRange => return None,
     })
 }

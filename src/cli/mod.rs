@@ -12,12 +12,32 @@ pub mod draw;
 pub mod equilibrium;
 pub mod frf;
 pub mod kinematics;
+pub mod margins;
 pub mod modes;
 pub mod sensitivity;
 pub mod simulate;
 pub mod sweep;
 
 use std::sync::atomic::{AtomicBool, Ordering};
+
+/// How a command that ran to its end finished, for a command that checks something
+/// (`margins`): the check passed (exit 0) or failed (exit 3). An error is not an outcome:
+/// it is the command's `Err` (exit 1).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Outcome {
+    Passed,
+    CheckFailed,
+}
+
+impl Outcome {
+    /// The process exit code: 0 passed, 3 the check failed.
+    pub fn exit_code(self) -> i32 {
+        match self {
+            Outcome::Passed => 0,
+            Outcome::CheckFailed => 3,
+        }
+    }
+}
 
 /// Set by Ctrl-C once [`interrupt_on_ctrl_c`] is called: a long run stops and writes
 /// what it has.

@@ -5,6 +5,7 @@
 
 pub mod figures;
 pub mod json;
+pub mod margins;
 pub mod plot;
 pub mod results;
 pub mod sensitivity;

@@ -1,0 +1,344 @@
+//! `detune margins`: does every mode clear every forcing line of an environment by the
+//! required margin? Exit 0 when it does, 3 when a mode fails ([`super::Outcome`]).
+
+use super::args::ModelArgs;
+use super::{Outcome, print_json};
+use clap::Args;
+use detune::diag::{Error, Result};
+use detune::environment::{Environment, ForcingLine, resolve};
+use detune::linear::modal_analysis;
+use detune::margins::{MarginCheck, MarginRow, ModeInterval, Requirement, Side, check_margins};
+use detune::output::margins::{MarginsReport, write_margins_csv};
+use detune::output::{Provenance, check_outputs};
+use std::f64::consts::TAU;
+
+#[derive(Args)]
+pub struct MarginsArgs {
+    #[command(flatten)]
+    pub model: ModelArgs,
+    /// Forcing environment: a shipped one's id or name, case-insensitive (UH-60, UH-1N,
+    /// H135, AH-64), or the path of an environment file (docs/environments.md).
+    #[arg(long, value_name = "NAME|PATH")]
+    pub environment: String,
+    /// Required separation of every mode from every line, |ω_mode − ω_line| / ω_line:
+    /// "10%" or 0.1. Your choice, not a standard.
+    #[arg(
+        long,
+        default_value = "10%",
+        value_name = "PCT",
+        allow_hyphen_values = true
+    )]
+    pub margin: String,
+    /// Scale the required margin by each mode's amplification factor ≈ 1/(2ζ) (a
+    /// heuristic, API 684-style, not a standard: see docs/environments.md).
+    #[arg(long)]
+    pub damping_aware: bool,
+    /// Vary a parameter (as in `sensitivity`: `k_fs=±10%`, `k_fs=±0.5 N/m`, a list):
+    /// each mode's whole tolerance interval must clear. Repeatable.
+    #[arg(long, value_name = "NAME=CHANGE", allow_hyphen_values = true)]
+    pub vary: Vec<String>,
+    /// Print JSON on stdout instead of the table.
+    #[arg(long)]
+    pub json: bool,
+    /// CSV: one row per mode × line, the JSON rows' keys as columns.
+    #[arg(short = 'o', long = "output", value_name = "OUT.csv")]
+    pub output: Option<String>,
+}
+
+pub fn run(a: MarginsArgs) -> Result<Outcome> {
+    let margin = parse_margin(&a.margin)?;
+    let env = resolve(&a.environment)?;
+    check_outputs(&a.model.model, &[a.output.as_deref()])?;
+    if !env.shipped {
+        // nor the environment file (`check_outputs` calls it the model file)
+        check_outputs(&env.file, &[a.output.as_deref()]).map_err(|e| match e {
+            Error::Request { message, help } => Error::Request {
+                message: message.replace("the model file", "the environment file"),
+                help,
+            },
+            e => e,
+        })?;
+    }
+    let (model, sys) = a.model.load()?;
+    let modal = modal_analysis(&sys, None)?;
+    let (points, skipped) = detune::margins::mode_points(&modal);
+    let modes = intervals(&model, &sys, &a.vary, points)?;
+    let rule = if a.damping_aware {
+        Requirement::DampingAware
+    } else {
+        Requirement::Fixed
+    };
+    let lines = env.forcing_lines();
+    let check = check_margins(&modes, &lines, margin, rule)?;
+    if let Some(o) = &a.output {
+        write_margins_csv(o, &check)?;
+        eprintln!("wrote {o}");
+    }
+    if a.json {
+        let provenance = Provenance::of(&model);
+        print_json(&MarginsReport::new(&check, &env, &skipped, &provenance));
+        for s in summary(&check, &env) {
+            eprintln!("{s}");
+        }
+    } else {
+        print_environment(&env, &lines);
+        if modes.is_empty() {
+            println!("\nno oscillatory modes: nothing can resonate with a forcing line");
+        }
+        for s in &skipped {
+            println!("note: λ = {:.6} 1/s left out: {}", s.eigenvalue, s.reason);
+        }
+        print_table(&check);
+        println!();
+        for s in summary(&check, &env) {
+            println!("{s}");
+        }
+    }
+    Ok(if check.pass {
+        Outcome::Passed
+    } else {
+        Outcome::CheckFailed
+    })
+}
+
+/// The modes as checked: points (the nominal design), or with `--vary` each mode's
+/// interval over the whole tolerance box (the sensitivity study's worst case: corners
+/// evaluated by full modal analyses, see `detune sensitivity`).
+fn intervals(
+    model: &detune::Model,
+    sys: &detune::System,
+    vary: &[String],
+    points: Vec<ModeInterval>,
+) -> Result<Vec<ModeInterval>> {
+    if vary.is_empty() {
+        return Ok(points);
+    }
+    let vs = super::args::varies(model, sys, vary)?;
+    let study = detune::linear::sensitivity::sensitivity(sys, &vs, None, None)?;
+    Ok(points
+        .into_iter()
+        .zip(&study.modes)
+        .map(|(p, m)| ModeInterval {
+            min_rad_s: m.worst_case.min_rad_s.min(p.omega_n_rad_s),
+            max_rad_s: m.worst_case.max_rad_s.max(p.omega_n_rad_s),
+            ..p
+        })
+        .collect())
+}
+
+/// `--margin`: "10%", "10 %" or a fraction 0.1; above 0 and below 100 %.
+pub fn parse_margin(text: &str) -> Result<f64> {
+    let t = text.trim();
+    let bad =
+        |message: String, help: &str| Error::request(format!("--margin {text}: {message}"), help);
+    let (number, percent) = match t.strip_suffix('%') {
+        Some(n) => (n.trim(), true),
+        None => (t, false),
+    };
+    let Ok(x) = number.parse::<f64>() else {
+        return Err(bad(
+            "expected a percentage or a fraction".into(),
+            "for example --margin 10% or --margin 0.1",
+        ));
+    };
+    let m = if percent { x / 100.0 } else { x };
+    if !m.is_finite() || m <= 0.0 {
+        return Err(bad(
+            "a margin must be above 0".into(),
+            "give the separation you require, e.g. --margin 10% (the default; your choice, not a standard)",
+        ));
+    }
+    if m >= 1.0 {
+        let help = if percent {
+            "a separation of 100 % or more from every line cannot be met by a mode below it: give e.g. --margin 10%".to_string()
+        } else {
+            format!("a number without % is a fraction: did you mean --margin {x}%?")
+        };
+        return Err(bad(format!("{:.4} % is 100 % or more", 100.0 * m), &help));
+    }
+    Ok(m)
+}
+
+/// ω in rad/s with Hz and rpm.
+fn freq(w: f64) -> String {
+    format!(
+        "{w:.4} rad/s = {:.4} Hz = {:.1} rpm",
+        w / TAU,
+        w * 60.0 / TAU
+    )
+}
+
+fn print_environment(env: &Environment, lines: &[ForcingLine]) {
+    println!(
+        "environment: {} ({}{})",
+        env.name,
+        env.file,
+        if env.shipped {
+            ", shipped with detune"
+        } else {
+            ""
+        }
+    );
+    println!("  source: {}", env.source);
+    if let Some(n) = &env.notes {
+        println!("  note: {n}");
+    }
+    println!("forcing lines:");
+    for l in lines {
+        let band = if l.band_lo_rad_s < l.band_hi_rad_s {
+            format!(
+                "  band {:.4}–{:.4} rad/s ({:.4}–{:.4} Hz)",
+                l.band_lo_rad_s,
+                l.band_hi_rad_s,
+                l.band_lo_rad_s / TAU,
+                l.band_hi_rad_s / TAU
+            )
+        } else {
+            String::new()
+        };
+        let from = match l.rotor {
+            Some(detune::environment::RotorKind::Main) => "main rotor",
+            Some(detune::environment::RotorKind::Tail) => "tail rotor",
+            None => "extra",
+        };
+        println!("  {:<8} {from:<10} {}{band}", l.label, freq(l.omega_rad_s));
+    }
+}
+
+fn print_table(check: &MarginCheck) {
+    println!(
+        "\nrequired separation: {} % (your choice, not a standard){}",
+        check.margin_pct,
+        match check.requirement {
+            Requirement::Fixed => String::new(),
+            Requirement::DampingAware => "; DAMPING-AWARE (heuristic, API 684-style, not a standard): scaled by 1 − 1/(AF − 1.5), AF = 1/(2ζ); none below AF = 2.5".to_string(),
+        }
+    );
+    let varied = check.rows.iter().any(|r| r.min_rad_s < r.max_rad_s);
+    println!(
+        "{:<8} {:>12} {:>9} {:>8} {}{:<8} {:>12} {:>9} {:>12} {:>8} {:>11} {:>5}",
+        "mode",
+        "ω_n [rad/s]",
+        "f [Hz]",
+        "ζ",
+        if varied {
+            format!("{:>25} ", "interval [rad/s]")
+        } else {
+            String::new()
+        },
+        "line",
+        "ω [rad/s]",
+        "f [Hz]",
+        "separation",
+        "side",
+        "required",
+        ""
+    );
+    for r in &check.rows {
+        let interval = if varied {
+            format!("{:>25} ", format!("{:.4}–{:.4}", r.min_rad_s, r.max_rad_s))
+        } else {
+            String::new()
+        };
+        let line_w = if r.band_lo_rad_s < r.band_hi_rad_s {
+            format!("{:.2}–{:.2}", r.band_lo_rad_s, r.band_hi_rad_s)
+        } else {
+            format!("{:.4}", r.line_rad_s)
+        };
+        println!(
+            "{:<8} {:>12.4} {:>9.4} {:>8.4} {interval}{:<8} {:>12} {:>9.4} {:>10.2} % {:>8} {:>9.2} % {:>5}",
+            r.mode,
+            r.omega_n_rad_s,
+            r.omega_n_rad_s / TAU,
+            r.damping_ratio,
+            r.line,
+            line_w,
+            r.line_rad_s / TAU,
+            r.separation_pct,
+            r.side.as_str(),
+            r.required_pct,
+            if r.pass { "pass" } else { "FAIL" }
+        );
+    }
+}
+
+/// A mode as a summary names it: `mode 2 (26.53 rad/s)`, or its interval.
+fn mode_words(r: &MarginRow) -> String {
+    if r.min_rad_s < r.max_rad_s {
+        format!("{} ({:.2}–{:.2} rad/s)", r.mode, r.min_rad_s, r.max_rad_s)
+    } else {
+        format!("{} ({:.2} rad/s)", r.mode, r.omega_n_rad_s)
+    }
+}
+
+/// A line as a summary names it: `UH-60 1P (27.02 rad/s)`, or its band.
+fn line_words(r: &MarginRow, env: &Environment) -> String {
+    if r.band_lo_rad_s < r.band_hi_rad_s {
+        format!(
+            "{} {} ({:.2}–{:.2} rad/s)",
+            env.id, r.line, r.band_lo_rad_s, r.band_hi_rad_s
+        )
+    } else {
+        format!("{} {} ({:.2} rad/s)", env.id, r.line, r.line_rad_s)
+    }
+}
+
+/// One sentence per failing row, worst first, then the verdict.
+fn summary(check: &MarginCheck, env: &Environment) -> Vec<String> {
+    let mut out = Vec::new();
+    let failures = check.failures();
+    for r in &failures {
+        let needs = format!("needs {}", pct(r.required_pct));
+        out.push(match r.side {
+            Side::Overlap => format!("{} overlaps {}: {needs}", mode_words(r), line_words(r, env)),
+            side => format!(
+                "{} is {} {} {}: {needs}",
+                mode_words(r),
+                pct(r.separation_pct),
+                side.as_str(),
+                line_words(r, env)
+            ),
+        });
+    }
+    if check.rows.is_empty() {
+        out.push("PASS: no oscillatory mode to check".into());
+    } else if failures.is_empty() {
+        let mut s = format!(
+            "PASS: every mode clears every line of {} by the required {} (your choice, not a standard)",
+            env.id,
+            pct(check.margin_pct)
+        );
+        if check.requirement == Requirement::DampingAware {
+            s.push_str(", damping-aware (heuristic)");
+        }
+        if let Some(c) = check.closest() {
+            s.push_str(&format!(
+                "; closest: {} is {} {} {}",
+                mode_words(c),
+                pct(c.separation_pct),
+                c.side.as_str(),
+                line_words(c, env)
+            ));
+        }
+        out.push(s);
+    } else {
+        out.push(format!(
+            "FAIL: {} of {} mode–line pairs are closer than required (margin {}, your choice, not a standard)",
+            failures.len(),
+            check.rows.len(),
+            pct(check.margin_pct)
+        ));
+    }
+    out
+}
+
+/// A percentage: whole as given (10 %), else to 0.1 (1.8 %), or 0.01 below 0.1 %.
+fn pct(x: f64) -> String {
+    if x == x.trunc() {
+        format!("{x:.0} %")
+    } else if x.abs() >= 0.1 {
+        format!("{x:.1} %")
+    } else {
+        format!("{x:.2} %")
+    }
+}
