@@ -547,3 +547,33 @@ fn a_bad_environment_file_is_reported_with_its_location() {
         BAND_ENV
     );
 }
+
+/// With `--vary`, the whole tolerance interval must clear: k_t = 500 N·m/rad puts the
+/// inceptor's mode 2 10.7 % above the UH-60 1P at the nominal design (pass), but the box
+/// k_fs ±10 %, gearbox_scale ±5 % reaches down to 8.5 % (fail); the interval's ends are
+/// the sensitivity study's worst case.
+#[test]
+fn tolerance_intervals_must_clear_whole() {
+    let dir = tempfile::tempdir().unwrap();
+    let model = format!("{}/models/inceptor.toml", env!("CARGO_MANIFEST_DIR"));
+    let base = ["margins", model.as_str(), "--environment", "UH-60", "--set", "k_t=500"];
+    let (code, _, err) = detune(dir.path().to_str().unwrap(), &base);
+    assert_eq!(code, 0, "{err}");
+    let mut args = base.to_vec();
+    args.extend(["--vary", "k_fs=±10%", "--vary", "gearbox_scale=±5%", "--json"]);
+    let (code, out, err) = detune(dir.path().to_str().unwrap(), &args);
+    assert_eq!(code, 3, "{err}");
+    let j: serde_json::Value = serde_json::from_str(&out).unwrap();
+    let row = j["rows"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|r| r["mode"] == "mode 2" && r["line"] == "1P")
+        .unwrap();
+    let (lo, hi) = (row["min_rad_s"].as_f64().unwrap(), row["max_rad_s"].as_f64().unwrap());
+    let line = 258.0 * std::f64::consts::TAU / 60.0;
+    assert!(lo < row["omega_n_rad_s"].as_f64().unwrap() && hi > lo);
+    let sep = row["separation_pct"].as_f64().unwrap();
+    assert!((sep - (lo - line) / line * 100.0).abs() < 1e-9, "{sep}");
+    assert!(sep > 0.0 && sep < 10.0 && row["pass"] == false);
+}
