@@ -46,6 +46,7 @@ pub mod request;
 pub mod scalar;
 pub mod statics;
 pub mod system;
+pub mod tune;
 
 pub use diag::{Error, Result};
 pub use dynamics::simulate::{SimOptions, Trajectory, simulate};

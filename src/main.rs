@@ -15,6 +15,7 @@ use cli::modes::ModesArgs;
 use cli::sensitivity::SensitivityArgs;
 use cli::simulate::SimulateArgs;
 use cli::sweep::SweepArgs;
+use cli::tune::TuneArgs;
 use std::io::IsTerminal;
 
 #[derive(Parser)]
@@ -70,6 +71,10 @@ enum Command {
     /// harmonics) by the required margin? Exit 0 when it does, 3 when one does not.
     #[command(allow_negative_numbers = true)]
     Margins(MarginsArgs),
+    /// The smallest change of the varied parameters that clears every forcing band of an
+    /// environment by the margin, with alternatives. Exit 3 when none exists.
+    #[command(allow_negative_numbers = true)]
+    Tune(TuneArgs),
 }
 
 fn main() {
@@ -95,6 +100,7 @@ fn main() {
         Command::Kinematics(a) => cli::kinematics::run(a),
         Command::Draw(a) => cli::draw::run(a),
         Command::Margins(a) => cli::margins::run(a).map(|o| exit_code = o.exit_code()),
+        Command::Tune(a) => cli::tune::run(a).map(|o| exit_code = o.exit_code()),
     };
     if let Err(e) = result {
         eprint!(

@@ -17,6 +17,7 @@ pub mod modes;
 pub mod sensitivity;
 pub mod simulate;
 pub mod sweep;
+pub mod tune;
 
 use std::sync::atomic::{AtomicBool, Ordering};
 

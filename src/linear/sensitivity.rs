@@ -570,14 +570,14 @@ pub struct Sensitivity {
 }
 
 /// The baseline's modes, and their undamped partners.
-struct Evaluated {
+pub(crate) struct Evaluated {
     /// ω_n, ζ, undamped ω (when paired) of every mode in `ma.modes` order.
-    modes: Vec<(f64, f64, Option<f64>)>,
+    pub(crate) modes: Vec<(f64, f64, Option<f64>)>,
     /// Shapes (model coordinates) for matching.
-    shapes: Vec<DVector<Complex<f64>>>,
+    pub(crate) shapes: Vec<DVector<Complex<f64>>>,
 }
 
-fn evaluate(ma: &ModalAnalysis) -> Evaluated {
+pub(crate) fn evaluate(ma: &ModalAnalysis) -> Evaluated {
     let lin = &ma.linearization;
     let (w2, phi) = undamped_modes(lin);
     let pairs = pair_undamped(lin, &ma.modes, &phi);
@@ -606,7 +606,7 @@ fn evaluate(ma: &ModalAnalysis) -> Evaluated {
 
 /// For each baseline mode, the case's mode with the best mass-weighted MAC (the full mass
 /// matrix at the baseline equilibrium), one-to-one; with the MAC.
-fn match_modes(mass: &DMatrix<f64>, base: &Evaluated, case: &Evaluated) -> Vec<Option<(usize, f64)>> {
+pub(crate) fn match_modes(mass: &DMatrix<f64>, base: &Evaluated, case: &Evaluated) -> Vec<Option<(usize, f64)>> {
     let mut taken = vec![false; case.shapes.len()];
     base.shapes
         .iter()
@@ -625,7 +625,7 @@ fn match_modes(mass: &DMatrix<f64>, base: &Evaluated, case: &Evaluated) -> Vec<O
 
 /// Whether a mode oscillates (a complex pair): real eigenvalues have no frequency to
 /// place against a forcing line.
-fn oscillatory(m: &Mode) -> bool {
+pub(crate) fn oscillatory(m: &Mode) -> bool {
     m.omega_d_rad_s > 0.0
 }
 

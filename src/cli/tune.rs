@@ -1,0 +1,172 @@
+//! `detune tune`: the smallest change of the varied parameters that clears every forcing
+//! band of an environment by the margin, with alternatives (one per choice of sides).
+
+use super::args::{ModelArgs, varies};
+use super::margins::parse_margin;
+use super::print_json;
+use clap::Args;
+use detune::diag::{Error, Result};
+use detune::environment::resolve;
+use detune::output::{Provenance, check_outputs};
+use detune::tune::{TuneOptions, Tuning, tune};
+
+#[derive(Args)]
+pub struct TuneArgs {
+    #[command(flatten)]
+    pub model: ModelArgs,
+    /// Forcing environment: a shipped one's id or name (UH-60, UH-1N, H135, AH-64) or a
+    /// file (docs/environments.md).
+    #[arg(long, value_name = "NAME|PATH")]
+    pub environment: String,
+    /// A free parameter and its bounds: `k_fs=50%..200%` (p0·50/100 … p0·200/100), or
+    /// `k_fs=±30%`, `k_fs=1e5,2e5` (the lowest and highest values). Repeatable.
+    #[arg(long = "vary", value_name = "NAME=RANGE", allow_hyphen_values = true)]
+    pub vary: Vec<String>,
+    /// Required separation of every mode from every band: "10%" or 0.1 (your choice, not
+    /// a standard).
+    #[arg(long, default_value = "10%", value_name = "PCT")]
+    pub margin: String,
+    /// Weight of a parameter's squared relative change in the cost, NAME=W (default 1).
+    #[arg(long = "weight", value_name = "NAME=W")]
+    pub weight: Vec<String>,
+    /// The most designs listed.
+    #[arg(long, default_value_t = 3, value_name = "N")]
+    pub designs: usize,
+    /// Print JSON on standard output.
+    #[arg(long)]
+    pub json: bool,
+    /// JSON file of the result (as --json prints it).
+    #[arg(short = 'o', long = "output", value_name = "OUT.json")]
+    pub output: Option<String>,
+}
+
+#[derive(serde::Serialize)]
+struct TuneReport<'a> {
+    provenance: &'a Provenance,
+    environment: &'a str,
+    margin_pct: f64,
+    #[serde(flatten)]
+    tuning: &'a Tuning,
+}
+
+pub fn run(a: TuneArgs) -> Result<super::Outcome> {
+    let margin = parse_margin(&a.margin)?;
+    let env = resolve(&a.environment)?;
+    let (model, sys) = a.model.load()?;
+    check_outputs(&model.source.path, &[a.output.as_deref()])?;
+    if a.vary.is_empty() {
+        return Err(Error::request(
+            "tune needs at least one free parameter",
+            "give the parameters the design may change with their bounds, e.g. --vary k_fs=50%..200% --vary gearbox_scale=80%..120%",
+        ));
+    }
+    let vs = varies(&model, &sys, &a.vary)?;
+    let mut weights = vec![1.0; vs.len()];
+    for w in &a.weight {
+        let bad = || {
+            Error::request(
+                format!("--weight {w}: expected NAME=W with W > 0 and NAME a varied parameter"),
+                "for example --weight k_fs=2 (its change costs twice as much)",
+            )
+        };
+        let (n, v) = w.split_once('=').ok_or_else(bad)?;
+        let i = vs.iter().position(|x| x.name == n.trim()).ok_or_else(bad)?;
+        let v: f64 = v.trim().parse().map_err(|_| bad())?;
+        if !(v > 0.0 && v.is_finite()) {
+            return Err(bad());
+        }
+        weights[i] = v;
+    }
+    let lines = env.forcing_lines();
+    let opts = TuneOptions {
+        margin,
+        weights,
+        max_designs: a.designs.max(1),
+        ..TuneOptions::default()
+    };
+    let t = tune(&sys, &vs, &lines, &opts)?;
+    let provenance = Provenance::of(&model);
+    let report = TuneReport {
+        provenance: &provenance,
+        environment: &env.name,
+        margin_pct: margin * 100.0,
+        tuning: &t,
+    };
+    if let Some(o) = &a.output {
+        let text = serde_json::to_string_pretty(&report).unwrap_or_default();
+        detune::output::write_atomic(o, |w| w.write_all(text.as_bytes()))?;
+        eprintln!("wrote {o}");
+    }
+    if a.json {
+        print_json(&report);
+    } else {
+        println!(
+            "{} against {} at a {:.4} % margin (your choice, not a standard): {} choice{} of sides solved",
+            model.name,
+            env.name,
+            margin * 100.0,
+            t.choices,
+            if t.choices == 1 { "" } else { "s" }
+        );
+        if t.baseline_passes {
+            println!("the baseline already clears every band: the best design is the baseline");
+        }
+        for (k, d) in t.designs.iter().enumerate() {
+            let params: Vec<String> = d
+                .parameters
+                .iter()
+                .map(|(n, v)| {
+                    let p0 = vs
+                        .iter()
+                        .find(|x| &x.name == n)
+                        .map(|x| sys.param(x.param))
+                        .unwrap_or(f64::NAN);
+                    let v = v.as_f64().unwrap_or(f64::NAN);
+                    format!("{n} = {v} ({:+.3} %)", (v - p0) / p0 * 100.0)
+                })
+                .collect();
+            let modes: Vec<String> = d
+                .modes
+                .iter()
+                .map(|(n, w)| format!("{n} {:.4} rad/s", w.as_f64().unwrap_or(f64::NAN)))
+                .collect();
+            println!(
+                "\ndesign {}: cost {:.6e}; {}\n  modes: {}; closest separation {:.3} %",
+                k + 1,
+                d.cost,
+                params.join(", "),
+                modes.join(", "),
+                d.closest_pct
+            );
+            let sets: Vec<String> = d
+                .parameters
+                .iter()
+                .map(|(n, v)| format!("--set {n}={}", v.as_f64().unwrap_or(f64::NAN)))
+                .collect();
+            println!(
+                "  check: detune margins {} --environment {} --margin {}% {}",
+                model.source.path,
+                a.environment,
+                margin * 100.0,
+                sets.join(" ")
+            );
+        }
+        if !t.infeasible.is_empty() {
+            println!("\nchoices of sides that cannot be met within the bounds:");
+            for i in &t.infeasible {
+                println!("  {}", i.reason);
+            }
+        }
+        if t.designs.is_empty() {
+            println!(
+                "\nno design within the bounds clears every band: widen the ranges, vary another parameter, or lower the margin"
+            );
+        }
+    }
+    Ok(if t.designs.is_empty() {
+        super::Outcome::CheckFailed
+    } else {
+        super::Outcome::Passed
+    })
+}
+

@@ -1,0 +1,540 @@
+//! Tuning: the smallest change of the varied parameters that puts every mode outside every
+//! forcing band by the required margin.
+//!
+//! The variables are the relative changes x_i = (p_i − p0_i)/s_i (s_i = |p0_i|, or the
+//! width of the range where p0_i = 0), bounded by the `--vary` ranges; the cost is
+//! Σ w_i x_i². A mode passes a line when it sits below the band by the margin,
+//! ω ≤ lo (1 − m − ε), or above it, ω ≥ hi (1 + m + ε), with ε = 1e-4 of clearance so that
+//! the design as printed passes `margins` too. Each line and margin forbids a zone
+//! [lo (1 − m), hi (1 + m)]; overlapping zones merge; a mode must sit in one of the gaps
+//! between them. The feasible set is a union of boxes in frequency, one per choice of gap
+//! per mode ("sides"), so every choice that the tolerance box can reach is solved as its
+//! own smooth problem: SLSQP (the `slsqp` crate, a port of NLopt's) with the constraint
+//! gradients from the analytic eigenvalue derivatives
+//! ([`crate::linear::sensitivity::mode_derivatives`]). Modes are followed from the
+//! baseline by MAC (each evaluation starts from the baseline's equilibrium). Each design
+//! found is then verified as `margins` checks it: the parameters set, the trim re-solved,
+//! the modes about the equilibrium nearest the initial pose, every row of the margins
+//! table. Choices that cannot be met are reported with the mode and the band that block
+//! them.
+
+use crate::diag::{Error, Result};
+use crate::environment::ForcingLine;
+use crate::linear::sensitivity::{
+    Evaluated, Vary, evaluate, match_modes, mode_derivatives, modes_at, oscillatory,
+};
+use crate::linear::{ModalAnalysis, modal_analysis};
+use crate::margins::{MarginRow, Requirement, check_margins, mode_points};
+use crate::system::System;
+use std::cell::RefCell;
+
+/// Options of [`tune`].
+#[derive(Debug, Clone)]
+pub struct TuneOptions {
+    /// Required separation, a fraction (0.1 for 10 %).
+    pub margin: f64,
+    /// Extra clearance beyond the margin, a fraction of the line (1e-4).
+    pub clearance: f64,
+    /// Weight of each varied parameter's squared relative change (1 each by default).
+    pub weights: Vec<f64>,
+    /// The most designs reported.
+    pub max_designs: usize,
+    /// The most SLSQP evaluations per side choice.
+    pub max_evaluations: usize,
+}
+
+impl Default for TuneOptions {
+    fn default() -> Self {
+        TuneOptions {
+            margin: 0.1,
+            clearance: 1e-4,
+            weights: Vec::new(),
+            max_designs: 3,
+            max_evaluations: 200,
+        }
+    }
+}
+
+/// Where one mode sits relative to one line.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct SideChoice {
+    pub mode: String,
+    pub line: String,
+    /// `below` or `above`.
+    pub side: &'static str,
+}
+
+/// A design that clears every band.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct Design {
+    /// Each varied parameter's value, SI.
+    pub parameters: serde_json::Map<String, serde_json::Value>,
+    /// Σ w_i ((p_i − p0_i)/s_i)².
+    pub cost: f64,
+    /// Each mode's side of each line.
+    pub sides: Vec<SideChoice>,
+    /// The verification: every mode × line as `margins` computes it at this design.
+    pub margins: Vec<MarginRow>,
+    /// Each mode's ω_n at this design, rad/s.
+    pub modes: serde_json::Map<String, serde_json::Value>,
+    /// The smallest separation over every mode and line, %.
+    pub closest_pct: f64,
+}
+
+/// A choice of sides that no design within the bounds meets, and why.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct Infeasible {
+    pub sides: Vec<SideChoice>,
+    pub reason: String,
+}
+
+/// The designs found (best first) and the side choices that could not be met.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct Tuning {
+    pub designs: Vec<Design>,
+    pub infeasible: Vec<Infeasible>,
+    /// The baseline already clears every band.
+    pub baseline_passes: bool,
+    /// Number of side choices solved.
+    pub choices: usize,
+}
+
+/// A gap between forbidden zones: (lowest, highest) allowed ω_n, rad/s, and the lines
+/// below and above it.
+#[derive(Debug, Clone)]
+struct Gap {
+    lo: f64,
+    hi: f64,
+    /// The lines whose zones lie below / above the gap.
+    below: Vec<String>,
+    above: Vec<String>,
+}
+
+fn gaps(lines: &[ForcingLine], margin: f64, clearance: f64) -> Vec<Gap> {
+    let mut zones: Vec<(f64, f64, String)> = lines
+        .iter()
+        .map(|l| {
+            (
+                l.band_lo_rad_s * (1.0 - margin - clearance),
+                l.band_hi_rad_s * (1.0 + margin + clearance),
+                l.label.clone(),
+            )
+        })
+        .collect();
+    zones.sort_by(|a, b| a.0.total_cmp(&b.0));
+    // merge overlapping zones
+    let mut merged: Vec<(f64, f64, Vec<String>)> = Vec::new();
+    for (lo, hi, label) in zones {
+        match merged.last_mut() {
+            Some(last) if lo <= last.1 => {
+                last.1 = last.1.max(hi);
+                last.2.push(label);
+            }
+            _ => merged.push((lo, hi, vec![label])),
+        }
+    }
+    let mut out = Vec::new();
+    let mut lo = 0.0;
+    let mut below: Vec<String> = Vec::new();
+    for (zlo, zhi, labels) in &merged {
+        out.push(Gap {
+            lo,
+            hi: *zlo,
+            below: below.clone(),
+            above: labels.clone(),
+        });
+        lo = *zhi;
+        below.extend(labels.iter().cloned());
+    }
+    out.push(Gap {
+        lo,
+        hi: f64::INFINITY,
+        below,
+        above: Vec::new(),
+    });
+    out
+}
+
+/// One evaluation of the modes at x: each baseline mode's ω_n (matched by MAC) and its
+/// gradient in x.
+#[derive(Clone)]
+struct Eval {
+    x: Vec<f64>,
+    omega: Vec<f64>,
+    grad: Vec<Vec<f64>>,
+}
+
+struct Problem<'a> {
+    sys: &'a System,
+    varies: &'a [Vary],
+    base: &'a ModalAnalysis,
+    base_ev: Evaluated,
+    /// The baseline modes followed (indices into `base.modes`).
+    keep: Vec<usize>,
+    p0: Vec<f64>,
+    scale: Vec<f64>,
+    cache: RefCell<Vec<Eval>>,
+}
+
+impl Problem<'_> {
+    fn values(&self, x: &[f64]) -> Vec<(usize, f64)> {
+        self.varies
+            .iter()
+            .enumerate()
+            .map(|(i, v)| (v.param, self.p0[i] + self.scale[i] * x[i]))
+            .collect()
+    }
+
+    fn eval(&self, x: &[f64]) -> Option<Eval> {
+        if let Some(e) = self.cache.borrow().iter().find(|e| e.x == x) {
+            return Some(e.clone());
+        }
+        let (s, ma) = modes_at(self.sys, &self.values(x), None, Some(self.base)).ok()?;
+        let ev = evaluate(&ma);
+        let matched = match_modes(&self.base.linearization.full_mass, &self.base_ev, &ev);
+        let mut omega = Vec::new();
+        let mut grad = Vec::new();
+        let derivs: Vec<_> = self
+            .varies
+            .iter()
+            .map(|v| mode_derivatives(&s, &ma, v.param, true).ok())
+            .collect::<Option<Vec<_>>>()?;
+        for &k in &self.keep {
+            let (j, _) = matched[k]?;
+            omega.push(ev.modes[j].0);
+            grad.push(
+                (0..self.varies.len())
+                    .map(|i| derivs[i][j].domega_n * self.scale[i])
+                    .collect(),
+            );
+        }
+        let e = Eval {
+            x: x.to_vec(),
+            omega,
+            grad,
+        };
+        let mut c = self.cache.borrow_mut();
+        if c.len() > 8 {
+            c.remove(0);
+        }
+        c.push(e.clone());
+        Some(e)
+    }
+}
+
+/// The names of the followed modes: `mode 1`, `mode 2`, … by frequency at the baseline.
+fn mode_names(keep: &[usize]) -> Vec<String> {
+    (0..keep.len()).map(|i| format!("mode {}", i + 1)).collect()
+}
+
+/// Tune `sys` (trimmed) over `varies` (each with its range as bounds) so that every
+/// oscillatory mode clears every line of `lines` by `opts.margin`.
+pub fn tune(
+    sys: &System,
+    varies: &[Vary],
+    lines: &[ForcingLine],
+    opts: &TuneOptions,
+) -> Result<Tuning> {
+    if varies.is_empty() {
+        return Err(Error::request(
+            "a tuning needs at least one free parameter",
+            "give the parameters the design may change, with their ranges (e.g. k_fs=50%..200%)",
+        ));
+    }
+    let base = modal_analysis(sys, None)?;
+    let keep: Vec<usize> = (0..base.modes.len())
+        .filter(|&i| oscillatory(&base.modes[i]))
+        .collect();
+    let names = mode_names(&keep);
+    let p0: Vec<f64> = varies.iter().map(|v| sys.param(v.param)).collect();
+    let scale: Vec<f64> = varies
+        .iter()
+        .zip(&p0)
+        .map(|(v, &p)| {
+            if p != 0.0 {
+                p.abs()
+            } else {
+                (v.range.1 - v.range.0).abs().max(f64::MIN_POSITIVE)
+            }
+        })
+        .collect();
+    let bounds: Vec<(f64, f64)> = varies
+        .iter()
+        .enumerate()
+        .map(|(i, v)| ((v.range.0 - p0[i]) / scale[i], (v.range.1 - p0[i]) / scale[i]))
+        .collect();
+    let weights: Vec<f64> = (0..varies.len())
+        .map(|i| opts.weights.get(i).copied().unwrap_or(1.0))
+        .collect();
+    let problem = Problem {
+        sys,
+        varies,
+        base: &base,
+        base_ev: evaluate(&base),
+        keep: keep.clone(),
+        p0: p0.clone(),
+        scale: scale.clone(),
+        cache: RefCell::new(Vec::new()),
+    };
+
+    // what the box can reach, mode by mode (the sensitivity study's worst case)
+    let reach = crate::linear::sensitivity::sensitivity(sys, varies, None, None)?;
+    let gaps = gaps(lines, opts.margin, opts.clearance);
+    let reachable: Vec<Vec<usize>> = reach
+        .modes
+        .iter()
+        .map(|m| {
+            let (lo, hi) = (m.worst_case.min_rad_s, m.worst_case.max_rad_s);
+            let (lo, hi) = (
+                lo.min(m.worst_case.first_order_min_rad_s),
+                hi.max(m.worst_case.first_order_max_rad_s),
+            );
+            let pad = 0.05 * (hi - lo) + 1e-9 * hi;
+            (0..gaps.len())
+                .filter(|&g| gaps[g].hi >= lo - pad && gaps[g].lo <= hi + pad)
+                .collect()
+        })
+        .collect();
+    let mut infeasible = Vec::new();
+    for (m, r) in reachable.iter().enumerate() {
+        if r.is_empty() {
+            let w = &reach.modes[m].worst_case;
+            return Err(Error::request(
+                format!(
+                    "{} cannot clear the bands within the bounds: it spans {:.4}–{:.4} rad/s over the ranges, inside the zone the lines {} forbid with the margin",
+                    names[m],
+                    w.min_rad_s,
+                    w.max_rad_s,
+                    gaps.iter()
+                        .flat_map(|g| g.above.iter())
+                        .cloned()
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                ),
+                "widen the ranges, vary another parameter, or lower the margin",
+            ));
+        }
+    }
+    // every combination of reachable gaps
+    let mut choices: Vec<Vec<usize>> = vec![Vec::new()];
+    for r in &reachable {
+        choices = choices
+            .into_iter()
+            .flat_map(|c| {
+                r.iter().map(move |&g| {
+                    let mut c = c.clone();
+                    c.push(g);
+                    c
+                })
+            })
+            .collect();
+        if choices.len() > 256 {
+            return Err(Error::request(
+                format!(
+                    "the ranges reach {} combinations of sides of the lines: too many to enumerate",
+                    choices.len()
+                ),
+                "narrow the ranges",
+            ));
+        }
+    }
+    let sides_of = |choice: &[usize]| -> Vec<SideChoice> {
+        let mut out = Vec::new();
+        for (m, &g) in choice.iter().enumerate() {
+            for l in &gaps[g].below {
+                out.push(SideChoice {
+                    mode: names[m].clone(),
+                    line: l.clone(),
+                    side: "above",
+                });
+            }
+            for l in &gaps[g].above {
+                out.push(SideChoice {
+                    mode: names[m].clone(),
+                    line: l.clone(),
+                    side: "below",
+                });
+            }
+        }
+        out
+    };
+    let mut designs: Vec<Design> = Vec::new();
+    let nchoices = choices.len();
+    for choice in &choices {
+        let x0 = vec![0.0; varies.len()];
+        // constraints c(x) ≤ 0, relative: (lo − ω)/lo and (ω − hi)/hi
+        let mut cons: Vec<Box<dyn Fn(&[f64], Option<&mut [f64]>, &mut ()) -> f64 + '_>> =
+            Vec::new();
+        for (m, &g) in choice.iter().enumerate() {
+            let gap = &gaps[g];
+            let p = &problem;
+            if gap.lo > 0.0 {
+                let lo = gap.lo;
+                cons.push(Box::new(move |x: &[f64], grad: Option<&mut [f64]>, _: &mut ()| {
+                    match p.eval(x) {
+                        Some(e) => {
+                            if let Some(gr) = grad {
+                                for (i, gi) in gr.iter_mut().enumerate() {
+                                    *gi = -e.grad[m][i] / lo;
+                                }
+                            }
+                            (lo - e.omega[m]) / lo
+                        }
+                        None => {
+                            if let Some(gr) = grad {
+                                gr.fill(0.0);
+                            }
+                            1e3
+                        }
+                    }
+                }));
+            }
+            if gap.hi.is_finite() {
+                let hi = gap.hi;
+                cons.push(Box::new(move |x: &[f64], grad: Option<&mut [f64]>, _: &mut ()| {
+                    match p.eval(x) {
+                        Some(e) => {
+                            if let Some(gr) = grad {
+                                for (i, gi) in gr.iter_mut().enumerate() {
+                                    *gi = e.grad[m][i] / hi;
+                                }
+                            }
+                            (e.omega[m] - hi) / hi
+                        }
+                        None => {
+                            if let Some(gr) = grad {
+                                gr.fill(0.0);
+                            }
+                            1e3
+                        }
+                    }
+                }));
+            }
+        }
+        let w = weights.clone();
+        let cost = move |x: &[f64], grad: Option<&mut [f64]>, _: &mut ()| -> f64 {
+            if let Some(g) = grad {
+                for i in 0..x.len() {
+                    g[i] = 2.0 * w[i] * x[i];
+                }
+            }
+            x.iter().zip(&w).map(|(x, w)| w * x * x).sum()
+        };
+        type Con<'c> = &'c dyn Fn(&[f64], Option<&mut [f64]>, &mut ()) -> f64;
+        let cons_ref: Vec<Con<'_>> = cons.iter().map(|c| c.as_ref()).collect();
+        let tol = slsqp::StopTols {
+            ftol_rel: 1e-10,
+            xtol_rel: 1e-10,
+            ..slsqp::StopTols::default()
+        };
+        let x = match slsqp::minimize(
+            cost,
+            &x0,
+            &bounds,
+            &cons_ref,
+            (),
+            opts.max_evaluations,
+            Some(tol),
+        ) {
+            Ok((_, x, _)) => x,
+            Err((_, x, _)) => x,
+        };
+        // feasible as solved?
+        let blocking = match problem.eval(&x) {
+            None => Some("the modes could not be computed at the optimizer's last point".to_string()),
+            Some(e) => choice.iter().enumerate().find_map(|(m, &g)| {
+                let gap = &gaps[g];
+                let w = e.omega[m];
+                if w < gap.lo * (1.0 - 0.5 * opts.clearance) {
+                    Some(format!(
+                        "{} stays at {:.4} rad/s, below {:.4} rad/s: it cannot be raised above {} by the margin within the bounds",
+                        names[m], w, gap.lo, gap.below.last().cloned().unwrap_or_default()
+                    ))
+                } else if w > gap.hi * (1.0 + 0.5 * opts.clearance) {
+                    Some(format!(
+                        "{} stays at {:.4} rad/s, above {:.4} rad/s: it cannot be lowered below {} by the margin within the bounds",
+                        names[m], w, gap.hi, gap.above.first().cloned().unwrap_or_default()
+                    ))
+                } else {
+                    None
+                }
+            }),
+        };
+        if let Some(reason) = blocking {
+            infeasible.push(Infeasible {
+                sides: sides_of(choice),
+                reason,
+            });
+            continue;
+        }
+        // verify as `margins` does
+        let values = problem.values(&x);
+        let verified = (|| -> Result<(crate::margins::MarginCheck, ModalAnalysis)> {
+            let mut s = sys.clone();
+            for &(i, v) in &values {
+                s.set_param(i, v)?;
+            }
+            let (s, _) = crate::statics::trim::trim(&s)?;
+            let ma = modal_analysis(&s, None)?;
+            let (points, _) = mode_points(&ma);
+            Ok((check_margins(&points, lines, opts.margin, Requirement::Fixed)?, ma))
+        })();
+        let (check, ma) = match verified {
+            Ok(v) => v,
+            Err(e) => {
+                infeasible.push(Infeasible {
+                    sides: sides_of(choice),
+                    reason: format!("the design found does not verify: {e}"),
+                });
+                continue;
+            }
+        };
+        if !check.pass {
+            infeasible.push(Infeasible {
+                sides: sides_of(choice),
+                reason: "the design found fails the full margins check (mode tracking lost?)".into(),
+            });
+            continue;
+        }
+        let mut parameters = serde_json::Map::new();
+        for (v, &(_, value)) in varies.iter().zip(&values) {
+            parameters.insert(v.name.clone(), value.into());
+        }
+        let mut modes = serde_json::Map::new();
+        for (k, m) in ma.modes.iter().filter(|m| oscillatory(m)).enumerate() {
+            modes.insert(format!("mode {}", k + 1), m.omega_n_rad_s.into());
+        }
+        let closest = check
+            .rows
+            .iter()
+            .map(|r| r.separation_pct)
+            .fold(f64::INFINITY, f64::min);
+        designs.push(Design {
+            parameters,
+            cost: x.iter().zip(&weights).map(|(x, w)| w * x * x).sum(),
+            sides: sides_of(choice),
+            margins: check.rows,
+            modes,
+            closest_pct: closest,
+        });
+    }
+    designs.sort_by(|a, b| a.cost.total_cmp(&b.cost));
+    // the same design reached by two choices: keep one
+    designs.dedup_by(|a, b| {
+        a.parameters.iter().zip(&b.parameters).all(|((_, x), (_, y))| {
+            let (x, y) = (x.as_f64().unwrap_or(0.0), y.as_f64().unwrap_or(0.0));
+            (x - y).abs() <= 1e-6 * x.abs().max(y.abs()).max(1e-300)
+        })
+    });
+    designs.truncate(opts.max_designs);
+    let baseline_passes = {
+        let (points, _) = mode_points(&base);
+        check_margins(&points, lines, opts.margin, Requirement::Fixed)?.pass
+    };
+    Ok(Tuning {
+        designs,
+        infeasible,
+        baseline_passes,
+        choices: nchoices,
+    })
+}
