@@ -299,21 +299,33 @@ pub fn tune(
     for (m, r) in reachable.iter().enumerate() {
         if r.is_empty() {
             let w = &reach.modes[m].worst_case;
-            return Err(Error::request(
-                format!(
-                    "{} cannot clear the bands within the bounds: it spans {:.4}–{:.4} rad/s over the ranges, inside the zone the lines {} forbid with the margin",
+            // the zone the whole span lies in: above the last gap that ends below it
+            let blocking = gaps
+                .iter()
+                .rev()
+                .find(|g| g.hi < w.min_rad_s)
+                .map(|g| g.above.join(", "))
+                .unwrap_or_default();
+            infeasible.push(Infeasible {
+                sides: Vec::new(),
+                reason: format!(
+                    "{} spans only {:.4}–{:.4} rad/s over the bounds, all within {:.4} % of {blocking}: it cannot be moved clear of {blocking} within the bounds",
                     names[m],
                     w.min_rad_s,
                     w.max_rad_s,
-                    gaps.iter()
-                        .flat_map(|g| g.above.iter())
-                        .cloned()
-                        .collect::<Vec<_>>()
-                        .join(", ")
+                    opts.margin * 100.0
                 ),
-                "widen the ranges, vary another parameter, or lower the margin",
-            ));
+            });
         }
+    }
+    if !infeasible.is_empty() {
+        let (points, _) = mode_points(&base);
+        return Ok(Tuning {
+            designs: Vec::new(),
+            infeasible,
+            baseline_passes: check_margins(&points, lines, opts.margin, Requirement::Fixed)?.pass,
+            choices: 0,
+        });
     }
     // every combination of reachable gaps
     let mut choices: Vec<Vec<usize>> = vec![Vec::new()];
