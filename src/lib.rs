@@ -40,6 +40,7 @@ pub mod linalg;
 pub mod linear;
 pub mod model;
 pub mod output;
+pub mod report;
 pub mod request;
 pub mod scalar;
 pub mod statics;

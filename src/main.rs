@@ -11,6 +11,7 @@ use cli::equilibrium::EquilibriumArgs;
 use cli::frf::FrfArgs;
 use cli::kinematics::KinematicsArgs;
 use cli::modes::ModesArgs;
+use cli::report::ReportArgs;
 use cli::simulate::SimulateArgs;
 use cli::sweep::SweepArgs;
 use std::io::IsTerminal;
@@ -60,6 +61,10 @@ enum Command {
     /// (spatial models) or the X–Y plane (planar models), joints marked by type.
     #[command(allow_negative_numbers = true)]
     Draw(DrawArgs),
+    /// One self-contained HTML report for a design review (model, equilibrium, modes,
+    /// linear response, interference diagram) and its JSON sidecar.
+    #[command(allow_negative_numbers = true)]
+    Report(ReportArgs),
 }
 
 fn main() {
@@ -81,6 +86,7 @@ fn main() {
         Command::Sweep(a) => cli::sweep::run(a),
         Command::Kinematics(a) => cli::kinematics::run(a),
         Command::Draw(a) => cli::draw::run(a),
+        Command::Report(a) => cli::report::run(a),
     };
     if let Err(e) = result {
         eprint!(

@@ -1,0 +1,156 @@
+//! The report's view of a vibration environment: rotors with their speed range, and the
+//! forcing lines they make (1P, nP, 1T, nT: a multiple of a rotor's speed, with the band
+//! it sweeps over the operating range).
+//!
+//! This is the report's input type, independent of where the figures come from. Until
+//! the project's environment module lands, [`builtin`] knows one environment, `UH-60`,
+//! with hard-coded figures ([`uh60_placeholder`]); that function is the one to replace.
+
+use crate::diag::{Error, Result};
+use serde::Serialize;
+
+/// A rotor of the aircraft.
+#[derive(Debug, Clone, Serialize)]
+pub struct Rotor {
+    /// `main`, `tail`.
+    pub name: String,
+    /// Number of blades.
+    pub blades: u32,
+    /// Nominal speed (100 % NR), rpm.
+    pub rpm_nominal: f64,
+    /// Lowest speed of the operating range, rpm.
+    pub rpm_min: f64,
+    /// Highest speed of the operating range, rpm.
+    pub rpm_max: f64,
+}
+
+impl Rotor {
+    /// Nominal angular speed, rad/s.
+    pub fn omega_rad_s(&self) -> f64 {
+        self.rpm_nominal * std::f64::consts::PI / 30.0
+    }
+}
+
+/// One forcing line: `multiple` × a rotor's speed.
+#[derive(Debug, Clone, Serialize)]
+pub struct ForcingLine {
+    /// `1P`, `4P`, `1T`...
+    pub label: String,
+    /// The rotor's name ([`Rotor::name`]).
+    pub rotor: String,
+    /// Multiple of the rotor's speed (1 for 1P, the blade count for nP).
+    pub multiple: f64,
+    /// At the nominal rotor speed, rad/s.
+    pub omega_rad_s: f64,
+    /// Lowest frequency over the operating range, rad/s.
+    pub band_lo_rad_s: f64,
+    /// Highest frequency over the operating range, rad/s.
+    pub band_hi_rad_s: f64,
+}
+
+/// A vibration environment: its rotors (the first is the one the Campbell diagram's
+/// speed axis reads) and forcing lines.
+#[derive(Debug, Clone, Serialize)]
+pub struct Environment {
+    pub name: String,
+    /// Where the figures come from.
+    pub source: String,
+    pub rotors: Vec<Rotor>,
+    pub lines: Vec<ForcingLine>,
+}
+
+impl Environment {
+    /// The rotor a line belongs to.
+    pub fn rotor(&self, line: &ForcingLine) -> Option<&Rotor> {
+        self.rotors.iter().find(|r| r.name == line.rotor)
+    }
+
+    /// The lines `multiples` of each rotor, each with its band over the rotor's range.
+    pub fn with_lines(
+        name: &str,
+        source: &str,
+        rotors: Vec<Rotor>,
+        multiples: &[(&str, f64, &str)],
+    ) -> Environment {
+        let rpm = std::f64::consts::PI / 30.0;
+        let lines = multiples
+            .iter()
+            .filter_map(|(rotor, n, label)| {
+                let r = rotors.iter().find(|r| r.name == *rotor)?;
+                Some(ForcingLine {
+                    label: label.to_string(),
+                    rotor: r.name.clone(),
+                    multiple: *n,
+                    omega_rad_s: n * r.rpm_nominal * rpm,
+                    band_lo_rad_s: n * r.rpm_min * rpm,
+                    band_hi_rad_s: n * r.rpm_max * rpm,
+                })
+            })
+            .collect();
+        Environment {
+            name: name.to_string(),
+            source: source.to_string(),
+            rotors,
+            lines,
+        }
+    }
+}
+
+/// The environment named `name` (case-insensitive). Only `UH-60` is known until the
+/// environment module replaces this; a path to an environment file is refused with a
+/// hint.
+pub fn builtin(name: &str) -> Result<Environment> {
+    if name.eq_ignore_ascii_case("UH-60") || name.eq_ignore_ascii_case("UH60") {
+        return Ok(uh60_placeholder());
+    }
+    Err(Error::request(
+        format!("unknown environment `{name}`"),
+        "the known environment is UH-60 (environment files are not read yet)",
+    ))
+}
+
+/// PLACEHOLDER, to be replaced by the environment module (`src/environment.rs`): the
+/// UH-60's rotors with hard-coded figures. Main rotor 258 rpm, 4 blades; tail rotor 1190
+/// rpm, 4 blades (geared to the main rotor); operating range 95–101 % NR for both; lines
+/// 1P, 4P, 8P, 12P, 1T, 4T.
+pub fn uh60_placeholder() -> Environment {
+    let rotor = |name: &str, blades, rpm: f64| Rotor {
+        name: name.into(),
+        blades,
+        rpm_nominal: rpm,
+        rpm_min: 0.95 * rpm,
+        rpm_max: 1.01 * rpm,
+    };
+    Environment::with_lines(
+        "UH-60",
+        "placeholder figures in detune::report::environment (main rotor 258 rpm, tail rotor 1190 rpm, 4 blades each, 95–101 % NR)",
+        vec![rotor("main", 4, 258.0), rotor("tail", 4, 1190.0)],
+        &[
+            ("main", 1.0, "1P"),
+            ("main", 4.0, "4P"),
+            ("main", 8.0, "8P"),
+            ("main", 12.0, "12P"),
+            ("tail", 1.0, "1T"),
+            ("tail", 4.0, "4T"),
+        ],
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn uh60_lines_are_multiples_of_the_rotor_speeds() {
+        let e = super::builtin("uh-60").unwrap();
+        assert_eq!(e.lines.len(), 6);
+        // 258 rpm = 27.0177 rad/s; 4P = 108.07 rad/s; 1190 rpm = 124.6165 rad/s
+        assert!((e.lines[0].omega_rad_s - 27.017_696_820_872_22).abs() < 1e-9);
+        assert!((e.lines[1].omega_rad_s - 4.0 * 27.017_696_820_872_22).abs() < 1e-9);
+        assert!((e.lines[4].omega_rad_s - 124.616_509_073_902_4).abs() < 1e-9);
+        assert!(
+            e.lines
+                .iter()
+                .all(|l| l.band_lo_rad_s < l.omega_rad_s && l.omega_rad_s < l.band_hi_rad_s)
+        );
+        assert!(super::builtin("CH-47").is_err());
+    }
+}
