@@ -142,10 +142,10 @@ mod tests {
     fn uh60_lines_are_multiples_of_the_rotor_speeds() {
         let e = super::builtin("uh-60").unwrap();
         assert_eq!(e.lines.len(), 6);
-        // 258 rpm = 27.0177 rad/s; 4P = 108.07 rad/s; 1190 rpm = 124.6165 rad/s
+        // 258 rpm × π/30 = 27.0177 rad/s; 4P = 108.07 rad/s; 1190 rpm × π/30 = 124.6165 rad/s
         assert!((e.lines[0].omega_rad_s - 27.017_696_820_872_22).abs() < 1e-9);
         assert!((e.lines[1].omega_rad_s - 4.0 * 27.017_696_820_872_22).abs() < 1e-9);
-        assert!((e.lines[4].omega_rad_s - 124.616_509_073_902_4).abs() < 1e-9);
+        assert!((e.lines[4].omega_rad_s - 124.616_508_592_395_12).abs() < 1e-9);
         assert!(
             e.lines
                 .iter()
