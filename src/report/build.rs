@@ -442,20 +442,26 @@ pub fn build(inp: &ReportInputs) -> Result<Report> {
     });
     sections.push(summary);
 
-    // modes about the equilibrium (the pose drawing shows that equilibrium)
-    let m: ModalAnalysis = modal_analysis(sys, None)?;
-    let pose = crate::draw::scene(sys, &m.equilibrium.q)
+    // the pose drawing: the assembled initial pose, as `detune draw` draws it
+    let start = crate::dynamics::assemble_at_rest(sys)?;
+    let pose = crate::draw::scene(sys, &start.q)
         .name_forces(&sys.force_names)
         .svg(&model.name);
     sections.push(Section::new("pose", "Pose").figure(
         format!(
-            "{}: the static equilibrium the modes are taken about ({} views; lengths in the axes' units).",
+            "{}: the assembled initial pose, as detune draw draws it ({}; lengths in the axes' units).",
             model.name,
-            if model.spatial { "front, side, top and isometric" } else { "X–Y plane" }
+            if model.spatial {
+                "front, side, top and isometric views"
+            } else {
+                "the X–Y plane"
+            }
         ),
         pose,
     ));
 
+    // the equilibrium and the modes about it
+    let m: ModalAnalysis = modal_analysis(sys, None)?;
     let eq = EquilibriumJson {
         stable: m.equilibrium.stable,
         residual: m.equilibrium.residual,
