@@ -301,7 +301,13 @@ fn the_page_is_self_contained_and_its_svgs_are_well_formed() {
 
 #[test]
 fn a_planar_model_without_environment() {
-    let (_dir, _, page, json) = report("overcentre", &[]);
+    let (_dir, _, page, json) = report("overcentre", &["--set", "c=3"]);
+    // the override is in the provenance and in the parameters table
+    assert_eq!(json["provenance"]["overrides"], serde_json::json!(["c=3"]));
+    let params = json["model"]["parameters"].as_array().unwrap();
+    let c = params.iter().position(|p| p["name"] == "c").unwrap();
+    assert_eq!(params[c]["value"], 3.0);
+    assert_eq!(params[c]["set"], "3");
     for s in [
         "provenance",
         "model",
@@ -320,7 +326,12 @@ fn a_planar_model_without_environment() {
     assert_eq!(json["frf"]["unit_forcing"]["param"], "F0");
     assert!(json.get("campbell").is_none());
     let cells = keyed_cells(&page);
+    assert_eq!(cells[&format!("model/parameters/{c}/value")], "3.00000");
+    // c only damps: ω_n is the undamped 2.9732 rad/s of docs/overcentre.md, ζ = c / 5 ×
+    // the baseline's 0.2186
     assert_eq!(cells["modes/0/omega_n_rad_s"], "2.973");
+    let zeta = json["modes"][0]["damping_ratio"].as_f64().unwrap();
+    assert!((zeta - 0.6 * 0.218576).abs() < 1e-5, "{zeta}");
 }
 
 #[test]
