@@ -1007,3 +1007,39 @@ fn campbell(env: &Environment, modes: &[ModeJson], data: &mut Sidecar) -> Result
         });
     Ok(section)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn mode_names_and_energy_shares_plug_into_the_modes_section() {
+        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/models/overcentre.toml");
+        let model = Model::load(path).unwrap();
+        let sys = System::new(&model).unwrap();
+        let extras = ModeExtras {
+            names: vec![Some("bar swing".into())],
+            energy_shares: vec![vec![("bar1".into(), 0.25), ("bar2".into(), 0.75)]],
+        };
+        let r = build(&ReportInputs {
+            model: &model,
+            sys: &sys,
+            environment: None,
+            mode_extras: Some(&extras),
+            generated_utc: "2026-11-23T00:00:00Z".into(),
+        })
+        .unwrap();
+        assert_eq!(r.sidecar.get("modes/0/name").unwrap(), "bar swing");
+        assert_eq!(r.sidecar.get("modes/0/energy_share/bar2").unwrap(), 0.75);
+        let page = r.document.html();
+        assert!(page.contains("<td>bar swing</td>"));
+        assert!(page.contains(r#"data-key="modes/0/energy_share/bar1">0.250<"#));
+    }
+
+    #[test]
+    fn log_grid_ends_where_asked() {
+        let g = log_grid(2.0, 200.0, 3);
+        assert!((g[0] - 2.0).abs() < 1e-12 && (g[1] - 20.0).abs() < 1e-12);
+        assert!((g[2] - 200.0).abs() < 1e-10);
+    }
+}
