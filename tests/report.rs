@@ -172,12 +172,12 @@ fn the_modes_are_those_of_detune_modes() {
 
 #[test]
 fn crossings_are_where_the_lines_meet_the_modes() {
-    let (_dir, _, _, json) = report("inceptor", &["--environment", "UH-60"]);
+    let (_dir, _, page, json) = report("inceptor", &["--environment", "UH-60"]);
     let pi = std::f64::consts::PI;
     let modes = json["modes"].as_array().unwrap();
     let crossings = json["campbell"]["crossings"].as_array().unwrap();
     // UH-60: main rotor 258 rpm, tail 1190 rpm; lines 1P 4P 8P 12P 1T 4T (tail geared to
-    // the main rotor); the speed axis ends at 1.2 × 101 % of 258 rpm
+    // the main rotor); no operating range, so the speed axis ends at 1.2 × 258 rpm
     let lines = [
         ("1P", 1.0),
         ("4P", 4.0),
@@ -192,7 +192,7 @@ fn crossings_are_where_the_lines_meet_the_modes() {
         for (label, n) in lines {
             // ω = n Ω π/30  ⇒  Ω = 30 ω / (n π)
             let omega_rpm = 30.0 * w / (n * pi);
-            if omega_rpm > 1.2 * 1.01 * 258.0 {
+            if omega_rpm > 1.2 * 258.0 {
                 continue;
             }
             expected += 1;
@@ -201,21 +201,28 @@ fn crossings_are_where_the_lines_meet_the_modes() {
                 .find(|c| c["mode"] == k + 1 && c["line"] == label)
                 .unwrap_or_else(|| panic!("no crossing of mode {} with {label}", k + 1));
             assert!((c["rotor_rpm"].as_f64().unwrap() - omega_rpm).abs() < 1e-9 * omega_rpm);
-            let inside = (0.95 * 258.0..=1.01 * 258.0).contains(&omega_rpm);
-            assert_eq!(c["in_operating_range"], inside, "{label} mode {}", k + 1);
+            let percent = c["percent_nominal"].as_f64().unwrap();
+            assert!((percent - 100.0 * omega_rpm / 258.0).abs() < 1e-9);
+            // no range given: not judged
+            assert!(c["in_operating_range"].is_null());
         }
     }
     assert_eq!(crossings.len(), expected);
-    // the inceptor's second mode (26.53 rad/s) meets 1P at 253.3 rpm, 98.2 % NR: inside
-    let inside: Vec<_> = crossings
+    assert!(json["campbell"]["rpm_range"].is_null());
+    // the inceptor's second mode (26.53 rad/s) meets 1P at 253.3 rpm, 98.2 % of nominal:
+    // the crossing nearest the nominal speed, which the page's prose names
+    let nearest = crossings
         .iter()
-        .filter(|c| c["in_operating_range"] == true)
-        .collect();
-    assert_eq!(inside.len(), 1);
+        .min_by(|a, b| {
+            let d = |c: &Value| (c["percent_nominal"].as_f64().unwrap() - 100.0).abs();
+            d(a).total_cmp(&d(b))
+        })
+        .unwrap();
     assert_eq!(
-        (inside[0]["mode"].as_u64(), inside[0]["line"].as_str()),
+        (nearest["mode"].as_u64(), nearest["line"].as_str()),
         (Some(2), Some("1P"))
     );
+    assert!(page.contains("mode 2 with 1P at 253.3 rpm (98.2 % of nominal)"));
 }
 
 #[test]

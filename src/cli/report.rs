@@ -71,14 +71,24 @@ pub fn run(a: ReportArgs) -> Result<()> {
                 .collect::<Vec<_>>()
         })
         .unwrap_or_default();
-    let crossings = report
+    // the crossing of a mode with a rotor line nearest the nominal rotor speed
+    let nearest = report
         .sidecar
         .get("campbell/crossings")
         .and_then(|c| c.as_array())
-        .map(|c| {
+        .and_then(|c| {
             c.iter()
-                .filter(|x| x.get("in_operating_range") == Some(&serde_json::Value::Bool(true)))
-                .count()
+                .filter_map(|x| {
+                    Some((
+                        x.get("mode")?.as_u64()?,
+                        x.get("line")?.as_str()?,
+                        x.get("percent_nominal")?.as_f64()?,
+                    ))
+                })
+                .min_by(|a, b| (a.2 - 100.0).abs().total_cmp(&(b.2 - 100.0).abs()))
+                .map(|(m, l, p)| {
+                    format!("; mode {m} meets {l} at {p:.1} % of the nominal rotor speed")
+                })
         });
     println!("wrote {} and {json}", a.output);
     println!(
@@ -90,12 +100,7 @@ pub fn run(a: ReportArgs) -> Result<()> {
         } else {
             modes.join(", ")
         },
-        crossings
-            .map(|n| format!(
-                "; {n} crossing(s) with the {} forcing lines inside the operating range",
-                env.as_ref().map(|e| e.name.as_str()).unwrap_or("")
-            ))
-            .unwrap_or_default(),
+        nearest.unwrap_or_default(),
         report.document.sections.len(),
         start.elapsed().as_secs_f64()
     );

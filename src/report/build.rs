@@ -8,7 +8,7 @@
 
 use super::environment::Environment;
 use super::figures::{Band, CampbellLine, CampbellPlot, FrfPlot, campbell_svg, frf_svg};
-use super::{Column, Digits, Document, Report, Section, Sidecar, Table, escape_key};
+use super::{Cell, Column, Digits, Document, Report, Section, Sidecar, Table, escape_key};
 use crate::check::CheckReport;
 use crate::diag::{Error, Result};
 use crate::linear::{C64, FrequencyResponse, LinearPeak, ModalAnalysis, modal_analysis};
@@ -176,14 +176,17 @@ struct CrossingJson {
     /// Of the nominal speed, %.
     percent_nominal: f64,
     omega_rad_s: f64,
-    in_operating_range: bool,
+    /// Null when the environment gives the rotor no operating range.
+    in_operating_range: Option<bool>,
 }
 
 #[derive(Serialize)]
 struct CampbellJson {
     rotor: String,
-    rpm_min: f64,
-    rpm_max: f64,
+    /// Nominal speed of that rotor, rpm.
+    rpm: f64,
+    /// Its operating range, rpm, if the environment gives one.
+    rpm_range: Option<[f64; 2]>,
     crossings: Vec<CrossingJson>,
 }
 
@@ -288,28 +291,19 @@ pub fn build(inp: &ReportInputs) -> Result<Report> {
         caption: String::new(),
         columns: cols(&[("item", ""), ("value", "")]),
         rows: vec![
+            vec![Cell::text("model"), data.text("provenance/model_name")],
+            vec![Cell::text("model file"), data.text("provenance/model_file")],
             vec![
-                super::Cell::text("model"),
-                data.text("provenance/model_name"),
-            ],
-            vec![
-                super::Cell::text("model file"),
-                data.text("provenance/model_file"),
-            ],
-            vec![
-                super::Cell::text("model file SHA-256"),
+                Cell::text("model file SHA-256"),
                 data.text("provenance/model_sha256"),
             ],
+            vec![Cell::text("overrides (--set)"), Cell::text(overrides)],
             vec![
-                super::Cell::text("overrides (--set)"),
-                super::Cell::text(overrides),
-            ],
-            vec![
-                super::Cell::text("detune version"),
+                Cell::text("detune version"),
                 data.text("provenance/detune_version"),
             ],
             vec![
-                super::Cell::text("generated (UTC)"),
+                Cell::text("generated (UTC)"),
                 data.text("provenance/generated_utc"),
             ],
         ],
@@ -385,9 +379,9 @@ pub fn build(inp: &ReportInputs) -> Result<Report> {
             caption: "Size".into(),
             columns: cols(&[("quantity", ""), ("count", "")]),
             rows: vec![
-                vec![super::Cell::text("coordinates"), data.num("model/coordinates", Digits::Fixed(0))],
-                vec![super::Cell::text("constraint equations"), data.num("model/constraints", Digits::Fixed(0))],
-                vec![super::Cell::text("degrees of freedom"), data.num("model/dof", Digits::Fixed(0))],
+                vec![Cell::text("coordinates"), data.num("model/coordinates", Digits::Fixed(0))],
+                vec![Cell::text("constraint equations"), data.num("model/constraints", Digits::Fixed(0))],
+                vec![Cell::text("degrees of freedom"), data.num("model/dof", Digits::Fixed(0))],
             ],
         })
         .table(Table {
@@ -396,7 +390,7 @@ pub fn build(inp: &ReportInputs) -> Result<Report> {
             rows: model_json
                 .bodies
                 .iter()
-                .map(|b| vec![super::Cell::text(&b.name), super::Cell::text(b.coordinates.join(", "))])
+                .map(|b| vec![Cell::text(&b.name), Cell::text(b.coordinates.join(", "))])
                 .collect(),
         })
         .table(Table {
@@ -408,8 +402,8 @@ pub fn build(inp: &ReportInputs) -> Result<Report> {
                 .enumerate()
                 .map(|(k, j)| {
                     vec![
-                        super::Cell::text(&j.name),
-                        super::Cell::text(&j.kind),
+                        Cell::text(&j.name),
+                        Cell::text(&j.kind),
                         data.num(format!("model/joints/{k}/rows"), Digits::Fixed(0)),
                         data.num(format!("model/joints/{k}/rank"), Digits::Fixed(0)),
                     ]
@@ -431,11 +425,11 @@ pub fn build(inp: &ReportInputs) -> Result<Report> {
             .enumerate()
             .map(|(k, p)| {
                 vec![
-                    super::Cell::text(&p.name),
+                    Cell::text(&p.name),
                     data.num(format!("model/parameters/{k}/value"), Digits::Sig(6)),
-                    super::Cell::text(&p.unit),
-                    super::Cell::text(p.description.clone().unwrap_or_default()),
-                    super::Cell::text(p.set.clone().unwrap_or_default()),
+                    Cell::text(&p.unit),
+                    Cell::text(p.description.clone().unwrap_or_default()),
+                    Cell::text(p.set.clone().unwrap_or_default()),
                 ]
             })
             .collect(),
@@ -499,13 +493,13 @@ pub fn build(inp: &ReportInputs) -> Result<Report> {
                     .enumerate()
                     .map(|(i, c)| {
                         vec![
-                            super::Cell::text(&c.name),
+                            Cell::text(&c.name),
                             data.num(format!("equilibrium/coordinates/{i}/value"), Digits::Fixed(6)),
-                            super::Cell::text(c.unit),
+                            Cell::text(c.unit),
                             if c.degrees.is_some() {
                                 data.num(format!("equilibrium/coordinates/{i}/degrees"), Digits::Fixed(4))
                             } else {
-                                super::Cell::text("")
+                                Cell::text("")
                             },
                         ]
                     })
@@ -566,9 +560,9 @@ pub fn build(inp: &ReportInputs) -> Result<Report> {
                 .iter()
                 .enumerate()
                 .map(|(k, x)| {
-                    let mut row = vec![super::Cell::text(format!("{}", x.mode))];
+                    let mut row = vec![Cell::text(format!("{}", x.mode))];
                     if named {
-                        row.push(super::Cell::text(x.name.clone().unwrap_or_default()));
+                        row.push(Cell::text(x.name.clone().unwrap_or_default()));
                     }
                     row.extend([
                         data.num(format!("modes/{k}/omega_n_rad_s"), Digits::Fixed(3)),
@@ -595,7 +589,7 @@ pub fn build(inp: &ReportInputs) -> Result<Report> {
                 .coordinates
                 .iter()
                 .map(|c| {
-                    let mut row = vec![super::Cell::text(c)];
+                    let mut row = vec![Cell::text(c)];
                     let c = escape_key(c);
                     for k in 0..modes.len() {
                         row.push(data.num(format!("modes/{k}/shape/{c}/re"), Digits::Fixed(4)));
@@ -629,7 +623,7 @@ pub fn build(inp: &ReportInputs) -> Result<Report> {
             rows: bodies
                 .iter()
                 .map(|b| {
-                    let mut row = vec![super::Cell::text(b)];
+                    let mut row = vec![Cell::text(b)];
                     let b = escape_key(b);
                     for k in 0..modes.len() {
                         row.push(data.num(format!("modes/{k}/energy_share/{b}"), Digits::Fixed(3)));
@@ -775,7 +769,7 @@ pub fn build(inp: &ReportInputs) -> Result<Report> {
                             .enumerate()
                             .map(|(k, p)| {
                                 vec![
-                                    super::Cell::text(&p.peak.response),
+                                    Cell::text(&p.peak.response),
                                     data.num(format!("frf/peaks/{k}/omega"), Digits::Fixed(3)),
                                     data.num(format!("frf/peaks/{k}/freq_hz"), Digits::Fixed(4)),
                                     data.num(format!("frf/peaks/{k}/amplitude"), Digits::Sig(4)),
@@ -824,36 +818,42 @@ pub const FRF_POINTS: usize = 400;
 
 fn environment_section(env: &Environment, data: &Sidecar) -> Section {
     Section::new("environment", &format!("Environment: {}", env.name))
-        .prose(format!(
-            "Forcing lines of the {} ({}).",
-            env.name, env.source
-        ))
+        .prose(format!("Forcing lines of the {} ({}).", env.name, env.source))
         .table(Table {
             caption: "Rotors".into(),
             columns: cols(&[
                 ("rotor", ""),
                 ("blades", ""),
                 ("nominal", "rpm"),
-                ("lowest", "rpm"),
-                ("highest", "rpm"),
+                ("range low", "rpm"),
+                ("range high", "rpm"),
             ]),
-            rows: (0..env.rotors.len())
-                .map(|k| {
-                    vec![
+            rows: env
+                .rotors
+                .iter()
+                .enumerate()
+                .map(|(k, r)| {
+                    let mut row = vec![
                         data.text(&format!("environment/rotors/{k}/name")),
                         data.num(format!("environment/rotors/{k}/blades"), Digits::Fixed(0)),
-                        data.num(
-                            format!("environment/rotors/{k}/rpm_nominal"),
-                            Digits::Fixed(1),
-                        ),
-                        data.num(format!("environment/rotors/{k}/rpm_min"), Digits::Fixed(1)),
-                        data.num(format!("environment/rotors/{k}/rpm_max"), Digits::Fixed(1)),
-                    ]
+                        data.num(format!("environment/rotors/{k}/rpm"), Digits::Fixed(1)),
+                    ];
+                    if r.rpm_range.is_some() {
+                        row.extend((0..2).map(|i| {
+                            data.num(
+                                format!("environment/rotors/{k}/rpm_range/{i}"),
+                                Digits::Fixed(1),
+                            )
+                        }));
+                    } else {
+                        row.extend([Cell::text("none given"), Cell::text("none given")]);
+                    }
+                    row
                 })
                 .collect(),
         })
         .table(Table {
-            caption: "Forcing lines and their bands over the operating range".into(),
+            caption: "Forcing lines and their bands over the operating range (a line without a range is a point)".into(),
             columns: cols(&[
                 ("line", ""),
                 ("rotor", ""),
@@ -862,12 +862,19 @@ fn environment_section(env: &Environment, data: &Sidecar) -> Section {
                 ("band low", "rad/s"),
                 ("band high", "rad/s"),
             ]),
-            rows: (0..env.lines.len())
-                .map(|k| {
+            rows: env
+                .lines
+                .iter()
+                .enumerate()
+                .map(|(k, l)| {
                     vec![
                         data.text(&format!("environment/lines/{k}/label")),
-                        data.text(&format!("environment/lines/{k}/rotor")),
-                        data.num(format!("environment/lines/{k}/multiple"), Digits::Fixed(0)),
+                        Cell::text(l.rotor.clone().unwrap_or_else(|| "fixed".into())),
+                        if l.multiple.is_some() {
+                            data.num(format!("environment/lines/{k}/multiple"), Digits::Fixed(0))
+                        } else {
+                            Cell::text("")
+                        },
                         data.num(
                             format!("environment/lines/{k}/omega_rad_s"),
                             Digits::Fixed(2),
@@ -886,15 +893,18 @@ fn environment_section(env: &Environment, data: &Sidecar) -> Section {
         })
 }
 
-/// The interference diagram: each oscillating mode's ω_n against every forcing line,
-/// the speed axis that of the environment's first rotor (the others geared to it).
+/// The interference diagram: each oscillating mode's ω_n against every rotor line, the
+/// speed axis that of the environment's first rotor (the others geared to it); fixed
+/// lines and bands (no rotor) do not move with the speed and are left to the response
+/// figure and the margins.
 fn campbell(env: &Environment, modes: &[ModeJson], data: &mut Sidecar) -> Result<Section> {
     let Some(main) = env.rotors.first() else {
         return Ok(
             Section::new("campbell", "Interference diagram").prose("The environment has no rotor.")
         );
     };
-    let rpm_end = 1.2 * main.rpm_max;
+    let [rpm_lo, rpm_hi] = main.rpm_bounds();
+    let rpm_end = 1.2 * rpm_hi;
     // ω of each line per main-rotor rpm
     let lines: Vec<CampbellLine> = env
         .lines
@@ -903,9 +913,10 @@ fn campbell(env: &Environment, modes: &[ModeJson], data: &mut Sidecar) -> Result
             let r = env.rotor(l)?;
             Some(CampbellLine {
                 label: l.label.clone(),
-                slope: l.multiple * (r.rpm_nominal / main.rpm_nominal) * PI / 30.0,
+                slope: l.multiple? * (r.rpm / main.rpm) * PI / 30.0,
             })
         })
+        .filter(|l| l.slope > 0.0 && l.slope.is_finite())
         .collect();
     let osc: Vec<&ModeJson> = modes.iter().filter(|m| m.omega_d_rad_s > 0.0).collect();
     let mut crossings = Vec::new();
@@ -917,9 +928,9 @@ fn campbell(env: &Environment, modes: &[ModeJson], data: &mut Sidecar) -> Result
                     mode: m.mode,
                     line: l.label.clone(),
                     rotor_rpm: at,
-                    percent_nominal: 100.0 * at / main.rpm_nominal,
+                    percent_nominal: 100.0 * at / main.rpm,
                     omega_rad_s: m.omega_n_rad_s,
-                    in_operating_range: at >= main.rpm_min && at <= main.rpm_max,
+                    in_operating_range: main.rpm_range.map(|[lo, hi]| at >= lo && at <= hi),
                 });
             }
         }
@@ -927,7 +938,7 @@ fn campbell(env: &Environment, modes: &[ModeJson], data: &mut Sidecar) -> Result
     let wmax = osc.iter().map(|m| m.omega_n_rad_s).fold(0.0, f64::max);
     let lowest_line = lines
         .iter()
-        .map(|l| l.slope * main.rpm_nominal)
+        .map(|l| l.slope * main.rpm)
         .fold(f64::INFINITY, f64::min);
     let omega_end = 1.3
         * wmax
@@ -940,8 +951,8 @@ fn campbell(env: &Environment, modes: &[ModeJson], data: &mut Sidecar) -> Result
     let plot = CampbellPlot {
         title: format!("Interference diagram ({})", env.name),
         rotor: main.name.clone(),
-        rpm_min: main.rpm_min,
-        rpm_max: main.rpm_max,
+        rpm_nominal: main.rpm,
+        rpm_range: main.rpm_range,
         modes: osc
             .iter()
             .map(|m| (format!("mode {}", m.mode), m.omega_n_rad_s))
@@ -949,7 +960,13 @@ fn campbell(env: &Environment, modes: &[ModeJson], data: &mut Sidecar) -> Result
         lines,
         crossings: crossings
             .iter()
-            .map(|c| (c.rotor_rpm, c.omega_rad_s, c.in_operating_range))
+            .map(|c| {
+                (
+                    c.rotor_rpm,
+                    c.omega_rad_s,
+                    c.in_operating_range == Some(true),
+                )
+            })
             .collect(),
         rpm_end,
         omega_end,
@@ -958,29 +975,60 @@ fn campbell(env: &Environment, modes: &[ModeJson], data: &mut Sidecar) -> Result
         .map_err(|e| Error::io("report.html", format!("Campbell figure: {e}")))?;
     let json = CampbellJson {
         rotor: main.name.clone(),
-        rpm_min: main.rpm_min,
-        rpm_max: main.rpm_max,
+        rpm: main.rpm,
+        rpm_range: main.rpm_range,
         crossings,
     };
     data.insert("campbell", &json)?;
-    let inside = json
+    let nearest = json
         .crossings
         .iter()
-        .filter(|c| c.in_operating_range)
-        .count();
+        .min_by(|a, b| {
+            (a.percent_nominal - 100.0)
+                .abs()
+                .total_cmp(&(b.percent_nominal - 100.0).abs())
+        })
+        .map(|c| {
+            format!(
+                " The crossing nearest the nominal speed: mode {} with {} at {:.1} rpm ({:.1} % of nominal).",
+                c.mode, c.line, c.rotor_rpm, c.percent_nominal
+            )
+        })
+        .unwrap_or_default();
+    let range = match main.rpm_range {
+        Some(_) => format!(
+            "{} of {} crossings fall inside the operating range {rpm_lo:.1}–{rpm_hi:.1} rpm (filled circles).",
+            json.crossings
+                .iter()
+                .filter(|c| c.in_operating_range == Some(true))
+                .count(),
+            json.crossings.len(),
+        ),
+        None => format!(
+            "The environment gives the {} rotor no operating range: the vertical line is its nominal {:.1} rpm, and no crossing is judged in or out of range.",
+            main.name, main.rpm
+        ),
+    };
+    let geared = env
+        .rotors
+        .iter()
+        .skip(1)
+        .map(|r| r.name.as_str())
+        .collect::<Vec<_>>()
+        .join(", ");
     let section = Section::new("campbell", "Interference diagram")
         .prose(format!(
-            "Mode frequencies against the {} rotor's speed, with the forcing lines through the origin (the {} lines geared to it). {} of {} crossings fall inside the operating range {:.1}–{:.1} rpm (filled circles).",
+            "Mode frequencies against the {} rotor's speed, with the rotor lines through the origin{}. {range}{nearest}",
             main.name,
-            env.rotors.iter().skip(1).map(|r| r.name.as_str()).collect::<Vec<_>>().join(", "),
-            inside,
-            json.crossings.len(),
-            main.rpm_min,
-            main.rpm_max
+            if geared.is_empty() {
+                String::new()
+            } else {
+                format!(" (the {geared} rotor's lines geared to it)")
+            },
         ))
-        .figure("Campbell-style interference diagram: dashed, the modes' ω_n; orange, the n/rev lines; shaded, the operating range; circles, crossings.", svg)
+        .figure("Campbell-style interference diagram: dashed, the modes' ω_n; orange, the n/rev lines and the nominal speed; shaded, the operating range (when given); circles, crossings (filled inside the operating range).", svg)
         .table(Table {
-            caption: "Crossings of the modes with the forcing lines".into(),
+            caption: "Crossings of the modes with the rotor lines".into(),
             columns: cols(&[
                 ("mode", ""),
                 ("line", ""),
@@ -995,12 +1043,16 @@ fn campbell(env: &Environment, modes: &[ModeJson], data: &mut Sidecar) -> Result
                 .enumerate()
                 .map(|(k, c)| {
                     vec![
-                        super::Cell::text(format!("{}", c.mode)),
-                        super::Cell::text(&c.line),
+                        Cell::text(format!("{}", c.mode)),
+                        Cell::text(&c.line),
                         data.num(format!("campbell/crossings/{k}/rotor_rpm"), Digits::Fixed(1)),
                         data.num(format!("campbell/crossings/{k}/percent_nominal"), Digits::Fixed(1)),
                         data.num(format!("campbell/crossings/{k}/omega_rad_s"), Digits::Fixed(3)),
-                        super::Cell::text(if c.in_operating_range { "YES" } else { "no" }),
+                        Cell::text(match c.in_operating_range {
+                            Some(true) => "YES",
+                            Some(false) => "no",
+                            None => "no range given",
+                        }),
                     ]
                 })
                 .collect(),
@@ -1034,6 +1086,68 @@ mod tests {
         let page = r.document.html();
         assert!(page.contains("<td>bar swing</td>"));
         assert!(page.contains(r#"data-key="modes/0/energy_share/bar1">0.250<"#));
+    }
+
+    #[test]
+    fn crossings_inside_an_operating_range_are_flagged() {
+        use crate::report::{Environment, Rotor};
+        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/models/inceptor.toml");
+        let model = Model::load(path).unwrap();
+        let sys = crate::statics::trim::trim(&System::new(&model).unwrap())
+            .unwrap()
+            .0;
+        // a 258 rpm rotor run at 95–101 %: mode 2 (26.531 rad/s) meets 1P at
+        // 30·26.531/π = 253.35 rpm, inside; 4P at 63.3 rpm, outside
+        let env = Environment::with_lines(
+            "test",
+            "a made-up range",
+            vec![Rotor {
+                name: "main".into(),
+                blades: 4,
+                rpm: 258.0,
+                rpm_range: Some([0.95 * 258.0, 1.01 * 258.0]),
+            }],
+            &[("main", 1.0, "1P"), ("main", 4.0, "4P")],
+        );
+        let r = build(&ReportInputs {
+            model: &model,
+            sys: &sys,
+            environment: Some(&env),
+            mode_extras: None,
+            generated_utc: String::new(),
+        })
+        .unwrap();
+        let c = r
+            .sidecar
+            .get("campbell/crossings")
+            .unwrap()
+            .as_array()
+            .unwrap();
+        let w2 = r
+            .sidecar
+            .get("modes/1/omega_n_rad_s")
+            .unwrap()
+            .as_f64()
+            .unwrap();
+        for x in c {
+            let rpm = x["rotor_rpm"].as_f64().unwrap();
+            let inside = (0.95 * 258.0..=1.01 * 258.0).contains(&rpm);
+            assert_eq!(x["in_operating_range"], inside);
+        }
+        let one_p = c
+            .iter()
+            .find(|x| x["mode"] == 2 && x["line"] == "1P")
+            .unwrap();
+        assert!((one_p["rotor_rpm"].as_f64().unwrap() - 30.0 * w2 / PI).abs() < 1e-9);
+        assert_eq!(one_p["in_operating_range"], true);
+        // the 1P band is [245.1, 260.58] rpm × π/30
+        let band = r.sidecar.get("environment/lines/0").unwrap();
+        assert!((band["band_lo_rad_s"].as_f64().unwrap() - 0.95 * 258.0 * PI / 30.0).abs() < 1e-12);
+        assert!(
+            r.document
+                .html()
+                .contains("1 of 4 crossings fall inside the operating range")
+        );
     }
 
     #[test]

@@ -199,9 +199,10 @@ pub struct CampbellPlot {
     pub title: String,
     /// The speed axis' rotor name.
     pub rotor: String,
-    /// Operating range of that rotor, rpm.
-    pub rpm_min: f64,
-    pub rpm_max: f64,
+    /// Nominal speed of that rotor, rpm.
+    pub rpm_nominal: f64,
+    /// Its operating range, rpm, if known.
+    pub rpm_range: Option<[f64; 2]>,
     /// Modes: label and ω_n (rad/s).
     pub modes: Vec<(String, f64)>,
     pub lines: Vec<CampbellLine>,
@@ -214,7 +215,8 @@ pub struct CampbellPlot {
 
 /// Mode frequencies against rotor speed (horizontal lines: the mechanism's modes do not
 /// depend on the rotor speed), the n/rev lines through the origin, the operating range
-/// shaded, crossings marked (filled inside the operating range).
+/// shaded when known and the nominal speed drawn, crossings marked (filled inside the
+/// operating range).
 pub fn campbell_svg(p: &CampbellPlot) -> Result<String, String> {
     let mut svg = String::new();
     {
@@ -234,16 +236,26 @@ pub fn campbell_svg(p: &CampbellPlot) -> Result<String, String> {
             .y_desc("frequency [rad/s]")
             .draw()
             .map_err(err)?;
+        if let Some([lo, hi]) = p.rpm_range {
+            chart
+                .draw_series(std::iter::once(Rectangle::new(
+                    [(lo, 0.0), (hi, ye)],
+                    BAND.mix(0.35).filled(),
+                )))
+                .map_err(err)?
+                .label("operating range")
+                .legend(|(x, y)| {
+                    Rectangle::new([(x, y - 5), (x + 20, y + 5)], BAND.mix(0.35).filled())
+                });
+        }
         chart
-            .draw_series(std::iter::once(Rectangle::new(
-                [(p.rpm_min, 0.0), (p.rpm_max, ye)],
-                BAND.mix(0.35).filled(),
-            )))
+            .draw_series(LineSeries::new(
+                vec![(p.rpm_nominal, 0.0), (p.rpm_nominal, ye)],
+                MARK.stroke_width(2),
+            ))
             .map_err(err)?
-            .label("operating range")
-            .legend(|(x, y)| {
-                Rectangle::new([(x, y - 5), (x + 20, y + 5)], BAND.mix(0.35).filled())
-            });
+            .label(format!("nominal {:.0} rpm", p.rpm_nominal))
+            .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], MARK.stroke_width(2)));
         for (label, w) in &p
             .lines
             .iter()
