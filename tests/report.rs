@@ -77,6 +77,22 @@ fn as_shown(value: f64, shown: &str) -> String {
     }
 }
 
+/// The keyed cells whose text is not the sidecar's value written as shown (`n/a` for a
+/// value that is not a number).
+fn mismatches(page: &str, json: &Value) -> Vec<String> {
+    keyed_cells(page)
+        .into_iter()
+        .filter_map(|(key, text)| {
+            let v = at(json, &key);
+            let want = v
+                .as_f64()
+                .map(|x| as_shown(x, &text))
+                .unwrap_or("n/a".into());
+            (text != want).then(|| format!("{key}: page {text}, sidecar {v}"))
+        })
+        .collect()
+}
+
 /// The value at a cell's key: the key is a JSON Pointer without its leading `/`.
 fn at<'a>(json: &'a Value, key: &str) -> &'a Value {
     json.pointer(&format!("/{key}"))
@@ -105,13 +121,16 @@ fn every_number_on_the_page_is_the_sidecars_rounded() {
     }
     let cells = keyed_cells(&page);
     assert!(cells.len() > 100, "{} keyed cells", cells.len());
-    for (key, text) in &cells {
-        let v = at(&json, key);
-        match v.as_f64() {
-            Some(x) => assert_eq!(text, &as_shown(x, text), "{key}: {v}"),
-            None => assert_eq!(text, "n/a", "{key}: {v}"),
-        }
-    }
+    let bad = mismatches(&page, &json);
+    assert!(bad.is_empty(), "{}", bad.join("\n"));
+    // the check catches a page whose number differs in its last digit shown
+    let shown = &cells["modes/1/omega_n_rad_s"];
+    let tampered = page.replace(
+        &format!("data-key=\"modes/1/omega_n_rad_s\">{shown}<"),
+        "data-key=\"modes/1/omega_n_rad_s\">26.532<",
+    );
+    assert_ne!(tampered, page);
+    assert_eq!(mismatches(&tampered, &json).len(), 1);
     // numbers of each kind are keyed
     for key in [
         "model/dof",
