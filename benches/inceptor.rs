@@ -9,7 +9,9 @@
 //!   0.5 rad/s steps with refinement to 0.1 rad/s around the peaks, detune's own
 //!   steady-state detection, on 2 threads: the command
 //!   `RAYON_NUM_THREADS=2 detune sweep models/inceptor.toml --param omega --from 5 --to 40
-//!   --step 0.5 --refine 0.1 --response stick.phi --set D0=0.007`.
+//!   --step 0.5 --refine 0.1 --response stick.phi --set D0=0.007`;
+//! * `report_uh60`: the design-review report with the UH-60 environment (`detune report`
+//!   without the file writes).
 //!
 //! Figures in docs/performance.md. Run: `cargo bench --bench inceptor`.
 
@@ -78,4 +80,25 @@ fn sweep_2_threads() -> Sweep {
         .build()
         .unwrap()
         .install(|| sweep(&sys, &opts, &|_| {}, &AtomicBool::new(false)).unwrap())
+}
+
+/// `detune report models/inceptor.toml --environment UH-60` without the file writes: the
+/// modes, the 400-point linear response with its peaks refined, the figures, the page.
+#[divan::bench(sample_count = 20)]
+fn report_uh60() -> usize {
+    let path = format!("{}/models/inceptor.toml", env!("CARGO_MANIFEST_DIR"));
+    let model = Model::load(&path).unwrap();
+    let sys = detune::statics::trim::trim(&System::new(&model).unwrap())
+        .unwrap()
+        .0;
+    let env = detune::report::environment::builtin("UH-60").unwrap();
+    let report = detune::report::build(&detune::report::ReportInputs {
+        model: &model,
+        sys: &sys,
+        environment: Some(&env),
+        mode_extras: None,
+        generated_utc: "2026-11-23T00:00:00Z".into(),
+    })
+    .unwrap();
+    report.document.html().len() + report.sidecar.to_json().len()
 }

@@ -42,6 +42,7 @@ pub mod linear;
 pub mod margins;
 pub mod model;
 pub mod output;
+pub mod report;
 pub mod request;
 pub mod scalar;
 pub mod statics;

@@ -13,6 +13,7 @@ use cli::kinematics::KinematicsArgs;
 use cli::margins::MarginsArgs;
 use cli::modes::ModesArgs;
 use cli::sensitivity::SensitivityArgs;
+use cli::report::ReportArgs;
 use cli::simulate::SimulateArgs;
 use cli::sweep::SweepArgs;
 use cli::tune::TuneArgs;
@@ -75,6 +76,10 @@ enum Command {
     /// environment by the margin, with alternatives. Exit 3 when none exists.
     #[command(allow_negative_numbers = true)]
     Tune(TuneArgs),
+    /// One self-contained HTML report for a design review (model, equilibrium, modes,
+    /// linear response, interference diagram) and its JSON sidecar.
+    #[command(allow_negative_numbers = true)]
+    Report(ReportArgs),
 }
 
 fn main() {
@@ -101,6 +106,7 @@ fn main() {
         Command::Draw(a) => cli::draw::run(a),
         Command::Margins(a) => cli::margins::run(a).map(|o| exit_code = o.exit_code()),
         Command::Tune(a) => cli::tune::run(a).map(|o| exit_code = o.exit_code()),
+        Command::Report(a) => cli::report::run(a),
     };
     if let Err(e) = result {
         eprint!(

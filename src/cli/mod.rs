@@ -15,6 +15,7 @@ pub mod kinematics;
 pub mod margins;
 pub mod modes;
 pub mod sensitivity;
+pub mod report;
 pub mod simulate;
 pub mod sweep;
 pub mod tune;

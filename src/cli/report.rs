@@ -1,0 +1,134 @@
+//! `detune report`: one self-contained HTML report for a design review, and its JSON
+//! sidecar (every number shown, and the provenance) beside it.
+
+use super::args::ModelArgs;
+use clap::Args;
+use detune::diag::{Error, Result};
+use detune::output::check_outputs;
+use detune::report::{ReportInputs, build, environment};
+use std::path::Path;
+use std::time::Instant;
+
+#[derive(Args)]
+#[command(allow_negative_numbers = true)]
+pub struct ReportArgs {
+    #[command(flatten)]
+    pub model: ModelArgs,
+    /// Vibration environment: its forcing lines are shaded on the frequency response and
+    /// drawn on the interference diagram. Known: UH-60.
+    #[arg(long, value_name = "NAME|PATH")]
+    pub environment: Option<String>,
+    /// Output HTML; the JSON sidecar is written beside it with the extension .json.
+    #[arg(short = 'o', long = "output", value_name = "REPORT.html")]
+    pub output: String,
+}
+
+/// The sidecar's path: the page's with the extension `.json`.
+pub fn sidecar_path(html: &str) -> String {
+    Path::new(html)
+        .with_extension("json")
+        .to_string_lossy()
+        .into_owned()
+}
+
+pub fn run(a: ReportArgs) -> Result<()> {
+    let ext = Path::new(&a.output)
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(|e| e.to_ascii_lowercase());
+    if !matches!(ext.as_deref(), Some("html" | "htm")) {
+        return Err(Error::request(
+            format!("-o {}: the report is an HTML file", a.output),
+            "name it with .html, e.g. -o report.html (the JSON sidecar report.json is written beside it)",
+        ));
+    }
+    let json = sidecar_path(&a.output);
+    // the environment is checked before any work, like the outputs
+    let env = a
+        .environment
+        .as_deref()
+        .map(environment::builtin)
+        .transpose()?;
+    let (model, sys) = a.model.load()?;
+    check_outputs(&model.source.path, &[Some(&a.output), Some(&json)])?;
+    let start = Instant::now();
+    let report = build(&ReportInputs {
+        model: &model,
+        sys: &sys,
+        environment: env.as_ref(),
+        mode_extras: None,
+        generated_utc: utc_now(),
+    })?;
+    report.write(&a.output, &json)?;
+    let modes = report
+        .sidecar
+        .get("modes")
+        .and_then(|m| m.as_array())
+        .map(|m| {
+            m.iter()
+                .filter_map(|x| x.get("omega_n_rad_s").and_then(|w| w.as_f64()))
+                .map(|w| format!("{w:.3}"))
+                .collect::<Vec<_>>()
+        })
+        .unwrap_or_default();
+    // the crossing of a mode with a rotor line nearest the nominal rotor speed
+    let nearest = report
+        .sidecar
+        .get("campbell/crossings")
+        .and_then(|c| c.as_array())
+        .and_then(|c| {
+            c.iter()
+                .filter_map(|x| {
+                    Some((
+                        x.get("mode")?.as_u64()?,
+                        x.get("line")?.as_str()?,
+                        x.get("percent_nominal")?.as_f64()?,
+                    ))
+                })
+                .min_by(|a, b| (a.2 - 100.0).abs().total_cmp(&(b.2 - 100.0).abs()))
+                .map(|(m, l, p)| {
+                    format!("; mode {m} meets {l} at {p:.1} % of the nominal rotor speed")
+                })
+        });
+    println!("wrote {} and {json}", a.output);
+    println!(
+        "{}: {} modes (ω_n {} rad/s){}; {} sections in {:.2} s",
+        model.name,
+        modes.len(),
+        if modes.is_empty() {
+            "none".to_string()
+        } else {
+            modes.join(", ")
+        },
+        nearest.unwrap_or_default(),
+        report.document.sections.len(),
+        start.elapsed().as_secs_f64()
+    );
+    Ok(())
+}
+
+/// The current UTC time, `YYYY-MM-DDTHH:MM:SSZ`, from the system clock (days to a civil
+/// date by H. Hinnant's algorithm; the standard library has no calendar, and this is too
+/// small to take a date crate for).
+pub fn utc_now() -> String {
+    let secs = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map(|d| d.as_secs() as i64)
+        .unwrap_or(0);
+    let (days, rem) = (secs.div_euclid(86_400), secs.rem_euclid(86_400));
+    let z = days + 719_468;
+    let era = z.div_euclid(146_097);
+    let doe = z - era * 146_097;
+    let yoe = (doe - doe / 1460 + doe / 36_524 - doe / 146_096) / 365;
+    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
+    let mp = (5 * doy + 2) / 153;
+    let d = doy - (153 * mp + 2) / 5 + 1;
+    let m = if mp < 10 { mp + 3 } else { mp - 9 };
+    let y = yoe + era * 400 + i64::from(m <= 2);
+    format!(
+        "{y:04}-{m:02}-{d:02}T{:02}:{:02}:{:02}Z",
+        rem / 3600,
+        rem % 3600 / 60,
+        rem % 60
+    )
+}

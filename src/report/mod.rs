@@ -1,0 +1,423 @@
+//! The design-review report (`detune report`): one self-contained HTML file and a JSON
+//! sidecar holding every number it shows.
+//!
+//! How it works:
+//!
+//! * The analyses' results are serialized (serde) into one JSON document, the
+//!   [`Sidecar`]; each section adds its part under its own top-level key (`model`,
+//!   `equilibrium`, `modes`, `frf`, `environment`, `campbell`, ...).
+//! * The page is a [`Document`] of [`Section`]s, each a title and [`Block`]s: prose,
+//!   [`Table`]s and [`Figure`]s (inline SVG strings). A numeric table cell is built
+//!   *from the sidecar* by its key ([`Sidecar::num`]): a JSON Pointer (RFC 6901) without
+//!   the leading `/`, e.g. `modes/0/omega_n_rad_s`. The cell shows the value rounded to
+//!   its [`Digits`] and carries the key as `data-key`, so the HTML and the JSON cannot
+//!   disagree, and a script (or the test suite) can check every number on the page.
+//! * [`Document::html`] renders the page with maud (compile-time templates, escaping by
+//!   default): CSS inline in a `<style>`, print-friendly (A4 / letter, a page break before
+//!   each section), no JavaScript and nothing fetched from the network.
+//!
+//! [`build`] assembles the report from a model ([`build::ReportInputs`]); sections that
+//! come later (margins, sensitivity, tuning) are added by the same means:
+//! [`Report::add_data`] puts their results into the sidecar, and a [`Section`] of
+//! [`Table`]s keyed into it is pushed onto [`Report::document`].
+
+pub mod build;
+pub mod environment;
+pub mod figures;
+
+pub use build::{ReportInputs, build};
+pub use environment::{Environment, ForcingLine, Rotor};
+
+use crate::diag::{Error, Result};
+use maud::{DOCTYPE, Markup, PreEscaped, html};
+use serde_json::{Map, Value};
+
+/// How many digits a number is shown with.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Digits {
+    /// `{:.N}`: N decimals (`26.531`).
+    Fixed(usize),
+    /// `{:.Ne}`: scientific, N decimals in the mantissa (`1.234e-5`).
+    Sci(usize),
+    /// N significant digits: fixed for 1e-3 ≤ |x| < 1e6 (`0.1350`), else scientific
+    /// (`1.295e5`); shown in one of the two forms above.
+    Sig(usize),
+}
+
+impl Digits {
+    /// `x` as shown; NaN and infinities (null in the sidecar) as `n/a`.
+    pub fn format(self, x: f64) -> String {
+        if !x.is_finite() {
+            return "n/a".into();
+        }
+        match self {
+            Digits::Fixed(n) => format!("{x:.n$}"),
+            Digits::Sci(n) => format!("{x:.n$e}"),
+            Digits::Sig(n) => {
+                let n = n.max(1);
+                let a = x.abs();
+                if a == 0.0 {
+                    format!("{x:.0$}", n - 1)
+                } else if (1e-3..1e6).contains(&a) {
+                    let e = a.log10().floor() as i64;
+                    let decimals = (n as i64 - 1 - e).max(0) as usize;
+                    format!("{x:.decimals$}")
+                } else {
+                    format!("{x:.0$e}", n - 1)
+                }
+            }
+        }
+    }
+}
+
+/// One table cell.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Cell {
+    Text(String),
+    /// A number of the sidecar: its key (JSON Pointer without the leading `/`), its value
+    /// (None: null, not a number) and how it is shown.
+    Number {
+        key: String,
+        value: Option<f64>,
+        digits: Digits,
+    },
+}
+
+impl Cell {
+    pub fn text(s: impl Into<String>) -> Cell {
+        Cell::Text(s.into())
+    }
+
+    /// The text shown.
+    pub fn shown(&self) -> String {
+        match self {
+            Cell::Text(s) => s.clone(),
+            Cell::Number { value, digits, .. } => digits.format(value.unwrap_or(f64::NAN)),
+        }
+    }
+}
+
+/// A table column: its title and the unit of its numbers (shown in the header as
+/// `title [unit]`; empty for none).
+#[derive(Debug, Clone)]
+pub struct Column {
+    pub title: String,
+    pub unit: String,
+}
+
+impl Column {
+    pub fn new(title: impl Into<String>, unit: impl Into<String>) -> Column {
+        Column {
+            title: title.into(),
+            unit: unit.into(),
+        }
+    }
+
+    fn header(&self) -> String {
+        if self.unit.is_empty() {
+            self.title.clone()
+        } else {
+            format!("{} [{}]", self.title, self.unit)
+        }
+    }
+}
+
+/// A table: a caption, columns and rows of cells.
+#[derive(Debug, Clone)]
+pub struct Table {
+    pub caption: String,
+    pub columns: Vec<Column>,
+    pub rows: Vec<Vec<Cell>>,
+}
+
+/// A figure: an inline SVG document and its caption.
+#[derive(Debug, Clone)]
+pub struct Figure {
+    pub caption: String,
+    /// The `<svg ...>...</svg>` element (an XML declaration before it is dropped).
+    pub svg: String,
+}
+
+/// What a section holds, in order.
+#[derive(Debug, Clone)]
+pub enum Block {
+    Prose(String),
+    Table(Table),
+    Figure(Figure),
+}
+
+/// One section of the report.
+#[derive(Debug, Clone)]
+pub struct Section {
+    /// Its HTML id (`modes`, `frf`...), also the anchor of the table of contents.
+    pub id: String,
+    pub title: String,
+    pub blocks: Vec<Block>,
+}
+
+impl Section {
+    pub fn new(id: &str, title: &str) -> Section {
+        Section {
+            id: id.into(),
+            title: title.into(),
+            blocks: Vec::new(),
+        }
+    }
+    pub fn prose(mut self, text: impl Into<String>) -> Section {
+        self.blocks.push(Block::Prose(text.into()));
+        self
+    }
+    pub fn table(mut self, t: Table) -> Section {
+        self.blocks.push(Block::Table(t));
+        self
+    }
+    pub fn figure(mut self, caption: impl Into<String>, svg: String) -> Section {
+        self.blocks.push(Block::Figure(Figure {
+            caption: caption.into(),
+            svg,
+        }));
+        self
+    }
+}
+
+/// The whole page: a title, a subtitle line and the sections.
+#[derive(Debug, Clone)]
+pub struct Document {
+    pub title: String,
+    pub subtitle: String,
+    pub sections: Vec<Section>,
+}
+
+/// The JSON sidecar: every number the report shows, by key.
+#[derive(Debug, Clone, Default)]
+pub struct Sidecar(pub Map<String, Value>);
+
+/// A key segment escaped for a JSON Pointer (`~` → `~0`, `/` → `~1`).
+pub fn escape_key(segment: &str) -> String {
+    segment.replace('~', "~0").replace('/', "~1")
+}
+
+impl Sidecar {
+    /// Put `value` (serialized) under the top-level `key`.
+    pub fn insert(&mut self, key: &str, value: &impl serde::Serialize) -> Result<()> {
+        let v = serde_json::to_value(value)
+            .map_err(|e| Error::io("report.json", format!("cannot serialize {key}: {e}")))?;
+        self.0.insert(key.to_string(), v);
+        Ok(())
+    }
+
+    /// The value at `key` (a JSON Pointer without the leading `/`).
+    pub fn get(&self, key: &str) -> Option<&Value> {
+        let (head, rest) = key.split_once('/').unwrap_or((key, ""));
+        let v = self.0.get(head)?;
+        if rest.is_empty() {
+            Some(v)
+        } else {
+            v.pointer(&format!("/{rest}"))
+        }
+    }
+
+    /// The numeric cell of `key` shown with `digits`: the number is read from the
+    /// sidecar, so the page shows what the JSON holds (a missing or non-numeric value is
+    /// shown as `n/a`, as NaN, which JSON writes as null).
+    pub fn num(&self, key: impl Into<String>, digits: Digits) -> Cell {
+        let key = key.into();
+        let value = self.get(&key).and_then(Value::as_f64);
+        Cell::Number { key, value, digits }
+    }
+
+    /// The text at `key` (a string, or any other value as JSON), for a text cell.
+    pub fn text(&self, key: &str) -> Cell {
+        Cell::Text(match self.get(key) {
+            Some(Value::String(s)) => s.clone(),
+            Some(v) => v.to_string(),
+            None => String::new(),
+        })
+    }
+
+    /// The whole document, pretty-printed.
+    pub fn to_json(&self) -> String {
+        serde_json::to_string_pretty(&self.0).unwrap_or_default()
+    }
+}
+
+/// The report: the page and its sidecar.
+#[derive(Debug, Clone)]
+pub struct Report {
+    pub document: Document,
+    pub sidecar: Sidecar,
+}
+
+impl Report {
+    /// Put a section's results into the sidecar under `key` (to be shown by cells keyed
+    /// `key/...`).
+    pub fn add_data(&mut self, key: &str, value: &impl serde::Serialize) -> Result<()> {
+        self.sidecar.insert(key, value)
+    }
+
+    /// Write the HTML page to `html_path` and the sidecar to `json_path`, both or
+    /// neither: each is written to a temporary file first; the sidecar is renamed into
+    /// place only after the page, and the page removed again if that fails.
+    pub fn write(&self, html_path: &str, json_path: &str) -> Result<()> {
+        let page = self.document.html();
+        let json = self.sidecar.to_json();
+        crate::output::write_atomic(html_path, |w| w.write_all(page.as_bytes()))?;
+        if let Err(e) = crate::output::write_atomic(json_path, |w| {
+            w.write_all(json.as_bytes())?;
+            w.write_all(b"\n")
+        }) {
+            let _ = std::fs::remove_file(html_path);
+            return Err(e);
+        }
+        Ok(())
+    }
+}
+
+/// The page's style: readable system fonts, tables with right-aligned numbers, figures
+/// scaled to the page width, A4 / letter print with a page break before each section.
+const CSS: &str = r#"
+:root { color-scheme: light; }
+body { font-family: "Helvetica Neue", Helvetica, Arial, "Liberation Sans", "DejaVu Sans", sans-serif;
+  font-size: 11pt; line-height: 1.45; color: #1a1a1a; max-width: 60rem; margin: 1.5rem auto; padding: 0 1rem; }
+h1 { font-size: 1.7em; margin-bottom: 0.2em; }
+h2 { font-size: 1.3em; border-bottom: 1px solid #888; padding-bottom: 0.15em; margin-top: 2em; }
+.subtitle { color: #444; margin-top: 0; }
+nav ol { columns: 2; font-size: 0.95em; }
+table { border-collapse: collapse; margin: 0.8em 0 1.2em; font-size: 0.92em; }
+caption { caption-side: top; text-align: left; font-weight: bold; padding-bottom: 0.3em; }
+th, td { border: 1px solid #bbb; padding: 0.2em 0.55em; vertical-align: top; }
+th { background: #eef1f5; text-align: left; }
+td.num { text-align: right; font-variant-numeric: tabular-nums; font-family: "DejaVu Sans Mono", "Liberation Mono", Menlo, Consolas, monospace; }
+figure { margin: 1em 0; page-break-inside: avoid; break-inside: avoid; }
+figure svg { max-width: 100%; height: auto; display: block; }
+figcaption { font-size: 0.92em; color: #333; margin-top: 0.3em; }
+.pass { color: #176b1d; font-weight: bold; }
+.fail { color: #a4161a; font-weight: bold; }
+footer { margin-top: 3em; font-size: 0.85em; color: #555; }
+@page { size: A4; margin: 15mm; }
+@media print {
+  body { max-width: none; margin: 0; padding: 0; font-size: 10pt; }
+  section { break-before: page; page-break-before: always; }
+  nav { display: none; }
+  table, figure { break-inside: avoid; page-break-inside: avoid; }
+}
+"#;
+
+/// `svg` from its `<svg` element on (drops an XML declaration or doctype, which an HTML
+/// page must not contain inline), without the SVG namespace declaration (an HTML parser
+/// puts `<svg>` in it anyway), so that the page names no URL at all.
+fn inline_svg(svg: &str) -> String {
+    let s = svg.find("<svg").map(|i| &svg[i..]).unwrap_or("");
+    s.replacen(r#" xmlns="http://www.w3.org/2000/svg""#, "", 1)
+}
+
+fn render_table(t: &Table) -> Markup {
+    html! {
+        table {
+            @if !t.caption.is_empty() { caption { (t.caption) } }
+            thead { tr { @for c in &t.columns { th { (c.header()) } } } }
+            tbody {
+                @for row in &t.rows {
+                    tr {
+                        @for cell in row {
+                            @match cell {
+                                Cell::Text(s) => td { (s) },
+                                Cell::Number { key, .. } => td class="num" data-key=(key) { (cell.shown()) },
+                            }
+                        }
+                    }
+                }
+            }
+        }
+    }
+}
+
+impl Document {
+    /// The page as one self-contained HTML document.
+    pub fn html(&self) -> String {
+        let page = html! {
+            (DOCTYPE)
+            html lang="en" {
+                head {
+                    meta charset="utf-8";
+                    meta name="viewport" content="width=device-width, initial-scale=1";
+                    meta name="generator" content=(format!("detune {}", env!("CARGO_PKG_VERSION")));
+                    title { (self.title) }
+                    style { (PreEscaped(CSS)) }
+                }
+                body {
+                    header {
+                        h1 { (self.title) }
+                        p.subtitle { (self.subtitle) }
+                    }
+                    nav {
+                        ol { @for s in &self.sections { li { a href=(format!("#{}", s.id)) { (s.title) } } } }
+                    }
+                    @for s in &self.sections {
+                        section id=(s.id) {
+                            h2 { (s.title) }
+                            @for b in &s.blocks {
+                                @match b {
+                                    Block::Prose(p) => p { (p) },
+                                    Block::Table(t) => (render_table(t)),
+                                    Block::Figure(f) => figure {
+                                        (PreEscaped(inline_svg(&f.svg)))
+                                        figcaption { (f.caption) }
+                                    },
+                                }
+                            }
+                        }
+                    }
+                    footer {
+                        "Every number in a table carries its key into the JSON sidecar (data-key). Made by detune "
+                        (env!("CARGO_PKG_VERSION")) "."
+                    }
+                }
+            }
+        };
+        page.into_string()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn cells_show_the_sidecar_value_rounded() {
+        let mut s = Sidecar::default();
+        s.insert(
+            "modes",
+            &vec![serde_json::json!({"omega_n_rad_s": 26.530560})],
+        )
+        .unwrap();
+        let c = s.num("modes/0/omega_n_rad_s", Digits::Fixed(2));
+        assert_eq!(c.shown(), "26.53");
+        assert_eq!(s.num("modes/0/missing", Digits::Fixed(2)).shown(), "n/a");
+        assert_eq!(Digits::Sci(3).format(1.23456e-5), "1.235e-5");
+        assert_eq!(escape_key("a/b~c"), "a~1b~0c");
+        assert_eq!(Digits::Sig(4).format(0.135), "0.1350");
+        assert_eq!(Digits::Sig(4).format(129500.0), "129500");
+        assert_eq!(Digits::Sig(4).format(1.295e6), "1.295e6");
+        assert_eq!(Digits::Sig(3).format(-0.0002), "-2.00e-4");
+    }
+
+    #[test]
+    fn a_page_escapes_text_and_keeps_keys() {
+        let mut s = Sidecar::default();
+        s.insert("x", &serde_json::json!({"v": 1.5})).unwrap();
+        let doc = Document {
+            title: "a <b> & c".into(),
+            subtitle: String::new(),
+            sections: vec![Section::new("one", "One").table(Table {
+                caption: "t".into(),
+                columns: vec![Column::new("v", "m")],
+                rows: vec![vec![s.num("x/v", Digits::Fixed(1))]],
+            })],
+        };
+        let page = doc.html();
+        assert!(page.contains("a &lt;b&gt; &amp; c"));
+        assert!(page.contains(r#"<td class="num" data-key="x/v">1.5</td>"#));
+        assert!(page.contains("v [m]"));
+    }
+}

@@ -1,0 +1,543 @@
+//! `detune report`: the HTML page and its JSON sidecar, checked structurally (every
+//! section, every keyed number against the sidecar and against `detune modes --json`,
+//! no script, no URL, well-formed inline SVG), against closed forms (the interference
+//! diagram's crossings), against `detune frf` (the response per unit forcing), and in a
+//! real headless browser (Debian's chromium: renders without console errors; the
+//! screenshot is kept under `<target>/test-artifacts/`).
+
+use serde_json::Value;
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+const BIN: &str = env!("CARGO_BIN_EXE_detune");
+
+fn model(name: &str) -> String {
+    format!("{}/models/{name}.toml", env!("CARGO_MANIFEST_DIR"))
+}
+
+fn run(args: &[&str]) -> std::process::Output {
+    Command::new(BIN).args(args).output().unwrap()
+}
+
+/// The report of `model` (with `extra` arguments) in a fresh directory: (dir, html path,
+/// page, sidecar).
+fn report(model_name: &str, extra: &[&str]) -> (tempfile::TempDir, PathBuf, String, Value) {
+    let dir = tempfile::tempdir().unwrap();
+    let html = dir.path().join(format!("{model_name}-report.html"));
+    let m = model(model_name);
+    let mut args = vec!["report", m.as_str()];
+    args.extend_from_slice(extra);
+    args.extend_from_slice(&["-o", html.to_str().unwrap()]);
+    let out = run(&args);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let page = std::fs::read_to_string(&html).unwrap();
+    let json: Value =
+        serde_json::from_str(&std::fs::read_to_string(html.with_extension("json")).unwrap())
+            .unwrap();
+    (dir, html, page, json)
+}
+
+fn unescape(s: &str) -> String {
+    s.replace("&lt;", "<")
+        .replace("&gt;", ">")
+        .replace("&quot;", "\"")
+        .replace("&#39;", "'")
+        .replace("&amp;", "&")
+}
+
+/// Every `<td ... data-key="K">TEXT</td>` of the page: key → text.
+fn keyed_cells(page: &str) -> BTreeMap<String, String> {
+    let mut out = BTreeMap::new();
+    let mut rest = page;
+    while let Some(i) = rest.find("data-key=\"") {
+        rest = &rest[i + 10..];
+        let end = rest.find('"').unwrap();
+        let key = unescape(&rest[..end]);
+        let open = rest.find('>').unwrap();
+        let close = rest.find("</td>").unwrap();
+        let text = unescape(&rest[open + 1..close]);
+        assert!(out.insert(key.clone(), text).is_none(), "key {key} twice");
+        rest = &rest[close..];
+    }
+    out
+}
+
+/// `value` written the way `shown` is written: as many decimals, fixed or scientific.
+fn as_shown(value: f64, shown: &str) -> String {
+    let decimals = |s: &str| s.split_once('.').map(|(_, d)| d.len()).unwrap_or(0);
+    match shown.split_once('e') {
+        Some((mantissa, _)) => format!("{value:.0$e}", decimals(mantissa)),
+        None => format!("{value:.0$}", decimals(shown)),
+    }
+}
+
+/// The keyed cells whose text is not the sidecar's value written as shown (`n/a` for a
+/// value that is not a number).
+fn mismatches(page: &str, json: &Value) -> Vec<String> {
+    keyed_cells(page)
+        .into_iter()
+        .filter_map(|(key, text)| {
+            let v = at(json, &key);
+            let want = v
+                .as_f64()
+                .map(|x| as_shown(x, &text))
+                .unwrap_or("n/a".into());
+            (text != want).then(|| format!("{key}: page {text}, sidecar {v}"))
+        })
+        .collect()
+}
+
+/// The value at a cell's key: the key is a JSON Pointer without its leading `/`.
+fn at<'a>(json: &'a Value, key: &str) -> &'a Value {
+    json.pointer(&format!("/{key}"))
+        .unwrap_or_else(|| panic!("the sidecar has no {key}"))
+}
+
+const SECTIONS: [&str; 8] = [
+    "provenance",
+    "model",
+    "pose",
+    "equilibrium",
+    "modes",
+    "frf",
+    "environment",
+    "campbell",
+];
+
+#[test]
+fn every_number_on_the_page_is_the_sidecars_rounded() {
+    let (_dir, _, page, json) = report("inceptor", &["--environment", "UH-60"]);
+    for s in SECTIONS {
+        assert!(
+            page.contains(&format!("<section id=\"{s}\">")),
+            "section {s} missing"
+        );
+    }
+    let cells = keyed_cells(&page);
+    assert!(cells.len() > 100, "{} keyed cells", cells.len());
+    let bad = mismatches(&page, &json);
+    assert!(bad.is_empty(), "{}", bad.join("\n"));
+    // the check catches a page whose number differs in its last digit shown
+    let shown = &cells["modes/1/omega_n_rad_s"];
+    let tampered = page.replace(
+        &format!("data-key=\"modes/1/omega_n_rad_s\">{shown}<"),
+        "data-key=\"modes/1/omega_n_rad_s\">26.532<",
+    );
+    assert_ne!(tampered, page);
+    assert_eq!(mismatches(&tampered, &json).len(), 1);
+    // numbers of each kind are keyed
+    for key in [
+        "model/dof",
+        "equilibrium/coordinates/3/degrees",
+        "modes/1/omega_n_rad_s",
+        "modes/0/shape/stick.phi/re",
+        "frf/peaks/0/omega",
+        "environment/lines/0/omega_rad_s",
+        "campbell/crossings/0/rotor_rpm",
+    ] {
+        assert!(cells.contains_key(key), "no cell keyed {key}");
+    }
+    assert_eq!(cells["model/dof"], "2");
+    assert_eq!(cells["equilibrium/coordinates/3/degrees"], "12.0000"); // phi0 = 12 deg
+    let p = &json["provenance"];
+    assert_eq!(p["detune_version"], env!("CARGO_PKG_VERSION"));
+    assert_eq!(p["model_sha256"].as_str().unwrap().len(), 64);
+    assert!(page.contains(p["model_sha256"].as_str().unwrap()));
+}
+
+#[test]
+fn the_modes_are_those_of_detune_modes() {
+    let (_dir, _, page, json) = report("inceptor", &["--environment", "UH-60"]);
+    let out = run(&["modes", &model("inceptor"), "--json"]);
+    assert!(out.status.success());
+    let modes: Value = serde_json::from_slice(&out.stdout).unwrap();
+    let cells = keyed_cells(&page);
+    let list = modes["modes"].as_array().unwrap();
+    assert_eq!(list.len(), 2);
+    assert_eq!(json["modes"].as_array().unwrap().len(), 2);
+    for (k, m) in list.iter().enumerate() {
+        for field in ["omega_n_rad_s", "freq_hz", "damping_ratio", "omega_d_rad_s"] {
+            let shown = &cells[&format!("modes/{k}/{field}")];
+            assert_eq!(
+                shown,
+                &as_shown(m[field].as_f64().unwrap(), shown),
+                "{k} {field}"
+            );
+        }
+        let rpm = m["omega_n_rad_s"].as_f64().unwrap() * 30.0 / std::f64::consts::PI;
+        let shown = &cells[&format!("modes/{k}/rpm")];
+        assert_eq!(shown, &as_shown(rpm, shown));
+        for (c, z) in m["shape"].as_object().unwrap() {
+            for part in ["re", "im"] {
+                let shown = &cells[&format!("modes/{k}/shape/{c}/{part}")];
+                assert_eq!(
+                    shown,
+                    &as_shown(z[part].as_f64().unwrap(), shown),
+                    "{k} {c}"
+                );
+            }
+        }
+    }
+    // the shipped inceptor's damped modes (docs/inceptor.md)
+    assert_eq!(cells["modes/0/omega_n_rad_s"], "13.090");
+    assert_eq!(cells["modes/1/omega_n_rad_s"], "26.531");
+}
+
+#[test]
+fn crossings_are_where_the_lines_meet_the_modes() {
+    let (_dir, _, page, json) = report("inceptor", &["--environment", "UH-60"]);
+    let pi = std::f64::consts::PI;
+    let modes = json["modes"].as_array().unwrap();
+    let crossings = json["campbell"]["crossings"].as_array().unwrap();
+    // UH-60: main rotor 258 rpm, tail 1190 rpm; lines 1P 4P 8P 12P 1T 4T (tail geared to
+    // the main rotor); no operating range, so the speed axis ends at 1.2 × 258 rpm
+    let lines = [
+        ("1P", 1.0),
+        ("4P", 4.0),
+        ("8P", 8.0),
+        ("12P", 12.0),
+        ("1T", 1190.0 / 258.0),
+        ("4T", 4.0 * 1190.0 / 258.0),
+    ];
+    let mut expected = 0;
+    for (k, m) in modes.iter().enumerate() {
+        let w = m["omega_n_rad_s"].as_f64().unwrap();
+        for (label, n) in lines {
+            // ω = n Ω π/30  ⇒  Ω = 30 ω / (n π)
+            let omega_rpm = 30.0 * w / (n * pi);
+            if omega_rpm > 1.2 * 258.0 {
+                continue;
+            }
+            expected += 1;
+            let c = crossings
+                .iter()
+                .find(|c| c["mode"] == k + 1 && c["line"] == label)
+                .unwrap_or_else(|| panic!("no crossing of mode {} with {label}", k + 1));
+            assert!((c["rotor_rpm"].as_f64().unwrap() - omega_rpm).abs() < 1e-9 * omega_rpm);
+            let percent = c["percent_nominal"].as_f64().unwrap();
+            assert!((percent - 100.0 * omega_rpm / 258.0).abs() < 1e-9);
+            // no range given: not judged
+            assert!(c["in_operating_range"].is_null());
+        }
+    }
+    assert_eq!(crossings.len(), expected);
+    assert!(json["campbell"]["rpm_range"].is_null());
+    // the inceptor's second mode (26.53 rad/s) meets 1P at 253.3 rpm, 98.2 % of nominal:
+    // the crossing nearest the nominal speed, which the page's prose names
+    let nearest = crossings
+        .iter()
+        .min_by(|a, b| {
+            let d = |c: &Value| (c["percent_nominal"].as_f64().unwrap() - 100.0).abs();
+            d(a).total_cmp(&d(b))
+        })
+        .unwrap();
+    assert_eq!(
+        (nearest["mode"].as_u64(), nearest["line"].as_str()),
+        (Some(2), Some("1P"))
+    );
+    assert!(page.contains("mode 2 with 1P at 253.3 rpm (98.2 % of nominal)"));
+}
+
+#[test]
+fn the_response_is_detune_frfs_per_unit_table_motion() {
+    let (_dir, _, _, json) = report("inceptor", &["--environment", "UH-60"]);
+    let frf = &json["frf"];
+    // the shipped inceptor has D0 = 0: the report's response is per metre of D0
+    assert_eq!(frf["unit_forcing"]["param"], "D0");
+    assert_eq!(frf["responses"][0]["unit"], "rad/m");
+    let omega = frf["omega_rad_s"].as_array().unwrap();
+    // log-spaced from 0.2 × the lowest to 2.5 × the highest natural frequency
+    let w0 = json["modes"][0]["omega_n_rad_s"].as_f64().unwrap();
+    let w1 = json["modes"][1]["omega_n_rad_s"].as_f64().unwrap();
+    assert!((omega[0].as_f64().unwrap() - 0.2 * w0).abs() < 1e-9);
+    assert!((omega.last().unwrap().as_f64().unwrap() - 2.5 * w1).abs() < 1e-9);
+    // one grid point against `detune frf` with D0 = 7 mm, divided by 7 mm (linear)
+    let k = 150;
+    let w = omega[k].as_f64().unwrap();
+    let ws = format!("{w}");
+    let out = run(&[
+        "frf",
+        &model("inceptor"),
+        "--set",
+        "D0=7 mm",
+        "--param",
+        "omega",
+        "--from",
+        &ws,
+        "--to",
+        &ws,
+        "--step",
+        "1",
+        "--response",
+        "stick.phi",
+        "--json",
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let f: Value = serde_json::from_slice(&out.stdout).unwrap();
+    let point = &f["points"][0];
+    let w_frf = point["omega"].as_f64().unwrap();
+    assert!((w_frf - w).abs() < 1e-8 * w, "{w_frf} vs {w}");
+    let amp = point["stick.phi_amplitude"].as_f64().unwrap() / 0.007;
+    let r = &frf["responses"][0];
+    assert_eq!(r["name"], "stick.phi");
+    let ours = r["amplitude"][k].as_f64().unwrap();
+    assert!((ours - amp).abs() < 1e-6 * amp, "{ours} vs {amp}");
+    // each refined stick.phi peak sits near a mode (light damping: ζ < 0.14)
+    let peaks: Vec<f64> = frf["peaks"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|p| p["response"] == "stick.phi")
+        .map(|p| p["omega"].as_f64().unwrap())
+        .collect();
+    assert_eq!(peaks.len(), 2);
+    assert!((peaks[0] / w0 - 1.0).abs() < 0.05, "{peaks:?}");
+    assert!((peaks[1] / w1 - 1.0).abs() < 0.05, "{peaks:?}");
+}
+
+#[test]
+fn the_page_is_self_contained_and_its_svgs_are_well_formed() {
+    let (_dir, _, page, _) = report("inceptor", &["--environment", "UH-60"]);
+    assert!(!page.to_lowercase().contains("<script"));
+    assert!(!page.contains("http://") && !page.contains("https://"));
+    assert!(!page.contains("<link") && !page.contains("@import"));
+    let mut figures = 0;
+    let mut rest = page.as_str();
+    while let Some(i) = rest.find("<figure>") {
+        rest = &rest[i + 8..];
+        let end = rest.find("<figcaption>").unwrap();
+        let svg = &rest[..end];
+        let doc =
+            roxmltree::Document::parse(svg).unwrap_or_else(|e| panic!("figure {figures}: {e}"));
+        assert_eq!(doc.root_element().tag_name().name(), "svg");
+        figures += 1;
+    }
+    assert_eq!(figures, 3, "pose, response, interference diagram");
+}
+
+#[test]
+fn a_planar_model_without_environment() {
+    let (_dir, _, page, json) = report("overcentre", &["--set", "c=3"]);
+    // the override is in the provenance and in the parameters table
+    assert_eq!(json["provenance"]["overrides"], serde_json::json!(["c=3"]));
+    let params = json["model"]["parameters"].as_array().unwrap();
+    let c = params.iter().position(|p| p["name"] == "c").unwrap();
+    assert_eq!(params[c]["value"], 3.0);
+    assert_eq!(params[c]["set"], "3");
+    for s in [
+        "provenance",
+        "model",
+        "pose",
+        "equilibrium",
+        "modes",
+        "frf",
+        "campbell",
+    ] {
+        assert!(page.contains(&format!("<section id=\"{s}\">")), "{s}");
+    }
+    assert!(!page.contains("<section id=\"environment\">"));
+    assert!(page.contains("No vibration environment given"));
+    // one mode, the force amplitude F0 (zero in the file) taken as 1 N
+    assert_eq!(json["modes"].as_array().unwrap().len(), 1);
+    assert_eq!(json["frf"]["unit_forcing"]["param"], "F0");
+    assert!(json.get("campbell").is_none());
+    let cells = keyed_cells(&page);
+    assert_eq!(cells[&format!("model/parameters/{c}/value")], "3.00000");
+    // c only damps: ω_n is the undamped 2.9732 rad/s of docs/overcentre.md, ζ = c / 5 ×
+    // the baseline's 0.2186
+    assert_eq!(cells["modes/0/omega_n_rad_s"], "2.973");
+    let zeta = json["modes"][0]["damping_ratio"].as_f64().unwrap();
+    assert!((zeta - 0.6 * 0.218576).abs() < 1e-5, "{zeta}");
+}
+
+#[test]
+fn bad_requests_are_refused_before_any_output() {
+    let dir = tempfile::tempdir().unwrap();
+    let m = model("inceptor");
+    let txt = dir.path().join("report.txt");
+    let out = run(&["report", &m, "-o", txt.to_str().unwrap()]);
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("report.txt") && err.contains(".html"), "{err}");
+    let html = dir.path().join("r.html");
+    let out = run(&[
+        "report",
+        &m,
+        "--environment",
+        "CH-47",
+        "-o",
+        html.to_str().unwrap(),
+    ]);
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("UH-60"));
+    let missing = dir.path().join("no/such/dir/r.html");
+    let out = run(&["report", &m, "-o", missing.to_str().unwrap()]);
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("does not exist"));
+    assert_eq!(
+        std::fs::read_dir(dir.path()).unwrap().count(),
+        0,
+        "nothing written"
+    );
+}
+
+// ---- the headless browser ------------------------------------------------------------
+
+/// The page's console messages in chromium's `--enable-logging=stderr` log. Chromium
+/// logs every message a page sends to its console as `...:CONSOLE:<line>] "<message>",
+/// source: <url> (<line>)` (older versions: `CONSOLE(<line>)`), at level INFO whatever
+/// the message's own level, and an uncaught exception as `"Uncaught ..."`. The report has
+/// no script, so any console message from it is an error.
+fn console_errors(stderr: &str) -> Vec<&str> {
+    stderr
+        .lines()
+        .filter(|l| l.contains(":CONSOLE") || l.contains("CONSOLE(") || l.contains("Uncaught"))
+        .collect()
+}
+
+/// The chromium binary, if installed.
+fn chromium() -> Option<PathBuf> {
+    let path = std::env::var_os("PATH")?;
+    for name in ["chromium", "chromium-browser"] {
+        for dir in std::env::split_paths(&path) {
+            let p = dir.join(name);
+            if p.is_file() {
+                return Some(p);
+            }
+        }
+    }
+    None
+}
+
+/// Render `page` (a file) in headless chromium, screenshot to `png` at `w` × `h`: the
+/// log chromium wrote on stderr. Panics after 120 s.
+fn render(chromium: &Path, page: &Path, png: &Path, w: u32, h: u32) -> String {
+    let profile = tempfile::tempdir().unwrap();
+    let log = profile.path().join("stderr.log");
+    let mut child = Command::new(chromium)
+        .args([
+            "--headless",
+            "--no-sandbox",
+            "--disable-gpu",
+            "--disable-quic",
+            "--no-first-run",
+            "--disable-background-networking",
+            "--disable-component-update",
+            "--disable-sync",
+        ])
+        .arg(format!(
+            "--user-data-dir={}",
+            profile.path().join("profile").display()
+        ))
+        .args(["--enable-logging=stderr", "--v=0"])
+        .arg(format!("--screenshot={}", png.display()))
+        .arg(format!("--window-size={w},{h}"))
+        .arg(format!("file://{}", page.canonicalize().unwrap().display()))
+        .stdout(Stdio::null())
+        .stderr(std::fs::File::create(&log).unwrap())
+        .spawn()
+        .unwrap();
+    let start = Instant::now();
+    loop {
+        if child.try_wait().unwrap().is_some() {
+            break;
+        }
+        if start.elapsed() > Duration::from_secs(120) {
+            let _ = child.kill();
+            panic!("chromium did not finish within 120 s");
+        }
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    std::fs::read_to_string(&log).unwrap_or_default()
+}
+
+/// Width and height of a PNG file (its IHDR chunk).
+fn png_size(png: &Path) -> (u32, u32) {
+    let b = std::fs::read(png).unwrap();
+    assert_eq!(&b[..8], b"\x89PNG\r\n\x1a\n", "not a PNG");
+    let be = |i: usize| u32::from_be_bytes([b[i], b[i + 1], b[i + 2], b[i + 3]]);
+    (be(16), be(20))
+}
+
+/// chromium, or None after a loud message outside CI; fails under CI.
+fn browser_or_skip(test: &str) -> Option<PathBuf> {
+    let found = chromium();
+    if found.is_none() {
+        let ci = std::env::var("CI").is_ok_and(|v| !v.is_empty() && v != "false" && v != "0");
+        assert!(
+            !ci,
+            "CI is set but chromium is not installed: .ci/run installs it (apt-get install -y --no-install-recommends chromium)"
+        );
+        eprintln!(
+            "\n**************** SKIPPED {test}: chromium is not installed ****************\n\
+             install it with: apt-get install -y --no-install-recommends chromium\n"
+        );
+    }
+    found
+}
+
+/// Where the screenshots are kept: `<target dir>/test-artifacts/`.
+fn artifacts() -> PathBuf {
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR"))
+        .parent()
+        .unwrap()
+        .join("test-artifacts");
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+#[test]
+fn the_console_check_catches_a_page_error() {
+    let Some(chromium) = browser_or_skip("the_console_check_catches_a_page_error") else {
+        return;
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let page = dir.path().join("bad.html");
+    std::fs::write(
+        &page,
+        "<!DOCTYPE html><html><head><title>bad</title></head><body><p>deliberate</p>\
+         <script>undefinedFunction();</script></body></html>",
+    )
+    .unwrap();
+    let png = dir.path().join("bad.png");
+    let log = render(&chromium, &page, &png, 400, 300);
+    let errors = console_errors(&log);
+    assert!(
+        errors.iter().any(|l| l.contains("undefinedFunction")),
+        "the checker missed the deliberate error; log:\n{log}"
+    );
+    // and the same page without the script is clean
+    std::fs::write(
+        &page,
+        "<!DOCTYPE html><html><body><p>fine</p></body></html>",
+    )
+    .unwrap();
+    let log = render(&chromium, &page, &png, 400, 300);
+    assert!(console_errors(&log).is_empty(), "{log}");
+}
+
+#[test]
+fn the_report_renders_in_a_headless_browser() {
+    let Some(chromium) = browser_or_skip("the_report_renders_in_a_headless_browser") else {
+        return;
+    };
+    let (_dir, html, _, _) = report("inceptor", &["--environment", "UH-60"]);
+    let png = artifacts().join("inceptor-report.png");
+    let _ = std::fs::remove_file(&png);
+    let log = render(&chromium, &html, &png, 1280, 4000);
+    assert!(png.is_file(), "no screenshot; chromium's log:\n{log}");
+    assert_eq!(png_size(&png), (1280, 4000));
+    let errors = console_errors(&log);
+    assert!(errors.is_empty(), "console errors:\n{}", errors.join("\n"));
+    eprintln!("screenshot kept at {}", png.display());
+}
