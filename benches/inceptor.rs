@@ -91,7 +91,7 @@ fn report_uh60() -> usize {
     let sys = detune::statics::trim::trim(&System::new(&model).unwrap())
         .unwrap()
         .0;
-    let env = detune::report::environment::builtin("UH-60").unwrap();
+    let env = detune::report::environment::resolve("UH-60").unwrap();
     let report = detune::report::build(&detune::report::ReportInputs {
         model: &model,
         sys: &sys,

@@ -322,7 +322,7 @@ fn the_page_is_self_contained_and_its_svgs_are_well_formed() {
         assert_eq!(doc.root_element().tag_name().name(), "svg");
         figures += 1;
     }
-    assert_eq!(figures, 3, "pose, response, interference diagram");
+    assert_eq!(figures, 4, "pose, response, interference diagram, tornado");
 }
 
 #[test]
@@ -540,4 +540,69 @@ fn the_report_renders_in_a_headless_browser() {
     let errors = console_errors(&log);
     assert!(errors.is_empty(), "console errors:\n{}", errors.join("\n"));
     eprintln!("screenshot kept at {}", png.display());
+}
+
+/// The design sections: the sensitivity equals `detune sensitivity --json`'s for the same
+/// --vary, the margins flag the baseline's mode 2 against the UH-60 1P as `margins` does,
+/// and the tuning proposal is `detune tune`'s first design.
+#[test]
+fn sensitivity_margins_and_tuning_sections() {
+    let vary = ["--vary", "k_fs=50%..200%", "--vary", "gearbox_scale=80%..120%"];
+    let mut extra = vec!["--environment", "UH-60", "--tune"];
+    extra.extend(vary);
+    let (_dir, _, page, json) = report("inceptor", &extra);
+    for id in ["sensitivity", "margins", "tuning"] {
+        assert!(page.contains(&format!("id=\"{id}\"")), "section {id}");
+    }
+    let m = model("inceptor");
+    let mut args = vec!["sensitivity", m.as_str(), "--json"];
+    args.extend(vary);
+    let out = run(&args);
+    let s: Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(json["sensitivity"]["modes"], s["modes"]);
+    assert_eq!(json["margins"]["pass"], false);
+    let fails: Vec<&Value> = json["margins"]["rows"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|r| r["pass"] == false)
+        .collect();
+    assert_eq!(fails.len(), 1);
+    assert_eq!(fails[0]["mode"], "mode 2");
+    assert_eq!(fails[0]["line"], "1P");
+    let mut args = vec!["tune", m.as_str(), "--environment", "UH-60", "--json"];
+    args.extend(vary);
+    let out = run(&args);
+    let t: Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(json["tuning"]["designs"][0]["parameters"], t["designs"][0]["parameters"]);
+}
+
+/// The README's first command is the inceptor report, and it runs as written (its output
+/// redirected to a temporary directory).
+#[test]
+fn the_readmes_first_command_writes_the_report() {
+    let readme = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/README.md")).unwrap();
+    let first = readme
+        .lines()
+        .skip_while(|l| !l.starts_with("```"))
+        .nth(1)
+        .unwrap()
+        .to_string();
+    let args = first
+        .strip_prefix("cargo run --release -- ")
+        .unwrap_or_else(|| panic!("README's first command: {first}"));
+    assert!(args.starts_with("report models/inceptor.toml --environment UH-60 -o "), "{args}");
+    let dir = tempfile::tempdir().unwrap();
+    let html = dir.path().join("inceptor-report.html");
+    let mut argv: Vec<String> = args.split_whitespace().map(String::from).collect();
+    let o = argv.iter().position(|a| a == "-o").unwrap();
+    argv[o + 1] = html.to_str().unwrap().to_string();
+    let argv: Vec<&str> = argv.iter().map(|s| s.as_str()).collect();
+    let out = run(&argv);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let json: Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.path().join("inceptor-report.json")).unwrap())
+            .unwrap();
+    assert_eq!(json["margins"]["pass"], false, "the candidate's mode 2 is 1.8 % below 1P");
+    assert!(json["sensitivity"]["modes"].as_array().unwrap().len() == 2);
 }

@@ -115,6 +115,12 @@ fn intervals(
     }
     let vs = super::args::varies(model, sys, vary)?;
     let study = detune::linear::sensitivity::sensitivity(sys, &vs, None, None)?;
+    let failed: usize = study.modes.first().map_or(0, |m| m.worst_case.corners_failed);
+    if failed > 0 {
+        eprintln!(
+            "warning: {failed} corner(s) of the tolerance box could not be solved (no equilibrium near the nominal one: the ranges reach past a fold, or a linkage that no longer closes); the intervals do not cover them"
+        );
+    }
     Ok(points
         .into_iter()
         .zip(&study.modes)

@@ -18,6 +18,19 @@ pub struct ReportArgs {
     /// drawn on the interference diagram. Known: UH-60.
     #[arg(long, value_name = "NAME|PATH")]
     pub environment: Option<String>,
+    /// A varied parameter with its tolerance (as in `sensitivity`: `k_fs=±10%`), or with
+    /// --tune its range (`k_fs=50%..200%`). Repeatable. Without it the sensitivity section
+    /// varies each parameter by ±10 % as an illustration.
+    #[arg(long = "vary", value_name = "NAME=CHANGE", allow_hyphen_values = true)]
+    pub vary: Vec<String>,
+    /// Required separation of every mode from every forcing line: "10%" or 0.1 (your
+    /// choice, not a standard).
+    #[arg(long, default_value = "10%", value_name = "PCT")]
+    pub margin: String,
+    /// Add a tuning proposal: the smallest change of the --vary parameters within their
+    /// ranges that clears every line by the margin.
+    #[arg(long)]
+    pub tune: bool,
     /// Output HTML; the JSON sidecar is written beside it with the extension .json.
     #[arg(short = 'o', long = "output", value_name = "REPORT.html")]
     pub output: String,
@@ -44,21 +57,57 @@ pub fn run(a: ReportArgs) -> Result<()> {
     }
     let json = sidecar_path(&a.output);
     // the environment is checked before any work, like the outputs
-    let env = a
+    let margin = super::margins::parse_margin(&a.margin)?;
+    let full_env = a
         .environment
         .as_deref()
-        .map(environment::builtin)
+        .map(detune::environment::resolve)
         .transpose()?;
+    let env = full_env.as_ref().map(environment::from_environment);
     let (model, sys) = a.model.load()?;
     check_outputs(&model.source.path, &[Some(&a.output), Some(&json)])?;
+    if a.tune && (a.vary.is_empty() || full_env.is_none()) {
+        return Err(Error::request(
+            "--tune needs the parameters the design may change, with their ranges, and an environment",
+            "add --environment UH-60 and e.g. --vary k_fs=50%..200% --vary gearbox_scale=80%..120%",
+        ));
+    }
+    let given = !a.vary.is_empty();
+    let (varies, dropped) = if given {
+        (super::args::varies(&model, &sys, &a.vary)?, Vec::new())
+    } else {
+        detune::report::studies::default_varies(&sys, None)
+    };
     let start = Instant::now();
-    let report = build(&ReportInputs {
+    let mut report = build(&ReportInputs {
         model: &model,
         sys: &sys,
         environment: env.as_ref(),
         mode_extras: None,
         generated_utc: utc_now(),
     })?;
+    let unit = |name: &str| -> String {
+        model
+            .parameters
+            .index(name)
+            .and_then(|i| model.parameters.dims[i])
+            .map(|d| format!("{d}"))
+            .filter(|d| d != "1")
+            .unwrap_or_default()
+    };
+    detune::report::studies::add_studies(
+        &mut report,
+        &detune::report::studies::Studies {
+            sys: &sys,
+            varies: &varies,
+            given,
+            dropped: &dropped,
+            environment: full_env.as_ref(),
+            margin,
+            tune: a.tune,
+            units: &unit,
+        },
+    )?;
     report.write(&a.output, &json)?;
     let modes = report
         .sidecar

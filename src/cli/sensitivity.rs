@@ -183,5 +183,13 @@ fn print_tables(s: &Sensitivity, unit: &dyn Fn(&str) -> String, value: &dyn Fn(&
             w.first_order_min_rad_s,
             w.first_order_max_rad_s
         );
+        if w.corners_failed > 0 {
+            println!(
+                "  WARNING: {} corner{} of the box could not be solved (no equilibrium near the baseline's: the ranges reach past a fold, or a linkage that no longer closes); the interval above does not cover {}\n",
+                w.corners_failed,
+                if w.corners_failed == 1 { "" } else { "s" },
+                if w.corners_failed == 1 { "it" } else { "them" }
+            );
+        }
     }
 }

@@ -464,7 +464,14 @@ pub fn modes_at(
     };
     let (s, _) = crate::statics::trim::trimmed(&s, &state)?;
     let st = Statics::with_rows(&s, base.rows.clone())?;
-    let equilibrium = st.solve(&base.equilibrium.q)?;
+    // a trimmed datum is an equilibrium already (the trim solved it); else Newton from
+    // the baseline's equilibrium
+    let q0 = if s.trim_solved().is_some() {
+        s.initial.q.clone()
+    } else {
+        base.equilibrium.q.clone()
+    };
+    let equilibrium = st.solve(&q0)?;
     let linearization = Linearization::new(&st, &equilibrium);
     let modes = linearization.modes(base.reference);
     let undamped_omega2 = linearization.undamped_omega2();
@@ -549,6 +556,9 @@ pub struct WorstCase {
     /// Number of corners evaluated (all 2^k up to k = 4 parameters; beyond, the two the
     /// derivatives predict to be the extremes).
     pub corners_evaluated: usize,
+    /// Corners where no equilibrium was found near the baseline's (the box reaches past a
+    /// fold, or a linkage that no longer closes): the interval does not cover them.
+    pub corners_failed: usize,
 }
 
 /// One mode's sensitivity.
@@ -720,7 +730,9 @@ pub fn sensitivity(
         c.dedup();
         c
     };
-    let corner_runs: Vec<(Evaluated, Vec<Option<(usize, f64)>>)> = if k == 0 {
+    // a corner that cannot be solved (no equilibrium near the baseline's there: the box
+    // reaches past a fold, or a linkage that no longer closes) is counted, not fatal
+    let corner_results: Vec<Result<(Evaluated, Vec<Option<(usize, f64)>>)>> = if k == 0 {
         Vec::new()
     } else {
         corners
@@ -739,8 +751,11 @@ pub fn sensitivity(
                     .join(", ");
                 run(&label, "the tolerance box's corner", &values)
             })
-            .collect::<Result<_>>()?
+            .collect()
     };
+    let corners_failed = corner_results.iter().filter(|r| r.is_err()).count();
+    let corner_runs: Vec<(Evaluated, Vec<Option<(usize, f64)>>)> =
+        corner_results.into_iter().filter_map(|r| r.ok()).collect();
 
     let pct = |x: f64, x0: f64| (x - x0) / x0 * 100.0;
     let mut modes = Vec::new();
@@ -823,6 +838,7 @@ pub fn sensitivity(
                 first_order_min_rad_s: lo1,
                 first_order_max_rad_s: hi1,
                 corners_evaluated: corner_runs.len(),
+                corners_failed,
             },
         });
     }

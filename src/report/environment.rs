@@ -2,11 +2,10 @@
 //! forcing lines they make (1P, nP, 1T, nT: a multiple of a rotor's speed, with the band
 //! it sweeps over the operating range).
 //!
-//! This is the report's input type, independent of where the figures come from. Until
-//! the project's environment module lands, [`builtin`] knows one environment, `UH-60`,
-//! with hard-coded figures ([`uh60_placeholder`]); that function is the one to replace.
+//! This is the report's input type, made from an environment of [`crate::environment`]
+//! (shipped, or a user's file) by [`from_environment`].
 
-use crate::diag::{Error, Result};
+use crate::diag::Result;
 use serde::Serialize;
 
 /// A rotor of the aircraft.
@@ -103,60 +102,45 @@ impl Environment {
     }
 }
 
-/// The environment named `name` (case-insensitive). Only `UH-60` is known until the
-/// environment module replaces this; any other name or a path is refused with a hint.
-pub fn builtin(name: &str) -> Result<Environment> {
-    if name.eq_ignore_ascii_case("UH-60") || name.eq_ignore_ascii_case("UH60") {
-        return Ok(uh60_placeholder());
-    }
-    Err(Error::request(
-        format!("unknown environment `{name}`"),
-        "the known environment is UH-60 (environment files are not read yet)",
-    ))
-}
-
-/// PLACEHOLDER, to be replaced by the environment module (`src/environment.rs`): the
-/// UH-60's rotors with hard-coded figures. Main rotor 258 rpm, 4 blades; tail rotor 1190
-/// rpm, 4 blades; no operating range (none is cited, so the lines are points); lines 1P,
-/// 4P, 8P, 12P, 1T, 4T.
-pub fn uh60_placeholder() -> Environment {
-    let rotor = |name: &str, blades, rpm: f64| Rotor {
+/// The report's view of an environment of `crate::environment`: its rotors (main first)
+/// and every forcing line, with the bands over the operating ranges where a source gives
+/// them.
+pub fn from_environment(e: &crate::environment::Environment) -> Environment {
+    let rotor = |name: &str, r: &crate::environment::Rotor| Rotor {
         name: name.into(),
-        blades,
-        rpm,
-        rpm_range: None,
+        blades: r.blades,
+        rpm: r.rpm,
+        rpm_range: r.rpm_range,
     };
-    Environment::with_lines(
-        "UH-60",
-        "placeholder figures in detune::report::environment: main rotor 258 rpm, tail rotor 1190 rpm, 4 blades each; no operating range",
-        vec![rotor("main", 4, 258.0), rotor("tail", 4, 1190.0)],
-        &[
-            ("main", 1.0, "1P"),
-            ("main", 4.0, "4P"),
-            ("main", 8.0, "8P"),
-            ("main", 12.0, "12P"),
-            ("tail", 1.0, "1T"),
-            ("tail", 4.0, "4T"),
-        ],
-    )
+    let mut rotors = vec![rotor("main", &e.main_rotor)];
+    if let Some(t) = &e.tail_rotor {
+        rotors.push(rotor("tail", t));
+    }
+    let lines = e
+        .forcing_lines()
+        .into_iter()
+        .map(|l| ForcingLine {
+            label: l.label,
+            rotor: l.rotor.map(|k| match k {
+                crate::environment::RotorKind::Main => "main".to_string(),
+                crate::environment::RotorKind::Tail => "tail".to_string(),
+            }),
+            multiple: l.multiple.map(f64::from),
+            omega_rad_s: l.omega_rad_s,
+            band_lo_rad_s: l.band_lo_rad_s,
+            band_hi_rad_s: l.band_hi_rad_s,
+        })
+        .collect();
+    Environment {
+        name: e.name.clone(),
+        source: e.source.clone(),
+        rotors,
+        lines,
+    }
 }
 
-#[cfg(test)]
-mod tests {
-    #[test]
-    fn uh60_lines_are_multiples_of_the_rotor_speeds() {
-        let e = super::builtin("uh-60").unwrap();
-        assert_eq!(e.lines.len(), 6);
-        // 258 rpm × π/30 = 27.0177 rad/s; 4P = 108.07 rad/s; 1190 rpm × π/30 = 124.6165 rad/s
-        assert!((e.lines[0].omega_rad_s - 27.017_696_820_872_22).abs() < 1e-9);
-        assert!((e.lines[1].omega_rad_s - 4.0 * 27.017_696_820_872_22).abs() < 1e-9);
-        assert!((e.lines[4].omega_rad_s - 124.616_508_592_395_12).abs() < 1e-9);
-        // no operating range is cited: every band is its line
-        assert!(
-            e.lines
-                .iter()
-                .all(|l| l.band_lo_rad_s == l.omega_rad_s && l.omega_rad_s == l.band_hi_rad_s)
-        );
-        assert!(super::builtin("CH-47").is_err());
-    }
+/// The environment `name_or_path` (a shipped one's id or name, or a file), as the report
+/// reads it.
+pub fn resolve(name_or_path: &str) -> Result<Environment> {
+    Ok(from_environment(&crate::environment::resolve(name_or_path)?))
 }

@@ -24,6 +24,7 @@
 pub mod build;
 pub mod environment;
 pub mod figures;
+pub mod studies;
 
 pub use build::{ReportInputs, build};
 pub use environment::{Environment, ForcingLine, Rotor};
