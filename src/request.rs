@@ -77,6 +77,14 @@ arguments! {
     DriveRange => "the drive range",
     /// The step of the driven coordinate (`KinematicsOptions::step`).
     DriveStep => "the drive step",
+    /// The parameter modes are tracked over ([`crate::linear::tracking::track_modes`]).
+    TrackedParameter => "the tracked parameter",
+    /// The values of the tracked parameter (`values`).
+    TrackedValues => "the tracked parameter's values",
+    /// The step of the tracked parameter's grid.
+    TrackedStep => "the tracked parameter's step",
+    /// The number of values of the tracked parameter's grid.
+    TrackedPoints => "the number of points",
 }
 
 impl fmt::Display for Argument {

@@ -49,7 +49,9 @@ pub fn advice(f: &Failure) -> Option<String> {
 fn flag(argument: Argument) -> Option<&'static str> {
     use Argument::*;
     Some(match argument {
-        FrequencyParameter | ContinuationParameter => "--param",
+        FrequencyParameter | ContinuationParameter | TrackedParameter => "--param",
+        TrackedStep => "--step",
+        TrackedPoints => "--points",
         Response => "--response",
         Normalize => "--normalize",
         PlotCoordinate => "--plot-coordinate",
@@ -65,7 +67,7 @@ fn flag(argument: Argument) -> Option<&'static str> {
         Drive => "--drive",
         Ratio => "--ratio",
         DriveStep => "--step",
-        Frequencies | ContinuationRange | FixedPeriods | DriveRange => return None,
+        Frequencies | ContinuationRange | FixedPeriods | DriveRange | TrackedValues => return None,
     })
 }
 

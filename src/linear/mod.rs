@@ -26,6 +26,8 @@
 //! each shape is the null vector of the complex matrix λ²M_r + λC_r + K_r (complex SVD),
 //! mapped back to the model's coordinates by N. Undamped: eig(M_r⁻¹ K_r).
 
+pub mod tracking;
+
 use crate::diag::{Error, Result};
 use crate::failure::Failure;
 use crate::request::{Argument, Invalid, parameter};
