@@ -123,6 +123,17 @@ pub enum Failure {
         threshold: f64,
         macs: Vec<f64>,
     },
+    /// A named mode whose shape matches two computed modes (`modes`, 1 = the lowest)
+    /// about equally well (`macs`): it does not tell them apart.
+    #[error(
+        "the named mode `{name}` matches modes {} and {} about equally (MAC {:.3} and {:.3}): its shape does not tell them apart",
+        .modes[0], .modes[1], .macs[0], .macs[1]
+    )]
+    ModeAmbiguous {
+        name: String,
+        modes: [usize; 2],
+        macs: [f64; 2],
+    },
     /// Two named modes whose shapes both match best the same computed mode (`mode`, 1 =
     /// the lowest) at the baseline, with their MACs with it.
     #[error(
@@ -199,6 +210,7 @@ impl Failure {
                 "beyond it the mechanism locks, a link cannot reach, or the branch to follow is ambiguous: end the range before it, or drive another coordinate than `{drive}`"
             ),
             ModeUnmatched { .. } => "check the mode's shape in the model's [[modes]] (its coordinates' relative amplitudes, as `detune modes` lists them), or remove the name".into(),
+            ModeAmbiguous { .. } => "give the shape the coordinates in which the two modes differ (a shape of one coordinate matches every mode that moves it)".into(),
             ModesShareMatch { .. } => "make the two shapes tell the modes apart (give the coordinates in which they differ), or name only one of them".into(),
         }
     }
@@ -280,6 +292,11 @@ mod tests {
                 best: 0.3,
                 threshold: 0.5,
                 macs: vec![0.3, 0.1],
+            },
+            Failure::ModeAmbiguous {
+                name: "a".into(),
+                modes: [1, 2],
+                macs: [1.0, 0.95],
             },
             Failure::ModesShareMatch {
                 first: "a".into(),

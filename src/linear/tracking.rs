@@ -17,8 +17,12 @@
 //!
 //! **Names at the baseline** ([`name_modes`]). Each declared mode takes the computed mode
 //! with which its MAC is largest; a declared mode whose best MAC is below [`MATCH_MAC`]
-//! is refused ([`Failure::ModeUnmatched`]), and so are two declared modes whose best is
-//! the same computed mode ([`Failure::ModesShareMatch`]). When neither happens each
+//! is refused ([`Failure::ModeUnmatched`]), and so are a declared shape whose MACs with
+//! two modes are within [`AMBIGUOUS_MAC`] (it does not tell them apart: a shape of one
+//! coordinate has MAC 1 with every mode in which that coordinate moves;
+//! [`Failure::ModeAmbiguous`]) and two declared modes whose best is the same computed
+//! mode ([`Failure::ModesShareMatch`]). A computed mode in which none of the declared
+//! coordinates moves (beyond 1e-9 of its largest entry) has MAC 0. When neither happens each
 //! declared mode has its own best, which is the optimal one-to-one assignment. The other
 //! modes are named `mode k`, k their rank by ω_n at the baseline among all modes (as
 //! `detune modes` lists them): the numbers of named modes are skipped, so that `mode 3`
@@ -74,6 +78,10 @@ use num_dual::Dual64;
 
 /// The least MAC with which a declared shape names a computed mode at the baseline.
 pub const MATCH_MAC: f64 = 0.5;
+
+/// A declared shape whose MACs with two modes are within this of each other does not
+/// tell them apart.
+pub const AMBIGUOUS_MAC: f64 = 0.1;
 
 /// The name of the strain-energy entry of the constraint reactions' stiffness.
 pub const CONSTRAINT_REACTIONS: &str = "constraint reactions";
@@ -285,6 +293,11 @@ pub fn declared_macs(sys: &System, modal: &ModalAnalysis, index: usize) -> Vec<f
                 s.iter()
                     .map(|&i| Complex::new(md.shape[i].re, md.shape[i].im)),
             );
+            // coordinates that do not move in the mode (rounding only): no match
+            let size = md.shape.iter().fold(0.0f64, |m, c| m.max(c.re.hypot(c.im)));
+            if b.iter().all(|c| c.norm() <= 1e-9 * size) {
+                return 0.0;
+            }
             mac(&a, &b, &w)
         })
         .collect()
@@ -312,6 +325,19 @@ pub fn name_modes(sys: &System, modal: &ModalAnalysis) -> Result<Vec<ModeName>> 
             }
             .into());
         };
+        // a shape that does not tell two modes apart (one coordinate moves in both)
+        if let Some(second) = (0..macs.len())
+            .filter(|&j| j != best)
+            .max_by(|&i, &j| macs[i].total_cmp(&macs[j]))
+            .filter(|&j| macs[j] > macs[best] - AMBIGUOUS_MAC)
+        {
+            return Err(Failure::ModeAmbiguous {
+                name: decl.name.clone(),
+                modes: [best.min(second) + 1, best.max(second) + 1],
+                macs: [macs[best.min(second)], macs[best.max(second)]],
+            }
+            .into());
+        }
         if let Some((other, other_mac)) = taken[best] {
             return Err(Failure::ModesShareMatch {
                 first: sys.declared_modes[other].name.clone(),
