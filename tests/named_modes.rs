@@ -139,7 +139,7 @@ fn two_names_for_one_mode_are_refused() {
     );
     let s = e.to_string();
     assert!(
-        s.contains("`a` (MAC 1.000) and `b` (MAC 1.000) both match mode 1"),
+        s.contains("`a` (MAC 0.999) and `b` (MAC 1.000) both match mode 1"),
         "{s}"
     );
 }
