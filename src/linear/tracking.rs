@@ -604,8 +604,11 @@ fn assign(
                 if macs[l][*j] < opts.min_mac {
                     poor = true;
                 }
+                // a rival of a shape like the chosen one's (the two real modes of a pair
+                // that has become overdamped) is no ambiguity a smaller step resolves:
+                // the prediction decides between them
                 let second = (0..nc)
-                    .filter(|&i| i != *j)
+                    .filter(|&i| i != *j && mac(&new[i], &new[*j], w) < opts.min_mac)
                     .map(|i| macs[l][i])
                     .fold(0.0, f64::max);
                 if macs[l][*j] - second < opts.ambiguity {
@@ -691,7 +694,8 @@ struct Path<'a> {
     opts: &'a TrackOptions,
     predictor: &'a dyn Predictor,
     solved: Vec<Solved>,
-    warnings: Vec<String>,
+    /// Runs of steps taken although poor at the smallest step: (from, to, least MAC).
+    poor: Vec<(f64, f64, f64)>,
 }
 
 impl Path<'_> {
@@ -716,10 +720,14 @@ impl Path<'_> {
         }
         if poor {
             let worst = macs.iter().copied().fold(1.0, f64::min);
-            self.warnings.push(format!(
-                "{} = {target}: the modes' assignment from {from} stays poor or ambiguous at the smallest step (least MAC {worst:.3})",
-                self.sys.param_names()[self.index]
-            ));
+            // one warning per run of consecutive poor steps
+            match self.poor.last_mut() {
+                Some(run) if run.1 == from => {
+                    run.1 = target;
+                    run.2 = run.2.min(worst);
+                }
+                _ => self.poor.push((from, target, worst)),
+            }
         }
         self.solved.push(Solved {
             value: target,
@@ -789,7 +797,7 @@ pub fn track_modes_with(
             macs: vec![1.0; nl],
             modal,
         }],
-        warnings: Vec::new(),
+        poor: Vec::new(),
     };
     // from the baseline to the first value, in steps no larger than the grid's
     let grid_step = values
@@ -859,7 +867,15 @@ pub fn track_modes_with(
         min_mac,
         crossings,
         veerings,
-        warnings: path.warnings,
+        warnings: path
+            .poor
+            .iter()
+            .map(|(a, b, worst)| {
+                format!(
+                    "{param} from {a} to {b}: the modes' assignment stays poor or ambiguous at the smallest step (least MAC {worst:.3}); the labels there may have swapped"
+                )
+            })
+            .collect(),
     })
 }
 
