@@ -709,7 +709,11 @@ impl Path<'_> {
             target,
             &last.modal.equilibrium.q,
             self.reference,
-        )?;
+        )
+        .map_err(|e| {
+            let name = &self.sys.param_names()[self.index];
+            e.context(&format!("tracking the modes, at {name} = {target}"))
+        })?;
         let predicted = self.predictor.predict(self.sys, &self.solved, target);
         let last = self.solved.last().expect("a path starts solved");
         let (modes, macs, poor) = assign(last, &modal, &predicted, self.opts);
