@@ -84,6 +84,9 @@ fn empty_and_reserved_names_are_refused() {
     let t = with_modes("[[modes]]\nname = \"mode 2\"\nshape = { \"p1.theta\" = 1 }\n");
     let e = refused(&t, "\"mode 2\"");
     assert!(e.contains("the form of an unnamed mode's"), "{e}");
+    let t = with_modes("[[modes]]\nname = \"a, b\"\nshape = { \"p1.theta\" = 1 }\n");
+    let e = refused(&t, "\"a, b\"");
+    assert!(e.contains("has a comma or a quote"), "{e}");
 }
 
 #[test]

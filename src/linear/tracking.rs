@@ -83,6 +83,9 @@ pub const MATCH_MAC: f64 = 0.5;
 /// tell them apart.
 pub const AMBIGUOUS_MAC: f64 = 0.1;
 
+/// The most steps from the baseline to the first value of a tracking.
+const MAX_APPROACH: usize = 200;
+
 /// The name of the strain-energy entry of the constraint reactions' stiffness.
 pub const CONSTRAINT_REACTIONS: &str = "constraint reactions";
 
@@ -811,8 +814,11 @@ pub fn track_modes_with(
         .fold(f64::INFINITY, f64::min);
     let approach = values[0] - baseline;
     if approach != 0.0 {
+        // (at most MAX_APPROACH steps: each is halved where the modes need it)
         let n = if grid_step.is_finite() {
-            (approach.abs() / grid_step).ceil().max(1.0) as usize
+            (approach.abs() / grid_step)
+                .ceil()
+                .clamp(1.0, MAX_APPROACH as f64) as usize
         } else {
             1
         };

@@ -348,7 +348,8 @@ pub struct TrimDef {
 /// `[[modes]]`: a mode named by what it is, with the shape it is expected to have.
 #[derive(Debug, Clone)]
 pub struct ModeDef {
-    /// Unique, non-empty, not of the form `mode <number>` (the unnamed modes' names).
+    /// Unique, non-empty, not of the form `mode <number>` (the unnamed modes' names),
+    /// without commas or quotes (it heads CSV columns).
     pub name: String,
     /// `(velocity name, value)`: the coordinates given (a body's coordinate, or a free
     /// body's velocity `b.vx` … `b.wz`), by name; not all zero.
@@ -802,6 +803,14 @@ impl Builder<'_> {
                     .at(m.name.span())
                     .label("here")
                     .help("name the mode by what it is, e.g. name = \"in-phase\" (unnamed modes are called `mode 1`, `mode 2`, … by frequency)"),
+                );
+                ok = false;
+            } else if name.contains([',', '"']) {
+                self.diags.push(
+                    Diagnostic::new(format!("the mode name `{name}` has a comma or a quote"))
+                        .at(m.name.span())
+                        .label("here")
+                        .help("a mode's name heads CSV columns (`<name>.omega_n_rad_s`): leave out commas and quotes"),
                 );
                 ok = false;
             } else if out.iter().any(|o| o.name == name) {
