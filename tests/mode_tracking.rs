@@ -311,7 +311,7 @@ fn inceptor_energy_shares_agree_with_the_two_coordinate_model() {
         assert!((sum(&n.energy.kinetic) - 1.0).abs() < 1e-12);
         assert!((sum(&n.energy.strain) - 1.0).abs() < 1e-12);
     }
-    assert_eq!(named[0].dominant_body.as_ref().unwrap().0, "gearbox");
+    assert_eq!(named[0].dominant_body.as_ref().unwrap().body, "gearbox");
     // undamped (c_d = c_fs = 0): the figures of the issue, 55 % and 78 %
     let sys = inceptor(&[("c_d", "0"), ("c_fs", "0")]);
     let modal = modal_analysis(&sys, None).unwrap();

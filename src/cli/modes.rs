@@ -165,7 +165,7 @@ fn print_names(named: &[detune::linear::tracking::NamedMode]) {
         let dominant = n
             .dominant_body
             .as_ref()
-            .map(|(b, x)| format!(" ({b} {} KE)", percent(*x)))
+            .map(|d| format!(" ({} {} KE)", d.body, percent(d.share)))
             .unwrap_or_default();
         let matched = n
             .name
@@ -245,6 +245,16 @@ fn print_tracking(t: &ModeTracking, unit: &str) {
         "modes against {}{u} (named at {} = {}{u}); ω_n in rad/s, ζ the damping ratio:",
         t.param, t.param, t.baseline
     );
+    let at_baseline: Vec<String> = t
+        .labels
+        .iter()
+        .zip(&t.dominant_body)
+        .map(|(l, d)| match d {
+            Some(d) => format!("{l} ({} {} KE)", d.body, percent(d.share)),
+            None => l.clone(),
+        })
+        .collect();
+    println!("  at the baseline: {}", at_baseline.join(", "));
     let head: Vec<String> = t
         .labels
         .iter()
@@ -256,7 +266,16 @@ fn print_tracking(t: &ModeTracking, unit: &str) {
             .modes
             .iter()
             .map(|m| match m {
-                Some(m) => format!("{:>16.6} {:>9.6}", m.omega_n_rad_s, m.damping_ratio),
+                // (a ζ of rounding size printed as 0, not -0.000000)
+                Some(m) => format!(
+                    "{:>16.6} {:>9.6}",
+                    m.omega_n_rad_s,
+                    if m.damping_ratio.abs() < 5e-7 {
+                        0.0
+                    } else {
+                        m.damping_ratio
+                    }
+                ),
                 None => format!("{:>26}", "(lost)"),
             })
             .collect();

@@ -360,6 +360,14 @@ pub fn name_modes(sys: &System, modal: &ModalAnalysis) -> Result<Vec<ModeName>> 
     Ok(names)
 }
 
+/// A body and its share of a mode's kinetic energy.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct BodyShare {
+    pub body: String,
+    /// Fraction (0 … 1).
+    pub share: f64,
+}
+
 /// One mode of [`describe_modes`]: its name, energy shares and the body that holds most
 /// of its kinetic energy.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
@@ -367,7 +375,7 @@ pub struct NamedMode {
     pub name: ModeName,
     pub energy: EnergyShares,
     /// The body with the largest kinetic-energy share, and the share.
-    pub dominant_body: Option<(String, f64)>,
+    pub dominant_body: Option<BodyShare>,
 }
 
 /// Names and energy shares of every mode of `modal` (in its order).
@@ -378,7 +386,10 @@ pub fn describe_modes(sys: &System, modal: &ModalAnalysis) -> Result<Vec<NamedMo
         .into_iter()
         .zip(shares)
         .map(|(name, energy)| NamedMode {
-            dominant_body: energy.kinetic.largest().map(|(b, x)| (b.to_string(), x)),
+            dominant_body: energy.kinetic.largest().map(|(b, x)| BodyShare {
+                body: b.to_string(),
+                share: x,
+            }),
             name,
             energy,
         })
@@ -520,6 +531,9 @@ pub struct ModeTracking {
     pub baseline: f64,
     /// The names, by ω_n at the baseline.
     pub labels: Vec<String>,
+    /// Per label, the body holding most of its kinetic energy at the baseline, and its
+    /// share.
+    pub dominant_body: Vec<Option<BodyShare>>,
     /// Every value solved from the first requested to the last, inserted ones included.
     pub steps: Vec<TrackStep>,
     /// Per label, its least MAC with its previous step over the range.
@@ -789,8 +803,9 @@ pub fn track_modes_with(
     let baseline = sys.param(index);
     let modal = modal_analysis(sys, opts.normalize.as_deref())?;
     let reference = modal.reference;
-    let names = name_modes(sys, &modal)?;
-    let labels: Vec<String> = names.iter().map(|n| n.name.clone()).collect();
+    let described = describe_modes(sys, &modal)?;
+    let labels: Vec<String> = described.iter().map(|n| n.name.name.clone()).collect();
+    let dominant_body = described.into_iter().map(|n| n.dominant_body).collect();
     let nl = labels.len();
     let mut path = Path {
         sys,
@@ -832,13 +847,17 @@ pub fn track_modes_with(
         path.step_to(v, 0)?;
         requested.push(path.solved.len() - 1);
     }
+    let mut asked = vec![false; path.solved.len()];
+    for k in requested {
+        asked[k] = true;
+    }
     let solved = &path.solved[start..];
     let steps: Vec<TrackStep> = solved
         .iter()
         .enumerate()
         .map(|(k, s)| TrackStep {
             value: s.value,
-            requested: requested.contains(&(k + start)),
+            requested: asked[k + start],
             modes: (0..nl)
                 .map(|l| {
                     s.modes[l].map(|j| {
@@ -873,6 +892,7 @@ pub fn track_modes_with(
         param: param.to_string(),
         baseline,
         labels,
+        dominant_body,
         steps,
         min_mac,
         crossings,
