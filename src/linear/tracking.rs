@@ -49,9 +49,14 @@
 //! prediction ([`Predictor`]: the secant through the last two steps, [`Secant`]; the
 //! analytic dλ/dp can be plugged in) as a tie-break. Where the assignment is poor (a MAC
 //! below [`TrackOptions::min_mac`]) or ambiguous (a label's second-best MAC within
-//! [`TrackOptions::ambiguity`] of its best), the step is halved (intermediate values
-//! inserted) down to 2^−[`TrackOptions::max_halvings`] of it; then the step is taken and a
-//! warning given.
+//! [`TrackOptions::ambiguity`] of its best, the second-best a mode whose shape differs from
+//! the chosen one's: the two real modes into which an overdamped pair splits have one
+//! shape, which no smaller step tells apart, and the prediction decides between them), the
+//! step is halved (intermediate values inserted) down to 2^−[`TrackOptions::max_halvings`]
+//! of it; then the step is taken and a warning given (one per run of such steps). A label
+//! whose mode has gone (fewer modes than labels, after a pair turned into real modes and
+//! back) is lost from there on. A value where the trim, the equilibrium or the modes fail
+//! ends the tracking with that error, naming the value.
 //!
 //! **Crossings and veerings** ([`ModeTracking`]). A *crossing* of labels a, b: the sign of
 //! ω_a − ω_b changes between two consecutive values (at the value interpolated linearly).
