@@ -367,3 +367,35 @@ fn pendulum_strain_energy_is_the_reactions_and_the_spring() {
         assert!((n.energy.kinetic.get("p1").unwrap() - ke1).abs() < 1e-9);
     }
 }
+
+#[test]
+fn labels_are_carried_one_step_for_callers_with_their_own_path() {
+    use detune::linear::tracking::{Solved, carry_labels};
+    let sys = inceptor(&[]);
+    let modal = modal_analysis(&sys, None).unwrap();
+    let last = Solved {
+        value: 374.0,
+        modes: vec![Some(0), Some(1)],
+        macs: vec![1.0, 1.0],
+        modal: modal.clone(),
+    };
+    let opts = TrackOptions::default();
+    // to itself: each label its own mode, MAC 1
+    let (modes, macs, poor) = carry_labels(&last, &modal, &[None, None], &opts);
+    assert_eq!(modes, [Some(0), Some(1)]);
+    assert!(macs.iter().all(|m| (m - 1.0).abs() < 1e-12) && !poor);
+    // one step of 100 N·m/rad: as the tracking's step; one of 2626: the same labels, with
+    // the shapes changed more (the gearbox locks to the crank as the shaft stiffens)
+    let k = sys.param_index("k_t").unwrap();
+    let near = modal_analysis(&sys.with_param(k, 474.0).unwrap(), None).unwrap();
+    let (modes, near_macs, poor) = carry_labels(&last, &near, &[None, None], &opts);
+    assert_eq!(modes, [Some(0), Some(1)]);
+    assert!(
+        near_macs.iter().all(|m| *m > 0.95) && !poor,
+        "{near_macs:?}"
+    );
+    let far = modal_analysis(&sys.with_param(k, 3000.0).unwrap(), None).unwrap();
+    let (modes, macs, _) = carry_labels(&last, &far, &[None, None], &opts);
+    assert_eq!(modes, [Some(0), Some(1)]);
+    assert!(macs[0] < near_macs[0] && macs[1] < near_macs[1], "{macs:?}");
+}

@@ -584,6 +584,21 @@ fn solve_at(
     })
 }
 
+/// One step of label carrying, for callers that move along their own path (several
+/// parameters at once, an optimizer's steps): the labels of `last` assigned to the modes
+/// of `next` as [`track_modes`] assigns them (`predicted`: per label the predicted λ at
+/// `next`, or None), without halving. Returns per label its mode in `next.modes` (None:
+/// lost) and its MAC, and whether the step was poor or ambiguous (a caller should then
+/// take a smaller step).
+pub fn carry_labels(
+    last: &Solved,
+    next: &ModalAnalysis,
+    predicted: &[Option<Complex<f64>>],
+    opts: &TrackOptions,
+) -> (Vec<Option<usize>>, Vec<f64>, bool) {
+    assign(last, next, predicted, opts)
+}
+
 /// The assignment of the labels of `last` to the modes of `next`: per label the mode and
 /// its MAC, and whether it is poor or ambiguous.
 fn assign(
