@@ -399,3 +399,26 @@ fn labels_are_carried_one_step_for_callers_with_their_own_path() {
     assert_eq!(modes, [Some(0), Some(1)]);
     assert!(macs[0] < near_macs[0] && macs[1] < near_macs[1], "{macs:?}");
 }
+
+#[test]
+fn element_stiffnesses_add_up_to_the_linearization() {
+    // Σ K_e + K_reactions = K (the linearization's, computed in one pass of all forces):
+    // what makes the strain shares sum to 1. The overcentre has a preloaded spring, a
+    // point force and gravity; the inceptor a sensor, a shaft, a damper and gravity.
+    use detune::linear::tracking::element_stiffnesses;
+    let overcentre = System::new(&common::overcentre(&[("Fs", "3")])).unwrap();
+    for sys in [inceptor(&[]), overcentre] {
+        let modal = modal_analysis(&sys, None).unwrap();
+        let eq = &modal.equilibrium;
+        let parts = element_stiffnesses(&sys, &eq.q, &eq.lambda, &modal.rows).unwrap();
+        let k = &modal.linearization.full_stiffness;
+        let sum = parts
+            .iter()
+            .fold(DMatrix::zeros(k.nrows(), k.ncols()), |a, (_, m)| a + m);
+        let scale = k.amax();
+        assert!((&sum - k).amax() < 1e-12 * scale, "{}", (&sum - k).amax());
+        // and each element's is its own: the reactions' alone is not K
+        let reactions = &parts.last().unwrap().1;
+        assert!((reactions - k).amax() > 1e-3 * scale);
+    }
+}
