@@ -307,9 +307,6 @@ fn inceptor_energy_shares_agree_with_the_two_coordinate_model() {
             "{}: {se} vs {shaft}",
             n.name.name
         );
-        let sum = |s: &detune::linear::tracking::Shares| s.0.iter().map(|x| x.1).sum::<f64>();
-        assert!((sum(&n.energy.kinetic) - 1.0).abs() < 1e-12);
-        assert!((sum(&n.energy.strain) - 1.0).abs() < 1e-12);
     }
     assert_eq!(named[0].dominant_body.as_ref().unwrap().body, "gearbox");
     // undamped (c_d = c_fs = 0): the figures of the issue, 55 % and 78 %
