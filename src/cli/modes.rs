@@ -26,15 +26,16 @@ pub struct ModesArgs {
     /// each named mode, crossings and veerings.
     #[arg(long, value_name = "NAME", requires_all = ["from", "to"])]
     pub param: Option<String>,
-    /// First value of the tracked parameter (SI).
+    /// First value of the tracked parameter: a number (SI) or a quantity in its
+    /// dimension, e.g. "200 N*m/rad".
     #[arg(long, value_name = "A", allow_hyphen_values = true, requires = "param")]
-    pub from: Option<f64>,
-    /// Last value of the tracked parameter (SI).
+    pub from: Option<String>,
+    /// Last value of the tracked parameter (SI or a quantity).
     #[arg(long, value_name = "B", allow_hyphen_values = true, requires = "param")]
-    pub to: Option<f64>,
-    /// Step of the tracked parameter (SI) [default: 51 points].
+    pub to: Option<String>,
+    /// Step of the tracked parameter (SI or a quantity) [default: 51 points].
     #[arg(long, value_name = "S", conflicts_with = "points", requires = "param")]
-    pub step: Option<f64>,
+    pub step: Option<String>,
     /// Number of values of the tracked parameter, ends included [default: 51].
     #[arg(long, value_name = "N", requires = "param")]
     pub points: Option<usize>,
@@ -195,8 +196,15 @@ fn track(a: ModesArgs, param: &str) -> Result<()> {
         &model.source.path,
         &[a.output.as_deref(), a.plot.as_deref()],
     )?;
-    let (from, to) = (a.from.unwrap_or(f64::NAN), a.to.unwrap_or(f64::NAN));
-    let grid = values(from, to, a.step, a.points)?;
+    let value = |flag: &str, text: &Option<String>| -> Result<Option<f64>> {
+        text.as_deref()
+            .map(|t| super::args::param_value(&model, param, flag, t))
+            .transpose()
+    };
+    let from = value("--from", &a.from)?.unwrap_or(f64::NAN);
+    let to = value("--to", &a.to)?.unwrap_or(f64::NAN);
+    let step = value("--step", &a.step)?;
+    let grid = values(from, to, step, a.points)?;
     let opts = TrackOptions {
         normalize: a.normalize.clone(),
         ..TrackOptions::default()
