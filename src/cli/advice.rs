@@ -49,7 +49,8 @@ pub fn advice(f: &Failure) -> Option<String> {
 fn flag(argument: Argument) -> Option<&'static str> {
     use Argument::*;
     Some(match argument {
-        FrequencyParameter | ContinuationParameter | TrackedParameter => "--param",
+        FrequencyParameter | ContinuationParameter => "--param",
+        TrackedParameter => "--param",
         TrackedStep => "--step",
         TrackedPoints => "--points",
         Response => "--response",
@@ -67,7 +68,8 @@ fn flag(argument: Argument) -> Option<&'static str> {
         Drive => "--drive",
         Ratio => "--ratio",
         DriveStep => "--step",
-        Frequencies | ContinuationRange | FixedPeriods | DriveRange | TrackedValues => return None,
+        Frequencies | ContinuationRange | FixedPeriods | DriveRange => return None,
+        TrackedValues => return None,
     })
 }
 
