@@ -110,6 +110,51 @@ pub enum Failure {
         target: f64,
         angle: bool,
     },
+    /// A named mode (`[[modes]]`) whose shape matches no computed mode at the baseline:
+    /// its best mass-weighted MAC is below `threshold`; `macs` are its MACs with each
+    /// computed mode, in frequency order.
+    #[error(
+        "the named mode `{name}` matches no mode of the model: its best MAC is {best:.3} (below {threshold}); MACs with the modes by frequency: {}",
+        list_macs(.macs)
+    )]
+    ModeUnmatched {
+        name: String,
+        best: f64,
+        threshold: f64,
+        macs: Vec<f64>,
+    },
+    /// A named mode whose shape matches two computed modes (`modes`, 1 = the lowest)
+    /// about equally well (`macs`): it does not tell them apart.
+    #[error(
+        "the named mode `{name}` matches modes {} and {} about equally (MAC {:.3} and {:.3}): its shape does not tell them apart",
+        .modes[0], .modes[1], .macs[0], .macs[1]
+    )]
+    ModeAmbiguous {
+        name: String,
+        modes: [usize; 2],
+        macs: [f64; 2],
+    },
+    /// Two named modes whose shapes both match best the same computed mode (`mode`, 1 =
+    /// the lowest) at the baseline, with their MACs with it.
+    #[error(
+        "the named modes `{first}` (MAC {first_mac:.3}) and `{second}` (MAC {second_mac:.3}) both match mode {mode} best: one computed mode cannot carry two names"
+    )]
+    ModesShareMatch {
+        first: String,
+        second: String,
+        mode: usize,
+        first_mac: f64,
+        second_mac: f64,
+    },
+}
+
+/// MACs as `1: 0.981, 2: 0.120`.
+fn list_macs(macs: &[f64]) -> String {
+    macs.iter()
+        .enumerate()
+        .map(|(k, m)| format!("{}: {m:.3}", k + 1))
+        .collect::<Vec<_>>()
+        .join(", ")
 }
 
 /// A value of a driven coordinate in words: SI, and degrees for an angle.
@@ -164,6 +209,9 @@ impl Failure {
             DeadPoint { drive, .. } => format!(
                 "beyond it the mechanism locks, a link cannot reach, or the branch to follow is ambiguous: end the range before it, or drive another coordinate than `{drive}`"
             ),
+            ModeUnmatched { .. } => "check the mode's shape in the model's [[modes]] (its coordinates' relative amplitudes, as `detune modes` lists them), or remove the name".into(),
+            ModeAmbiguous { .. } => "give the shape the coordinates in which the two modes differ (a shape of one coordinate matches every mode that moves it)".into(),
+            ModesShareMatch { .. } => "make the two shapes tell the modes apart (give the coordinates in which they differ), or name only one of them".into(),
         }
     }
 }
@@ -238,6 +286,24 @@ mod tests {
                 value: 0.78,
                 target: 0.8,
                 angle: true,
+            },
+            Failure::ModeUnmatched {
+                name: "in-phase".into(),
+                best: 0.3,
+                threshold: 0.5,
+                macs: vec![0.3, 0.1],
+            },
+            Failure::ModeAmbiguous {
+                name: "a".into(),
+                modes: [1, 2],
+                macs: [1.0, 0.95],
+            },
+            Failure::ModesShareMatch {
+                first: "a".into(),
+                second: "b".into(),
+                mode: 1,
+                first_mac: 0.9,
+                second_mac: 0.8,
             },
         ];
         for f in &all {

@@ -46,7 +46,8 @@ enum Command {
     #[command(allow_negative_numbers = true)]
     Continue(ContinueArgs),
     /// Modes of the linearized constrained dynamics about the equilibrium nearest the
-    /// initial pose.
+    /// initial pose, named, with their energy shares; with --param, tracked over a
+    /// parameter's values.
     #[command(allow_negative_numbers = true)]
     Modes(ModesArgs),
     /// Linear frequency response about the equilibrium nearest the initial pose.

@@ -83,6 +83,14 @@ arguments! {
     /// The separation a mode must keep from a forcing line, a fraction
     /// ([`crate::margins::check_margins`]).
     Margin => "the required margin",
+    /// The parameter modes are tracked over ([`crate::linear::tracking::track_modes`]).
+    TrackedParameter => "the tracked parameter",
+    /// The values of the tracked parameter (`values`).
+    TrackedValues => "the tracked parameter's values",
+    /// The step of the tracked parameter's grid.
+    TrackedStep => "the tracked parameter's step",
+    /// The number of values of the tracked parameter's grid.
+    TrackedPoints => "the number of points",
 }
 
 impl fmt::Display for Argument {

@@ -537,3 +537,52 @@ fn modes_of_a_mechanism_without_degrees_of_freedom() {
     assert_eq!(list.len(), 1, "{out}");
     assert_eq!(list[0]["coordinates"]["a.theta"].as_f64(), Some(0.0));
 }
+
+#[test]
+fn modes_tracking_reads_quantities_and_refuses_bad_ranges() {
+    let m = "models/inceptor.toml";
+    let (code, si, _) = detune(&[
+        "modes", m, "--param", "k_t", "--from", "200", "--to", "900", "--points", "3", "--json",
+    ]);
+    assert_eq!(code, 0);
+    let (code, q, _) = detune(&[
+        "modes",
+        m,
+        "--param",
+        "k_t",
+        "--from",
+        "200 N*m/rad",
+        "--to",
+        "0.9 kN*m/rad",
+        "--points",
+        "3",
+        "--json",
+    ]);
+    assert_eq!(code, 0);
+    let value = |s: &str| -> serde_json::Value { serde_json::from_str(s).unwrap() };
+    assert_eq!(
+        value(&si)["tracking"]["steps"],
+        value(&q)["tracking"]["steps"]
+    );
+    for (args, said) in [
+        (vec!["--from", "2", "--to", "2"], "--from 2 --to 2"),
+        (
+            vec!["--from", "200", "--to", "300", "--step", "-1"],
+            "--step -1",
+        ),
+        (vec!["--from", "200 mm", "--to", "300"], "--from 200 mm"),
+    ] {
+        let mut all = vec!["modes", m, "--param", "k_t"];
+        all.extend(args);
+        let (code, _, err) = detune(&all);
+        assert_ne!(code, 0);
+        assert!(err.contains(said), "{err}");
+    }
+    // a parameter the trim solves follows the others: it cannot be tracked
+    let (code, _, err) = detune(&["modes", m, "--param", "L0", "--from", "0.1", "--to", "0.11"]);
+    assert_ne!(code, 0);
+    assert!(
+        err.contains("`L0` is solved by the model's [trim]"),
+        "{err}"
+    );
+}

@@ -456,3 +456,45 @@ fn request_errors() {
     );
     snapshot("request_errors.txt", &text);
 }
+
+const TRACK: &str = "modes models/inceptor.toml --param k_t --from 200 --to 3000 --points 5";
+
+#[test]
+fn modes_tracking_json_csv_svg_and_text() {
+    let (dir, [csv, svg]) = outputs(["track.csv", "track.svg"]);
+    let run = detune(TRACK, &["--json", "-o", &csv, "--plot", &svg]);
+    let j = json_snapshot("modes_track", &run.stdout);
+    text_snapshot("modes_track_json", &stderr_of(run), Some(dir.path()));
+    csv_header_snapshot("modes_track", Path::new(&csv));
+    svg_snapshot("modes_track", Path::new(&svg));
+    assert_eq!(j["tracking"]["labels"][0], "in-phase");
+    assert_eq!(j["tracking"]["labels"][1], "shaft-twist");
+    assert_eq!(j["param_unit"], "N*m/rad");
+    // the CSV's rows are the requested values of the JSON's steps
+    let (header, rows) = common_csv(Path::new(&csv));
+    assert_eq!(header[1], "in-phase.omega_n_rad_s");
+    let steps: Vec<&Value> = j["tracking"]["steps"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|s| s["requested"] == true)
+        .collect();
+    assert_eq!(rows.len(), 5);
+    for (row, s) in rows.iter().zip(&steps) {
+        // (serde_json reads floats to within an ulp)
+        close(&s["value"], row[0], 1e-12 * row[0]);
+        close(&s["modes"][1]["omega_n_rad_s"], row[4], 1e-12 * row[4]);
+    }
+    text_snapshot("modes_track", &detune(TRACK, &[]), None);
+}
+
+/// A numeric CSV: header and rows.
+fn common_csv(path: &Path) -> (Vec<String>, Vec<Vec<f64>>) {
+    let text = std::fs::read_to_string(path).unwrap();
+    let mut lines = text.lines();
+    let header = lines.next().unwrap().split(',').map(String::from).collect();
+    let rows = lines
+        .map(|l| l.split(',').map(|x| x.parse().unwrap()).collect())
+        .collect();
+    (header, rows)
+}

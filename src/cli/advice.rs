@@ -50,6 +50,9 @@ fn flag(argument: Argument) -> Option<&'static str> {
     use Argument::*;
     Some(match argument {
         FrequencyParameter | ContinuationParameter => "--param",
+        TrackedParameter => "--param",
+        TrackedStep => "--step",
+        TrackedPoints => "--points",
         Response => "--response",
         Normalize => "--normalize",
         PlotCoordinate => "--plot-coordinate",
@@ -68,6 +71,7 @@ fn flag(argument: Argument) -> Option<&'static str> {
         Varied => "--vary",
         Margin => "--margin",
         Frequencies | ContinuationRange | FixedPeriods | DriveRange => return None,
+        TrackedValues => return None,
     })
 }
 

@@ -1,13 +1,16 @@
 //! `detune modes`: modes of the linearized constrained dynamics about the equilibrium
-//! nearest the initial pose.
+//! nearest the initial pose, with their names and energy shares; with `--param`, the
+//! modes tracked over a parameter's values (`detune::linear::tracking`).
 
 use super::args::ModelArgs;
 use super::print_json;
 use clap::Args;
 use detune::diag::Result;
 use detune::linear::modal_analysis;
+use detune::linear::tracking::{ModeTracking, TrackOptions, describe_modes, track_modes, values};
 use detune::output::Provenance;
-use detune::output::json::ModesReport;
+use detune::output::check_outputs;
+use detune::output::json::{ModesReport, TrackingReport};
 
 #[derive(Args)]
 pub struct ModesArgs {
@@ -19,13 +22,45 @@ pub struct ModesArgs {
     /// Print JSON instead of a table.
     #[arg(long)]
     pub json: bool,
+    /// Track the modes over this parameter's values (with --from, --to): ω_n and ζ of
+    /// each named mode, crossings and veerings.
+    #[arg(long, value_name = "NAME", requires_all = ["from", "to"])]
+    pub param: Option<String>,
+    /// First value of the tracked parameter: a number (SI) or a quantity in its
+    /// dimension, e.g. "200 N*m/rad".
+    #[arg(long, value_name = "A", allow_hyphen_values = true, requires = "param")]
+    pub from: Option<String>,
+    /// Last value of the tracked parameter (SI or a quantity).
+    #[arg(long, value_name = "B", allow_hyphen_values = true, requires = "param")]
+    pub to: Option<String>,
+    /// Step of the tracked parameter (SI or a quantity) [default: 51 points].
+    #[arg(long, value_name = "S", conflicts_with = "points", requires = "param")]
+    pub step: Option<String>,
+    /// Number of values of the tracked parameter, ends included [default: 51].
+    #[arg(long, value_name = "N", requires = "param")]
+    pub points: Option<usize>,
+    /// CSV of the tracking: `<param>,<label>.omega_n_rad_s,<label>.damping_ratio,<label>.mac,...`.
+    #[arg(
+        short = 'o',
+        long = "output",
+        value_name = "OUT.csv",
+        requires = "param"
+    )]
+    pub output: Option<String>,
+    /// SVG of the tracking: ω_n against the parameter, one curve per named mode.
+    #[arg(long, value_name = "OUT.svg", requires = "param")]
+    pub plot: Option<String>,
 }
 
 pub fn run(a: ModesArgs) -> Result<()> {
+    if let Some(param) = a.param.clone() {
+        return track(a, &param);
+    }
     let (model, sys) = a.model.load()?;
     let m = modal_analysis(&sys, a.normalize.as_deref())?;
+    let named = describe_modes(&sys, &m)?;
     if a.json {
-        print_json(&ModesReport::new(&m, &Provenance::of(&model)));
+        print_json(&ModesReport::named(&m, &named, &Provenance::of(&model)));
         return Ok(());
     }
     println!(
@@ -115,5 +150,181 @@ pub fn run(a: ModesArgs) -> Result<()> {
             );
         }
     }
+    print_names(&named);
     Ok(())
+}
+
+/// `percent` of a fraction, `55 %`.
+fn percent(x: f64) -> String {
+    format!("{:.0} %", 100.0 * x)
+}
+
+/// Each mode's name, the body holding most of its kinetic energy, and its shares.
+fn print_names(named: &[detune::linear::tracking::NamedMode]) {
+    println!("\nnames and energy shares (kinetic energy by body, strain energy by force element):");
+    for (k, n) in named.iter().enumerate() {
+        let dominant = n
+            .dominant_body
+            .as_ref()
+            .map(|d| format!(" ({} {} KE)", d.body, percent(d.share)))
+            .unwrap_or_default();
+        let matched = n
+            .name
+            .declared_mac
+            .map(|x| format!(", MAC {x:.3} with its [[modes]] shape"))
+            .unwrap_or_default();
+        println!("{:>4}  {}{dominant}{matched}", k + 1, n.name.name);
+        let list = |s: &detune::linear::tracking::Shares| {
+            s.0.iter()
+                .map(|(name, x)| format!("{name} {}", percent(*x)))
+                .collect::<Vec<_>>()
+                .join(", ")
+        };
+        println!("        kinetic: {}", list(&n.energy.kinetic));
+        if n.energy.strain.0.is_empty() {
+            println!("        strain: none (the mode stores no strain energy)");
+        } else {
+            println!("        strain: {}", list(&n.energy.strain));
+        }
+    }
+}
+
+/// `detune modes --param`: the modes tracked over the parameter's values.
+fn track(a: ModesArgs, param: &str) -> Result<()> {
+    let (model, sys) = a.model.load()?;
+    check_outputs(
+        &model.source.path,
+        &[a.output.as_deref(), a.plot.as_deref()],
+    )?;
+    let value = |flag: &str, text: &Option<String>| -> Result<Option<f64>> {
+        text.as_deref()
+            .map(|t| super::args::param_value(&model, param, flag, t))
+            .transpose()
+    };
+    let from = value("--from", &a.from)?.unwrap_or(f64::NAN);
+    let to = value("--to", &a.to)?.unwrap_or(f64::NAN);
+    let step = value("--step", &a.step)?;
+    let grid = values(from, to, step, a.points)?;
+    let opts = TrackOptions {
+        normalize: a.normalize.clone(),
+        ..TrackOptions::default()
+    };
+    let t = track_modes(&sys, param, &grid, &opts)?;
+    let unit = model
+        .parameters
+        .index(param)
+        .and_then(|i| model.parameters.list[i].unit.as_ref())
+        .map(|(u, _)| u.as_str())
+        .unwrap_or("");
+    if let Some(o) = &a.output {
+        detune::output::results::write_tracking_csv(o, &t)?;
+        eprintln!("wrote {o}");
+    }
+    if let Some(p) = &a.plot {
+        detune::output::plot::write_line_plot(
+            p,
+            &detune::output::figures::tracking_figure(&t, unit),
+        )?;
+        eprintln!("wrote {p}");
+    }
+    for w in &t.warnings {
+        eprintln!("warning: {w}");
+    }
+    if a.json {
+        print_json(&TrackingReport {
+            tracking: &t,
+            param_unit: unit,
+            provenance: &Provenance::of(&model),
+        });
+        return Ok(());
+    }
+    print_tracking(&t, unit);
+    Ok(())
+}
+
+/// The tracking as a table, then its crossings, veerings and least MACs.
+fn print_tracking(t: &ModeTracking, unit: &str) {
+    let u = if unit.is_empty() {
+        String::new()
+    } else {
+        format!(" [{unit}]")
+    };
+    println!(
+        "modes against {}{u} (named at {} = {}{u}); ω_n in rad/s, ζ the damping ratio:",
+        t.param, t.param, t.baseline
+    );
+    let at_baseline: Vec<String> = t
+        .labels
+        .iter()
+        .zip(&t.dominant_body)
+        .map(|(l, d)| match d {
+            Some(d) => format!("{l} ({} {} KE)", d.body, percent(d.share)),
+            None => l.clone(),
+        })
+        .collect();
+    println!("  at the baseline: {}", at_baseline.join(", "));
+    let head: Vec<String> = t
+        .labels
+        .iter()
+        .map(|l| format!("{:>26}", format!("{l}: ω_n, ζ")))
+        .collect();
+    println!("{:>14}  {}", format!("{}{u}", t.param), head.join(" "));
+    for s in t.steps.iter().filter(|s| s.requested) {
+        let cols: Vec<String> = s
+            .modes
+            .iter()
+            .map(|m| match m {
+                // (a ζ of rounding size printed as 0, not -0.000000)
+                Some(m) => format!(
+                    "{:>16.6} {:>9.6}",
+                    m.omega_n_rad_s,
+                    if m.damping_ratio.abs() < 5e-7 {
+                        0.0
+                    } else {
+                        m.damping_ratio
+                    }
+                ),
+                None => format!("{:>26}", "(lost)"),
+            })
+            .collect();
+        println!("{:>14.6}  {}", s.value, cols.join(" "));
+    }
+    let inserted = t.steps.iter().filter(|s| !s.requested).count();
+    if inserted > 0 {
+        println!("({inserted} value(s) inserted where the step was halved to follow the modes)");
+    }
+    if t.crossings.is_empty() {
+        println!("\ncrossings: none");
+    } else {
+        println!("\ncrossings (two modes' ω_n swap order):");
+        for c in &t.crossings {
+            println!(
+                "  {} and {} at {} = {:.6}{u}, ω_n = {:.6} rad/s",
+                c.labels[0], c.labels[1], t.param, c.value, c.omega_n_rad_s
+            );
+        }
+    }
+    if t.veerings.is_empty() {
+        println!("veerings: none");
+    } else {
+        println!("veerings (two modes approach without crossing and exchange shapes):");
+        for v in &t.veerings {
+            println!(
+                "  {} and {} at {} = {:.6}{u}: ω_n = {:.6} and {:.6} rad/s, least relative gap {:.2} %, shapes exchanged over {:.6} to {:.6}{u}",
+                v.labels[0],
+                v.labels[1],
+                t.param,
+                v.value,
+                v.omega_n_rad_s[0],
+                v.omega_n_rad_s[1],
+                100.0 * v.relative_gap,
+                v.window[0],
+                v.window[1]
+            );
+        }
+    }
+    println!("least MAC with the previous step:");
+    for (l, m) in t.labels.iter().zip(&t.min_mac) {
+        println!("  {l:<24} {m:.4}");
+    }
 }

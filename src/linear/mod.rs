@@ -27,6 +27,7 @@
 //! mapped back to the model's coordinates by N. Undamped: eig(M_r⁻¹ K_r).
 
 pub mod sensitivity;
+pub mod tracking;
 
 use crate::diag::{Error, Result};
 use crate::failure::Failure;

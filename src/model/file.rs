@@ -495,6 +495,9 @@ pub struct RawModel {
     pub forces: Vec<Spanned<RawForce>>,
     /// Parameters solved so that held coordinates are a static equilibrium.
     pub trim: Option<Spanned<RawTrim>>,
+    /// Named modes (`[[modes]]`).
+    #[serde(default)]
+    pub modes: Vec<Spanned<RawMode>>,
 }
 
 impl RawModel {
@@ -533,6 +536,16 @@ impl RawForce {
 pub struct RawTrim {
     pub solve: Vec<SString>,
     pub hold: Vec<SString>,
+}
+
+/// `[[modes]]`: a mode named by what it is, `name = "in-phase"` and its expected shape
+/// `shape = { "stick.phi" = 1, "gearbox.theta" = 0.75 }` (coordinate → number), matched
+/// to the computed modes by MAC at the baseline ([`crate::linear::tracking`]).
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawMode {
+    pub name: SString,
+    pub shape: Spanned<std::collections::BTreeMap<SString, SValue>>,
 }
 
 #[cfg(test)]

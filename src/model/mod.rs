@@ -345,6 +345,19 @@ pub struct TrimDef {
     pub span: Range<usize>,
 }
 
+/// `[[modes]]`: a mode named by what it is, with the shape it is expected to have.
+#[derive(Debug, Clone)]
+pub struct ModeDef {
+    /// Unique, non-empty, not of the form `mode <number>` (the unnamed modes' names),
+    /// without commas or quotes (it heads CSV columns).
+    pub name: String,
+    /// `(velocity name, value)`: the coordinates given (a body's coordinate, or a free
+    /// body's velocity `b.vx` … `b.wz`), by name; not all zero.
+    pub shape: Vec<(String, f64)>,
+    /// The `[[modes]]` table.
+    pub span: Range<usize>,
+}
+
 /// A loaded model: immutable; cheap to clone with other parameter values.
 #[derive(Debug, Clone)]
 pub struct Model {
@@ -368,6 +381,8 @@ pub struct Model {
     pub overrides: Vec<(String, String)>,
     /// The parameter that is the forcing's angular frequency (`[model] forcing_frequency`).
     pub forcing_frequency: Option<String>,
+    /// Named modes (`[[modes]]`), in the file's order.
+    pub modes: Arc<Vec<ModeDef>>,
 }
 
 impl Model {
@@ -596,6 +611,12 @@ impl Model {
         {
             b.check_trim(t, &bodies, &parameters);
         }
+        // (as for the trim: coordinates are known only when every body loaded)
+        let modes = if bodies.len() == raw.bodies.len() {
+            b.modes(&raw.modes, &bodies)
+        } else {
+            Vec::new()
+        };
         if bodies.is_empty() && diags.is_empty() {
             diags.push(
                 Diagnostic::new("the model has no bodies")
@@ -626,6 +647,7 @@ impl Model {
                 .forcing_frequency
                 .as_ref()
                 .map(|f| f.get_ref().clone()),
+            modes: Arc::new(modes),
         };
         if let Some(f) = &raw.model.forcing_frequency
             && model.parameters.index(f.get_ref()).is_none()
@@ -756,6 +778,110 @@ impl Builder<'_> {
     }
 
     /// `[trim]`: names that exist, as many conditions as unknowns.
+    /// `[[modes]]`: names unique, non-empty and not `mode <number>`; shapes of known
+    /// coordinates (velocity names), finite numbers, not all zero.
+    fn modes(&mut self, raw: &[toml::Spanned<file::RawMode>], bodies: &[Body]) -> Vec<ModeDef> {
+        let names: Vec<String> = bodies
+            .iter()
+            .flat_map(|b| b.vels.iter().map(move |c| format!("{}.{c}", b.name)))
+            .collect();
+        let mut out: Vec<ModeDef> = Vec::new();
+        for r in raw {
+            let m = r.get_ref();
+            let name = m.name.get_ref().trim().to_string();
+            let mut ok = true;
+            let numbered = name
+                .strip_prefix("mode ")
+                .is_some_and(|d| !d.is_empty() && d.chars().all(|c| c.is_ascii_digit()));
+            if name.is_empty() || numbered {
+                self.diags.push(
+                    Diagnostic::new(if numbered {
+                        format!("the mode name `{name}` is the form of an unnamed mode's")
+                    } else {
+                        "the mode's `name` is empty".to_string()
+                    })
+                    .at(m.name.span())
+                    .label("here")
+                    .help("name the mode by what it is, e.g. name = \"in-phase\" (unnamed modes are called `mode 1`, `mode 2`, … by frequency)"),
+                );
+                ok = false;
+            } else if name.contains([',', '"']) {
+                self.diags.push(
+                    Diagnostic::new(format!("the mode name `{name}` has a comma or a quote"))
+                        .at(m.name.span())
+                        .label("here")
+                        .help("a mode's name heads CSV columns (`<name>.omega_n_rad_s`): leave out commas and quotes"),
+                );
+                ok = false;
+            } else if out.iter().any(|o| o.name == name) {
+                self.diags.push(
+                    Diagnostic::new(format!("two modes are named `{name}`"))
+                        .at(m.name.span())
+                        .label("second use")
+                        .help("give each [[modes]] table its own `name`"),
+                );
+                ok = false;
+            }
+            let mut shape = Vec::new();
+            for (coord, value) in m.shape.get_ref() {
+                if !names.contains(coord.get_ref()) {
+                    self.diags.push(
+                        Diagnostic::new(format!(
+                            "the shape of mode `{name}` names `{}`, which is not a coordinate",
+                            coord.get_ref()
+                        ))
+                        .at(coord.span())
+                        .label("not a coordinate")
+                        .help(
+                            suggest(coord.get_ref(), names.iter().map(|s| s.as_str()))
+                                .unwrap_or_else(|| format!("coordinates: {}", names.join(", "))),
+                        ),
+                    );
+                    ok = false;
+                    continue;
+                }
+                match value.get_ref() {
+                    RawValue::Number(x) if x.is_finite() => {
+                        shape.push((coord.get_ref().clone(), *x))
+                    }
+                    _ => {
+                        self.diags.push(
+                            Diagnostic::new(format!(
+                                "the shape of mode `{name}` gives `{}` a value that is not a finite number",
+                                coord.get_ref()
+                            ))
+                            .at(value.span())
+                            .label("not a number")
+                            .help("a shape entry is a plain real number (the coordinate's relative amplitude, SI), e.g. 0.75"),
+                        );
+                        ok = false;
+                    }
+                }
+            }
+            if ok && shape.iter().all(|(_, x)| *x == 0.0) {
+                self.diags.push(
+                    Diagnostic::new(if shape.is_empty() {
+                        format!("the shape of mode `{name}` gives no coordinate")
+                    } else {
+                        format!("the shape of mode `{name}` is zero in every coordinate")
+                    })
+                    .at(m.shape.span())
+                    .label("here")
+                    .help("give the coordinates' relative amplitudes in this mode, e.g. shape = { \"stick.phi\" = 1, \"gearbox.theta\" = 0.75 }, at least one not zero"),
+                );
+                ok = false;
+            }
+            if ok {
+                out.push(ModeDef {
+                    name,
+                    shape,
+                    span: r.span(),
+                });
+            }
+        }
+        out
+    }
+
     fn check_trim(&mut self, t: &TrimDef, bodies: &[Body], params: &Parameters) {
         for (name, span) in &t.solve {
             if params.index(name).is_none() {

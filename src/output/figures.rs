@@ -244,3 +244,53 @@ pub fn frf_figures(
         })
         .collect()
 }
+
+/// A mode tracking: ω_n against the parameter, one curve per label (every value solved,
+/// inserted ones included), crossings and veerings marked; `unit` the parameter's.
+pub fn tracking_figure(t: &crate::linear::tracking::ModeTracking, unit: &str) -> LinePlot {
+    let mut series: Vec<Series> = t
+        .labels
+        .iter()
+        .enumerate()
+        .map(|(l, name)| {
+            let (x, y): (Vec<f64>, Vec<f64>) = t
+                .steps
+                .iter()
+                .filter_map(|s| s.modes[l].as_ref().map(|m| (s.value, m.omega_n_rad_s)))
+                .unzip();
+            Series {
+                label: name.clone(),
+                x,
+                y,
+                style: Style::Solid,
+            }
+        })
+        .collect();
+    if !t.crossings.is_empty() {
+        series.push(Series {
+            label: "crossings".into(),
+            x: t.crossings.iter().map(|c| c.value).collect(),
+            y: t.crossings.iter().map(|c| c.omega_n_rad_s).collect(),
+            style: Style::Markers,
+        });
+    }
+    let vertical = t
+        .veerings
+        .iter()
+        .map(|v| {
+            (
+                v.value,
+                format!("veering {} / {}", v.labels[0], v.labels[1]),
+            )
+        })
+        .collect();
+    let unit = if unit.is_empty() { "-" } else { unit };
+    LinePlot {
+        title: format!("natural frequencies against {}", t.param),
+        x_label: format!("{} [{unit}]", t.param),
+        y_label: "ω_n [rad/s]".into(),
+        series,
+        vertical,
+        marks: Vec::new(),
+    }
+}

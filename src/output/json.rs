@@ -221,6 +221,15 @@ pub struct ModeJson<'a> {
     pub eigenvalue: C64,
     pub shape: Named<'a, C64>,
     pub normalized_to: &'a str,
+    /// The mode's name (`[[modes]]`, or `mode k` by frequency): with [`ModesReport::named`].
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub name: Option<&'a str>,
+    /// Body → fraction of the mode's kinetic energy.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub kinetic_energy_share: Option<&'a crate::linear::tracking::Shares>,
+    /// Force element (and `constraint reactions`) → fraction of its strain energy.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub strain_energy_share: Option<&'a crate::linear::tracking::Shares>,
 }
 
 /// `modes --json`.
@@ -250,6 +259,9 @@ impl<'a> ModesReport<'a> {
                     eigenvalue: m.eigenvalue,
                     shape: Named::new(&a.coordinates, &m.shape),
                     normalized_to: &a.coordinates[m.normalized_to],
+                    name: None,
+                    kinetic_energy_share: None,
+                    strain_energy_share: None,
                 })
                 .collect(),
             undamped_omega2: &a.undamped_omega2,
@@ -257,6 +269,32 @@ impl<'a> ModesReport<'a> {
             provenance,
         }
     }
+
+    /// [`ModesReport::new`] with each mode's name and energy shares (`named`: one per
+    /// mode, from [`crate::linear::tracking::describe_modes`]).
+    pub fn named(
+        a: &'a ModalAnalysis,
+        named: &'a [crate::linear::tracking::NamedMode],
+        provenance: &'a Provenance,
+    ) -> Self {
+        let mut r = ModesReport::new(a, provenance);
+        for (m, n) in r.modes.iter_mut().zip(named) {
+            m.name = Some(&n.name.name);
+            m.kinetic_energy_share = Some(&n.energy.kinetic);
+            m.strain_energy_share = Some(&n.energy.strain);
+        }
+        r
+    }
+}
+
+/// `modes --param --json`: the tracking (values, per label ω_n, ζ, MAC; crossings,
+/// veerings, least MACs) and the parameter's unit.
+#[derive(Debug, Clone, Serialize)]
+pub struct TrackingReport<'a> {
+    pub tracking: &'a crate::linear::tracking::ModeTracking,
+    /// The tracked parameter's declared unit (`""` when it has none).
+    pub param_unit: &'a str,
+    pub provenance: &'a Provenance,
 }
 
 /// `frf --json`: the equilibrium and one object per frequency, keyed like the CSV.

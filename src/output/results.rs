@@ -179,3 +179,42 @@ pub fn write_sweep_csv(path: &str, runs: &[SweepRun]) -> Result<()> {
     };
     write_rows(path, &sweep_header(runs), &sweep_rows(runs), footer)
 }
+
+/// Header of a mode tracking's CSV: `<param>`, then per label `<label>.omega_n_rad_s`,
+/// `<label>.damping_ratio`, `<label>.mac`.
+pub fn tracking_header(t: &crate::linear::tracking::ModeTracking) -> Vec<String> {
+    let mut h = vec![t.param.clone()];
+    for l in &t.labels {
+        h.push(format!("{l}.omega_n_rad_s"));
+        h.push(format!("{l}.damping_ratio"));
+        h.push(format!("{l}.mac"));
+    }
+    h
+}
+
+/// CSV of a mode tracking, one row per requested value (see [`tracking_header`]); a
+/// label lost at a value has empty cells there. The MAC is with the previous value
+/// solved (an inserted one where the step was halved).
+pub fn write_tracking_csv(path: &str, t: &crate::linear::tracking::ModeTracking) -> Result<()> {
+    let header = tracking_header(t);
+    write_atomic(path, |w| {
+        writeln!(w, "{}", header.join(","))?;
+        for s in t.steps.iter().filter(|s| s.requested) {
+            write!(w, "{}", num(s.value))?;
+            for m in &s.modes {
+                match m {
+                    Some(m) => write!(
+                        w,
+                        ",{},{},{}",
+                        num(m.omega_n_rad_s),
+                        num(m.damping_ratio),
+                        num(m.mac)
+                    )?,
+                    None => write!(w, ",,,")?,
+                }
+            }
+            writeln!(w)?;
+        }
+        Ok(())
+    })
+}

@@ -956,6 +956,24 @@ impl Compiler<'_> {
             live: std::mem::take(&mut self.live),
             source: model.source.clone(),
             overrides,
+            declared_modes: model
+                .modes
+                .iter()
+                .map(|d| super::DeclaredMode {
+                    name: d.name.clone(),
+                    shape: d
+                        .shape
+                        .iter()
+                        .filter_map(|(c, x)| {
+                            model
+                                .velocity_names()
+                                .iter()
+                                .position(|v| v == c)
+                                .map(|i| (i, *x))
+                        })
+                        .collect(),
+                })
+                .collect(),
         };
         sys.refresh();
         sys.layout();

@@ -173,6 +173,16 @@ pub struct System {
     source: SourceFile,
     /// The user's `--set`s, quoted in such messages.
     overrides: String,
+    /// The model's named modes (`[[modes]]`), their shapes by velocity index.
+    pub declared_modes: Vec<DeclaredMode>,
+}
+
+/// A mode the model file names (`[[modes]]`): what the analyses match by MAC.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DeclaredMode {
+    pub name: String,
+    /// `(velocity index, value)` for each coordinate the shape gives.
+    pub shape: Vec<(usize, f64)>,
 }
 
 /// Scratch buffers for one thread of evaluation.
@@ -1027,6 +1037,32 @@ impl System {
         self.with_frames(q, t, env, |fr| {
             for force in &self.forces {
                 force.add(fr, v, t, f);
+            }
+        })
+    }
+
+    /// The generalized force of the force elements named `name` (one `[[forces]]` table,
+    /// which may compile to several elements) alone, at (q, v, t) with parameters from
+    /// `env` (n): a force element's share of f, for its own stiffness −∂f_e/∂q. Gravity
+    /// tables give nothing here (their force does not depend on the coordinates).
+    pub fn element_forces_in<D: Scalar, E: Env<D>>(
+        &self,
+        name: &str,
+        q: &[D],
+        v: &[D],
+        t: D,
+        env: E,
+        f: &mut [D],
+    ) {
+        f.fill(D::from(0.0));
+        if !self.force_names.iter().any(|n| n == name) {
+            return;
+        }
+        self.with_frames(q, t, env, |fr| {
+            for (force, n) in self.forces.iter().zip(&self.force_names) {
+                if n == name {
+                    force.add(fr, v, t, f);
+                }
             }
         })
     }
