@@ -78,9 +78,21 @@ pub struct SkippedMode {
 /// frequency (ω_n = |λ|), and the real eigenvalues left out (non-oscillatory: nothing to
 /// resonate with a forcing line).
 pub fn mode_points(modal: &ModalAnalysis) -> (Vec<ModeInterval>, Vec<SkippedMode>) {
+    let names: Vec<String> = (0..modal.modes.len())
+        .map(|k| format!("mode {}", k + 1))
+        .collect();
+    mode_points_named(modal, &names)
+}
+
+/// [`mode_points`] with the modes' names (one per mode of `modal`, in its order: the
+/// model's declared names, `crate::linear::sensitivity::mode_names`).
+pub fn mode_points_named(
+    modal: &ModalAnalysis,
+    names: &[String],
+) -> (Vec<ModeInterval>, Vec<SkippedMode>) {
     let mut modes = Vec::new();
     let mut skipped = Vec::new();
-    for m in &modal.modes {
+    for (k, m) in modal.modes.iter().enumerate() {
         if m.omega_d_rad_s == 0.0 {
             let l = m.eigenvalue.re;
             skipped.push(SkippedMode {
@@ -94,7 +106,7 @@ pub fn mode_points(modal: &ModalAnalysis) -> (Vec<ModeInterval>, Vec<SkippedMode
             });
         } else {
             modes.push(ModeInterval::point(
-                format!("mode {}", modes.len() + 1),
+                names.get(k).cloned().unwrap_or_else(|| format!("mode {}", k + 1)),
                 m.omega_n_rad_s,
                 m.damping_ratio,
             ));

@@ -24,7 +24,7 @@ use crate::linear::sensitivity::{
     Evaluated, Vary, evaluate, match_modes, mode_derivatives, modes_at, oscillatory,
 };
 use crate::linear::{ModalAnalysis, modal_analysis};
-use crate::margins::{MarginRow, Requirement, check_margins, mode_points};
+use crate::margins::{MarginRow, Requirement, check_margins, mode_points_named};
 use crate::system::System;
 use std::cell::RefCell;
 
@@ -222,11 +222,6 @@ impl Problem<'_> {
     }
 }
 
-/// The names of the followed modes: `mode 1`, `mode 2`, … by frequency at the baseline.
-fn mode_names(keep: &[usize]) -> Vec<String> {
-    (0..keep.len()).map(|i| format!("mode {}", i + 1)).collect()
-}
-
 /// Tune `sys` (trimmed) over `varies` (each with its range as bounds) so that every
 /// oscillatory mode clears every line of `lines` by `opts.margin`.
 pub fn tune(
@@ -245,7 +240,8 @@ pub fn tune(
     let keep: Vec<usize> = (0..base.modes.len())
         .filter(|&i| oscillatory(&base.modes[i]))
         .collect();
-    let names = mode_names(&keep);
+    let all_names = crate::linear::sensitivity::mode_names(sys, &base);
+    let names: Vec<String> = keep.iter().map(|&i| all_names[i].clone()).collect();
     let p0: Vec<f64> = varies.iter().map(|v| sys.param(v.param)).collect();
     let scale: Vec<f64> = varies
         .iter()
@@ -319,7 +315,7 @@ pub fn tune(
         }
     }
     if !infeasible.is_empty() {
-        let (points, _) = mode_points(&base);
+        let (points, _) = mode_points_named(&base, &all_names);
         return Ok(Tuning {
             designs: Vec::new(),
             infeasible,
@@ -488,7 +484,7 @@ pub fn tune(
             }
             let (s, _) = crate::statics::trim::trim(&s)?;
             let ma = modal_analysis(&s, None)?;
-            let (points, _) = mode_points(&ma);
+            let (points, _) = mode_points_named(&ma, &crate::linear::sensitivity::mode_names(&s, &ma));
             Ok((check_margins(&points, lines, opts.margin, Requirement::Fixed)?, ma))
         })();
         let (check, ma) = match verified {
@@ -513,8 +509,9 @@ pub fn tune(
             parameters.insert(v.name.clone(), value.into());
         }
         let mut modes = serde_json::Map::new();
-        for (k, m) in ma.modes.iter().filter(|m| oscillatory(m)).enumerate() {
-            modes.insert(format!("mode {}", k + 1), m.omega_n_rad_s.into());
+        let design_names = crate::linear::sensitivity::mode_names(sys, &ma);
+        for (k, m) in ma.modes.iter().enumerate().filter(|(_, m)| oscillatory(m)) {
+            modes.insert(design_names[k].clone(), m.omega_n_rad_s.into());
         }
         let closest = check
             .rows
@@ -540,7 +537,7 @@ pub fn tune(
     });
     designs.truncate(opts.max_designs);
     let baseline_passes = {
-        let (points, _) = mode_points(&base);
+        let (points, _) = mode_points_named(&base, &all_names);
         check_margins(&points, lines, opts.margin, Requirement::Fixed)?.pass
     };
     Ok(Tuning {

@@ -75,7 +75,7 @@ fn the_baseline_inceptor_fails_against_the_uh60_main_rotor_1p() {
     let reference = inceptor_reference();
     let w1p = 258.0 * 2.0 * PI / 60.0; // 27.0177 rad/s
     let (w2, zeta2) = reference[1]; // 26.5306 rad/s
-    let r = row(&j, "mode 2", "1P");
+    let r = row(&j, "shaft-twist", "1P");
     let expected = 100.0 * (w1p - w2) / w1p; // 1.80 %
     assert!((expected - 1.8029).abs() < 1e-3);
     assert!((r["omega_n_rad_s"].as_f64().unwrap() - w2).abs() < 1e-6 * w2);
@@ -92,7 +92,7 @@ fn the_baseline_inceptor_fails_against_the_uh60_main_rotor_1p() {
     assert_eq!(rows.len(), 12);
     assert_eq!(rows.iter().filter(|r| r["pass"] == false).count(), 1);
     let w1 = reference[0].0;
-    let r1 = row(&j, "mode 1", "1P");
+    let r1 = row(&j, "in-phase", "1P");
     assert!((r1["separation_pct"].as_f64().unwrap() - 100.0 * (w1p - w1) / w1p).abs() < 1e-4);
     // the document: provenance, the environment with its lines
     assert_eq!(j["provenance"]["model_file"], "models/inceptor.toml");
@@ -117,7 +117,7 @@ fn the_baseline_inceptor_fails_against_the_uh60_main_rotor_1p() {
         assert!(r.get(key).is_some(), "row key {key}");
     }
     assert!(
-        err.contains("mode 2 (26.53 rad/s) is 1.8 % below UH-60 1P (27.02 rad/s): needs 10 %"),
+        err.contains("shaft-twist (26.53 rad/s) is 1.8 % below UH-60 1P (27.02 rad/s): needs 10 %"),
         "{err}"
     );
 }
@@ -132,7 +132,7 @@ fn the_table_states_the_margin_as_a_choice_and_every_number_with_its_unit() {
         "{out}"
     );
     assert!(
-        out.contains("mode 2 (26.53 rad/s) is 1.8 % below UH-60 1P (27.02 rad/s): needs 10 %"),
+        out.contains("shaft-twist (26.53 rad/s) is 1.8 % below UH-60 1P (27.02 rad/s): needs 10 %"),
         "{out}"
     );
     assert!(out.contains("FAIL: 1 of 12"), "{out}");
@@ -153,7 +153,7 @@ fn the_inceptor_clears_the_ah64_and_a_stiffer_shaft_clears_the_uh60() {
     assert_eq!(j["pass"], true);
     let w1p = 288.0 * 2.0 * PI / 60.0;
     let w2 = inceptor_reference()[1].0;
-    let sep = row(&j, "mode 2", "1P")["separation_pct"].as_f64().unwrap();
+    let sep = row(&j, "shaft-twist", "1P")["separation_pct"].as_f64().unwrap();
     assert!((sep - 100.0 * (w1p - w2) / w1p).abs() < 1e-4);
     assert!(err.contains("PASS"), "{err}");
     // a stiffer output shaft moves mode 2 above the UH-60's 1P by more than 10 %
@@ -168,7 +168,7 @@ fn the_inceptor_clears_the_ah64_and_a_stiffer_shaft_clears_the_uh60() {
     ]);
     assert_eq!(code, 0, "{err}");
     let j = json(&out);
-    let r = row(&j, "mode 2", "1P");
+    let r = row(&j, "shaft-twist", "1P");
     let w = r["omega_n_rad_s"].as_f64().unwrap();
     let w1p = 258.0 * 2.0 * PI / 60.0;
     assert!(w > 1.1 * w1p, "{w}");
@@ -341,7 +341,7 @@ fn damping_aware_margins_are_scaled_by_the_amplification_factor() {
     assert_eq!(j["requirement"]["rule"], "damping_aware");
     let zeta = inceptor_reference()[1].1;
     let af = 1.0 / (2.0 * zeta);
-    let r = row(&j, "mode 2", "1P");
+    let r = row(&j, "shaft-twist", "1P");
     assert!((r["required_pct"].as_f64().unwrap() - 10.0 * (1.0 - 1.0 / (af - 1.5))).abs() < 1e-5);
     let (_, out, _) = repo(&[
         "margins",
@@ -568,7 +568,7 @@ fn tolerance_intervals_must_clear_whole() {
         .as_array()
         .unwrap()
         .iter()
-        .find(|r| r["mode"] == "mode 2" && r["line"] == "1P")
+        .find(|r| r["mode"] == "shaft-twist" && r["line"] == "1P")
         .unwrap();
     let (lo, hi) = (row["min_rad_s"].as_f64().unwrap(), row["max_rad_s"].as_f64().unwrap());
     let line = 258.0 * std::f64::consts::TAU / 60.0;

@@ -568,7 +568,7 @@ fn sensitivity_margins_and_tuning_sections() {
         .filter(|r| r["pass"] == false)
         .collect();
     assert_eq!(fails.len(), 1);
-    assert_eq!(fails[0]["mode"], "mode 2");
+    assert_eq!(fails[0]["mode"], "shaft-twist");
     assert_eq!(fails[0]["line"], "1P");
     let mut args = vec!["tune", m.as_str(), "--environment", "UH-60", "--json"];
     args.extend(vary);

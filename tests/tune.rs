@@ -111,7 +111,7 @@ fn infeasible_tuning_names_the_mode_and_the_line() {
         "k_fs=95%..105%",
     ]);
     assert_eq!(code, 3, "{out}{err}");
-    assert!(out.contains("mode 2") && out.contains("1P"), "{out}{err}");
+    assert!(out.contains("shaft-twist") && out.contains("1P"), "{out}{err}");
     let (code, _, err) = detune(&["tune", "models/inceptor.toml", "--environment", "UH-60"]);
     assert_eq!(code, 1);
     assert!(err.contains("free parameter"), "{err}");

@@ -61,7 +61,8 @@ pub fn run(a: MarginsArgs) -> Result<Outcome> {
     }
     let (model, sys) = a.model.load()?;
     let modal = modal_analysis(&sys, None)?;
-    let (points, skipped) = detune::margins::mode_points(&modal);
+    let names = detune::linear::sensitivity::mode_names(&sys, &modal);
+    let (points, skipped) = detune::margins::mode_points_named(&modal, &names);
     let modes = intervals(&model, &sys, &a.vary, points)?;
     let rule = if a.damping_aware {
         Requirement::DampingAware

@@ -79,11 +79,22 @@ pub fn run(a: ReportArgs) -> Result<()> {
         detune::report::studies::default_varies(&sys, None)
     };
     let start = Instant::now();
+    // names and energy shares of the modes (the model's [[modes]], mode tracking)
+    let extras = detune::linear::modal_analysis(&sys, None)
+        .ok()
+        .and_then(|m| detune::linear::tracking::describe_modes(&sys, &m).ok())
+        .map(|d| detune::report::build::ModeExtras {
+            names: d.iter().map(|x| Some(x.name.name.clone())).collect(),
+            energy_shares: d
+                .iter()
+                .map(|x| x.energy.kinetic.0.clone())
+                .collect(),
+        });
     let mut report = build(&ReportInputs {
         model: &model,
         sys: &sys,
         environment: env.as_ref(),
-        mode_extras: None,
+        mode_extras: extras.as_ref(),
         generated_utc: utc_now(),
     })?;
     let unit = |name: &str| -> String {

@@ -633,6 +633,17 @@ pub(crate) fn match_modes(mass: &DMatrix<f64>, base: &Evaluated, case: &Evaluate
         .collect()
 }
 
+/// The name of every mode of `ma` (in its order): the model's declared modes matched by
+/// MAC ([`super::tracking::name_modes`]), the others `mode k` by rank; `mode k` for all
+/// when the declared ones cannot be matched (the mismatch is the `modes` command's to
+/// report).
+pub fn mode_names(sys: &System, ma: &ModalAnalysis) -> Vec<String> {
+    match super::tracking::name_modes(sys, ma) {
+        Ok(n) => n.into_iter().map(|m| m.name).collect(),
+        Err(_) => (0..ma.modes.len()).map(|k| format!("mode {}", k + 1)).collect(),
+    }
+}
+
 /// Whether a mode oscillates (a complex pair): real eigenvalues have no frequency to
 /// place against a forcing line.
 pub(crate) fn oscillatory(m: &Mode) -> bool {
@@ -641,8 +652,9 @@ pub(crate) fn oscillatory(m: &Mode) -> bool {
 
 /// The sensitivity study: for every oscillatory mode of `sys` (already trimmed), the cases
 /// of every `vary`, the analytic derivatives with their finite-difference checks, and the
-/// tolerance box. `names` gives the modes' names in `ma.modes` order (default `mode 1`,
-/// `mode 2`, … by frequency). Cases and corners run in parallel.
+/// tolerance box. `names` gives the modes' names in `ma.modes` order (default: the model's
+/// declared names, the others `mode k` by rank, [`mode_names`]). Cases and corners run in
+/// parallel.
 pub fn sensitivity(
     sys: &System,
     varies: &[Vary],
@@ -656,10 +668,11 @@ pub fn sensitivity(
     let keep: Vec<usize> = (0..ma.modes.len())
         .filter(|&i| oscillatory(&ma.modes[i]))
         .collect();
+    let default_names = mode_names(sys, &ma);
     let name_of = |i: usize| -> String {
         match names {
             Some(n) if i < n.len() => n[i].clone(),
-            _ => format!("mode {}", keep.iter().position(|&k| k == i).unwrap_or(i) + 1),
+            _ => default_names[i].clone(),
         }
     };
     let run = |label: &str, param: &str, values: &[(usize, f64)]| -> Result<(Evaluated, Vec<Option<(usize, f64)>>)> {

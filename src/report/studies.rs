@@ -8,7 +8,7 @@ use super::{Cell, Column, Digits, Report, Section, Table};
 use crate::diag::Result;
 use crate::environment::Environment;
 use crate::linear::sensitivity::{Sensitivity, Vary, sensitivity};
-use crate::margins::{ModeInterval, Requirement, check_margins, mode_points};
+use crate::margins::{ModeInterval, Requirement, check_margins, mode_points_named};
 use crate::system::System;
 
 /// What the design sections need.
@@ -112,7 +112,8 @@ pub fn add_studies(report: &mut Report, s: &Studies) -> Result<()> {
     };
     let lines = env.forcing_lines();
     let ma = crate::linear::modal_analysis(s.sys, None)?;
-    let (mut points, _) = mode_points(&ma);
+    let (mut points, _) =
+        mode_points_named(&ma, &crate::linear::sensitivity::mode_names(s.sys, &ma));
     if let (true, Some(study)) = (s.given, &study) {
         points = points
             .into_iter()
