@@ -253,3 +253,46 @@ fn bad_varies_are_refused_with_advice() {
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("[trim]"), "{err}");
 }
+
+/// `--method both`: each case's stepped-sine peak of the nonlinear model at a small
+/// forcing equals the linear response's refined peak (`detune frf` of the same case) to
+/// 0.1 %; an unforced model is refused with the advice to set the forcing amplitude.
+#[test]
+fn sweep_peaks_per_case_match_the_linear_response_at_small_forcing() {
+    let out = detune(&[
+        "sensitivity",
+        "models/overcentre.toml",
+        "--set",
+        "F0=0.05",
+        "--set",
+        "omega=1",
+        "--vary",
+        "k=±10%",
+        "--method",
+        "both",
+        "--json",
+    ]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let j: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let m = &j["modes"][0];
+    let frf_peak = |k: &str| -> f64 {
+        let set_k = format!("k={k}");
+        let o = detune(&[
+            "frf", "models/overcentre.toml", "--set", "F0=0.05", "--set", &set_k, "--param",
+            "omega", "--from", "1.5", "--to", "4.5", "--step", "0.05", "--response",
+            "bar1.theta", "--json",
+        ]);
+        let f: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+        f["peaks"][0]["omega"].as_f64().unwrap()
+    };
+    let check = |got: f64, want: f64| assert!((got - want).abs() < 1e-3 * want, "{got} vs {want}");
+    check(m["peak_omega_rad_s"].as_f64().unwrap(), frf_peak("50"));
+    for (label, k) in [("k+10%", "55"), ("k-10%", "45")] {
+        let c = m["cases"].as_array().unwrap().iter().find(|c| c["label"] == label).unwrap();
+        check(c["peak_omega_rad_s"].as_f64().unwrap(), frf_peak(k));
+    }
+    let out = detune(&["sensitivity", "models/inceptor.toml", "--vary", "k_fs=±10%", "--method", "sweep"]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1));
+    assert!(err.contains("D0=7 mm") && err.contains("zero forcing"), "{err}");
+}

@@ -33,6 +33,10 @@ pub struct SensitivityArgs {
     /// How the resonances are found in each case.
     #[arg(long, value_enum, default_value_t = Method::Linear)]
     pub method: Method,
+    /// The response whose stepped-sine peaks are found with --method sweep|both
+    /// [default: the first angle coordinate].
+    #[arg(long, value_name = "NAME")]
+    pub response: Option<String>,
     /// Print JSON on standard output.
     #[arg(long)]
     pub json: bool,
@@ -47,20 +51,51 @@ pub struct SensitivityArgs {
 pub fn run(a: SensitivityArgs) -> Result<()> {
     let (model, sys) = a.model.load()?;
     check_outputs(&model.source.path, &[a.output.as_deref(), a.plot.as_deref()])?;
-    if a.method != Method::Linear {
+    let vs = varies(&model, &sys, &a.vary)?;
+    let response = match &a.response {
+        Some(r) => {
+            sys.output(r)?;
+            r.clone()
+        }
+        None => sys.coordinates[detune::linear::default_reference(&sys)].clone(),
+    };
+    if a.method != Method::Linear && sys.forcing_param().is_none() {
         return Err(Error::request(
-            "--method sweep|both: the stepped-sine cases are not built yet",
-            "use --method linear (the default); `detune sweep --set NAME=VALUE` gives one case's peaks",
+            "--method sweep|both: the model has no forcing frequency to sweep",
+            "add `forcing_frequency = \"omega\"` to [model], or use --method linear",
         ));
     }
-    let vs = varies(&model, &sys, &a.vary)?;
-    let study = sensitivity(&sys, &vs, None, None).inspect_err(|e| {
+    let mut study = sensitivity(&sys, &vs, None, None).inspect_err(|e| {
         if matches!(e.failure(), Some(detune::failure::Failure::NoEquilibrium { .. })) {
             eprintln!(
                 "note: each case starts from the baseline's equilibrium; none near it means the change takes the mechanism past a fold (the equilibrium vanishes): give a smaller change, or look with `detune continue --param NAME`"
             );
         }
     })?;
+    if a.method != Method::Linear {
+        super::interrupt_on_ctrl_c();
+        let cases: usize = 1 + vs.iter().map(|v| v.cases.len()).sum::<usize>();
+        let bar = super::progress_bar(
+            cases as u64,
+            "stepped-sine sweeps {bar:30} {pos}/{len} cases, eta {eta}",
+        );
+        detune::linear::sensitivity::add_sweep_peaks(
+            &sys,
+            &vs,
+            &mut study,
+            &response,
+            &|done, _| bar.set_position(done as u64),
+            &super::INTERRUPTED,
+        )
+        .map_err(|e| {
+            if let Error::Numerical { .. } | Error::Failed { .. } = e {
+                e
+            } else {
+                e.context("--method sweep (set the forcing amplitude, e.g. --set \"D0=7 mm\", so there is a response to sweep)")
+            }
+        })?;
+        bar.finish_and_clear();
+    }
     let unit = |name: &str| -> String {
         model
             .parameters
@@ -130,13 +165,16 @@ fn print_tables(s: &Sensitivity, unit: &dyn Fn(&str) -> String, value: &dyn Fn(&
                 .map(|u| format!(", undamped ω = {u:.6} rad/s"))
                 .unwrap_or_default()
         );
+        if let Some(p) = m.peak_omega_rad_s {
+            println!("  stepped-sine peak (baseline): {p:.6} rad/s");
+        }
         println!(
-            "  {:<22} {:>16} {:>14} {:>9} {:>14} {:>9} {:>9}",
-            "case", "value", "ω_n [rad/s]", "change", "undamped ω", "change", "ζ"
+            "  {:<22} {:>16} {:>14} {:>9} {:>14} {:>9} {:>9} {:>14}",
+            "case", "value", "ω_n [rad/s]", "change", "undamped ω", "change", "ζ", "peak [rad/s]"
         );
         for c in &m.cases {
             println!(
-                "  {:<22} {:>16} {:>14.6} {:>+8.3}% {:>14} {:>9} {:>9.5}",
+                "  {:<22} {:>16} {:>14.6} {:>+8.3}% {:>14} {:>9} {:>9.5} {:>14}",
                 c.label,
                 format!("{:.6e} {}", c.value, unit(&c.param)),
                 c.omega_n_rad_s,
@@ -147,7 +185,10 @@ fn print_tables(s: &Sensitivity, unit: &dyn Fn(&str) -> String, value: &dyn Fn(&
                 c.change_pct_undamped
                     .map(|u| format!("{u:+.3}%"))
                     .unwrap_or_else(|| "-".into()),
-                c.damping_ratio
+                c.damping_ratio,
+                c.peak_omega_rad_s
+                    .map(|p| format!("{p:.6}"))
+                    .unwrap_or_else(|| "-".into())
             );
         }
         println!(
