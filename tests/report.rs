@@ -606,3 +606,54 @@ fn the_readmes_first_command_writes_the_report() {
     assert_eq!(json["margins"]["pass"], false, "the candidate's mode 2 is 1.8 % below 1P");
     assert!(json["sensitivity"]["modes"].as_array().unwrap().len() == 2);
 }
+
+/// An environment with a sine-on-random profile (levels made up for the test): each
+/// tone's amplitude is |H| × level with |H| = `detune frf --set D0=1`'s at the tone, and
+/// the RMS over the flat 2–6 Hz floor equals √∫|H|²·PSD df by the trapezoid rule on
+/// `detune frf`'s dense grid (0.2 %).
+#[test]
+fn the_profile_section_states_tone_amplitudes_and_random_rms() {
+    let env = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data/uh60_profile.toml");
+    let (_dir, _, page, json) = report("inceptor", &["--environment", env]);
+    assert!(page.contains("id=\"profile\""));
+    let p = &json["profile"];
+    assert_eq!(p["amplitude_parameter"], "D0");
+    let r = p["responses"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|r| r["response"] == "stick.phi")
+        .unwrap();
+    let m = model("inceptor");
+    let frf = |from: f64, to: f64, step: f64| -> Vec<(f64, f64)> {
+        let (f, t, st) = (from.to_string(), to.to_string(), step.to_string());
+        let out = run(&[
+            "frf", m.as_str(), "--set", "D0=1", "--param", "omega", "--from", &f, "--to", &t,
+            "--step", &st, "--response", "stick.phi", "--json",
+        ]);
+        let j: Value = serde_json::from_slice(&out.stdout).unwrap();
+        j["points"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|r| (r["omega"].as_f64().unwrap(), r["stick.phi_amplitude"].as_f64().unwrap()))
+            .collect()
+    };
+    let one_p = 258.0 * std::f64::consts::TAU / 60.0;
+    for (tone, w, level_mm) in [("1P", one_p, 0.5), ("4P", 4.0 * one_p, 0.1)] {
+        let t = r["tones"].as_array().unwrap().iter().find(|t| t["tone"] == tone).unwrap();
+        let h = frf(w, w, 1.0)[0].1;
+        let got = t["amplitude"].as_f64().unwrap();
+        assert!((got - h * level_mm * 1e-3).abs() < 1e-9 * got, "{tone}: {got} vs {}", h * level_mm * 1e-3);
+    }
+    let (lo, hi) = (2.0 * std::f64::consts::TAU, 6.0 * std::f64::consts::TAU);
+    let pts = frf(lo, hi, (hi - lo) / 4000.0);
+    let psd = 0.01e-6; // m²/Hz
+    let mut integral = 0.0;
+    for k in 1..pts.len() {
+        let df = (pts[k].0 - pts[k - 1].0) / std::f64::consts::TAU;
+        integral += 0.5 * (pts[k].1.powi(2) + pts[k - 1].1.powi(2)) * psd * df;
+    }
+    let rms = r["random_rms"].as_f64().unwrap();
+    assert!((rms - integral.sqrt()).abs() < 2e-3 * rms, "{rms} vs {}", integral.sqrt());
+}

@@ -127,6 +127,10 @@ pub fn add_studies(report: &mut Report, s: &Studies) -> Result<()> {
     }
     let check = check_margins(&points, &lines, s.margin, Requirement::Fixed)?;
     report.add_data("margins", &check)?;
+    if let Some(profile) = &env.profile {
+        let section = profile_section(report, s, env, profile, &ma)?;
+        report.document.sections.push(section);
+    }
     let d = &report.sidecar;
     let mut rows = Vec::new();
     for (k, r) in check.rows.iter().enumerate() {
@@ -348,4 +352,164 @@ fn sensitivity_section(report: &Report, study: &Sensitivity, s: &Studies) -> Res
         "Tornado chart: the change of ω_n (%) at each parameter's lowest and highest case, widest on top.",
         svg,
     ))
+}
+
+/// The model's forcing amplitude parameter and a copy of the system with it at 1 (SI): the
+/// report's unit forcing when the model's own is zero (`frf/unit_forcing`), else the
+/// non-zero parameter whose zero leaves no harmonic forcing.
+fn unit_forced(report: &Report, sys: &System) -> Option<(usize, System)> {
+    if let Some(name) = report
+        .sidecar
+        .get("frf/unit_forcing/param")
+        .and_then(|v| v.as_str())
+    {
+        let i = sys.param_index(name)?;
+        return Some((i, sys.with_param(i, 1.0).ok()?));
+    }
+    let f = sys.forcing_param()?;
+    let probe = |s: &System| -> bool {
+        let Ok(ma) = crate::linear::modal_analysis(s, None) else {
+            return false;
+        };
+        let w = s.param(f).abs().max(1.0);
+        let mut at = s.clone();
+        at.set_param(f, w).is_ok()
+            && crate::linear::harmonic_forcing(&at, &ma.equilibrium, &ma.rows, "ω", w).is_ok()
+    };
+    (0..sys.param_names().len())
+        .filter(|&i| i != f && sys.param(i) != 0.0 && sys.param_definition(i).is_none())
+        .find(|&i| sys.with_param(i, 0.0).is_ok_and(|z| !probe(&z)))
+        .and_then(|i| Some((i, sys.with_param(i, 1.0).ok()?)))
+}
+
+/// Each angle coordinate's amplitude at each tone of the environment's sine-on-random
+/// profile (|H| × level) and its RMS over the random floor (√∫|H|²·PSD df), with |H| the
+/// linear response per unit of the forcing amplitude parameter.
+fn profile_section(
+    report: &mut Report,
+    s: &Studies,
+    env: &Environment,
+    profile: &crate::environment::Profile,
+    ma: &crate::linear::ModalAnalysis,
+) -> Result<Section> {
+    let mut section = Section::new("profile", "Response to the vibration profile").prose(format!(
+        "The levels are the environment file's ({}; source: {}), in {} (the PSD in {}²/Hz); detune does not supply levels.",
+        env.name,
+        profile.source.as_deref().unwrap_or("not given"),
+        profile.unit,
+        profile.unit
+    ));
+    let Some((amp, unit_sys)) = unit_forced(report, s.sys) else {
+        return Ok(section.prose(
+            "The model's forcing amplitude parameter could not be identified (no parameter whose value makes the harmonic forcing), so the response to the profile is not computed.",
+        ));
+    };
+    let amp_name = s.sys.param_names()[amp].clone();
+    let Some(f) = unit_sys.forcing_param() else {
+        return Ok(section);
+    };
+    let unit_ma = crate::linear::modal_analysis(&unit_sys, None)?;
+    let coords: Vec<usize> = (0..unit_sys.n()).filter(|&i| unit_sys.is_angle(i)).collect();
+    let coords = if coords.is_empty() { (0..unit_sys.n()).collect() } else { coords };
+    let at = std::cell::RefCell::new(unit_sys.clone());
+    let cache: std::cell::RefCell<Vec<(f64, Vec<f64>)>> = std::cell::RefCell::new(Vec::new());
+    let gains = |w: f64| -> Vec<f64> {
+        if let Some((_, g)) = cache.borrow().iter().find(|(x, _)| *x == w) {
+            return g.clone();
+        }
+        let mut a = at.borrow_mut();
+        let g = (|| -> Option<Vec<f64>> {
+            a.set_param(f, w).ok()?;
+            let forcing =
+                crate::linear::harmonic_forcing(&a, &unit_ma.equilibrium, &unit_ma.rows, "ω", w)
+                    .ok()?;
+            let y = unit_ma.linearization.response(w, &forcing).ok()?;
+            Some(coords.iter().map(|&i| y[i].norm()).collect())
+        })()
+        .unwrap_or_else(|| vec![f64::NAN; coords.len()]);
+        let mut c = cache.borrow_mut();
+        if c.len() > 4096 {
+            c.clear();
+        }
+        c.push((w, g.clone()));
+        g
+    };
+    let hints: Vec<f64> = ma.modes.iter().map(|m| m.omega_n_rad_s).collect();
+    #[derive(serde::Serialize)]
+    struct ProfileJson {
+        amplitude_parameter: String,
+        responses: Vec<ProfileResponse>,
+    }
+    #[derive(serde::Serialize)]
+    struct ProfileResponse {
+        response: String,
+        tones: Vec<crate::environment::ToneResponse>,
+        random_rms: f64,
+    }
+    let responses: Vec<ProfileResponse> = coords
+        .iter()
+        .enumerate()
+        .map(|(k, &i)| ProfileResponse {
+            response: unit_sys.coordinates[i].clone(),
+            tones: crate::environment::tone_responses(profile, |w| gains(w)[k]),
+            random_rms: crate::environment::random_rms(profile, |w| gains(w)[k], &hints),
+        })
+        .collect();
+    report.add_data(
+        "profile",
+        &ProfileJson {
+            amplitude_parameter: amp_name.clone(),
+            responses,
+        },
+    )?;
+    let d = &report.sidecar;
+    let n = d
+        .get("profile/responses")
+        .and_then(|v| v.as_array())
+        .map_or(0, |a| a.len());
+    let mut rows = Vec::new();
+    for r in 0..n {
+        let name = d.text(&format!("profile/responses/{r}/response"));
+        let tones = d
+            .get(&format!("profile/responses/{r}/tones"))
+            .and_then(|v| v.as_array())
+            .map_or(0, |a| a.len());
+        for t in 0..tones {
+            let key = |f: &str| format!("profile/responses/{r}/tones/{t}/{f}");
+            rows.push(vec![
+                name.clone(),
+                d.text(&key("tone")),
+                d.num(key("omega_rad_s"), Digits::Fixed(3)),
+                d.num(key("level"), Digits::Sig(4)),
+                d.num(key("gain"), Digits::Sci(4)),
+                d.num(key("amplitude"), Digits::Sci(4)),
+            ]);
+        }
+        rows.push(vec![
+            name,
+            Cell::text("random floor (RMS)"),
+            Cell::text(""),
+            Cell::text(""),
+            Cell::text(""),
+            d.num(format!("profile/responses/{r}/random_rms"), Digits::Sci(4)),
+        ]);
+    }
+    section = section
+        .prose(format!(
+            "|H| is each coordinate's linear response per unit of `{amp_name}` (SI), the levels being converted to `{amp_name}`'s unit{}. Amplitudes in rad (angles) or m.",
+            if profile.is_acceleration() { " (acceleration levels by 1/ω², PSDs by 1/ω⁴)" } else { "" }
+        ))
+        .table(Table {
+            caption: "Amplitude at each tone and RMS over the random floor".into(),
+            columns: cols(&[
+                ("response", ""),
+                ("tone", ""),
+                ("ω", "rad/s"),
+                ("level", &profile.unit),
+                ("|H| per unit forcing", ""),
+                ("amplitude", ""),
+            ]),
+            rows,
+        });
+    Ok(section)
 }
