@@ -209,7 +209,15 @@ fn track(a: ModesArgs, param: &str) -> Result<()> {
         normalize: a.normalize.clone(),
         ..TrackOptions::default()
     };
-    let t = track_modes(&sys, param, &grid, &opts)?;
+    // the analytic dλ/dp predicts each label's eigenvalue at the next value
+    let predictor = detune::linear::sensitivity::Analytic {
+        param: sys.param_index(param).unwrap_or(usize::MAX),
+    };
+    let t = if predictor.param == usize::MAX {
+        track_modes(&sys, param, &grid, &opts)?
+    } else {
+        detune::linear::tracking::track_modes_with(&sys, param, &grid, &opts, &predictor)?
+    };
     let unit = model
         .parameters
         .index(param)

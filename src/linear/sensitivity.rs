@@ -956,3 +956,45 @@ pub fn add_sweep_peaks(
     }
     Ok(())
 }
+
+/// The derivative predictor of mode tracking: each label's λ at the next value of the
+/// parameter from its analytic dλ/dp at the last solved value,
+/// λ(p + Δp) ≈ λ(p) + dλ/dp · Δp ([`mode_derivatives`], with the equilibrium's and the
+/// trim's shift). Falls back to the secant where the derivative cannot be computed.
+#[derive(Debug, Clone, Copy)]
+pub struct Analytic {
+    /// The tracked parameter.
+    pub param: usize,
+}
+
+impl super::tracking::Predictor for Analytic {
+    fn predict(
+        &self,
+        sys: &System,
+        path: &[super::tracking::Solved],
+        next: f64,
+    ) -> Vec<Option<Complex<f64>>> {
+        let last = &path[path.len() - 1];
+        let derivs = (|| -> Option<Vec<ModeDerivative>> {
+            let s = sys.with_param(self.param, last.value).ok()?;
+            let state = crate::dynamics::State {
+                t: 0.0,
+                q: last.modal.equilibrium.q.clone(),
+                v: vec![0.0; s.nv()],
+            };
+            let (s, _) = crate::statics::trim::trimmed(&s, &state).ok()?;
+            mode_derivatives(&s, &last.modal, self.param, true).ok()
+        })();
+        let Some(d) = derivs else {
+            return super::tracking::Secant.predict(sys, path, next);
+        };
+        let dp = next - last.value;
+        (0..last.modes.len())
+            .map(|l| {
+                let k = last.modes[l]?;
+                let e = last.modal.modes[k].eigenvalue;
+                Some(Complex::new(e.re, e.im) + d.get(k)?.dlambda * dp)
+            })
+            .collect()
+    }
+}
