@@ -87,6 +87,32 @@ pub fn solve_least_squares(j: DMatrix<f64>, r: &DVector<f64>) -> DVector<f64> {
     svd.solve(r, eps).unwrap_or_else(|_| DVector::zeros(cols))
 }
 
+/// [`solve_least_squares`] of J x = r with J's rows and columns equilibrated first (each
+/// scaled by the inverse of its largest magnitude), and x scaled back: for systems whose
+/// columns differ by many orders of magnitude (a solved stiffness against unit constraint
+/// rows), which the rank-revealing solve would otherwise truncate.
+pub fn solve_equilibrated(mut j: DMatrix<f64>, r: &DVector<f64>) -> DVector<f64> {
+    let (nr, nc) = j.shape();
+    let rs: Vec<f64> = (0..nr)
+        .map(|i| 1.0 / j.row(i).amax().max(f64::MIN_POSITIVE))
+        .collect();
+    for (i, w) in rs.iter().enumerate() {
+        j.row_mut(i).scale_mut(*w);
+    }
+    let cs: Vec<f64> = (0..nc)
+        .map(|k| 1.0 / j.column(k).amax().max(f64::MIN_POSITIVE))
+        .collect();
+    for (k, w) in cs.iter().enumerate() {
+        j.column_mut(k).scale_mut(*w);
+    }
+    let rr = DVector::from_fn(nr, |i, _| r[i] * rs[i]);
+    let mut dx = solve_least_squares(j, &rr);
+    for (k, w) in cs.iter().enumerate() {
+        dx[k] *= w;
+    }
+    dx
+}
+
 /// Orthonormal basis of the null space of a matrix A (n × (n − rank)), from the SVD.
 pub fn null_space_of(a: &DMatrix<f64>) -> DMatrix<f64> {
     let n = a.ncols();

@@ -37,7 +37,6 @@
 
 use super::{Linearization, ModalAnalysis, Mode, modal_analysis};
 use crate::diag::Result;
-use crate::linalg::solve_least_squares;
 use crate::scalar::Seeded;
 use crate::statics::{Equilibrium, Statics};
 use crate::system::System;
@@ -88,26 +87,8 @@ pub fn equilibrium_shift(
     for &(c, p) in &trim {
         j.set_column(c, &st.residual_dp(&x, p));
     }
-    // equilibrated rows and columns, as in the trim (the columns differ by orders of
-    // magnitude: a stiffness against a unit constraint row)
-    let (nr, nc) = j.shape();
-    let rs: Vec<f64> = (0..nr)
-        .map(|i| 1.0 / j.row(i).amax().max(f64::MIN_POSITIVE))
-        .collect();
-    for (i, w) in rs.iter().enumerate() {
-        j.row_mut(i).scale_mut(*w);
-    }
-    let cs: Vec<f64> = (0..nc)
-        .map(|k| 1.0 / j.column(k).amax().max(f64::MIN_POSITIVE))
-        .collect();
-    for (k, w) in cs.iter().enumerate() {
-        j.column_mut(k).scale_mut(*w);
-    }
-    let b = DVector::from_fn(nr, |i, _| rhs[i] * rs[i]);
-    let mut dx = solve_least_squares(j, &b);
-    for (k, w) in cs.iter().enumerate() {
-        dx[k] *= w;
-    }
+    // equilibrated, as in the trim (a stiffness against a unit constraint row)
+    let dx = crate::linalg::solve_equilibrated(j, &rhs);
     let mut dq: Vec<f64> = dx.as_slice()[..n].to_vec();
     let mut dparams = vec![(param, 1.0)];
     for &(c, p) in &trim {

@@ -7,12 +7,11 @@
 //! R(q, λ; p) = 0 with the held coordinates' columns of ∂R/∂(q, λ) replaced by ∂R/∂p
 //! (automatic differentiation, [`Statics::residual_dp`]).
 
-use super::{Statics, solve_least_squares};
+use super::Statics;
 use crate::diag::Result;
 use crate::dynamics::State;
 use crate::failure::Failure;
 use crate::system::System;
-use nalgebra::DVector;
 
 /// [`trimmed`] from the system's assembled initial state.
 pub fn trim(sys: &System) -> Result<(System, Vec<(String, f64)>)> {
@@ -85,27 +84,9 @@ pub fn trimmed(sys: &System, start: &State) -> Result<(System, Vec<(String, f64)
             let dp = st.residual_dp(&x, p);
             j.set_column(c, &dp);
         }
-        // Equilibrated rows and columns: the solved parameter's column (a stiffness times
-        // an arm) and the constraint rows differ by many orders of magnitude, which the
-        // rank-revealing solve would otherwise truncate.
-        let (nr, nc) = j.shape();
-        let rs: Vec<f64> = (0..nr)
-            .map(|i| 1.0 / j.row(i).amax().max(f64::MIN_POSITIVE))
-            .collect();
-        for (i, w) in rs.iter().enumerate() {
-            j.row_mut(i).scale_mut(*w);
-        }
-        let cs: Vec<f64> = (0..nc)
-            .map(|k| 1.0 / j.column(k).amax().max(f64::MIN_POSITIVE))
-            .collect();
-        for (k, w) in cs.iter().enumerate() {
-            j.column_mut(k).scale_mut(*w);
-        }
-        let rr = DVector::from_fn(nr, |i, _| r[i] * rs[i]);
-        let mut dx = solve_least_squares(j, &rr);
-        for (k, w) in cs.iter().enumerate() {
-            dx[k] *= w;
-        }
+        // equilibrated: the solved parameter's column (a stiffness times an arm) and the
+        // constraint rows differ by many orders of magnitude
+        let dx = crate::linalg::solve_equilibrated(j, &r);
         let mut dq: Vec<f64> = dx.as_slice()[..n].to_vec();
         let mut dps = Vec::new();
         for (&c, &p) in trim.coords.iter().zip(&trim.params) {
