@@ -115,6 +115,25 @@ pub fn mode_points_named(
     (modes, skipped)
 }
 
+/// `points` widened to each mode's interval over a sensitivity study's tolerance box (its
+/// worst case, matched by name; a mode the study does not have stays a point).
+pub fn with_intervals(
+    points: Vec<ModeInterval>,
+    study: &crate::linear::sensitivity::Sensitivity,
+) -> Vec<ModeInterval> {
+    points
+        .into_iter()
+        .map(|p| match study.modes.iter().find(|m| m.name == p.name) {
+            Some(m) => ModeInterval {
+                min_rad_s: m.worst_case.min_rad_s.min(p.omega_n_rad_s),
+                max_rad_s: m.worst_case.max_rad_s.max(p.omega_n_rad_s),
+                ..p
+            },
+            None => p,
+        })
+        .collect()
+}
+
 /// Which side of the line the mode lies on.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "lowercase")]

@@ -122,15 +122,7 @@ fn intervals(
             "warning: {failed} corner(s) of the tolerance box could not be solved (no equilibrium near the nominal one: the ranges reach past a fold, or a linkage that no longer closes); the intervals do not cover them"
         );
     }
-    Ok(points
-        .into_iter()
-        .zip(&study.modes)
-        .map(|(p, m)| ModeInterval {
-            min_rad_s: m.worst_case.min_rad_s.min(p.omega_n_rad_s),
-            max_rad_s: m.worst_case.max_rad_s.max(p.omega_n_rad_s),
-            ..p
-        })
-        .collect())
+    Ok(detune::margins::with_intervals(points, &study))
 }
 
 /// `--margin`: "10%", "10 %" or a fraction 0.1; above 0 and below 100 %.

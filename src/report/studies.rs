@@ -8,7 +8,7 @@ use super::{Cell, Column, Digits, Report, Section, Table};
 use crate::diag::Result;
 use crate::environment::Environment;
 use crate::linear::sensitivity::{Sensitivity, Vary, sensitivity};
-use crate::margins::{ModeInterval, Requirement, check_margins, mode_points_named};
+use crate::margins::{Requirement, check_margins, mode_points_named};
 use crate::system::System;
 
 /// What the design sections need.
@@ -115,15 +115,7 @@ pub fn add_studies(report: &mut Report, s: &Studies) -> Result<()> {
     let (mut points, _) =
         mode_points_named(&ma, &crate::linear::sensitivity::mode_names(s.sys, &ma));
     if let (true, Some(study)) = (s.given, &study) {
-        points = points
-            .into_iter()
-            .zip(&study.modes)
-            .map(|(p, m)| ModeInterval {
-                min_rad_s: m.worst_case.min_rad_s.min(p.omega_n_rad_s),
-                max_rad_s: m.worst_case.max_rad_s.max(p.omega_n_rad_s),
-                ..p
-            })
-            .collect();
+        points = crate::margins::with_intervals(points, study);
     }
     let check = check_margins(&points, &lines, s.margin, Requirement::Fixed)?;
     report.add_data("margins", &check)?;
