@@ -307,3 +307,21 @@ fn one_mistake_gives_one_message() {
     assert!(!o.stderr.contains("unknown parameter"), "{}", o.stderr);
     assert_eq!(o.stderr.matches("error:").count(), 1, "{}", o.stderr);
 }
+
+/// Issue 13 point 4: a load whose scale overflows (g = 1e308: the weight is infinite)
+/// accepted any residual as converged and printed a pose with residual 4.3e307 as an
+/// equilibrium, exit 0. Now refused, and the statics' commands fail cleanly.
+#[test]
+fn an_overflowing_load_is_no_equilibrium() {
+    for cmd in ["equilibrium", "modes"] {
+        let out = std::process::Command::new(env!("CARGO_BIN_EXE_detune"))
+            .current_dir(env!("CARGO_MANIFEST_DIR"))
+            .args([cmd, "models/overcentre.toml", "--set", "g=1e308"])
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(1), "{cmd}: {err}");
+        assert!(err.contains("the loads overflow"), "{cmd}: {err}");
+        assert!(!String::from_utf8_lossy(&out.stdout).contains("residual"));
+    }
+}

@@ -461,7 +461,8 @@ impl<'a> Statics<'a> {
         let qs = 1.0 + x[..n].iter().fold(0.0f64, |a, v| a.max(v.abs()));
         let fr = r.rows(0, n).amax();
         let cr = r.rows(n, self.rows.len()).amax();
-        fr <= 1e-11 * force_scale && cr <= 1e-13 * qs
+        // an overflowing load scale (a load near f64::MAX) accepts nothing
+        force_scale.is_finite() && fr <= 1e-11 * force_scale && cr <= 1e-13 * qs
     }
 
     pub(crate) fn force_scale(&self, q: &[f64]) -> f64 {
@@ -480,6 +481,16 @@ impl<'a> Statics<'a> {
     pub fn newton(&self, mut x: Vec<f64>, max_iter: usize) -> Result<(Vec<f64>, usize, f64)> {
         let n = self.sys.n();
         let scale = self.force_scale(&x[..n]);
+        if !scale.is_finite() {
+            return Err(Error::Numerical {
+                message: format!(
+                    "the loads overflow: their scale (the largest generalized force, and the weight) is {scale}"
+                ),
+                help: Some(
+                    "a parameter is near the largest number a double holds (1.8e308): give it a physical value".into(),
+                ),
+            });
+        }
         let (mut r, mut ar) = self.residual_rows(&x);
         let mut it = 0;
         while !self.converged(&r, &x, scale) {
