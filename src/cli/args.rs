@@ -86,15 +86,15 @@ pub struct FrequencyGrid {
     /// The forcing's frequency parameter (rad/s).
     #[arg(long, value_name = "NAME")]
     pub param: String,
-    /// First frequency, rad/s.
+    /// First frequency: rad/s, or a quantity ("0.5 Hz", "30 rpm").
     #[arg(long, value_name = "A", allow_hyphen_values = true)]
-    pub from: f64,
-    /// Last frequency, rad/s (included when the step divides the range).
+    pub from: String,
+    /// Last frequency, rad/s or a quantity (included when the step divides the range).
     #[arg(long, value_name = "B", allow_hyphen_values = true)]
-    pub to: f64,
-    /// Frequency step, rad/s.
+    pub to: String,
+    /// Frequency step, rad/s or a quantity ("0.1 Hz").
     #[arg(long, value_name = "S", allow_hyphen_values = true)]
-    pub step: f64,
+    pub step: String,
     /// Response to report (repeatable) [default: every coordinate]: a coordinate, a force
     /// element's `<name>.tension|elongation|rate` (`.torque|twist|twist_rate`), a named
     /// point's `<body>.<point>.x` (`y`, `z`, with `_rel`, `_dot`, `_ddot`), or a joint's
@@ -106,7 +106,11 @@ pub struct FrequencyGrid {
 impl FrequencyGrid {
     /// The frequencies and the reported responses (every coordinate when none is named).
     pub fn resolve(&self, model: &Model) -> Result<(Vec<f64>, Vec<String>)> {
-        let values = detune::linear::grid(self.from, self.to, self.step)?;
+        let values = detune::linear::grid(
+            frequency_value("--from", &self.from)?,
+            frequency_value("--to", &self.to)?,
+            frequency_value("--step", &self.step)?,
+        )?;
         let responses = if self.response.is_empty() {
             model.coordinate_names()
         } else {
@@ -384,4 +388,21 @@ pub fn varies(model: &Model, sys: &System, texts: &[String]) -> Result<Vec<detun
 /// An SI unit to suggest for a dimension in a hint.
 fn dim_unit(dim: Dim) -> String {
     if dim == Dim::NONE { String::new() } else { format!("{dim}") }
+}
+
+/// A frequency given to `flag`: a number (rad/s) or a quantity of frequency ("0.5 Hz",
+/// "258 rpm", "27 rad/s").
+pub fn frequency_value(flag: &str, text: &str) -> Result<f64> {
+    match text.trim().parse::<f64>() {
+        Ok(x) => Ok(x),
+        Err(_) => quantity(flag, text.trim(), "a frequency", Dim::FREQUENCY),
+    }
+}
+
+/// A time given to `flag`: a number (s) or a quantity of time ("500 ms", "2 min").
+pub fn time_value(flag: &str, text: &str) -> Result<f64> {
+    match text.trim().parse::<f64>() {
+        Ok(x) => Ok(x),
+        Err(_) => quantity(flag, text.trim(), "a time", Dim::TIME),
+    }
 }

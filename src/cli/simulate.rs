@@ -19,22 +19,12 @@ use detune::system::outputs::Probe;
 pub struct SimulateArgs {
     #[command(flatten)]
     pub model: ModelArgs,
-    /// End time, s.
-    #[arg(
-        long,
-        default_value_t = 20.0,
-        value_name = "S",
-        allow_hyphen_values = true
-    )]
-    pub t_end: f64,
-    /// Output interval, s.
-    #[arg(
-        long,
-        default_value_t = 0.01,
-        value_name = "S",
-        allow_hyphen_values = true
-    )]
-    pub dt_out: f64,
+    /// End time: s, or a quantity ("500 ms").
+    #[arg(long, default_value = "20", value_name = "S", allow_hyphen_values = true)]
+    pub t_end: String,
+    /// Output interval: s, or a quantity ("1 ms").
+    #[arg(long, default_value = "0.01", value_name = "S", allow_hyphen_values = true)]
+    pub dt_out: String,
     #[command(flatten)]
     pub tol: Tolerances,
     /// Add velocity columns `<name>_dot`.
@@ -67,8 +57,8 @@ pub fn run(a: SimulateArgs) -> Result<()> {
     let mut values = vec![0.0; a.response.len()];
     let start = assemble(&sys)?;
     let opts = SimOptions {
-        t_end: a.t_end,
-        dt_out: a.dt_out,
+        t_end: super::args::time_value("--t-end", &a.t_end)?,
+        dt_out: super::args::time_value("--dt-out", &a.dt_out)?,
         rtol: a.tol.rtol,
         atol: a.tol.atol,
         ..SimOptions::default()

@@ -31,9 +31,10 @@ pub struct SweepArgs {
     pub model: ModelArgs,
     #[command(flatten)]
     pub grid: FrequencyGrid,
-    /// Locate every resonance (local maximum of the amplitude) to this resolution, rad/s.
+    /// Locate every resonance (local maximum of the amplitude) to this resolution: rad/s,
+    /// or a quantity ("0.01 Hz").
     #[arg(long, value_name = "R", allow_hyphen_values = true)]
-    pub refine: Option<f64>,
+    pub refine: Option<String>,
     #[arg(long, value_enum, default_value = "independent")]
     pub mode: ModeArg,
     /// Repeat the sweep for each value of a parameter: PARAM=v1,v2,... (e.g. F0=0.1,1,2).
@@ -87,7 +88,11 @@ pub fn run(a: SweepArgs) -> Result<()> {
             ModeArg::Both => SweepMode::Both,
         },
         responses,
-        refine: a.refine,
+        refine: a
+            .refine
+            .as_deref()
+            .map(|r| super::args::frequency_value("--refine", r))
+            .transpose()?,
         steady: SteadyOptions {
             rtol: a.tol.rtol,
             atol: a.tol.atol,
