@@ -16,6 +16,11 @@ pub struct FrfArgs {
     pub model: ModelArgs,
     #[command(flatten)]
     pub grid: FrequencyGrid,
+    /// The transfer function per unit of the forcing amplitude (the model's
+    /// `[model] forcing_amplitude`, set to 1 in SI: rad/N for a force, rad/m for a base
+    /// motion). CSV columns unchanged.
+    #[arg(long)]
+    pub per_unit: bool,
     /// Print JSON.
     #[arg(long)]
     pub json: bool,
@@ -34,6 +39,25 @@ pub struct FrfArgs {
 
 pub fn run(a: FrfArgs) -> Result<()> {
     let (model, sys) = a.model.load()?;
+    let sys = if a.per_unit {
+        let Some(i) = sys.forcing_amplitude_param() else {
+            return Err(detune::diag::Error::request(
+                "--per-unit: the model does not say which parameter is the forcing's amplitude",
+                "add `forcing_amplitude = \"F0\"` (the amplitude parameter's name) to the model's [model] table",
+            ));
+        };
+        let name = &sys.param_names()[i];
+        let unit = model
+            .parameters
+            .index(name)
+            .and_then(|k| model.parameters.dims[k])
+            .map(|d| d.to_string())
+            .unwrap_or_default();
+        eprintln!("note: per unit of the forcing amplitude {name} (1 {unit}): amplitudes are per {unit}");
+        sys.with_param(i, 1.0)?
+    } else {
+        sys
+    };
     check_outputs(
         &model.source.path,
         &[a.output.as_deref(), a.plot.as_deref()],

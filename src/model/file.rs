@@ -130,6 +130,10 @@ pub struct RawHeader {
     /// harmonic forcing, e.g. `"omega"`: statics average time-dependent loads over its
     /// period, frequency responses sweep it.
     pub forcing_frequency: Option<SString>,
+    /// Name of the parameter that is the amplitude of the model's harmonic forcing, e.g.
+    /// `"F0"` (N) or `"D0"` (m): responses per unit of forcing (`frf --per-unit`, the
+    /// report's transfer functions, a vibration profile's levels).
+    pub forcing_amplitude: Option<SString>,
 }
 
 /// `[[bodies]]`: a rigid body. `type = "planar"` (the default) has coordinates `x`, `y`

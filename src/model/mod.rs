@@ -381,6 +381,8 @@ pub struct Model {
     pub overrides: Vec<(String, String)>,
     /// The parameter that is the forcing's angular frequency (`[model] forcing_frequency`).
     pub forcing_frequency: Option<String>,
+    /// The parameter that is the forcing's amplitude (`[model] forcing_amplitude`).
+    pub forcing_amplitude: Option<String>,
     /// Named modes (`[[modes]]`), in the file's order.
     pub modes: Arc<Vec<ModeDef>>,
 }
@@ -647,6 +649,11 @@ impl Model {
                 .forcing_frequency
                 .as_ref()
                 .map(|f| f.get_ref().clone()),
+            forcing_amplitude: raw
+                .model
+                .forcing_amplitude
+                .as_ref()
+                .map(|f| f.get_ref().clone()),
             modes: Arc::new(modes),
         };
         if let Some(f) = &raw.model.forcing_frequency
@@ -666,6 +673,28 @@ impl Model {
                     }),
                 ),
             );
+        }
+        if let Some(f) = &raw.model.forcing_amplitude {
+            if model.parameters.index(f.get_ref()).is_none() {
+                diags.push(
+                    Diagnostic::new(format!(
+                        "`forcing_amplitude` names `{}`, which is not a parameter",
+                        f.get_ref()
+                    ))
+                    .at(f.span())
+                    .label("not a parameter")
+                    .help(suggest(f.get_ref(), model.parameters.names()).unwrap_or_else(|| {
+                        "name the parameter that holds the forcing's amplitude (e.g. F0, N, or D0, m)".into()
+                    })),
+                );
+            } else if raw.model.forcing_frequency.is_none() {
+                diags.push(
+                    Diagnostic::new("`forcing_amplitude` is given without `forcing_frequency`")
+                        .at(f.span())
+                        .label("amplitude of which forcing?")
+                        .help("name the forcing's angular frequency too: forcing_frequency = \"omega\""),
+                );
+            }
         }
         if diags.is_empty() {
             // Names, dimensions and signs are checked when the model is compiled

@@ -237,7 +237,12 @@ fn frf_with_forcing(
         Ok(fr) => return Ok((fr, None)),
         Err(e) => e,
     };
-    for (i, name) in sys.param_names().iter().enumerate() {
+    // the declared amplitude (`[model] forcing_amplitude`) first, then any zero-valued
+    // parameter that makes a forcing
+    let mut order: Vec<usize> = sys.forcing_amplitude_param().into_iter().collect();
+    order.extend((0..sys.param_names().len()).filter(|&i| Some(i) != sys.forcing_amplitude_param()));
+    for i in order {
+        let name = &sys.param_names()[i];
         if i == f || sys.param(i) != 0.0 || sys.param_definition(i).is_some() {
             continue;
         }

@@ -358,6 +358,9 @@ fn unit_forced(report: &Report, sys: &System) -> Option<(usize, System)> {
         let i = sys.param_index(name)?;
         return Some((i, sys.with_param(i, 1.0).ok()?));
     }
+    if let Some(i) = sys.forcing_amplitude_param() {
+        return Some((i, sys.with_param(i, 1.0).ok()?));
+    }
     let f = sys.forcing_param()?;
     let probe = |s: &System| -> bool {
         let Ok(ma) = crate::linear::modal_analysis(s, None) else {

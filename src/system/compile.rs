@@ -953,6 +953,10 @@ impl Compiler<'_> {
                 .forcing_frequency
                 .as_ref()
                 .and_then(|f| model.parameters.index(f)),
+            forcing_amplitude: model
+                .forcing_amplitude
+                .as_ref()
+                .and_then(|f| model.parameters.index(f)),
             live: std::mem::take(&mut self.live),
             source: model.source.clone(),
             overrides,

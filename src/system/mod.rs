@@ -168,6 +168,8 @@ pub struct System {
     pub rheonomic: bool,
     /// The parameter that is the harmonic forcing's angular frequency.
     forcing: Option<usize>,
+    /// The parameter that is the harmonic forcing's amplitude (`[model] forcing_amplitude`).
+    forcing_amplitude: Option<usize>,
     live: live::Live,
     /// The model file, for located messages when a parameter change is refused.
     source: SourceFile,
@@ -478,6 +480,11 @@ impl System {
     /// Current SI values of all parameters.
     pub fn params(&self) -> &[f64] {
         &self.live.values
+    }
+
+    /// The forcing amplitude's parameter index (`[model] forcing_amplitude`).
+    pub fn forcing_amplitude_param(&self) -> Option<usize> {
+        self.forcing_amplitude
     }
 
     /// The forcing frequency's parameter index (`[model] forcing_frequency`).
