@@ -577,3 +577,40 @@ fn tolerance_intervals_must_clear_whole() {
     assert!((sep - (lo - line) / line * 100.0).abs() < 1e-9, "{sep}");
     assert!(sep > 0.0 && sep < 10.0 && row["pass"] == false);
 }
+
+/// A frequency that is not monotonic in a varied parameter has its extreme inside the
+/// box: the inceptor's in-phase mode peaks near l2 = +10 % (13.215 rad/s) while the ends
+/// of l2 ±15 % give less, so the interval must include the interior (a line at
+/// 14.65 rad/s is then within 10 %), with a warning. A box with a corner that has no
+/// equilibrium cannot be verified and is refused, not passed.
+#[test]
+fn non_monotone_and_unverifiable_boxes() {
+    let dir = tempfile::tempdir().unwrap();
+    let root = env!("CARGO_MANIFEST_DIR");
+    let inceptor = format!("{root}/models/inceptor.toml");
+    let env = format!("{root}/tests/data/line_14_65.toml");
+    let (code, out, err) = detune(
+        dir.path().to_str().unwrap(),
+        &["margins", &inceptor, "--environment", &env, "--vary", "l2=±15%", "--json"],
+    );
+    assert_eq!(code, 3, "{err}");
+    assert!(err.contains("not monotonic in l2"), "{err}");
+    let j: serde_json::Value = serde_json::from_str(&out).unwrap();
+    let hi = row(&j, "in-phase", "probe")["max_rad_s"].as_f64().unwrap();
+    let (_, m) = {
+        let model = detune::Model::load(&inceptor).unwrap();
+        let sys = detune::System::new(&model).unwrap();
+        let i = sys.param_index("l2").unwrap();
+        detune::linear::sensitivity::modes_at(&sys, &[(i, 0.135 * 1.1)], None, None).unwrap()
+    };
+    let at_10 = m.modes[0].omega_n_rad_s;
+    assert!(hi >= at_10 - 1e-3, "interval max {hi} misses l2 +10 %'s {at_10}");
+    let overcentre = format!("{root}/models/overcentre.toml");
+    let env = format!("{root}/tests/data/line_1_6.toml");
+    let (code, _, err) = detune(
+        dir.path().to_str().unwrap(),
+        &["margins", &overcentre, "--environment", &env, "--vary", "L0=±5%", "--vary", "k=±10%"],
+    );
+    assert_eq!(code, 1, "{err}");
+    assert!(err.contains("cannot be verified"), "{err}");
+}

@@ -77,7 +77,11 @@ fn overcentre_derivatives_equal_finite_differences() {
 #[test]
 fn inceptor_derivatives_equal_finite_differences() {
     let sys = inceptor();
-    assert_derivatives_match(&sys, &["k_fs", "gearbox_scale", "k_t", "c_d", "c_fs", "m1"]);
+    // phi0 moves the trim's held pose (the stick's datum), l2 the closure
+    assert_derivatives_match(
+        &sys,
+        &["k_fs", "gearbox_scale", "k_t", "c_d", "c_fs", "m1", "m2", "m3", "I4xx", "g", "l2", "phi0"],
+    );
 }
 
 #[test]

@@ -118,9 +118,21 @@ fn intervals(
     let study = detune::linear::sensitivity::sensitivity(sys, &vs, None, None)?;
     let failed: usize = study.modes.first().map_or(0, |m| m.worst_case.corners_failed);
     if failed > 0 {
-        eprintln!(
-            "warning: {failed} corner(s) of the tolerance box could not be solved (no equilibrium near the nominal one: the ranges reach past a fold, or a linkage that no longer closes); the intervals do not cover them"
-        );
+        return Err(Error::request(
+            format!(
+                "the tolerance box cannot be verified: at {failed} of its corners or samples no equilibrium was found near the nominal one (the ranges reach past a fold, or a linkage that no longer closes)"
+            ),
+            "narrow the --vary ranges (detune sensitivity with the same --vary shows the box), or check the failing values with --set",
+        ));
+    }
+    for m in &study.modes {
+        if !m.worst_case.non_monotone.is_empty() {
+            eprintln!(
+                "warning: {}'s ω_n is not monotonic in {} over the range: its interval includes interior samples but is an estimate between them",
+                m.name,
+                m.worst_case.non_monotone.join(", ")
+            );
+        }
     }
     Ok(detune::margins::with_intervals(points, &study))
 }

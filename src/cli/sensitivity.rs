@@ -208,6 +208,12 @@ fn print_tables(s: &Sensitivity, unit: &dyn Fn(&str) -> String, value: &dyn Fn(&
                 d.fd_dzeta_dp
             );
             let _ = (per, value(&d.param));
+            if !d.agrees {
+                println!(
+                    "  WARNING: the analytic derivatives with respect to {} disagree with their finite differences: do not trust them (please report this model)",
+                    d.param
+                );
+            }
         }
         println!(
             "  (derivatives in rad/s and 1 per SI unit of the parameter; elasticity = (p/ω_n)·dω_n/dp)"
@@ -224,6 +230,13 @@ fn print_tables(s: &Sensitivity, unit: &dyn Fn(&str) -> String, value: &dyn Fn(&
             w.first_order_min_rad_s,
             w.first_order_max_rad_s
         );
+        if !w.non_monotone.is_empty() {
+            println!(
+                "  WARNING: ω_n is not monotonic in {} over the range: its extreme lies inside the box; the interval includes {} interior samples but is an estimate there\n",
+                w.non_monotone.join(", "),
+                w.interior_samples
+            );
+        }
         if w.corners_failed > 0 {
             println!(
                 "  WARNING: {} corner{} of the box could not be solved (no equilibrium near the baseline's: the ranges reach past a fold, or a linkage that no longer closes); the interval above does not cover {}\n",

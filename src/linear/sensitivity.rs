@@ -78,13 +78,24 @@ pub fn equilibrium_shift(
     let mut x = eq.q.clone();
     x.extend(&eq.lambda);
     let mut j = st.kkt_jacobian(&x);
-    let rhs = -st.residual_dp(&x, param);
+    let mut rhs = -st.residual_dp(&x, param);
     let trim: Vec<(usize, usize)> = match (&sys.trim, sys.trim_solved()) {
         (Some(t), Some(_)) => t.coords.iter().copied().zip(t.params.iter().copied()).collect(),
         _ => Vec::new(),
     };
     let trim: Vec<(usize, usize)> = trim.into_iter().filter(|&(_, p)| p != param).collect();
+    // a held coordinate stays at its datum, which may itself move with the parameter
+    // (the inceptor's stick at φ0): its known rate goes to the right-hand side, and its
+    // column is the trim parameter's
+    let held = if trim.is_empty() {
+        vec![0.0; n]
+    } else {
+        sys.initial_dp(param)
+    };
     for &(c, p) in &trim {
+        if held[c] != 0.0 {
+            rhs -= j.column(c) * held[c];
+        }
         j.set_column(c, &st.residual_dp(&x, p));
     }
     // equilibrated, as in the trim (a stiffness against a unit constraint row)
@@ -93,7 +104,7 @@ pub fn equilibrium_shift(
     let mut dparams = vec![(param, 1.0)];
     for &(c, p) in &trim {
         dparams.push((p, dq[c]));
-        dq[c] = 0.0;
+        dq[c] = held[c];
     }
     Ok(Shift {
         dq,
@@ -522,6 +533,9 @@ pub struct Derivative {
     pub fd_dundamped_dp: Option<f64>,
     /// The finite-difference step, SI units of p.
     pub fd_step: f64,
+    /// The analytic dω_n/dp and dζ/dp agree with their finite differences (1e-5 relative,
+    /// or 1e-7 absolute in the elasticity): false flags a derivative not to trust.
+    pub agrees: bool,
 }
 
 /// The extreme frequencies of one mode over the whole tolerance box.
@@ -537,9 +551,16 @@ pub struct WorstCase {
     /// Number of corners evaluated (all 2^k up to k = 4 parameters; beyond, the two the
     /// derivatives predict to be the extremes).
     pub corners_evaluated: usize,
-    /// Corners where no equilibrium was found near the baseline's (the box reaches past a
-    /// fold, or a linkage that no longer closes): the interval does not cover them.
+    /// Corners (and interior samples) where no equilibrium was found near the baseline's
+    /// (the box reaches past a fold, or a linkage that no longer closes): the interval does
+    /// not cover them, so it is no guarantee.
     pub corners_failed: usize,
+    /// Interior samples evaluated: each parameter at 1/4, 1/2, 3/4 of the way from the
+    /// baseline to each end of its range (the others at the baseline), in the interval.
+    pub interior_samples: usize,
+    /// The parameters along whose range ω_n is not monotonic (seen at the samples): its
+    /// extremes may lie inside the box, between samples; the interval is then an estimate.
+    pub non_monotone: Vec<String>,
 }
 
 /// One mode's sensitivity.
@@ -755,6 +776,34 @@ pub fn sensitivity(
     let corner_runs: Vec<(Evaluated, Vec<Option<(usize, f64)>>)> =
         corner_results.into_iter().filter_map(|r| r.ok()).collect();
 
+    // interior samples along each parameter's range (the others at the baseline): a
+    // frequency that is not monotonic in a parameter has its extreme inside the range,
+    // where no corner sees it
+    const FRACTIONS: [f64; 6] = [0.25, 0.5, 0.75, 1.25, 1.5, 1.75];
+    let axis_jobs: Vec<(usize, f64)> = varies
+        .iter()
+        .enumerate()
+        .flat_map(|(v, vary)| {
+            let p = sys.param(vary.param);
+            FRACTIONS.iter().filter_map(move |&f| {
+                let x = if f <= 1.0 {
+                    vary.range.0 + (p - vary.range.0) * f
+                } else {
+                    p + (vary.range.1 - p) * (f - 1.0)
+                };
+                (x != p).then_some((v, x))
+            })
+        })
+        .collect();
+    let axis_results: Vec<(usize, f64, Option<(Evaluated, Vec<Option<(usize, f64)>>)>)> = axis_jobs
+        .par_iter()
+        .map(|&(v, x)| {
+            let vary = &varies[v];
+            (v, x, run(&format!("{}={x}", vary.name), &vary.name, &[(vary.param, x)]).ok())
+        })
+        .collect();
+    let axis_failed = axis_results.iter().filter(|r| r.2.is_none()).count();
+
     let pct = |x: f64, x0: f64| (x - x0) / x0 * 100.0;
     let mut modes = Vec::new();
     for &i in &keep {
@@ -795,7 +844,14 @@ pub fn sensitivity(
                 (Some(a), Some(b), Some(c), Some(e)) => Some(stencil(a, b, c, e)),
                 _ => None,
             };
+            let fdw = stencil(m2.0, m1.0, p1.0, p2.0);
+            let fdz = stencil(m2.1, m1.1, p1.1, p2.1);
+            let close = |an: f64, fd: f64, scale: f64| {
+                (an - fd).abs() <= 1e-5 * fd.abs() || (an - fd).abs() * p.abs() / scale <= 1e-7
+            };
+            let agrees = close(d.domega_n, fdw, w0) && close(d.dzeta, fdz, 1.0);
             derivatives.push(Derivative {
+                agrees,
                 param: vary.name.clone(),
                 domega_n_dp: d.domega_n,
                 dzeta_dp: d.dzeta,
@@ -823,6 +879,30 @@ pub fn sensitivity(
                 found.push(ev.modes[j].0);
             }
         }
+        // per parameter, ω_n along its range (with the baseline): monotonic?
+        let mut non_monotone = Vec::new();
+        for (v, vary) in varies.iter().enumerate() {
+            let mut line: Vec<(f64, f64)> = vec![(sys.param(vary.param), w0)];
+            for (av, x, r) in &axis_results {
+                if *av != v {
+                    continue;
+                }
+                if let Some((ev, matched)) = r
+                    && let Some((j, _)) = matched[i]
+                {
+                    line.push((*x, ev.modes[j].0));
+                    found.push(ev.modes[j].0);
+                }
+            }
+            line.sort_by(|a, b| a.0.total_cmp(&b.0));
+            let steps: Vec<f64> = line.windows(2).map(|w| w[1].1 - w[0].1).collect();
+            let tol = 1e-9 * w0;
+            let up = steps.iter().any(|d| *d > tol);
+            let down = steps.iter().any(|d| *d < -tol);
+            if up && down {
+                non_monotone.push(vary.name.clone());
+            }
+        }
         modes.push(ModeSensitivity {
             name: name_of(i),
             omega_n_rad_s: w0,
@@ -837,7 +917,9 @@ pub fn sensitivity(
                 first_order_min_rad_s: lo1,
                 first_order_max_rad_s: hi1,
                 corners_evaluated: corner_runs.len(),
-                corners_failed,
+                corners_failed: corners_failed + axis_failed,
+                interior_samples: axis_results.len(),
+                non_monotone,
             },
         });
     }
