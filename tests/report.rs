@@ -550,6 +550,7 @@ fn sensitivity_margins_and_tuning_sections() {
     let vary = ["--vary", "k_fs=50%..200%", "--vary", "gearbox_scale=80%..120%"];
     let mut extra = vec!["--environment", "UH-60", "--tune"];
     extra.extend(vary);
+    extra.extend(["--tune-vary", "k_fs=50%..200%", "--tune-vary", "gearbox_scale=80%..120%"]);
     let (_dir, _, page, json) = report("inceptor", &extra);
     for id in ["sensitivity", "margins", "tuning"] {
         assert!(page.contains(&format!("id=\"{id}\"")), "section {id}");

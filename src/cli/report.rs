@@ -14,8 +14,9 @@ use std::time::Instant;
 pub struct ReportArgs {
     #[command(flatten)]
     pub model: ModelArgs,
-    /// Vibration environment: its forcing lines are shaded on the frequency response and
-    /// drawn on the interference diagram. Known: UH-60.
+    /// Vibration environment: a shipped one (UH-60, UH-1N, H135, AH-64) or an environment
+    /// file; its forcing lines are shaded on the frequency response, drawn on the
+    /// interference diagram and checked by the margins section.
     #[arg(long, value_name = "NAME|PATH")]
     pub environment: Option<String>,
     /// A varied parameter with its tolerance (as in `sensitivity`: `k_fs=±10%`), or with
@@ -27,10 +28,14 @@ pub struct ReportArgs {
     /// choice, not a standard).
     #[arg(long, default_value = "10%", value_name = "PCT")]
     pub margin: String,
-    /// Add a tuning proposal: the smallest change of the --vary parameters within their
-    /// ranges that clears every line by the margin.
+    /// Add a tuning proposal: the smallest change of the --tune-vary parameters within
+    /// their ranges that clears every line by the margin.
     #[arg(long)]
     pub tune: bool,
+    /// A parameter the tuning may change, with its range (`k_fs=50%..200%`); separate
+    /// from --vary (the tolerances). Repeatable; needed by --tune.
+    #[arg(long = "tune-vary", value_name = "NAME=RANGE", allow_hyphen_values = true)]
+    pub tune_vary: Vec<String>,
     /// Output HTML; the JSON sidecar is written beside it with the extension .json.
     #[arg(short = 'o', long = "output", value_name = "REPORT.html")]
     pub output: String,
@@ -66,12 +71,19 @@ pub fn run(a: ReportArgs) -> Result<()> {
     let env = full_env.as_ref().map(environment::from_environment);
     let (model, sys) = a.model.load()?;
     check_outputs(&model.source.path, &[Some(&a.output), Some(&json)])?;
-    if a.tune && (a.vary.is_empty() || full_env.is_none()) {
+    if a.tune && (a.tune_vary.is_empty() || full_env.is_none()) {
         return Err(Error::request(
             "--tune needs the parameters the design may change, with their ranges, and an environment",
-            "add --environment UH-60 and e.g. --vary k_fs=50%..200% --vary gearbox_scale=80%..120%",
+            "add --environment UH-60 and e.g. --tune-vary k_fs=50%..200% --tune-vary gearbox_scale=80%..120% (--vary gives the tolerances)",
         ));
     }
+    if !a.tune && !a.tune_vary.is_empty() {
+        return Err(Error::request(
+            "--tune-vary gives the tuning's ranges, but no tuning is asked",
+            "add --tune",
+        ));
+    }
+    let tune_varies = super::args::varies(&model, &sys, &a.tune_vary)?;
     let given = !a.vary.is_empty();
     let (varies, dropped) = if given {
         (super::args::varies(&model, &sys, &a.vary)?, Vec::new())
@@ -116,6 +128,7 @@ pub fn run(a: ReportArgs) -> Result<()> {
             environment: full_env.as_ref(),
             margin,
             tune: a.tune,
+            tune_varies: &tune_varies,
             units: &unit,
         },
     )?;

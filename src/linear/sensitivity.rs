@@ -454,6 +454,11 @@ pub fn modes_at(
         q: base.equilibrium.q.clone(),
         v: vec![0.0; s.nv()],
     };
+    if s.trim.as_ref().is_some_and(|t| t.off.is_none()) {
+        // a pose that cannot be assembled (a linkage that no longer closes) is said as
+        // such, not as a trim that does not converge
+        crate::dynamics::assemble_at_rest(&s)?;
+    }
     let (s, _) = crate::statics::trim::trimmed(&s, &state)?;
     let st = Statics::with_rows(&s, base.rows.clone())?;
     // a trimmed datum is an equilibrium already (the trim solved it); else Newton from

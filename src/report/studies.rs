@@ -24,8 +24,10 @@ pub struct Studies<'a> {
     pub environment: Option<&'a Environment>,
     /// Required separation, a fraction.
     pub margin: f64,
-    /// Propose a tuning (needs `given` ranges and an environment).
+    /// Propose a tuning (needs `tune_varies` and an environment).
     pub tune: bool,
+    /// The parameters the tuning may change, with their ranges.
+    pub tune_varies: &'a [Vary],
     /// Each parameter's unit, for the tables.
     pub units: &'a dyn Fn(&str) -> String,
 }
@@ -194,7 +196,7 @@ pub fn add_studies(report: &mut Report, s: &Studies) -> Result<()> {
     if s.tune {
         let t = crate::tune::tune(
             s.sys,
-            s.varies,
+            s.tune_varies,
             &lines,
             &crate::tune::TuneOptions {
                 margin: s.margin,
@@ -202,10 +204,16 @@ pub fn add_studies(report: &mut Report, s: &Studies) -> Result<()> {
             },
         )?;
         report.add_data("tuning", &t)?;
+        let baseline: serde_json::Map<String, serde_json::Value> = s
+            .tune_varies
+            .iter()
+            .map(|v| (v.name.clone(), s.sys.param(v.param).into()))
+            .collect();
+        report.add_data("tuning_baseline", &baseline)?;
         let d = &report.sidecar;
         let mut section = Section::new("tuning", "Tuning proposal").prose(format!(
             "The smallest change Σ((p − p0)/p0)² of {} within the given ranges that puts every mode outside every line of {} by {:.1} % (plus 1e-4), one design per choice of sides, each verified by a full modal analysis and margins check. {} design(s) found, {} choice(s) infeasible.",
-            s.varies.iter().map(|v| v.name.as_str()).collect::<Vec<_>>().join(", "),
+            s.tune_varies.iter().map(|v| v.name.as_str()).collect::<Vec<_>>().join(", "),
             env.name,
             s.margin * 100.0,
             t.designs.len(),
@@ -214,32 +222,48 @@ pub fn add_studies(report: &mut Report, s: &Studies) -> Result<()> {
         for (k, design) in t.designs.iter().enumerate() {
             let mut rows = Vec::new();
             for (name, _) in &design.parameters {
-                let p0 = s
-                    .varies
-                    .iter()
-                    .find(|v| &v.name == name)
-                    .map(|v| s.sys.param(v.param))
-                    .unwrap_or(f64::NAN);
+                let key = super::escape_key(name);
                 rows.push(vec![
                     Cell::text(name),
-                    Cell::text(format!("{p0:.6e} {}", (s.units)(name))),
-                    d.num(
-                        format!("tuning/designs/{k}/parameters/{}", super::escape_key(name)),
-                        Digits::Sig(7),
-                    ),
+                    d.num(format!("tuning_baseline/{key}"), Digits::Sig(7)),
+                    d.num(format!("tuning/designs/{k}/parameters/{key}"), Digits::Sig(7)),
                     Cell::text((s.units)(name)),
                 ]);
             }
-            section = section.table(Table {
-                caption: format!(
-                    "Design {} (cost {:.4e}; closest separation {:.2} %)",
+            for (name, _) in &design.modes {
+                rows.push(vec![
+                    Cell::text(format!("{name} ω_n")),
+                    Cell::text(""),
+                    d.num(
+                        format!("tuning/designs/{k}/modes/{}", super::escape_key(name)),
+                        Digits::Fixed(4),
+                    ),
+                    Cell::text("rad/s"),
+                ]);
+            }
+            let sets: Vec<String> = design
+                .parameters
+                .iter()
+                .map(|(n, v)| format!("--set {n}={}", v.as_f64().unwrap_or(f64::NAN)))
+                .collect();
+            section = section
+                .table(Table {
+                    caption: format!(
+                        "Design {} (cost {:.4e}; closest separation {:.2} %)",
+                        k + 1,
+                        design.cost,
+                        design.closest_pct
+                    ),
+                    columns: cols(&[("", ""), ("baseline", ""), ("design", ""), ("unit", "")]),
+                    rows,
+                })
+                .prose(format!(
+                    "Check design {}: detune margins MODEL --environment {} --margin {}% {}",
                     k + 1,
-                    design.cost,
-                    design.closest_pct
-                ),
-                columns: cols(&[("parameter", ""), ("baseline", ""), ("design", ""), ("unit", "")]),
-                rows,
-            });
+                    env.id,
+                    s.margin * 100.0,
+                    sets.join(" ")
+                ));
         }
         for i in &t.infeasible {
             section = section.prose(format!("Infeasible: {}", i.reason));
