@@ -241,7 +241,8 @@ fn crossings_are_where_the_lines_meet_the_modes() {
         (nearest["mode"].as_u64(), nearest["line"].as_str()),
         (Some(2), Some("1P"))
     );
-    assert!(page.contains("mode 2 with 1P at 253.3 rpm (98.2 % of nominal)"));
+    assert!(page.contains("shaft-twist with 1P at 253.3 rpm (98.2 % of nominal)"));
+    assert_eq!(nearest["mode_name"], "shaft-twist");
 }
 
 #[test]

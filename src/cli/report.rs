@@ -153,14 +153,14 @@ pub fn run(a: ReportArgs) -> Result<()> {
             c.iter()
                 .filter_map(|x| {
                     Some((
-                        x.get("mode")?.as_u64()?,
+                        x.get("mode_name")?.as_str()?,
                         x.get("line")?.as_str()?,
                         x.get("percent_nominal")?.as_f64()?,
                     ))
                 })
                 .min_by(|a, b| (a.2 - 100.0).abs().total_cmp(&(b.2 - 100.0).abs()))
                 .map(|(m, l, p)| {
-                    format!("; mode {m} meets {l} at {p:.1} % of the nominal rotor speed")
+                    format!("; {m} meets {l} at {p:.1} % of the nominal rotor speed")
                 })
         });
     println!("wrote {} and {json}", a.output);

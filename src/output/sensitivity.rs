@@ -102,28 +102,45 @@ pub fn tornado_svg(s: &Sensitivity, title: &str) -> std::result::Result<String, 
     {
         let root = SVGBackend::with_string(&mut svg, (900, 130 + 260 * rows as u32)).into_drawing_area();
         root.fill(&WHITE).map_err(|e| e.to_string())?;
-        let (top, body) = root.split_vertically(50);
+        let (top, body) = root.split_vertically(56);
         top.draw(&Text::new(
             title.to_string(),
-            (20, 15),
+            (20, 8),
             ("sans-serif", 22).into_font(),
+        ))
+        .map_err(|e| e.to_string())?;
+        top.draw(&Text::new(
+            "each bar: the parameter's cases (labelled); blue lowers ω_n, orange raises it",
+            (20, 32),
+            ("sans-serif", 15).into_font(),
         ))
         .map_err(|e| e.to_string())?;
         let areas = body.split_evenly((rows, 1));
         for (m, area) in s.modes.iter().zip(areas.iter()) {
-            // per parameter: (name, low change, high change, low label, high label)
-            let mut bars: Vec<(String, f64, f64)> = Vec::new();
+            // per parameter: (name, lowest change, highest change, their cases' labels)
+            let mut bars: Vec<(String, f64, f64, String, String)> = Vec::new();
             for c in &m.cases {
+                let short = c.label.strip_prefix(&c.param).unwrap_or(&c.label).to_string();
                 match bars.iter_mut().find(|b| b.0 == c.param) {
                     Some(b) => {
-                        b.1 = b.1.min(c.change_pct_omega_n);
-                        b.2 = b.2.max(c.change_pct_omega_n);
+                        if c.change_pct_omega_n < b.1 {
+                            b.1 = c.change_pct_omega_n;
+                            b.3 = short;
+                        } else if c.change_pct_omega_n > b.2 {
+                            b.2 = c.change_pct_omega_n;
+                            b.4 = short;
+                        }
                     }
-                    None => bars.push((
-                        c.param.clone(),
-                        c.change_pct_omega_n.min(0.0),
-                        c.change_pct_omega_n.max(0.0),
-                    )),
+                    None => {
+                        let x = c.change_pct_omega_n;
+                        let (lo, hi) = (x.min(0.0), x.max(0.0));
+                        let (ll, hl) = if x < 0.0 {
+                            (short, String::new())
+                        } else {
+                            (String::new(), short)
+                        };
+                        bars.push((c.param.clone(), lo, hi, ll, hl));
+                    }
                 }
             }
             bars.sort_by(|a, b| (b.2 - b.1).total_cmp(&(a.2 - a.1)));
@@ -132,7 +149,7 @@ pub fn tornado_svg(s: &Sensitivity, title: &str) -> std::result::Result<String, 
                 .map(|b| b.1.abs().max(b.2.abs()))
                 .fold(0.0, f64::max)
                 .max(1e-9)
-                * 1.25;
+                * 1.6;
             let n = bars.len().max(1);
             let mut chart = ChartBuilder::on(area)
                 .caption(
@@ -177,12 +194,12 @@ pub fn tornado_svg(s: &Sensitivity, title: &str) -> std::result::Result<String, 
                         Rectangle::new([(0.0, y + 0.2), (b.2, y + 0.8)], up.filled()),
                     ])
                     .map_err(|e| e.to_string())?;
-                for (x, anchor) in [(b.1, -1.0), (b.2, 1.0)] {
+                for (x, anchor, label) in [(b.1, -1.0, &b.3), (b.2, 1.0, &b.4)] {
                     if x != 0.0 {
                         chart
                             .draw_series(std::iter::once(Text::new(
-                                format!("{x:+.2} %"),
-                                (x + anchor * span * 0.02 - if anchor < 0.0 { span * 0.16 } else { 0.0 }, y + 0.62),
+                                format!("{label}: {x:+.2} %"),
+                                (x + anchor * span * 0.02 - if anchor < 0.0 { span * 0.30 } else { 0.0 }, y + 0.62),
                                 ("sans-serif", 15).into_font(),
                             )))
                             .map_err(|e| e.to_string())?;

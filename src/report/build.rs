@@ -133,6 +133,13 @@ struct ModeJson {
     energy_share: Option<BTreeMap<String, f64>>,
 }
 
+impl ModeJson {
+    /// The mode's name (the model's `[[modes]]`), or `mode N`.
+    fn label(&self) -> String {
+        self.name.clone().unwrap_or_else(|| format!("mode {}", self.mode))
+    }
+}
+
 #[derive(Serialize)]
 struct ForcingJson {
     /// The amplitude parameter set for the response (the model's own is zero), SI.
@@ -170,6 +177,8 @@ struct FrfJson<'a> {
 #[derive(Serialize)]
 struct CrossingJson {
     mode: usize,
+    /// The mode's name (`[[modes]]`), or `mode N`.
+    mode_name: String,
     line: String,
     /// Speed of the diagram's rotor (the first) where the line meets the mode, rpm.
     rotor_rpm: f64,
@@ -583,8 +592,8 @@ pub fn build(inp: &ReportInputs) -> Result<Report> {
     if !modes.is_empty() {
         let mut head: Vec<Column> = vec![Column::new("coordinate", "")];
         for x in &modes {
-            head.push(Column::new(format!("mode {} re", x.mode), ""));
-            head.push(Column::new(format!("mode {} im", x.mode), ""));
+            head.push(Column::new(format!("{} re", x.label()), ""));
+            head.push(Column::new(format!("{} im", x.label()), ""));
         }
         modes_section = modes_section.table(Table {
             caption: "Mode shapes by coordinate (unit: the coordinate's per unit of the reference)"
@@ -620,7 +629,7 @@ pub fn build(inp: &ReportInputs) -> Result<Report> {
         head.extend(
             modes
                 .iter()
-                .map(|x| Column::new(format!("mode {}", x.mode), "share of kinetic energy")),
+                .map(|x| Column::new(x.label(), "share of kinetic energy")),
         );
         modes_section = modes_section.table(Table {
             caption: "Energy share per body".into(),
@@ -740,7 +749,7 @@ pub fn build(inp: &ReportInputs) -> Result<Report> {
                     unit: unit.clone(),
                     resonances: oscillating
                         .iter()
-                        .map(|(k, w)| (format!("mode {}", k + 1), *w))
+                        .map(|(k, w)| (modes[*k].label(), *w))
                         .collect(),
                     peaks: fr.peaks.iter().map(|p| (p.omega, p.amplitude)).collect(),
                     bands,
@@ -931,6 +940,7 @@ fn campbell(env: &Environment, modes: &[ModeJson], data: &mut Sidecar) -> Result
             if at > 0.0 && at <= rpm_end {
                 crossings.push(CrossingJson {
                     mode: m.mode,
+                    mode_name: m.label(),
                     line: l.label.clone(),
                     rotor_rpm: at,
                     percent_nominal: 100.0 * at / main.rpm,
@@ -960,7 +970,7 @@ fn campbell(env: &Environment, modes: &[ModeJson], data: &mut Sidecar) -> Result
         rpm_range: main.rpm_range,
         modes: osc
             .iter()
-            .map(|m| (format!("mode {}", m.mode), m.omega_n_rad_s))
+            .map(|m| (m.label(), m.omega_n_rad_s))
             .collect(),
         lines,
         crossings: crossings
@@ -995,8 +1005,8 @@ fn campbell(env: &Environment, modes: &[ModeJson], data: &mut Sidecar) -> Result
         })
         .map(|c| {
             format!(
-                " The crossing nearest the nominal speed: mode {} with {} at {:.1} rpm ({:.1} % of nominal).",
-                c.mode, c.line, c.rotor_rpm, c.percent_nominal
+                " The crossing nearest the nominal speed: {} with {} at {:.1} rpm ({:.1} % of nominal).",
+                c.mode_name, c.line, c.rotor_rpm, c.percent_nominal
             )
         })
         .unwrap_or_default();
@@ -1048,7 +1058,7 @@ fn campbell(env: &Environment, modes: &[ModeJson], data: &mut Sidecar) -> Result
                 .enumerate()
                 .map(|(k, c)| {
                     vec![
-                        Cell::text(format!("{}", c.mode)),
+                        Cell::text(c.mode_name.clone()),
                         Cell::text(&c.line),
                         data.num(format!("campbell/crossings/{k}/rotor_rpm"), Digits::Fixed(1)),
                         data.num(format!("campbell/crossings/{k}/percent_nominal"), Digits::Fixed(1)),
