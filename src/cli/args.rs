@@ -321,6 +321,9 @@ pub fn vary(model: &Model, sys: &System, text: &str) -> Result<detune::linear::s
     let mut cases: Vec<(String, f64)> = Vec::new();
     if plusminus {
         if let Some(pc) = percent(rest) {
+            if !(pc > 0.0) {
+                return Err(bad(format!("a change of ±{pc}% varies nothing: give a change > 0")));
+            }
             let d = relative(pc / 100.0)?;
             let r = rest.trim();
             cases.push((format!("{name}+{r}"), p0 + d));
@@ -337,6 +340,11 @@ pub fn vary(model: &Model, sys: &System, text: &str) -> Result<detune::linear::s
         };
         if a >= b {
             return Err(bad(format!("the range {a}%..{b}% is empty: give the lower level first")));
+        }
+        if a <= 0.0 {
+            return Err(bad(format!(
+                "a level of {a}% makes `{name}` zero or of the opposite sign: levels are percentages of its value, e.g. 50%..200%"
+            )));
         }
         cases.push((format!("{name}={a}%"), relative(a / 100.0)?));
         cases.push((format!("{name}={b}%"), relative(b / 100.0)?));

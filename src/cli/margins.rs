@@ -226,8 +226,9 @@ fn print_table(check: &MarginCheck) {
         }
     );
     let varied = check.rows.iter().any(|r| r.min_rad_s < r.max_rad_s);
+    let mw = check.rows.iter().map(|r| r.mode.chars().count()).max().unwrap_or(4).max(4);
     println!(
-        "{:<8} {:>12} {:>9} {:>8} {}{:<8} {:>12} {:>9} {:>12} {:>8} {:>11} {:>5}",
+        "{:<mw$} {:>12} {:>9} {:>8} {}{:<8} {:>12} {:>9} {:>12} {:>8} {:>11} {:>5}",
         "mode",
         "ω_n [rad/s]",
         "f [Hz]",
@@ -257,7 +258,7 @@ fn print_table(check: &MarginCheck) {
             format!("{:.4}", r.line_rad_s)
         };
         println!(
-            "{:<8} {:>12.4} {:>9.4} {:>8.4} {interval}{:<8} {:>12} {:>9.4} {:>10.2} % {:>8} {:>9.2} % {:>5}",
+            "{:<mw$} {:>12.4} {:>9.4} {:>8.4} {interval}{:<8} {:>12} {:>9.4} {:>10.2} % {:>8} {:>9.2} % {:>5}",
             r.mode,
             r.omega_n_rad_s,
             r.omega_n_rad_s / TAU,
