@@ -79,6 +79,12 @@ pub struct Design {
     pub modes: serde_json::Map<String, serde_json::Value>,
     /// The smallest separation over every mode and line, %.
     pub closest_pct: f64,
+    /// The peaks of the design's linear frequency response (the first angle coordinate,
+    /// per unit of the forcing amplitude; none when the model declares no forcing), rad/s.
+    pub frf_peaks_rad_s: Vec<f64>,
+    /// Whether every such peak is outside every band by the margin too (a peak sits near,
+    /// not at, its mode's ω_n: a design at the margin's edge may have a peak just inside).
+    pub frf_peaks_clear: Option<bool>,
 }
 
 /// A choice of sides that no design within the bounds meets, and why.
@@ -504,6 +510,31 @@ pub fn tune(
             });
             continue;
         }
+        // the linear frequency response of the design: its peaks (per unit of the
+        // declared forcing amplitude)
+        let frf_peaks: Option<Vec<f64>> = (|| {
+            let f = sys.forcing_param()?;
+            let a = sys.forcing_amplitude_param()?;
+            let mut s = sys.clone();
+            for &(i, v) in &values {
+                s.set_param(i, v).ok()?;
+            }
+            s.set_param(a, 1.0).ok()?;
+            let (s, _) = crate::statics::trim::trim(&s).ok()?;
+            let ws: Vec<f64> = ma.modes.iter().map(|m| m.omega_n_rad_s).collect();
+            let lo = ws.iter().copied().fold(f64::INFINITY, f64::min) * 0.5;
+            let hi = ws.iter().copied().fold(0.0, f64::max) * 1.5;
+            let grid: Vec<f64> = (0..=200).map(|k| lo * (hi / lo).powf(k as f64 / 200.0)).collect();
+            let reference = s.coordinates[crate::linear::default_reference(&s)].clone();
+            let fr = crate::linear::frequency_response(
+                &s,
+                &s.param_names()[f].clone(),
+                &grid,
+                &[reference],
+            )
+            .ok()?;
+            Some(fr.peaks.iter().map(|p| p.omega).collect())
+        })();
         let mut parameters = serde_json::Map::new();
         for (v, &(_, value)) in varies.iter().zip(&values) {
             parameters.insert(v.name.clone(), value.into());
@@ -525,6 +556,15 @@ pub fn tune(
             margins: check.rows,
             modes,
             closest_pct: closest,
+            frf_peaks_rad_s: frf_peaks.clone().unwrap_or_default(),
+            frf_peaks_clear: frf_peaks.map(|p| {
+                p.iter().all(|&w| {
+                    lines.iter().all(|l| {
+                        w <= l.band_lo_rad_s * (1.0 - opts.margin)
+                            || w >= l.band_hi_rad_s * (1.0 + opts.margin)
+                    })
+                })
+            }),
         });
     }
     designs.sort_by(|a, b| a.cost.total_cmp(&b.cost));

@@ -138,6 +138,21 @@ pub fn run(a: TuneArgs) -> Result<super::Outcome> {
                 modes.join(", "),
                 d.closest_pct
             );
+            if !d.frf_peaks_rad_s.is_empty() {
+                println!(
+                    "  linear response peaks: {} rad/s{}",
+                    d.frf_peaks_rad_s
+                        .iter()
+                        .map(|w| format!("{w:.4}"))
+                        .collect::<Vec<_>>()
+                        .join(", "),
+                    match d.frf_peaks_clear {
+                        Some(true) => " (every peak clears every band too)",
+                        Some(false) => " (NOTE: a peak lies within the margin of a band although every mode clears it: a response peak is not at ω_n; ask a larger --margin if the peaks must clear too)",
+                        None => "",
+                    }
+                );
+            }
             let sets: Vec<String> = d
                 .parameters
                 .iter()
