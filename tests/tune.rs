@@ -97,6 +97,13 @@ fn inceptor_tuned_design_passes_margins() {
         assert_eq!(code, 0, "design {p:?} must pass margins: {out}{err}");
         // it is at the margin, not far beyond it (the smallest change)
         assert!(d["closest_pct"].as_f64().unwrap() < 10.1);
+        // its linear response has both resonance peaks, each near its mode (5 %)
+        let peaks = d["frf_peaks_rad_s"].as_array().unwrap();
+        assert_eq!(peaks.len(), 2, "{d}");
+        for (p, (_, w)) in peaks.iter().zip(d["modes"].as_object().unwrap()) {
+            let (p, w) = (p.as_f64().unwrap(), w.as_f64().unwrap());
+            assert!((p - w).abs() < 0.05 * w, "peak {p} vs mode {w}");
+        }
     }
 }
 
