@@ -85,6 +85,12 @@ pub struct Design {
     /// Whether every such peak is outside every band by the margin too (a peak sits near,
     /// not at, its mode's ω_n: a design at the margin's edge may have a peak just inside).
     pub frf_peaks_clear: Option<bool>,
+    /// With `--verify sweep`: the stepped-sine peaks of the nonlinear model at this design
+    /// ([`verify_sweep`]), rad/s, and whether they clear every band by the margin.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub sweep_peaks_rad_s: Option<Vec<f64>>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub sweep_peaks_clear: Option<bool>,
 }
 
 /// A choice of sides that no design within the bounds meets, and why.
@@ -556,6 +562,8 @@ pub fn tune(
             margins: check.rows,
             modes,
             closest_pct: closest,
+            sweep_peaks_rad_s: None,
+            sweep_peaks_clear: None,
             frf_peaks_rad_s: frf_peaks.clone().unwrap_or_default(),
             frf_peaks_clear: frf_peaks.map(|p| {
                 p.iter().all(|&w| {
@@ -586,4 +594,51 @@ pub fn tune(
         baseline_passes,
         choices: nchoices,
     })
+}
+
+/// `--verify sweep`: a stepped-sine sweep of the nonlinear model at `design` (the model's
+/// own forcing amplitude, which must not be zero) of `response` over 0.7 × the lowest to
+/// 1.3 × the highest ω_n in 60 steps, peaks refined to 1/20 of a step; returns the peaks
+/// (rad/s) and whether each clears every band by `margin`.
+pub fn verify_sweep(
+    sys: &System,
+    design: &Design,
+    lines: &[ForcingLine],
+    margin: f64,
+    response: &str,
+    cancel: &std::sync::atomic::AtomicBool,
+) -> Result<(Vec<f64>, bool)> {
+    let Some(f) = sys.forcing_param() else {
+        return Err(Error::request(
+            "a stepped-sine sweep needs the model's forcing frequency",
+            "add `forcing_frequency = \"omega\"` to [model]",
+        ));
+    };
+    let mut s = sys.clone();
+    for (name, v) in &design.parameters {
+        if let (Some(i), Some(v)) = (s.param_index(name), v.as_f64()) {
+            s.set_param(i, v)?;
+        }
+    }
+    let (s, _) = crate::statics::trim::trim(&s)?;
+    let ws: Vec<f64> = design.modes.values().filter_map(|w| w.as_f64()).collect();
+    let lo = 0.7 * ws.iter().copied().fold(f64::INFINITY, f64::min);
+    let hi = 1.3 * ws.iter().copied().fold(0.0, f64::max);
+    let step = (hi - lo) / 60.0;
+    let opts = crate::frequency::SweepOptions {
+        param: s.param_names()[f].clone(),
+        values: (0..=60).map(|k| lo + step * k as f64).collect(),
+        mode: crate::frequency::SweepMode::Independent,
+        responses: vec![response.to_string()],
+        refine: Some(step / 20.0),
+        steady: crate::frequency::SteadyOptions::default(),
+    };
+    let sw = crate::frequency::sweep(&s, &opts, &|_| {}, cancel)?;
+    let peaks: Vec<f64> = sw.peaks.iter().map(|p| p.omega).collect();
+    let clear = peaks.iter().all(|&w| {
+        lines.iter().all(|l| {
+            w <= l.band_lo_rad_s * (1.0 - margin) || w >= l.band_hi_rad_s * (1.0 + margin)
+        })
+    });
+    Ok((peaks, clear))
 }

@@ -123,3 +123,32 @@ fn infeasible_tuning_names_the_mode_and_the_line() {
     assert_eq!(code, 1);
     assert!(err.contains("free parameter"), "{err}");
 }
+
+/// `--verify sweep`: each design's stepped-sine peaks of the nonlinear model at a small
+/// table motion (0.7 mm) equal its linear response peaks to 0.1 %; without a forcing
+/// amplitude the sweep is refused with the advice to set one.
+#[test]
+fn verify_sweep_peaks_equal_the_linear_peaks_at_small_forcing() {
+    let (code, out, err) = detune(&[
+        "tune", "models/inceptor.toml", "--environment", "UH-60", "--set", "D0=0.7 mm", "--vary",
+        "k_fs=50%..200%", "--vary", "gearbox_scale=80%..120%", "--designs", "1", "--verify",
+        "sweep", "--json",
+    ]);
+    assert_eq!(code, 0, "{err}");
+    let j: serde_json::Value = serde_json::from_str(&out).unwrap();
+    let d = &j["designs"][0];
+    let lin = d["frf_peaks_rad_s"].as_array().unwrap();
+    let sw = d["sweep_peaks_rad_s"].as_array().unwrap();
+    assert_eq!(lin.len(), sw.len());
+    for (a, b) in lin.iter().zip(sw) {
+        let (a, b) = (a.as_f64().unwrap(), b.as_f64().unwrap());
+        assert!((a - b).abs() < 1e-3 * a, "linear {a} vs sweep {b}");
+    }
+    assert_eq!(d["sweep_peaks_clear"], d["frf_peaks_clear"]);
+    let (code, _, err) = detune(&[
+        "tune", "models/inceptor.toml", "--environment", "UH-60", "--vary", "k_fs=50%..200%",
+        "--verify", "sweep",
+    ]);
+    assert_eq!(code, 1);
+    assert!(err.contains("D0=7 mm"), "{err}");
+}

@@ -29,6 +29,13 @@ pub struct TuneArgs {
     /// Weight of a parameter's squared relative change in the cost, NAME=W (default 1).
     #[arg(long = "weight", value_name = "NAME=W")]
     pub weight: Vec<String>,
+    /// Verify each design also by a stepped-sine sweep of the nonlinear model at the
+    /// model's forcing (set its amplitude, e.g. --set "D0=7 mm"): `--verify sweep`.
+    #[arg(long, value_name = "sweep")]
+    pub verify: Option<String>,
+    /// The response the sweep measures [default: the first angle coordinate].
+    #[arg(long, value_name = "NAME")]
+    pub response: Option<String>,
     /// The most designs listed.
     #[arg(long, default_value_t = 3, value_name = "N")]
     pub designs: usize,
@@ -84,7 +91,39 @@ pub fn run(a: TuneArgs) -> Result<super::Outcome> {
         max_designs: a.designs.max(1),
         ..TuneOptions::default()
     };
-    let t = tune(&sys, &vs, &lines, &opts)?;
+    let sweep = match a.verify.as_deref() {
+        None => false,
+        Some("sweep") => true,
+        Some(other) => {
+            return Err(Error::request(
+                format!("--verify {other}: unknown verification"),
+                "--verify sweep (each design is always verified by its modes and linear response)",
+            ));
+        }
+    };
+    let mut t = tune(&sys, &vs, &lines, &opts)?;
+    if sweep {
+        super::interrupt_on_ctrl_c();
+        let response = match &a.response {
+            Some(r) => {
+                sys.output(r)?;
+                r.clone()
+            }
+            None => sys.coordinates[detune::linear::default_reference(&sys)].clone(),
+        };
+        for (k, d) in t.designs.iter_mut().enumerate() {
+            let (peaks, clear) =
+                detune::tune::verify_sweep(&sys, d, &lines, margin, &response, &super::INTERRUPTED)
+                    .map_err(|e| {
+                        e.context(&format!(
+                            "--verify sweep of design {} (set the forcing amplitude, e.g. --set \"D0=7 mm\")",
+                            k + 1
+                        ))
+                    })?;
+            d.sweep_peaks_rad_s = Some(peaks);
+            d.sweep_peaks_clear = Some(clear);
+        }
+    }
     let provenance = Provenance::of(&model);
     let report = TuneReport {
         provenance: &provenance,
@@ -151,6 +190,13 @@ pub fn run(a: TuneArgs) -> Result<super::Outcome> {
                         Some(false) => " (NOTE: a peak lies within the margin of a band although every mode clears it: a response peak is not at ω_n; ask a larger --margin if the peaks must clear too)",
                         None => "",
                     }
+                );
+            }
+            if let (Some(p), Some(clear)) = (&d.sweep_peaks_rad_s, d.sweep_peaks_clear) {
+                println!(
+                    "  stepped-sine peaks: {} rad/s ({})",
+                    p.iter().map(|w| format!("{w:.4}")).collect::<Vec<_>>().join(", "),
+                    if clear { "every peak clears every band" } else { "NOTE: a peak lies within the margin of a band" }
                 );
             }
             let sets: Vec<String> = d
