@@ -79,6 +79,9 @@ pub struct Design {
     pub modes: serde_json::Map<String, serde_json::Value>,
     /// The smallest separation over every mode and line, %.
     pub closest_pct: f64,
+    /// The optimizer that found it: `SLSQP` (with the analytic gradients), or `COBYLA`
+    /// (derivative-free), tried where SLSQP did not meet the side choice.
+    pub optimizer: &'static str,
     /// The peaks of the design's linear frequency response (the first angle coordinate,
     /// per unit of the forcing amplitude; none when the model declares no forcing), rad/s.
     pub frf_peaks_rad_s: Vec<f64>,
@@ -460,7 +463,7 @@ pub fn tune(
             Err((_, x, _)) => x,
         };
         // feasible as solved?
-        let blocking = match problem.eval(&x) {
+        let blocking_at = |x: &[f64]| match problem.eval(x) {
             None => Some("the modes could not be computed at the optimizer's last point".to_string()),
             Some(e) => choice.iter().enumerate().find_map(|(m, &g)| {
                 let gap = &gaps[g];
@@ -480,6 +483,41 @@ pub fn tune(
                 }
             }),
         };
+        let mut x = x;
+        let mut blocking = blocking_at(&x);
+        let mut method = "SLSQP";
+        if blocking.is_some() {
+            // the derivative-free fallback (COBYLA, the `cobyla` crate): constraints as
+            // c(x) ≥ 0, no gradients
+            type Cob<'c> = Box<dyn Fn(&[f64], &mut ()) -> f64 + 'c>;
+            let cob: Vec<Cob<'_>> = cons
+                .iter()
+                .map(|c| Box::new(move |x: &[f64], _: &mut ()| -c(x, None, &mut ())) as Cob<'_>)
+                .collect();
+            let cob_ref: Vec<&dyn Fn(&[f64], &mut ()) -> f64> = cob.iter().map(|c| c.as_ref()).collect();
+            let w = weights.clone();
+            let cost = move |x: &[f64], _: &mut ()| -> f64 {
+                x.iter().zip(&w).map(|(x, w)| w * x * x).sum()
+            };
+            let y = match cobyla::minimize(
+                cost,
+                &vec![0.0; varies.len()],
+                &bounds,
+                &cob_ref,
+                (),
+                opts.max_evaluations,
+                cobyla::RhoBeg::All(0.1),
+                None,
+            ) {
+                Ok((_, y, _)) => y,
+                Err((_, y, _)) => y,
+            };
+            if blocking_at(&y).is_none() {
+                x = y;
+                blocking = None;
+                method = "COBYLA";
+            }
+        }
         if let Some(reason) = blocking {
             infeasible.push(Infeasible {
                 sides: sides_of(choice),
@@ -562,6 +600,7 @@ pub fn tune(
             margins: check.rows,
             modes,
             closest_pct: closest,
+            optimizer: method,
             sweep_peaks_rad_s: None,
             sweep_peaks_clear: None,
             frf_peaks_rad_s: frf_peaks.clone().unwrap_or_default(),
