@@ -67,6 +67,39 @@ pub struct Branch {
     pub switched: Vec<Switched>,
 }
 
+/// One branch of a run: the branch point it leaves (None for the primary), its points,
+/// folds, branch points, and whether it stopped at `max_steps`.
+pub type BranchView<'a> = (
+    Option<usize>,
+    &'a [BranchPoint],
+    &'a [BranchPoint],
+    &'a [BranchPoint],
+    bool,
+);
+
+impl Branch {
+    /// Every branch: the primary (number 0), then the switched ones in order.
+    pub fn all(&self) -> Vec<BranchView<'_>> {
+        let mut v: Vec<BranchView<'_>> = vec![(
+            None,
+            &self.points,
+            &self.folds,
+            &self.branch_points,
+            self.truncated,
+        )];
+        v.extend(self.switched.iter().map(|s| {
+            (
+                Some(s.branch_point),
+                s.points.as_slice(),
+                s.folds.as_slice(),
+                s.branch_points.as_slice(),
+                s.truncated,
+            )
+        }));
+        v
+    }
+}
+
 /// A branch followed from a branch point of the primary branch, to one side of it.
 #[derive(Debug, Clone)]
 pub struct Switched {
@@ -487,7 +520,18 @@ impl Family<'_> {
             };
             let at_bound = to_bound <= ds;
             if at_bound && to_bound <= 1e-12 * ds {
-                break; // already on the boundary, heading out
+                // On the boundary up to rounding (steps that add up to it, 3.1999999999999975
+                // for 3.2): the last point is corrected exactly onto it, then the end.
+                if cur.y[d] != bound
+                    && let Some((mut e, _)) =
+                        self.correct_at_parameter(&cur, to_bound.max(0.0), scale)?
+                {
+                    e.y[d] = bound;
+                    if let Some(last) = trace.points.last_mut() {
+                        *last = self.point(&e)?;
+                    }
+                }
+                break;
             }
             let s = if at_bound { to_bound } else { ds };
             let corrected = if at_bound {
