@@ -15,6 +15,14 @@
 //! that strays outside and finds the model invalid counts as a failed step. A fold is where τ_p changes sign, a branch point where
 //! det J_x does and τ_p does not; both are located by secant iteration along the
 //! arclength between the two points that bracket them.
+//!
+//! Start: the equilibrium nearest the model's initial pose at p = from
+//! ([`Statics::nearest`]); none there is [`Failure::NoStartEquilibrium`], before any step.
+//! Branch switching: at each branch point of the branch followed from the start, the
+//! crossing branch's direction is the null vector φ of the singular J_x as (φ, 0), made
+//! orthogonal to the followed tangent (weighted as the arclength); the corrector from the
+//! branch point ± one step along it, on the hyperplane normal to it, lands on the crossing
+//! branch, which is then followed like the first, to both sides ([`Branch::switched`]).
 
 use super::{Statics, solve_least_squares};
 use crate::diag::Result;
