@@ -135,7 +135,7 @@ fn the_pitchfork_from_the_command_line_writes_every_branch() {
     assert_eq!(
         rows.iter()
             .filter(|r| r[r.len() - 1] == 0.0)
-            .last()
+            .next_back()
             .unwrap()[0],
         3.2
     );

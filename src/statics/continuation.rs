@@ -640,7 +640,7 @@ impl Family<'_> {
         let t1w = t1.component_mul(&w);
         tau2 -= t1 * (tau2.dot(&t1w) / t1.dot(&t1w));
         let norm = tau2.component_mul(&w).norm();
-        if !(norm > 1e-6) {
+        if norm.is_nan() || norm <= 1e-6 {
             return Ok(None);
         }
         // A sign independent of the SVD's: the largest coordinate entry positive.
