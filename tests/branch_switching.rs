@@ -248,3 +248,72 @@ fn a_start_without_an_equilibrium_fails_at_the_start_without_a_pose() {
     assert!(out.stdout.is_empty());
     assert!(!csv.exists());
 }
+
+#[test]
+fn the_pitchfork_reached_along_a_side_branch_is_a_branch_point_not_a_fold() {
+    // From θ1 = 45° (L0 = 2 = L cos 45°), up in L0: the side branch θ1 = acos(L0/L) meets
+    // θ1 = 0 at L0 = L, where the run turns onto the other side branch. That is a branch
+    // point (the stability does not change there), and θ1 = 0 is switched to.
+    let l = 2.0 * 2f64.sqrt();
+    let opts = ContinuationOptions {
+        param: "L0".into(),
+        from: 2.0,
+        to: 3.2,
+        step: 0.05,
+        max_steps: 500,
+    };
+    let b = continue_equilibria(&System::new(&model(&[("g", "0")])).unwrap(), &opts).unwrap();
+    assert!(b.folds.is_empty());
+    assert_eq!(b.branch_points.len(), 1);
+    assert!((b.branch_points[0].value - l).abs() <= 1e-8 * l);
+    for p in &b.points {
+        let want = p.q[THETA1].signum() * (p.value / l).acos();
+        assert!(
+            (p.q[THETA1] - want).abs() <= 1e-10,
+            "{} vs {want}",
+            p.q[THETA1]
+        );
+        assert!(p.stable);
+    }
+    assert_eq!(b.points.last().unwrap().value, 2.0);
+    assert!(
+        b.points.last().unwrap().q[THETA1] < 0.0,
+        "ends on the other side"
+    );
+    // θ1 = 0 to both sides: stable up to 3.2, unstable down to 2
+    assert_eq!(b.switched.len(), 2);
+    let mut ends: Vec<(f64, bool)> = b
+        .switched
+        .iter()
+        .map(|s| {
+            assert!(s.points.iter().all(|p| p.q[THETA1].abs() < 1e-10));
+            assert!(s.points.iter().all(|p| p.stable == (p.value > l)));
+            (s.points.last().unwrap().value, s.points[0].stable)
+        })
+        .collect();
+    ends.sort_by(|a, b| a.0.total_cmp(&b.0));
+    assert_eq!(ends, [(2.0, false), (3.2, true)]);
+
+    let out = detune(&[
+        "continue",
+        "models/overcentre.toml",
+        "--set",
+        "g=0",
+        "--param",
+        "L0",
+        "--from",
+        "2",
+        "--to",
+        "3.2",
+        "--step",
+        "0.05",
+    ]);
+    let text = String::from_utf8(out.stdout).unwrap();
+    let first = text.lines().next().unwrap();
+    assert!(
+        first.ends_with(
+            "points from L0 = 2 turned at the branch point at L0 = 2.828427; ends at L0 = 2"
+        ),
+        "{first}"
+    );
+}

@@ -98,6 +98,16 @@ pub fn run(a: ContinueArgs) -> Result<()> {
                 "turned at the fold at {param} = {:.6}; ends at {param} = {end}",
                 f.value
             )
+        } else if let Some(b) = branch
+            .branch_points
+            .iter()
+            .find(|b| (b.value - end) * (to - from) > 0.0)
+        {
+            // a pitchfork reached along a side branch: it turns there, onto the other side
+            format!(
+                "turned at the branch point at {param} = {:.6}; ends at {param} = {end}",
+                b.value
+            )
         } else {
             format!("ends at {param} = {end} (before {})", a.to)
         };

@@ -12,8 +12,10 @@
 //! ([`Statics::residual_dp`]): exact, and the model is never evaluated outside
 //! [from, to] for a derivative. A step whose prediction would leave
 //! the range ends on its boundary (natural-parameter corrector there); a Newton iterate
-//! that strays outside and finds the model invalid counts as a failed step. A fold is where τ_p changes sign, a branch point where
-//! det J_x does and τ_p does not; both are located by secant iteration along the
+//! that strays outside and finds the model invalid counts as a failed step. A fold is where τ_p and det J_x both change sign, a branch
+//! point where one of them does (the augmented determinant det [J; τᵀ] changes sign):
+//! det J_x on a branch that keeps its direction in p, τ_p on a pitchfork's side branch,
+//! which turns there onto the other side; both are located by secant iteration along the
 //! arclength between the two points that bracket them.
 //!
 //! Start: the equilibrium nearest the model's initial pose at p = from
@@ -576,20 +578,27 @@ impl Family<'_> {
                 continue;
             }
             steps += 1;
-            // Fold: τ_p changes sign. Branch point: det J_x changes sign, τ_p does not.
-            let fold = cur.tau[d].signum() != next.tau[d].signum();
-            let bp = !fold && cur.det.signum() != next.det.signum();
-            if fold {
-                if let Some(f) =
-                    self.locate(&cur, s, cur.tau[d], next.tau[d], scale, &|p| p.tau[d])?
-                {
-                    trace.folds.push(self.point(&f)?);
+            // A fold turns the parameter (τ_p changes sign) and the stability (det J_x
+            // changes sign); a branch point changes one of them only (the sign of the
+            // augmented determinant det [J; τᵀ] changes): det J_x on the branch that keeps
+            // its direction in p, τ_p on a pitchfork's side branch, which turns there.
+            let tp_flip = cur.tau[d].signum() != next.tau[d].signum();
+            let det_flip = cur.det.signum() != next.det.signum();
+            let (f0, f1, by_det) = if tp_flip {
+                (cur.tau[d], next.tau[d], false)
+            } else {
+                (cur.det, next.det, true)
+            };
+            if tp_flip || det_flip {
+                let at = |p: &Pt| if by_det { p.det } else { p.tau[d] };
+                if let Some(f) = self.locate(&cur, s, f0, f1, scale, &at)? {
+                    if tp_flip && det_flip {
+                        trace.folds.push(self.point(&f)?);
+                    } else {
+                        trace.branch_points.push(self.point(&f)?);
+                        located.push(f);
+                    }
                 }
-            } else if bp
-                && let Some(b) = self.locate(&cur, s, cur.det, next.det, scale, &|p| p.det)?
-            {
-                trace.branch_points.push(self.point(&b)?);
-                located.push(b);
             }
             if at_bound {
                 next.y[d] = bound; // exact already, up to the last Newton update
@@ -618,8 +627,8 @@ impl Family<'_> {
     }
 
     /// The first point of the branch that crosses the branch point `bp` on the side
-    /// `side` (±1) of its second tangent τ₂: the null vector φ of the singular J_x,
-    /// (φ, 0), made orthogonal to the followed tangent τ₁ (weighted inner product) and of
+    /// `side` (±1) of its second tangent τ₂: the vector of the 2-dimensional null space
+    /// of [J_x H_p] orthogonal to the followed tangent τ₁ (weighted inner product), of
     /// unit weighted norm; the corrector from bp + s·side·τ₂ on the hyperplane normal to
     /// τ₂ (which the followed branch does not cross near bp), with s halved until it
     /// converges. `None` when no second branch leaves there (φ has no coordinate or
@@ -627,18 +636,27 @@ impl Family<'_> {
     fn leave(&self, bp: &Pt, side: f64, step: f64, scale: f64) -> Result<Option<Pt>> {
         let d = bp.y.len() - 1;
         let (_, j, _) = self.linearize(&bp.y)?;
-        let jx = j.columns(0, d).into_owned();
-        let svd = jx.svd(false, true);
+        // null space of [J_x H_p] (d × (d+1)), 2-dimensional at a simple branch point:
+        // the right singular vectors of its two smallest singular values (a zero row
+        // appended makes it square, so that the SVD gives all d + 1)
+        let mut sq = DMatrix::zeros(d + 1, d + 1);
+        sq.view_mut((0, 0), (d, d + 1)).copy_from(&j);
+        let svd = sq.svd(false, true);
         let Some(v_t) = svd.v_t else {
             return Ok(None);
         };
-        let k = svd.singular_values.argmin().0;
+        let mut order: Vec<usize> = (0..=d).collect();
+        order.sort_by(|&a, &b| svd.singular_values[a].total_cmp(&svd.singular_values[b]));
+        let (v1, v2) = (v_t.row(order[0]).transpose(), v_t.row(order[1]).transpose());
+        // the combination of v1, v2 orthogonal to the followed tangent τ₁ (weighted)
         let w = self.weights(d + 1);
-        let mut tau2 = DVector::zeros(d + 1);
-        tau2.rows_mut(0, d).copy_from(&v_t.row(k).transpose());
-        let t1 = &bp.tau;
-        let t1w = t1.component_mul(&w);
-        tau2 -= t1 * (tau2.dot(&t1w) / t1.dot(&t1w));
+        let t1w = bp.tau.component_mul(&w);
+        let (a, b) = (v2.dot(&t1w), -v1.dot(&t1w));
+        let mut tau2 = if a.hypot(b) > 1e-12 {
+            v1 * a + v2 * b
+        } else {
+            v1
+        };
         let norm = tau2.component_mul(&w).norm();
         if norm.is_nan() || norm <= 1e-6 {
             return Ok(None);
