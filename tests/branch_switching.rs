@@ -133,10 +133,7 @@ fn the_pitchfork_from_the_command_line_writes_every_branch() {
     }
     // the primary ends on the end as given
     assert_eq!(
-        rows.iter()
-            .filter(|r| r[r.len() - 1] == 0.0)
-            .next_back()
-            .unwrap()[0],
+        rows.iter().rfind(|r| r[r.len() - 1] == 0.0).unwrap()[0],
         3.2
     );
 }
