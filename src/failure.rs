@@ -87,6 +87,17 @@ pub enum Failure {
     UndefinedEquilibrium { iterations: usize, pose: String },
     #[error("no equilibrium found on the assembly branch of the initial pose")]
     NoEquilibriumOnBranch,
+    /// A continuation's start: Newton from the initial pose at p = `from` finds no
+    /// equilibrium (its last iterate is not one, often not even assembled: not shown).
+    #[error(
+        "continuation cannot start at {param} = {value}: no equilibrium near the initial pose ({why} after {iterations} Newton iterations; the last iterate is not an equilibrium)"
+    )]
+    NoStartEquilibrium {
+        param: String,
+        value: f64,
+        why: String,
+        iterations: usize,
+    },
     #[error(
         "the trim does not converge: no value of {params} makes the held pose a static equilibrium (residual {residual:.3e})"
     )]
@@ -204,6 +215,7 @@ impl Failure {
             NoEquilibrium { .. } => "start closer to an equilibrium (another initial pose), or check that one exists for these loads".into(),
             UndefinedEquilibrium { .. } => "a load or a moving constraint is undefined there at some time of the forcing period (statics averages them over it): sqrt or ln of a negative number, or a division by zero".into(),
             TrimFailed { .. } => "check that the solved parameters can balance the held pose (a stiffness of zero, or a load the parameter does not act on, cannot be trimmed), or fix their values".into(),
+            NoStartEquilibrium { .. } => "start the range where the mechanism has an equilibrium near its initial pose (change the start value, the initial pose, or the loads); the branch is followed from there".into(),
             NoEquilibriumOnBranch => "check the loads: the mechanism may have no static equilibrium (e.g. a force larger than any spring can hold)".into(),
             UndampedResonance { .. } => "add damping or step around that frequency".into(),
             DeadPoint { drive, .. } => format!(
@@ -272,6 +284,12 @@ mod tests {
                 pose: "b.x = 1".into(),
             },
             Failure::NoEquilibriumOnBranch,
+            Failure::NoStartEquilibrium {
+                param: "k".into(),
+                value: 100.0,
+                why: "residual 1.000e0".into(),
+                iterations: 60,
+            },
             Failure::TrimFailed {
                 params: "L0".into(),
                 residual: 1.0,

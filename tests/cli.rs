@@ -165,10 +165,12 @@ fn continue_json_and_csv_contract() {
     let lines: Vec<&str> = text.lines().collect();
     assert_eq!(
         lines[0],
-        "Fs,bar1.x,bar1.y,bar1.theta,bar2.x,bar2.y,bar2.theta,stable"
+        "Fs,bar1.x,bar1.y,bar1.theta,bar2.x,bar2.y,bar2.theta,stable,branch"
     );
     assert_eq!(lines.len() - 1, j["points"].as_u64().unwrap() as usize);
-    assert!(lines[1].starts_with("-10,") && lines[1].ends_with(",1"));
+    // stable, on branch 0 (no branch point: the one followed from the start only)
+    assert!(lines[1].starts_with("-10,") && lines[1].ends_with(",1,0"));
+    assert_eq!(j["branches"].as_array().unwrap().len(), 1);
     let svg = std::fs::read_to_string(&svg).unwrap();
     // Figure 6: legend entries for both kinds of branch and the folds, one marker per
     // fold, and the unstable branch drawn dashed (plotters draws each dash as its own

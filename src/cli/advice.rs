@@ -39,6 +39,7 @@ pub fn advice(f: &Failure) -> Option<String> {
         SweepInterrupted => "the frequencies completed were written and marked incomplete".into(),
         BranchTurns { .. } => "the branch may end here (a singular pose); try a smaller --step".into(),
         SingularStart => "start away from it: --set the initial value of the coordinate the model fixes for assembly to another value".into(),
+        NoStartEquilibrium { .. } => "start --from where the mechanism has an equilibrium near its initial pose, or --set the initial angle or the loads; the branch is followed from there".into(),
         NoEquilibrium { .. } => "start closer to an equilibrium (e.g. --set the initial angle), or check that one exists for these loads".into(),
         DeadPoint { .. } => "beyond it the mechanism locks, a link cannot reach, or the branch to follow is ambiguous: end --from/--to before it, or drive another coordinate (--drive)".into(),
         _ => return None,

@@ -1,5 +1,6 @@
 //! `detune continue`: equilibria followed through limit points while a parameter
-//! changes (pseudo-arclength), folds and branch points located.
+//! changes (pseudo-arclength), folds and branch points located, and the branches that
+//! cross at a branch point followed too.
 
 use super::args::ModelArgs;
 use super::print_json;
@@ -37,10 +38,11 @@ pub struct ContinueArgs {
     /// Print the JSON summary (folds, branch points) instead of a table.
     #[arg(long)]
     pub json: bool,
-    /// CSV of the branch: `<param>,<coordinates>...,stable`.
+    /// CSV of the branches: `<param>,<coordinates>...,stable,branch` (`branch` 0: the one
+    /// followed from the start; 1, 2, …: those switched to at its branch points).
     #[arg(short = 'o', long = "output", value_name = "OUT.csv")]
     pub output: Option<String>,
-    /// SVG of the branch (stable solid, unstable dashed, folds marked).
+    /// SVG of the branches (stable solid, unstable dashed, folds and branch points marked).
     #[arg(long, value_name = "OUT.svg")]
     pub plot: Option<String>,
     /// Coordinate drawn against the parameter [default: the first angle].
@@ -96,6 +98,16 @@ pub fn run(a: ContinueArgs) -> Result<()> {
                 "turned at the fold at {param} = {:.6}; ends at {param} = {end}",
                 f.value
             )
+        } else if let Some(b) = branch
+            .branch_points
+            .iter()
+            .find(|b| (b.value - end) * (to - from) > 0.0)
+        {
+            // a pitchfork reached along a side branch: it turns there, onto the other side
+            format!(
+                "turned at the branch point at {param} = {:.6}; ends at {param} = {end}",
+                b.value
+            )
         } else {
             format!("ends at {param} = {end} (before {})", a.to)
         };
@@ -129,6 +141,39 @@ pub fn run(a: ContinueArgs) -> Result<()> {
                     pose(&sys, &p.q)
                 );
             }
+        }
+        // the branches switched to at the branch points, one line each
+        for (k, s) in branch.switched.iter().enumerate() {
+            let (Some(p0), Some(p1)) = (s.points.first(), s.points.last()) else {
+                continue;
+            };
+            let stability = match (
+                s.points.iter().all(|p| p.stable),
+                s.points.iter().any(|p| p.stable),
+            ) {
+                (true, _) => "stable",
+                (false, false) => "unstable",
+                _ => "stable in part",
+            };
+            println!(
+                "branch {} from the branch point at {param} = {:.10} ({} = {:.8} first): {} points to {param} = {}, {stability}{}{}",
+                k + 1,
+                branch.branch_points[s.branch_point].value,
+                sys.coordinates[idx],
+                p0.q[idx],
+                s.points.len(),
+                p1.value,
+                if s.folds.is_empty() {
+                    String::new()
+                } else {
+                    format!(", {} folds", s.folds.len())
+                },
+                if s.truncated {
+                    " (stopped at --max-steps)"
+                } else {
+                    ""
+                }
+            );
         }
     }
     for f in [&a.output, &a.plot].into_iter().flatten() {

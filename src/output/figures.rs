@@ -47,7 +47,8 @@ pub fn trajectory_figure(name: &str, traj: &Trajectory) -> LinePlot {
 }
 
 /// The paper's Figure 6: the branch in (parameter, coordinate `idx`), stable solid,
-/// unstable dashed, folds marked; `name` is the model's, `angle` whether the coordinate
+/// unstable dashed, folds and branch points marked, with the branches switched to at the
+/// branch points; `name` is the model's, `angle` whether the coordinate
 /// is an angle.
 pub fn branch_figure(name: &str, b: &Branch, idx: usize, angle: bool) -> LinePlot {
     let mut series = Vec::new();
@@ -68,16 +69,23 @@ pub fn branch_figure(name: &str, b: &Branch, idx: usize, angle: bool) -> LinePlo
         }
         seg.clear();
     };
-    for p in &b.points {
-        if let Some(last) = seg.last()
-            && last.stable != p.stable
-        {
-            seg.push(p);
-            flush(&mut seg, &mut series);
+    // every branch (the switched ones start at their branch point, so they join it)
+    for (from, points, ..) in b.all() {
+        if let Some(k) = from {
+            seg.push(&b.branch_points[k]);
         }
-        seg.push(p);
+        for p in points {
+            if let Some(last) = seg.last()
+                && last.stable != p.stable
+                && seg.len() > 1
+            {
+                seg.push(p);
+                flush(&mut seg, &mut series);
+            }
+            seg.push(p);
+        }
+        flush(&mut seg, &mut series);
     }
-    flush(&mut seg, &mut series);
     for (label, marked) in [("folds", &b.folds), ("branch points", &b.branch_points)] {
         if !marked.is_empty() {
             series.push(Series {

@@ -187,7 +187,31 @@ pub struct BranchReport<'a> {
     pub branch_points: Vec<BranchPointJson<'a>>,
     pub points: usize,
     pub truncated: bool,
+    /// Every branch: 0 the one followed from the start (its points are the CSV's rows
+    /// of `branch` 0), then those switched to at its branch points, each to one side.
+    pub branches: Vec<BranchJson<'a>>,
     pub provenance: &'a Provenance,
+}
+
+/// One point of a branch in `continue --json`'s `branches`.
+#[derive(Debug, Clone, Serialize)]
+pub struct BranchPointStable<'a> {
+    pub value: f64,
+    pub coordinates: Named<'a, f64>,
+    pub stable: bool,
+}
+
+/// One branch of `continue --json`: `from_branch_point` is the index in `branch_points`
+/// of the branch point it leaves (absent for branch 0).
+#[derive(Debug, Clone, Serialize)]
+pub struct BranchJson<'a> {
+    pub branch: usize,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub from_branch_point: Option<usize>,
+    pub points: Vec<BranchPointStable<'a>>,
+    pub folds: Vec<BranchPointJson<'a>>,
+    pub branch_points: Vec<BranchPointJson<'a>>,
+    pub truncated: bool,
 }
 
 impl<'a> BranchReport<'a> {
@@ -206,6 +230,26 @@ impl<'a> BranchReport<'a> {
             branch_points: points(&b.branch_points),
             points: b.points.len(),
             truncated: b.truncated,
+            branches: b
+                .all()
+                .into_iter()
+                .enumerate()
+                .map(|(k, (from, list, folds, bps, truncated))| BranchJson {
+                    branch: k,
+                    from_branch_point: from,
+                    points: list
+                        .iter()
+                        .map(|p| BranchPointStable {
+                            value: p.value,
+                            coordinates: Named::new(&b.coordinates, &p.q),
+                            stable: p.stable,
+                        })
+                        .collect(),
+                    folds: points(folds),
+                    branch_points: points(bps),
+                    truncated,
+                })
+                .collect(),
             provenance,
         }
     }

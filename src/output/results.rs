@@ -55,19 +55,22 @@ fn write_rows(path: &str, header: &[String], rows: &[Vec<Cell>], footer: &[&str]
     })
 }
 
-/// CSV of a branch: `<param>,<coordinates>...,stable`.
+/// CSV of a branch: `<param>,<coordinates>...,stable,branch`: the branch followed from the
+/// start (`branch` 0), then the branches switched to at its branch points (1, 2, …).
 pub fn write_branch_csv(path: &str, b: &Branch) -> Result<()> {
     write_atomic(path, |w| {
         // the trim's solved parameters, when the model has one, after the coordinates
         let mut header = b.coordinates.clone();
         header.extend(b.solved.iter().cloned());
-        writeln!(w, "{},{},stable", b.param, header.join(","))?;
-        for p in &b.points {
-            write!(w, "{}", num(p.value))?;
-            for x in p.q.iter().chain(&p.solved) {
-                write!(w, ",{}", num(*x))?;
+        writeln!(w, "{},{},stable,branch", b.param, header.join(","))?;
+        for (k, (_, points, ..)) in b.all().into_iter().enumerate() {
+            for p in points {
+                write!(w, "{}", num(p.value))?;
+                for x in p.q.iter().chain(&p.solved) {
+                    write!(w, ",{}", num(*x))?;
+                }
+                writeln!(w, ",{},{k}", u8::from(p.stable))?;
             }
-            writeln!(w, ",{}", u8::from(p.stable))?;
         }
         Ok(())
     })

@@ -12,9 +12,19 @@
 //! ([`Statics::residual_dp`]): exact, and the model is never evaluated outside
 //! [from, to] for a derivative. A step whose prediction would leave
 //! the range ends on its boundary (natural-parameter corrector there); a Newton iterate
-//! that strays outside and finds the model invalid counts as a failed step. A fold is where τ_p changes sign, a branch point where
-//! det J_x does and τ_p does not; both are located by secant iteration along the
+//! that strays outside and finds the model invalid counts as a failed step. A fold is where τ_p and det J_x both change sign, a branch
+//! point where one of them does (the augmented determinant det [J; τᵀ] changes sign):
+//! det J_x on a branch that keeps its direction in p, τ_p on a pitchfork's side branch,
+//! which turns there onto the other side; both are located by secant iteration along the
 //! arclength between the two points that bracket them.
+//!
+//! Start: the equilibrium nearest the model's initial pose at p = from
+//! ([`Statics::nearest`]); none there is [`Failure::NoStartEquilibrium`], before any step.
+//! Branch switching: at each branch point of the branch followed from the start, the
+//! crossing branch's direction is the null vector φ of the singular J_x as (φ, 0), made
+//! orthogonal to the followed tangent (weighted as the arclength); the corrector from the
+//! branch point ± one step along it, on the hyperplane normal to it, lands on the crossing
+//! branch, which is then followed like the first, to both sides ([`Branch::switched`]).
 
 use super::{Statics, solve_least_squares};
 use crate::diag::Result;
@@ -61,6 +71,58 @@ pub struct Branch {
     /// The parameters the model's `[trim]` solves at every point (empty: no trim, or it
     /// is off, or it solves the continued parameter).
     pub solved: Vec<String>,
+    /// The branches through the branch points of this one, each followed from its
+    /// branch point to one side (two per simple bifurcation), in the order of
+    /// `branch_points`.
+    pub switched: Vec<Switched>,
+}
+
+/// One branch of a run: the branch point it leaves (None for the primary), its points,
+/// folds, branch points, and whether it stopped at `max_steps`.
+pub type BranchView<'a> = (
+    Option<usize>,
+    &'a [BranchPoint],
+    &'a [BranchPoint],
+    &'a [BranchPoint],
+    bool,
+);
+
+impl Branch {
+    /// Every branch: the primary (number 0), then the switched ones in order.
+    pub fn all(&self) -> Vec<BranchView<'_>> {
+        let mut v: Vec<BranchView<'_>> = vec![(
+            None,
+            &self.points,
+            &self.folds,
+            &self.branch_points,
+            self.truncated,
+        )];
+        v.extend(self.switched.iter().map(|s| {
+            (
+                Some(s.branch_point),
+                s.points.as_slice(),
+                s.folds.as_slice(),
+                s.branch_points.as_slice(),
+                s.truncated,
+            )
+        }));
+        v
+    }
+}
+
+/// A branch followed from a branch point of the primary branch, to one side of it.
+#[derive(Debug, Clone)]
+pub struct Switched {
+    /// Index in [`Branch::branch_points`] of the branch point it leaves.
+    pub branch_point: usize,
+    /// From the first point past the branch point (the branch point is not repeated)
+    /// to where the branch leaves the range.
+    pub points: Vec<BranchPoint>,
+    pub folds: Vec<BranchPoint>,
+    /// Branch points on this branch (reported, not switched again).
+    pub branch_points: Vec<BranchPoint>,
+    /// The branch reached `max_steps` before leaving the range.
+    pub truncated: bool,
 }
 
 /// The equilibrium equations as a function of (x, p).
@@ -296,13 +358,15 @@ impl Family<'_> {
 }
 
 /// Follow the equilibrium branch through the equilibrium nearest the model's initial pose
-/// at p = `from`, until p leaves [from, to] or `max_steps` points were computed.
+/// at p = `from`, until p leaves [from, to] or `max_steps` points were computed; then,
+/// from every branch point found on it, the branches that cross it, to both sides.
 pub fn continue_equilibria(sys: &System, opts: &ContinuationOptions) -> Result<Branch> {
     let index = check(sys, opts)?;
     let dir = (opts.to - opts.from).signum();
-    let sys0 = sys
-        .with_param(index, opts.from)
-        .map_err(|e| e.context(&format!("continuation at {} = {}", opts.param, opts.from)))?;
+    let at_from = |e: crate::diag::Error| {
+        e.context(&format!("continuation at {} = {}", opts.param, opts.from))
+    };
+    let sys0 = sys.with_param(index, opts.from).map_err(at_from)?;
     // The model's trim follows the parameter (unless it is the parameter continued).
     let trim: Vec<(usize, usize)> = match &sys.trim {
         Some(t) if t.off.is_none() && !t.params.contains(&index) => t
@@ -316,13 +380,33 @@ pub fn continue_equilibria(sys: &System, opts: &ContinuationOptions) -> Result<B
     let sys0 = if trim.is_empty() {
         sys0
     } else {
-        super::trim::trim(&sys0)
-            .map_err(|e| e.context(&format!("continuation at {} = {}", opts.param, opts.from)))?
-            .0
+        super::trim::trim(&sys0).map_err(at_from)?.0
     };
     let start = crate::dynamics::assemble_at_rest(&sys0)?;
     let st0 = Statics::new(&sys0, &start.q)?;
-    let eq = st0.nearest(&start)?;
+    // No equilibrium at the start: fail here, before any step, and without the last
+    // Newton iterate's pose (it is not an equilibrium, often not even assembled).
+    let eq = st0.nearest(&start).map_err(|e| match e.failure() {
+        Some(Failure::NoEquilibrium {
+            residual,
+            iterations,
+            ..
+        }) => Failure::NoStartEquilibrium {
+            param: opts.param.clone(),
+            value: opts.from,
+            why: format!("residual {residual:.3e}"),
+            iterations: *iterations,
+        }
+        .into(),
+        Some(Failure::UndefinedEquilibrium { iterations, .. }) => Failure::NoStartEquilibrium {
+            param: opts.param.clone(),
+            value: opts.from,
+            why: "the equations undefined (NaN)".into(),
+            iterations: *iterations,
+        }
+        .into(),
+        _ => at_from(e),
+    })?;
     let n = sys0.n();
     let (lo, hi) = (opts.from.min(opts.to), opts.from.max(opts.to));
     let fam = Family {
@@ -345,132 +429,262 @@ pub fn continue_equilibria(sys: &System, opts: &ContinuationOptions) -> Result<B
     y0.extend(trim.iter().map(|&(_, p)| sys0.param(p)));
     y0.push(opts.from);
     let y0 = DVector::from_vec(y0);
-    let d = y0.len() - 1;
     let (_, j0, det0) = fam.linearize(&y0)?;
     let tau0 = fam.tangent(&j0, None, dir);
-    let mut cur = Pt {
+    let first = Pt {
         y: y0,
         tau: tau0,
         det: det0,
     };
-    let stability = |y: &DVector<f64>| -> Result<bool> {
-        let sys = fam.system(y)?;
-        let st = Statics::with_rows(&sys, fam.rows.clone())?;
-        let nr = n + fam.rows.len();
-        Ok(st.stability(&y.as_slice()[..n], &y.as_slice()[n..nr]).0)
-    };
-    let point = |pt: &Pt| -> Result<BranchPoint> {
-        let nr = n + fam.rows.len();
-        Ok(BranchPoint {
-            value: pt.y[d],
-            q: pt.y.as_slice()[..n].to_vec(),
-            stable: stability(&pt.y)?,
-            solved: pt.y.as_slice()[nr..d].to_vec(),
-        })
-    };
-    let mut branch = Branch {
+    let (primary, located) = fam.follow(first, opts, scale)?;
+    // Branch switching: the branches through every branch point of the primary branch.
+    let mut switched = Vec::new();
+    for (k, bp) in located.iter().enumerate() {
+        for side in [1.0, -1.0] {
+            let Some(first) = fam.leave(bp, side, opts.step, scale)? else {
+                continue;
+            };
+            let (trace, _) = fam.follow(first, opts, scale)?;
+            switched.push(Switched {
+                branch_point: k,
+                points: trace.points,
+                folds: trace.folds,
+                branch_points: trace.branch_points,
+                truncated: trace.truncated,
+            });
+        }
+    }
+    Ok(Branch {
         param: opts.param.clone(),
         coordinates: sys0.coordinates.clone(),
-        points: vec![point(&cur)?],
-        folds: Vec::new(),
-        branch_points: Vec::new(),
-        truncated: false,
+        points: primary.points,
+        folds: primary.folds,
+        branch_points: primary.branch_points,
+        truncated: primary.truncated,
         solved: trim
             .iter()
             .map(|&(_, p)| sys.param_names()[p].clone())
             .collect(),
-    };
-    let mut ds = opts.step;
-    let min_ds = opts.step * 1e-6;
-    let mut steps = 0;
-    loop {
-        if steps >= opts.max_steps {
-            branch.truncated = true;
-            break;
-        }
-        // A step whose prediction would leave the range is shortened to end on the
-        // boundary, and corrected at that parameter value: the branch ends exactly on
-        // `from`/`to` and the model is never evaluated outside the requested range.
-        let tp = cur.tau[d];
-        let bound = if tp > 0.0 { hi } else { lo };
-        let to_bound = if tp == 0.0 {
-            f64::INFINITY
-        } else {
-            (bound - cur.y[d]) / tp
-        };
-        let at_bound = to_bound <= ds;
-        if at_bound && to_bound <= 1e-12 * ds {
-            break; // already on the boundary, heading out
-        }
-        let s = if at_bound { to_bound } else { ds };
-        let corrected = if at_bound {
-            fam.correct_at_parameter(&cur, s, scale)?
-        } else {
-            fam.correct(&cur, s, scale)?
-        };
-        let Some((mut next, iters)) = corrected else {
-            ds = s * 0.5;
-            if ds < min_ds {
-                return Err(Failure::ContinuationStalled {
-                    param: opts.param.clone(),
-                    value: cur.y[d],
-                    step: opts.step,
-                    min_step: min_ds,
-                }
-                .into());
-            }
-            continue;
-        };
-        // Reject a corrector that left the branch: too far from the prediction, or a
-        // tangent turned by more than about 25°; retry with half the step.
-        let w = fam.weights(next.y.len());
-        let dist = fam.difference(&next.y, &cur.y).component_mul(&w).norm();
-        if dist > 1.5 * s.max(1e-3 * ds) || next.tau.component_mul(&w).dot(&cur.tau) < 0.9 {
-            ds = s * 0.5;
-            if ds < min_ds {
-                return Err(Failure::BranchTurns {
-                    param: opts.param.clone(),
-                    value: cur.y[d],
-                }
-                .into());
-            }
-            continue;
-        }
-        steps += 1;
-        // Fold: τ_p changes sign. Branch point: det J_x changes sign, τ_p does not.
-        let fold = cur.tau[d].signum() != next.tau[d].signum();
-        let bp = !fold && cur.det.signum() != next.det.signum();
-        if fold {
-            if let Some(f) = fam.locate(&cur, s, cur.tau[d], next.tau[d], scale, &|p| p.tau[d])? {
-                branch.folds.push(point(&f)?);
-            }
-        } else if bp && let Some(b) = fam.locate(&cur, s, cur.det, next.det, scale, &|p| p.det)? {
-            branch.branch_points.push(point(&b)?);
-        }
-        if at_bound {
-            next.y[d] = bound; // exact already, up to the last Newton update
-            branch.points.push(point(&next)?);
-            break;
-        }
-        let p = next.y[d];
-        if p < lo || p > hi {
-            // The corrector crossed the boundary: the last point exactly on it.
-            let bound = if p > hi { hi } else { lo };
-            let f0 = cur.y[d] - bound;
-            let f1 = p - bound;
-            if let Some(mut e) = fam.locate(&cur, s, f0, f1, scale, &|q| q.y[d] - bound)? {
-                e.y[d] = bound;
-                branch.points.push(point(&e)?);
-            }
-            break;
-        }
-        branch.points.push(point(&next)?);
-        cur = next;
-        if iters <= 3 {
-            ds = (ds * 1.5).min(opts.step);
-        }
+        switched,
+    })
+}
+
+/// The points, folds and branch points of one followed branch.
+struct Trace {
+    points: Vec<BranchPoint>,
+    folds: Vec<BranchPoint>,
+    branch_points: Vec<BranchPoint>,
+    truncated: bool,
+}
+
+impl Family<'_> {
+    /// A branch point as reported: parameter, coordinates, stability, trim's values.
+    fn point(&self, pt: &Pt) -> Result<BranchPoint> {
+        let d = pt.y.len() - 1;
+        let nr = self.n + self.rows.len();
+        let sys = self.system(&pt.y)?;
+        let st = Statics::with_rows(&sys, self.rows.clone())?;
+        let y = pt.y.as_slice();
+        Ok(BranchPoint {
+            value: pt.y[d],
+            q: y[..self.n].to_vec(),
+            stable: st.stability(&y[..self.n], &y[self.n..nr]).0,
+            solved: y[nr..d].to_vec(),
+        })
     }
-    Ok(branch)
+
+    /// Follow the branch from the corrected point `cur` along its tangent until p leaves
+    /// [lo, hi] or `max_steps` points; also returns the branch points located exactly.
+    fn follow(
+        &self,
+        mut cur: Pt,
+        opts: &ContinuationOptions,
+        scale: f64,
+    ) -> Result<(Trace, Vec<Pt>)> {
+        let (lo, hi) = (self.lo, self.hi);
+        let d = cur.y.len() - 1;
+        let mut trace = Trace {
+            points: vec![self.point(&cur)?],
+            folds: Vec::new(),
+            branch_points: Vec::new(),
+            truncated: false,
+        };
+        let mut located = Vec::new();
+        let mut ds = opts.step;
+        let min_ds = opts.step * 1e-6;
+        let mut steps = 0;
+        loop {
+            if steps >= opts.max_steps {
+                trace.truncated = true;
+                break;
+            }
+            // A step whose prediction would leave the range is shortened to end on the
+            // boundary, and corrected at that parameter value: the branch ends exactly on
+            // `from`/`to` and the model is never evaluated outside the requested range.
+            let tp = cur.tau[d];
+            let bound = if tp > 0.0 { hi } else { lo };
+            let to_bound = if tp == 0.0 {
+                f64::INFINITY
+            } else {
+                (bound - cur.y[d]) / tp
+            };
+            let at_bound = to_bound <= ds;
+            if at_bound && to_bound <= 1e-12 * ds {
+                // On the boundary up to rounding (steps that add up to it, 3.1999999999999975
+                // for 3.2): the last point is corrected exactly onto it, then the end.
+                if cur.y[d] != bound
+                    && let Some((mut e, _)) =
+                        self.correct_at_parameter(&cur, to_bound.max(0.0), scale)?
+                {
+                    e.y[d] = bound;
+                    if let Some(last) = trace.points.last_mut() {
+                        *last = self.point(&e)?;
+                    }
+                }
+                break;
+            }
+            let s = if at_bound { to_bound } else { ds };
+            let corrected = if at_bound {
+                self.correct_at_parameter(&cur, s, scale)?
+            } else {
+                self.correct(&cur, s, scale)?
+            };
+            let Some((mut next, iters)) = corrected else {
+                ds = s * 0.5;
+                if ds < min_ds {
+                    return Err(Failure::ContinuationStalled {
+                        param: opts.param.clone(),
+                        value: cur.y[d],
+                        step: opts.step,
+                        min_step: min_ds,
+                    }
+                    .into());
+                }
+                continue;
+            };
+            // Reject a corrector that left the branch: too far from the prediction, or a
+            // tangent turned by more than about 25°; retry with half the step.
+            let w = self.weights(next.y.len());
+            let dist = self.difference(&next.y, &cur.y).component_mul(&w).norm();
+            if dist > 1.5 * s.max(1e-3 * ds) || next.tau.component_mul(&w).dot(&cur.tau) < 0.9 {
+                ds = s * 0.5;
+                if ds < min_ds {
+                    return Err(Failure::BranchTurns {
+                        param: opts.param.clone(),
+                        value: cur.y[d],
+                    }
+                    .into());
+                }
+                continue;
+            }
+            steps += 1;
+            // A fold turns the parameter (τ_p changes sign) and the stability (det J_x
+            // changes sign); a branch point changes one of them only (the sign of the
+            // augmented determinant det [J; τᵀ] changes): det J_x on the branch that keeps
+            // its direction in p, τ_p on a pitchfork's side branch, which turns there.
+            let tp_flip = cur.tau[d].signum() != next.tau[d].signum();
+            let det_flip = cur.det.signum() != next.det.signum();
+            let (f0, f1, by_det) = if tp_flip {
+                (cur.tau[d], next.tau[d], false)
+            } else {
+                (cur.det, next.det, true)
+            };
+            if tp_flip || det_flip {
+                let at = |p: &Pt| if by_det { p.det } else { p.tau[d] };
+                if let Some(f) = self.locate(&cur, s, f0, f1, scale, &at)? {
+                    if tp_flip && det_flip {
+                        trace.folds.push(self.point(&f)?);
+                    } else {
+                        trace.branch_points.push(self.point(&f)?);
+                        located.push(f);
+                    }
+                }
+            }
+            if at_bound {
+                next.y[d] = bound; // exact already, up to the last Newton update
+                trace.points.push(self.point(&next)?);
+                break;
+            }
+            let p = next.y[d];
+            if p < lo || p > hi {
+                // The corrector crossed the boundary: the last point exactly on it.
+                let bound = if p > hi { hi } else { lo };
+                let f0 = cur.y[d] - bound;
+                let f1 = p - bound;
+                if let Some(mut e) = self.locate(&cur, s, f0, f1, scale, &|q| q.y[d] - bound)? {
+                    e.y[d] = bound;
+                    trace.points.push(self.point(&e)?);
+                }
+                break;
+            }
+            trace.points.push(self.point(&next)?);
+            cur = next;
+            if iters <= 3 {
+                ds = (ds * 1.5).min(opts.step);
+            }
+        }
+        Ok((trace, located))
+    }
+
+    /// The first point of the branch that crosses the branch point `bp` on the side
+    /// `side` (±1) of its second tangent τ₂: the vector of the 2-dimensional null space
+    /// of [J_x H_p] orthogonal to the followed tangent τ₁ (weighted inner product), of
+    /// unit weighted norm; the corrector from bp + s·side·τ₂ on the hyperplane normal to
+    /// τ₂ (which the followed branch does not cross near bp), with s halved until it
+    /// converges. `None` when no second branch leaves there (φ has no coordinate or
+    /// parameter part, or the corrector never lands inside the range).
+    fn leave(&self, bp: &Pt, side: f64, step: f64, scale: f64) -> Result<Option<Pt>> {
+        let d = bp.y.len() - 1;
+        let (_, j, _) = self.linearize(&bp.y)?;
+        // null space of [J_x H_p] (d × (d+1)), 2-dimensional at a simple branch point:
+        // the right singular vectors of its two smallest singular values (a zero row
+        // appended makes it square, so that the SVD gives all d + 1)
+        let mut sq = DMatrix::zeros(d + 1, d + 1);
+        sq.view_mut((0, 0), (d, d + 1)).copy_from(&j);
+        let svd = sq.svd(false, true);
+        let Some(v_t) = svd.v_t else {
+            return Ok(None);
+        };
+        let mut order: Vec<usize> = (0..=d).collect();
+        order.sort_by(|&a, &b| svd.singular_values[a].total_cmp(&svd.singular_values[b]));
+        let (v1, v2) = (v_t.row(order[0]).transpose(), v_t.row(order[1]).transpose());
+        // the combination of v1, v2 orthogonal to the followed tangent τ₁ (weighted)
+        let w = self.weights(d + 1);
+        let t1w = bp.tau.component_mul(&w);
+        let (a, b) = (v2.dot(&t1w), -v1.dot(&t1w));
+        let mut tau2 = if a.hypot(b) > 1e-12 {
+            v1 * a + v2 * b
+        } else {
+            v1
+        };
+        let norm = tau2.component_mul(&w).norm();
+        if norm.is_nan() || norm <= 1e-6 {
+            return Ok(None);
+        }
+        // A sign independent of the SVD's: the largest coordinate entry positive.
+        let big = (0..self.n).max_by(|&a, &b| tau2[a].abs().total_cmp(&tau2[b].abs()));
+        let sign = big.map_or(1.0, |i| tau2[i].signum());
+        tau2 *= side * sign / norm;
+        let base = Pt {
+            y: bp.y.clone(),
+            tau: tau2,
+            det: bp.det,
+        };
+        let mut s = step;
+        while s >= step * 1e-4 {
+            if let Some((pt, _)) = self.correct(&base, s, scale)? {
+                let p = pt.y[d];
+                let w = self.weights(d + 1);
+                let dist = self.difference(&pt.y, &bp.y).component_mul(&w).norm();
+                // landed on the crossing branch: at about s from bp, inside the range
+                if p >= self.lo && p <= self.hi && dist > 0.5 * s && dist < 1.5 * s {
+                    return Ok(Some(pt));
+                }
+            }
+            s *= 0.5;
+        }
+        Ok(None)
+    }
 }
 
 fn check(sys: &System, opts: &ContinuationOptions) -> Result<usize> {
