@@ -6,8 +6,9 @@
 //!
 //! With several degrees of freedom the search is not a sweep of one angle: a double
 //! pendulum (tests/data/double_pendulum.toml) has its four poses θ1, θ2 = ±π/2, both bars
-//! inverted included, each once. A four-bar (tests/data/four_bar.toml) is checked against
-//! its potential along the crank angle, computed here from the closed-form loop closure.
+//! inverted included, each once, and a triple pendulum its eight. A four-bar
+//! (tests/data/four_bar.toml) is checked against its potential along the crank angle,
+//! computed here from the closed-form loop closure.
 
 use std::f64::consts::{FRAC_PI_2, PI, TAU};
 use std::process::Command;
@@ -65,6 +66,33 @@ fn a_double_pendulum_has_its_four_poses_once() {
         // the pose itself: bar 2's centre at L1 sin θ1 + (L2/2) sin θ2
         let y2 = l1 * t1.sin() + l2 / 2.0 * t2.sin();
         assert!((coord(e, "bar2.y") - y2).abs() < 1e-10, "{e:#}");
+    }
+}
+
+/// Three degrees of freedom: a triple pendulum's eight poses θ1, θ2, θ3 = ±π/2, each
+/// once, sorted by θ1, then θ2, then θ3; only all hanging is stable.
+#[test]
+fn a_triple_pendulum_has_its_eight_poses_once() {
+    let list = all_equilibria("tests/data/triple_pendulum.toml");
+    assert_eq!(list.len(), 8, "{list:#?}");
+    let (l1, l2, l3) = (1.0, 0.7, 0.5);
+    for (i, e) in list.iter().enumerate() {
+        // pose i: bit 2 the sign of θ1, bit 1 of θ2, bit 0 of θ3 (set = +π/2)
+        let t: Vec<f64> = [4, 2, 1]
+            .iter()
+            .map(|b| if i & b != 0 { FRAC_PI_2 } else { -FRAC_PI_2 })
+            .collect();
+        for (k, want) in t.iter().enumerate() {
+            let th = coord(e, &format!("bar{}.theta", k + 1));
+            assert!(
+                angle_diff(th, *want).abs() < 1e-10,
+                "pose {i}: bar{}.theta = {th}, want {want}",
+                k + 1
+            );
+        }
+        assert_eq!(e["stable"].as_bool(), Some(i == 0), "{e:#}");
+        let y3 = l1 * t[0].sin() + l2 * t[1].sin() + l3 / 2.0 * t[2].sin();
+        assert!((coord(e, "bar3.y") - y3).abs() < 1e-10, "{e:#}");
     }
 }
 

@@ -550,7 +550,8 @@ impl<'a> Statics<'a> {
     /// the model fixes for assembly) are swept in 2° (or 2 %) steps in both directions,
     /// re-assembling from the previous pose, until the constraints lose rank or stop
     /// closing; Newton runs from every seed; solutions inside the swept range are kept,
-    /// duplicates removed, sorted by the first driving coordinate.
+    /// duplicates removed, sorted by the first driving coordinate. With several driving
+    /// coordinates the box they span is searched instead (see `all_multi`).
     pub fn all(&self, start: &State) -> Result<Vec<Equilibrium>> {
         let sys: &System = &self.sys;
         let drivers: Vec<usize> = (0..sys.n()).filter(|&i| sys.initial.fixed[i]).collect();
