@@ -69,6 +69,39 @@ fn a_double_pendulum_has_its_four_poses_once() {
     }
 }
 
+/// A double pendulum that fixes nothing for assembly: `Statics::all` picks the two angles
+/// itself (the free positions still close the joints) and finds the same four poses; it
+/// used to return only the equilibrium nearest the initial pose.
+#[test]
+fn a_double_pendulum_without_fixed_coordinates_is_searched_by_its_angles() {
+    let text = std::fs::read_to_string("tests/data/double_pendulum.toml")
+        .unwrap()
+        .replace("fix = [\"theta\"]\n", "");
+    assert!(!text.contains("fix"));
+    let model = detune::Model::from_str("double_pendulum (no fix)", &text).unwrap();
+    let sys = detune::System::new(&model).unwrap();
+    let start = detune::assemble(&sys).unwrap();
+    let all = detune::statics::Statics::new(&sys, &start.q)
+        .unwrap()
+        .all(&start)
+        .unwrap();
+    let (th1, th2) = (2, 5);
+    let got: Vec<(f64, f64, bool)> = all.iter().map(|e| (e.q[th1], e.q[th2], e.stable)).collect();
+    let want = [
+        (-FRAC_PI_2, -FRAC_PI_2, true),
+        (-FRAC_PI_2, FRAC_PI_2, false),
+        (FRAC_PI_2, -FRAC_PI_2, false),
+        (FRAC_PI_2, FRAC_PI_2, false),
+    ];
+    assert_eq!(got.len(), want.len(), "{got:?}");
+    for (g, w) in got.iter().zip(want) {
+        assert!(
+            angle_diff(g.0, w.0).abs() < 1e-10 && angle_diff(g.1, w.1).abs() < 1e-10 && g.2 == w.2,
+            "{g:?}, want {w:?}"
+        );
+    }
+}
+
 /// Three degrees of freedom: a triple pendulum's eight poses θ1, θ2, θ3 = ±π/2, each
 /// once, sorted by θ1, then θ2, then θ3; only all hanging is stable.
 #[test]

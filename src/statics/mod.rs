@@ -19,6 +19,12 @@
 //!
 //! The damped Newton method here is hand-written (about 40 lines): the Levenberg–Marquardt
 //! crates do not support nalgebra 0.35 (see docs/performance.md and CRATES notes).
+//!
+//! Every equilibrium ([`Statics::all`]): with one fixed (driving) coordinate, Newton from
+//! the poses of a sweep of it along the assembly branch; with several, Newton from the
+//! start and from 256 Halton points over the box of the fixed coordinates (at most 257
+//! Newton solves whatever their number). The Halton radical inverse is written here (ten
+//! lines; the `halton` crate would add a dependency for them).
 
 pub mod continuation;
 pub mod trim;
@@ -551,10 +557,18 @@ impl<'a> Statics<'a> {
     /// re-assembling from the previous pose, until the constraints lose rank or stop
     /// closing; Newton runs from every seed; solutions inside the swept range are kept,
     /// duplicates removed, sorted by the first driving coordinate. With several driving
-    /// coordinates the box they span is searched instead (see `all_multi`).
+    /// coordinates the box they span is searched instead (see `all_multi`); with k ≥ 2
+    /// degrees of freedom and fewer fixed coordinates, angles complete them first.
     pub fn all(&self, start: &State) -> Result<Vec<Equilibrium>> {
         let sys: &System = &self.sys;
-        let drivers: Vec<usize> = (0..sys.n()).filter(|&i| sys.initial.fixed[i]).collect();
+        let mut drivers: Vec<usize> = (0..sys.n()).filter(|&i| sys.initial.fixed[i]).collect();
+        // several degrees of freedom, fewer fixed coordinates: angles complete them
+        let dof = self.null_space(&start.q).ncols();
+        if dof >= 2 && drivers.len() < dof {
+            if let Some(more) = self.independent_angles(&start.q, &drivers, dof) {
+                drivers = more;
+            }
+        }
         if drivers.is_empty() {
             return Ok(vec![self.solve(&start.q)?]);
         }
@@ -613,6 +627,36 @@ impl<'a> Statics<'a> {
             .fold(0.0, f64::max)
     }
 
+    /// `drivers` completed to `dof` independent coordinates by angles not yet in it (in
+    /// model order): an angle joins when the constraint Jacobian of the coordinates left
+    /// free keeps the rank of A_r, so that those can still be assembled. None when the
+    /// angles do not suffice.
+    fn independent_angles(&self, q: &[f64], drivers: &[usize], dof: usize) -> Option<Vec<usize>> {
+        let sys: &System = &self.sys;
+        let ar = self.jacobian_rows(q);
+        let rank = |a: DMatrix<f64>| {
+            if a.nrows() == 0 || a.ncols() == 0 {
+                return 0;
+            }
+            let sv = a.svd(false, false).singular_values;
+            sv.iter().filter(|&&s| s > RANK_TOL * sv.max()).count()
+        };
+        let full = rank(ar.clone());
+        let mut chosen = drivers.to_vec();
+        for i in (0..sys.n()).filter(|&i| sys.is_angle(i) && !drivers.contains(&i)) {
+            if chosen.len() == dof {
+                break;
+            }
+            let free: Vec<usize> = (0..sys.n())
+                .filter(|&j| j != i && !chosen.contains(&j))
+                .collect();
+            if rank(ar.select_columns(free.iter())) == full {
+                chosen.push(i);
+            }
+        }
+        (chosen.len() == dof).then_some(chosen)
+    }
+
     /// [`Statics::all`] with k ≥ 2 fixed (driving) coordinates: Newton from the start pose
     /// and from [`MULTI_SEEDS`] seeds spread over the drivers' box — the first points
     /// (from index 1) of the Halton sequence in bases 2, 3, 5, …, an angle driver over
@@ -636,6 +680,7 @@ impl<'a> Statics<'a> {
                 )
             });
         }
+        let free: Vec<usize> = (0..sys.n()).filter(|i| !drivers.contains(i)).collect();
         let mut ws = DynWorkspace::new(sys);
         let mut seeds = vec![start.q.clone()];
         for i in 1..=MULTI_SEEDS {
@@ -644,7 +689,7 @@ impl<'a> Statics<'a> {
             for (&d, &t) in drivers.iter().zip(&target) {
                 trial[d] = t;
             }
-            if assemble_at(sys, &mut ws, &mut trial) {
+            if assemble_free(sys, &mut ws, &mut trial, &free) {
                 seeds.push(trial);
             }
         }
@@ -843,6 +888,11 @@ fn free_jacobian_conditioning(sys: &System, q: &[f64], rows: &[usize]) -> f64 {
 /// Gauss–Newton assembly of the non-fixed coordinates at fixed drivers.
 fn assemble_at(sys: &System, ws: &mut DynWorkspace, q: &mut [f64]) -> bool {
     let free: Vec<usize> = (0..sys.n()).filter(|&i| !sys.initial.fixed[i]).collect();
+    assemble_free(sys, ws, q, &free)
+}
+
+/// Gauss–Newton assembly of the coordinates `free`, the others held.
+fn assemble_free(sys: &System, ws: &mut DynWorkspace, q: &mut [f64], free: &[usize]) -> bool {
     for _ in 0..30 {
         let phi = sys.residual(q, 0.0);
         if phi.amax() < 1e-13 {
