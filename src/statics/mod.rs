@@ -564,10 +564,11 @@ impl<'a> Statics<'a> {
         let mut drivers: Vec<usize> = (0..sys.n()).filter(|&i| sys.initial.fixed[i]).collect();
         // several degrees of freedom, fewer fixed coordinates: angles complete them
         let dof = self.null_space(&start.q).ncols();
-        if dof >= 2 && drivers.len() < dof {
-            if let Some(more) = self.independent_angles(&start.q, &drivers, dof) {
-                drivers = more;
-            }
+        if dof >= 2
+            && drivers.len() < dof
+            && let Some(more) = self.independent_angles(&start.q, &drivers, dof)
+        {
+            drivers = more;
         }
         if drivers.is_empty() {
             return Ok(vec![self.solve(&start.q)?]);
