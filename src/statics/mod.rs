@@ -19,6 +19,12 @@
 //!
 //! The damped Newton method here is hand-written (about 40 lines): the Levenberg–Marquardt
 //! crates do not support nalgebra 0.35 (see docs/performance.md and CRATES notes).
+//!
+//! Every equilibrium ([`Statics::all`]): with one fixed (driving) coordinate, Newton from
+//! the poses of a sweep of it along the assembly branch; with several, Newton from the
+//! start and from 256 Halton points over the box of the fixed coordinates (at most 257
+//! Newton solves whatever their number). The Halton radical inverse is written here (ten
+//! lines; the `halton` crate would add a dependency for them).
 
 pub mod continuation;
 pub mod trim;
@@ -550,12 +556,25 @@ impl<'a> Statics<'a> {
     /// the model fixes for assembly) are swept in 2° (or 2 %) steps in both directions,
     /// re-assembling from the previous pose, until the constraints lose rank or stop
     /// closing; Newton runs from every seed; solutions inside the swept range are kept,
-    /// duplicates removed, sorted by the first driving coordinate.
+    /// duplicates removed, sorted by the first driving coordinate. With several driving
+    /// coordinates the box they span is searched instead (see `all_multi`); with k ≥ 2
+    /// degrees of freedom and fewer fixed coordinates, angles complete them first.
     pub fn all(&self, start: &State) -> Result<Vec<Equilibrium>> {
         let sys: &System = &self.sys;
-        let drivers: Vec<usize> = (0..sys.n()).filter(|&i| sys.initial.fixed[i]).collect();
+        let mut drivers: Vec<usize> = (0..sys.n()).filter(|&i| sys.initial.fixed[i]).collect();
+        // several degrees of freedom, fewer fixed coordinates: angles complete them
+        let dof = self.null_space(&start.q).ncols();
+        if dof >= 2
+            && drivers.len() < dof
+            && let Some(more) = self.independent_angles(&start.q, &drivers, dof)
+        {
+            drivers = more;
+        }
         if drivers.is_empty() {
             return Ok(vec![self.solve(&start.q)?]);
+        }
+        if drivers.len() >= 2 {
+            return self.all_multi(start, &drivers);
         }
         let mut seeds = vec![start.q.clone()];
         let mut ranges = Vec::new();
@@ -569,22 +588,7 @@ impl<'a> Statics<'a> {
         // Poses equal modulo 2π in their angles are one equilibrium (a crank that revolves
         // reaches each twice): the first found is kept (the seeds start at the initial
         // pose and move away from it).
-        let angles = sys.angles();
-        let apart = |a: &[f64], b: &[f64]| {
-            a.iter()
-                .zip(b)
-                .zip(&angles)
-                .map(|((x, y), &angle)| {
-                    let d = (x - y).abs();
-                    if angle {
-                        let r = d.rem_euclid(std::f64::consts::TAU);
-                        r.min(std::f64::consts::TAU - r)
-                    } else {
-                        d
-                    }
-                })
-                .fold(0.0, f64::max)
-        };
+        let apart = |a: &[f64], b: &[f64]| self.apart(a, b);
         let mut found: Vec<Equilibrium> = Vec::new();
         for seed in &seeds {
             let Ok(e) = self.solve(seed) else { continue };
@@ -603,6 +607,128 @@ impl<'a> Statics<'a> {
         }
         let d0 = drivers[0];
         found.sort_by(|a, b| a.q[d0].total_cmp(&b.q[d0]));
+        Ok(found)
+    }
+
+    /// The largest difference between two poses, angles compared modulo 2π.
+    fn apart(&self, a: &[f64], b: &[f64]) -> f64 {
+        let angles = self.sys.angles();
+        a.iter()
+            .zip(b)
+            .zip(&angles)
+            .map(|((x, y), &angle)| {
+                let d = (x - y).abs();
+                if angle {
+                    let r = d.rem_euclid(std::f64::consts::TAU);
+                    r.min(std::f64::consts::TAU - r)
+                } else {
+                    d
+                }
+            })
+            .fold(0.0, f64::max)
+    }
+
+    /// `drivers` completed to `dof` independent coordinates by angles not yet in it (in
+    /// model order): an angle joins when the constraint Jacobian of the coordinates left
+    /// free keeps the rank of A_r, so that those can still be assembled. None when the
+    /// angles do not suffice.
+    fn independent_angles(&self, q: &[f64], drivers: &[usize], dof: usize) -> Option<Vec<usize>> {
+        let sys: &System = &self.sys;
+        let ar = self.jacobian_rows(q);
+        let rank = |a: DMatrix<f64>| {
+            if a.nrows() == 0 || a.ncols() == 0 {
+                return 0;
+            }
+            let sv = a.svd(false, false).singular_values;
+            sv.iter().filter(|&&s| s > RANK_TOL * sv.max()).count()
+        };
+        let full = rank(ar.clone());
+        let mut chosen = drivers.to_vec();
+        for i in (0..sys.n()).filter(|&i| sys.is_angle(i) && !drivers.contains(&i)) {
+            if chosen.len() == dof {
+                break;
+            }
+            let free: Vec<usize> = (0..sys.n())
+                .filter(|&j| j != i && !chosen.contains(&j))
+                .collect();
+            if rank(ar.select_columns(free.iter())) == full {
+                chosen.push(i);
+            }
+        }
+        (chosen.len() == dof).then_some(chosen)
+    }
+
+    /// [`Statics::all`] with k ≥ 2 fixed (driving) coordinates: Newton from the start pose
+    /// and from [`MULTI_SEEDS`] seeds spread over the drivers' box — the first points
+    /// (from index 1) of the Halton sequence in bases 2, 3, 5, …, an angle driver over
+    /// [−π, π), a length driver over the range its one-dimensional sweep reaches — each
+    /// assembled (the free coordinates) from the nearest seed already assembled. At most
+    /// `MULTI_SEEDS + 1` Newton solves of at most 60 iterations whatever k. Solutions are
+    /// kept once (modulo 2π in angles; of two copies, the one whose driving angles lie
+    /// nearest zero), sorted by the driving coordinates in turn, angles taken in (−π, π].
+    fn all_multi(&self, start: &State, drivers: &[usize]) -> Result<Vec<Equilibrium>> {
+        let sys: &System = &self.sys;
+        let pi = std::f64::consts::PI;
+        let mut boxes = Vec::new();
+        for &d in drivers {
+            boxes.push(if sys.is_angle(d) {
+                (-pi, pi)
+            } else {
+                let mut discard = Vec::new();
+                (
+                    self.sweep(start, d, -1.0, &mut discard),
+                    self.sweep(start, d, 1.0, &mut discard),
+                )
+            });
+        }
+        let free: Vec<usize> = (0..sys.n()).filter(|i| !drivers.contains(i)).collect();
+        let mut ws = DynWorkspace::new(sys);
+        let mut seeds = vec![start.q.clone()];
+        for i in 1..=MULTI_SEEDS {
+            let target = halton_point(i, &boxes);
+            let mut trial = nearest_seed(sys, &seeds, drivers, &target).clone();
+            for (&d, &t) in drivers.iter().zip(&target) {
+                trial[d] = t;
+            }
+            if assemble_free(sys, &mut ws, &mut trial, &free) {
+                seeds.push(trial);
+            }
+        }
+        let wrapped = |e: &Equilibrium, k: usize| {
+            let (d, v) = (drivers[k], e.q[drivers[k]]);
+            if sys.is_angle(d) { wrap_angle(v) } else { v }
+        };
+        let offset = |e: &Equilibrium| {
+            drivers
+                .iter()
+                .filter(|&&d| sys.is_angle(d))
+                .map(|&d| e.q[d].abs())
+                .fold(0.0, f64::max)
+        };
+        let mut found: Vec<Equilibrium> = Vec::new();
+        for seed in &seeds {
+            let Ok(e) = self.solve(seed) else { continue };
+            let inside = drivers.iter().zip(&boxes).all(|(&d, &(lo, hi))| {
+                sys.is_angle(d) || (e.q[d] >= lo - 1e-9 && e.q[d] <= hi + 1e-9)
+            });
+            if !inside {
+                continue;
+            }
+            match found.iter_mut().find(|f| self.apart(&f.q, &e.q) < 1e-7) {
+                Some(f) if offset(&e) < offset(f) - 1e-9 => *f = e,
+                Some(_) => {}
+                None => found.push(e),
+            }
+        }
+        if found.is_empty() {
+            return Err(Failure::NoEquilibriumOnBranch.into());
+        }
+        found.sort_by(|a, b| {
+            (0..drivers.len())
+                .map(|k| wrapped(a, k).total_cmp(&wrapped(b, k)))
+                .find(|o| o.is_ne())
+                .unwrap_or(std::cmp::Ordering::Equal)
+        });
         Ok(found)
     }
 
@@ -669,6 +795,61 @@ impl<'a> Statics<'a> {
     }
 }
 
+/// Seeds of [`Statics::all`] with several driving coordinates (see `all_multi`).
+const MULTI_SEEDS: usize = 256;
+
+/// Point `i` of the Halton sequence (bases 2, 3, 5, …, one per dimension) mapped into the
+/// box `[lo_k, hi_k)`: low-discrepancy, so any number of points covers the box evenly,
+/// in any dimension (a grid of a fixed count does not exist above 8 dimensions).
+fn halton_point(i: usize, boxes: &[(f64, f64)]) -> Vec<f64> {
+    const PRIMES: [usize; 16] = [2, 3, 5, 7, 11, 13, 17, 19, 23, 29, 31, 37, 41, 43, 47, 53];
+    boxes
+        .iter()
+        .enumerate()
+        .map(|(k, &(lo, hi))| {
+            let base = PRIMES[k % PRIMES.len()];
+            // radical inverse of i in `base`
+            let (mut n, mut f, mut r) = (i, 1.0, 0.0);
+            while n > 0 {
+                f /= base as f64;
+                r += f * (n % base) as f64;
+                n /= base;
+            }
+            lo + r * (hi - lo)
+        })
+        .collect()
+}
+
+/// The seed whose driving coordinates lie nearest `target` (angles modulo 2π).
+fn nearest_seed<'s>(
+    sys: &System,
+    seeds: &'s [Vec<f64>],
+    drivers: &[usize],
+    target: &[f64],
+) -> &'s Vec<f64> {
+    let dist = |s: &Vec<f64>| {
+        drivers
+            .iter()
+            .zip(target)
+            .map(|(&d, t)| {
+                let e = s[d] - t;
+                if sys.is_angle(d) { wrap_angle(e) } else { e }.powi(2)
+            })
+            .sum::<f64>()
+    };
+    seeds
+        .iter()
+        .min_by(|a, b| dist(a).total_cmp(&dist(b)))
+        .expect("the start pose is a seed")
+}
+
+/// An angle in (−π, π].
+fn wrap_angle(a: f64) -> f64 {
+    let tau = std::f64::consts::TAU;
+    let r = a.rem_euclid(tau);
+    if r > std::f64::consts::PI { r - tau } else { r }
+}
+
 /// x ⊕ s·dx for x = (q, λ, …): the coordinates through the system's retraction, the
 /// rest (multipliers, a continuation parameter) added.
 pub fn advance(sys: &System, x: &[f64], dx: &[f64], s: f64) -> Vec<f64> {
@@ -708,6 +889,11 @@ fn free_jacobian_conditioning(sys: &System, q: &[f64], rows: &[usize]) -> f64 {
 /// Gauss–Newton assembly of the non-fixed coordinates at fixed drivers.
 fn assemble_at(sys: &System, ws: &mut DynWorkspace, q: &mut [f64]) -> bool {
     let free: Vec<usize> = (0..sys.n()).filter(|&i| !sys.initial.fixed[i]).collect();
+    assemble_free(sys, ws, q, &free)
+}
+
+/// Gauss–Newton assembly of the coordinates `free`, the others held.
+fn assemble_free(sys: &System, ws: &mut DynWorkspace, q: &mut [f64], free: &[usize]) -> bool {
     for _ in 0..30 {
         let phi = sys.residual(q, 0.0);
         if phi.amax() < 1e-13 {
