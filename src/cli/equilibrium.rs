@@ -13,7 +13,9 @@ use detune::statics::Statics;
 pub struct EquilibriumArgs {
     #[command(flatten)]
     pub model: ModelArgs,
-    /// Every equilibrium on the assembly branch of the initial pose, with stability.
+    /// Every equilibrium, once (poses 2π apart in an angle are one), sorted, with stability:
+    /// along the assembly branch for one degree of freedom, from seeds over the angles for
+    /// several (docs/statics-and-modes.md says what is guaranteed).
     #[arg(long)]
     pub all: bool,
     /// Print JSON instead of a table.
