@@ -661,17 +661,9 @@ pub fn verify_sweep(
     }
     let (s, _) = crate::statics::trim::trim(&s)?;
     let ws: Vec<f64> = design.modes.values().filter_map(|w| w.as_f64()).collect();
-    let lo = 0.7 * ws.iter().copied().fold(f64::INFINITY, f64::min);
-    let hi = 1.3 * ws.iter().copied().fold(0.0, f64::max);
-    let step = (hi - lo) / 60.0;
-    let opts = crate::frequency::SweepOptions {
-        param: s.param_names()[f].clone(),
-        values: (0..=60).map(|k| lo + step * k as f64).collect(),
-        mode: crate::frequency::SweepMode::Independent,
-        responses: vec![response.to_string()],
-        refine: Some(step / 20.0),
-        steady: crate::frequency::SteadyOptions::default(),
-    };
+    let lo = ws.iter().copied().fold(f64::INFINITY, f64::min);
+    let hi = ws.iter().copied().fold(0.0, f64::max);
+    let opts = crate::linear::sensitivity::peak_sweep(&s, f, lo, hi, response);
     let sw = crate::frequency::sweep(&s, &opts, &|_| {}, cancel)?;
     let peaks: Vec<f64> = sw.peaks.iter().map(|p| p.omega).collect();
     let clear = peaks.iter().all(|&w| {

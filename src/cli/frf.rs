@@ -47,12 +47,7 @@ pub fn run(a: FrfArgs) -> Result<()> {
             ));
         };
         let name = &sys.param_names()[i];
-        let unit = model
-            .parameters
-            .index(name)
-            .and_then(|k| model.parameters.dims[k])
-            .map(|d| d.to_string())
-            .unwrap_or_default();
+        let unit = model.param_unit(name);
         eprintln!("note: per unit of the forcing amplitude {name} (1 {unit}): amplitudes are per {unit}");
         sys.with_param(i, 1.0)?
     } else {

@@ -109,15 +109,7 @@ pub fn run(a: ReportArgs) -> Result<()> {
         mode_extras: extras.as_ref(),
         generated_utc: utc_now(),
     })?;
-    let unit = |name: &str| -> String {
-        model
-            .parameters
-            .index(name)
-            .and_then(|i| model.parameters.dims[i])
-            .map(|d| format!("{d}"))
-            .filter(|d| d != "1")
-            .unwrap_or_default()
-    };
+    let unit = |name: &str| -> String { model.param_unit(name) };
     detune::report::studies::add_studies(
         &mut report,
         &detune::report::studies::Studies {

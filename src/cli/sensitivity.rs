@@ -96,17 +96,7 @@ pub fn run(a: SensitivityArgs) -> Result<()> {
         })?;
         bar.finish_and_clear();
     }
-    let unit = |name: &str| -> String {
-        model
-            .parameters
-            .index(name)
-            .and_then(|i| model.parameters.dims[i])
-            .map(|d| {
-                let s = format!("{d}");
-                if s == "1" { String::new() } else { s }
-            })
-            .unwrap_or_default()
-    };
+    let unit = |name: &str| -> String { model.param_unit(name) };
     if let Some(o) = &a.output {
         write_sensitivity_csv(o, &study)?;
         eprintln!("wrote {o}");

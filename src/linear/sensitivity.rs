@@ -965,16 +965,7 @@ pub fn add_sweep_peaks(
     if !(lo.is_finite() && hi > 0.0) {
         return Ok(());
     }
-    let (lo, hi) = (0.7 * lo, 1.3 * hi);
-    let step = (hi - lo) / 60.0;
-    let opts = crate::frequency::SweepOptions {
-        param: sys.param_names()[f].clone(),
-        values: (0..=60).map(|k| lo + step * k as f64).collect(),
-        mode: crate::frequency::SweepMode::Independent,
-        responses: vec![response.to_string()],
-        refine: Some(step / 20.0),
-        steady: crate::frequency::SteadyOptions::default(),
-    };
+    let opts = peak_sweep(sys, f, lo, hi, response);
     let jobs: Vec<Option<(usize, usize)>> = std::iter::once(None)
         .chain(
             varies
@@ -1064,5 +1055,27 @@ impl super::tracking::Predictor for Analytic {
                 Some(Complex::new(e.re, e.im) + d.get(k)?.dlambda * dp)
             })
             .collect()
+    }
+}
+
+/// The sweep that locates the resonances between ω_n = `lo` and `hi` (rad/s): `response`
+/// over 0.7·lo to 1.3·hi in 60 steps of the forcing frequency (parameter `f`), peaks
+/// refined to 1/20 of a step (`--method sweep`, `tune --verify sweep`).
+pub fn peak_sweep(
+    sys: &System,
+    f: usize,
+    lo: f64,
+    hi: f64,
+    response: &str,
+) -> crate::frequency::SweepOptions {
+    let (lo, hi) = (0.7 * lo, 1.3 * hi);
+    let step = (hi - lo) / 60.0;
+    crate::frequency::SweepOptions {
+        param: sys.param_names()[f].clone(),
+        values: (0..=60).map(|k| lo + step * k as f64).collect(),
+        mode: crate::frequency::SweepMode::Independent,
+        responses: vec![response.to_string()],
+        refine: Some(step / 20.0),
+        steady: crate::frequency::SteadyOptions::default(),
     }
 }

@@ -388,6 +388,17 @@ pub struct Model {
 }
 
 impl Model {
+    /// The SI unit of parameter `name`'s dimension (`N/m`), empty when it has none or is
+    /// not known.
+    pub fn param_unit(&self, name: &str) -> String {
+        self.parameters
+            .index(name)
+            .and_then(|i| self.parameters.dims[i])
+            .map(|d| d.to_string())
+            .filter(|d| d != "1")
+            .unwrap_or_default()
+    }
+
     /// Read and check a model file.
     pub fn load(path: &str) -> Result<Model> {
         let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;

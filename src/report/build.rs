@@ -259,12 +259,7 @@ fn frf_with_forcing(
             continue;
         };
         if let Ok(fr) = crate::linear::frequency_response(&unit_sys, &param, values, responses) {
-            let unit = model
-                .parameters
-                .index(name)
-                .and_then(|k| model.parameters.dims[k])
-                .map(|d| d.to_string())
-                .unwrap_or_default();
+            let unit = model.param_unit(name);
             return Ok((
                 fr,
                 Some(ForcingJson {
