@@ -43,7 +43,10 @@ fn vary(sys: &System, name: &str, lo: f64, hi: f64) -> Vary {
 #[divan::bench(sample_count = 50)]
 fn sensitivity_table(bencher: divan::Bencher) {
     let sys = inceptor();
-    let v = [vary(&sys, "k_fs", 0.9, 1.1), vary(&sys, "gearbox_scale", 0.95, 1.05)];
+    let v = [
+        vary(&sys, "k_fs", 0.9, 1.1),
+        vary(&sys, "gearbox_scale", 0.95, 1.05),
+    ];
     bencher.bench_local(|| sensitivity(&sys, &v, None, None).unwrap().modes.len());
 }
 
@@ -61,13 +64,22 @@ fn modes_one_case(bencher: divan::Bencher) {
     let ma = modal_analysis(&sys, None).unwrap();
     let i = sys.param_index("k_fs").unwrap();
     let v = sys.param(i) * 1.1;
-    bencher.bench_local(|| modes_at(&sys, &[(i, v)], None, Some(&ma)).unwrap().1.modes.len());
+    bencher.bench_local(|| {
+        modes_at(&sys, &[(i, v)], None, Some(&ma))
+            .unwrap()
+            .1
+            .modes
+            .len()
+    });
 }
 
 #[divan::bench(sample_count = 10)]
 fn tune_uh60(bencher: divan::Bencher) {
     let sys = inceptor();
-    let v = [vary(&sys, "k_fs", 0.5, 2.0), vary(&sys, "gearbox_scale", 0.8, 1.2)];
+    let v = [
+        vary(&sys, "k_fs", 0.5, 2.0),
+        vary(&sys, "gearbox_scale", 0.8, 1.2),
+    ];
     let env = detune::environment::resolve("UH-60").unwrap();
     let lines = env.forcing_lines();
     bencher.bench_local(|| {

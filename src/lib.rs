@@ -32,8 +32,8 @@
 pub mod check;
 pub mod diag;
 pub mod draw;
-pub mod environment;
 pub mod dynamics;
+pub mod environment;
 pub mod failure;
 pub mod frequency;
 pub mod kinematics;

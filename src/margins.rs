@@ -106,7 +106,10 @@ pub fn mode_points_named(
             });
         } else {
             modes.push(ModeInterval::point(
-                names.get(k).cloned().unwrap_or_else(|| format!("mode {}", k + 1)),
+                names
+                    .get(k)
+                    .cloned()
+                    .unwrap_or_else(|| format!("mode {}", k + 1)),
                 m.omega_n_rad_s,
                 m.damping_ratio,
             ));

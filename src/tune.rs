@@ -272,7 +272,12 @@ pub fn tune(
     let bounds: Vec<(f64, f64)> = varies
         .iter()
         .enumerate()
-        .map(|(i, v)| ((v.range.0 - p0[i]) / scale[i], (v.range.1 - p0[i]) / scale[i]))
+        .map(|(i, v)| {
+            (
+                (v.range.0 - p0[i]) / scale[i],
+                (v.range.1 - p0[i]) / scale[i],
+            )
+        })
         .collect();
     let weights: Vec<f64> = (0..varies.len())
         .map(|i| opts.weights.get(i).copied().unwrap_or(1.0))
@@ -393,8 +398,8 @@ pub fn tune(
             let p = &problem;
             if gap.lo > 0.0 {
                 let lo = gap.lo;
-                cons.push(Box::new(move |x: &[f64], grad: Option<&mut [f64]>, _: &mut ()| {
-                    match p.eval(x) {
+                cons.push(Box::new(
+                    move |x: &[f64], grad: Option<&mut [f64]>, _: &mut ()| match p.eval(x) {
                         Some(e) => {
                             if let Some(gr) = grad {
                                 for (i, gi) in gr.iter_mut().enumerate() {
@@ -409,13 +414,13 @@ pub fn tune(
                             }
                             1e3
                         }
-                    }
-                }));
+                    },
+                ));
             }
             if gap.hi.is_finite() {
                 let hi = gap.hi;
-                cons.push(Box::new(move |x: &[f64], grad: Option<&mut [f64]>, _: &mut ()| {
-                    match p.eval(x) {
+                cons.push(Box::new(
+                    move |x: &[f64], grad: Option<&mut [f64]>, _: &mut ()| match p.eval(x) {
                         Some(e) => {
                             if let Some(gr) = grad {
                                 for (i, gi) in gr.iter_mut().enumerate() {
@@ -430,8 +435,8 @@ pub fn tune(
                             }
                             1e3
                         }
-                    }
-                }));
+                    },
+                ));
             }
         }
         let w = weights.clone();
@@ -463,7 +468,8 @@ pub fn tune(
             Err((_, x, _)) => x,
         };
         // feasible as solved?
-        let blocking_at = |x: &[f64]| match problem.eval(x) {
+        let blocking_at = |x: &[f64]| {
+            match problem.eval(x) {
             None => Some("the modes could not be computed at the optimizer's last point".to_string()),
             Some(e) => choice.iter().enumerate().find_map(|(m, &g)| {
                 let gap = &gaps[g];
@@ -482,6 +488,7 @@ pub fn tune(
                     None
                 }
             }),
+        }
         };
         let mut x = x;
         let mut blocking = blocking_at(&x);
@@ -494,7 +501,8 @@ pub fn tune(
                 .iter()
                 .map(|c| Box::new(move |x: &[f64], _: &mut ()| -c(x, None, &mut ())) as Cob<'_>)
                 .collect();
-            let cob_ref: Vec<&dyn Fn(&[f64], &mut ()) -> f64> = cob.iter().map(|c| c.as_ref()).collect();
+            let cob_ref: Vec<&dyn Fn(&[f64], &mut ()) -> f64> =
+                cob.iter().map(|c| c.as_ref()).collect();
             let w = weights.clone();
             let cost = move |x: &[f64], _: &mut ()| -> f64 {
                 x.iter().zip(&w).map(|(x, w)| w * x * x).sum()
@@ -534,8 +542,12 @@ pub fn tune(
             }
             let (s, _) = crate::statics::trim::trim(&s)?;
             let ma = modal_analysis(&s, None)?;
-            let (points, _) = mode_points_named(&ma, &crate::linear::sensitivity::mode_names(&s, &ma));
-            Ok((check_margins(&points, lines, opts.margin, Requirement::Fixed)?, ma))
+            let (points, _) =
+                mode_points_named(&ma, &crate::linear::sensitivity::mode_names(&s, &ma));
+            Ok((
+                check_margins(&points, lines, opts.margin, Requirement::Fixed)?,
+                ma,
+            ))
         })();
         let (check, ma) = match verified {
             Ok(v) => v,
@@ -550,7 +562,8 @@ pub fn tune(
         if !check.pass {
             infeasible.push(Infeasible {
                 sides: sides_of(choice),
-                reason: "the design found fails the full margins check (mode tracking lost?)".into(),
+                reason: "the design found fails the full margins check (mode tracking lost?)"
+                    .into(),
             });
             continue;
         }
@@ -568,7 +581,9 @@ pub fn tune(
             let ws: Vec<f64> = ma.modes.iter().map(|m| m.omega_n_rad_s).collect();
             let lo = ws.iter().copied().fold(f64::INFINITY, f64::min) * 0.5;
             let hi = ws.iter().copied().fold(0.0, f64::max) * 1.5;
-            let grid: Vec<f64> = (0..=200).map(|k| lo * (hi / lo).powf(k as f64 / 200.0)).collect();
+            let grid: Vec<f64> = (0..=200)
+                .map(|k| lo * (hi / lo).powf(k as f64 / 200.0))
+                .collect();
             let reference = s.coordinates[crate::linear::default_reference(&s)].clone();
             let fr = crate::linear::frequency_response(
                 &s,
@@ -617,10 +632,13 @@ pub fn tune(
     designs.sort_by(|a, b| a.cost.total_cmp(&b.cost));
     // the same design reached by two choices: keep one
     designs.dedup_by(|a, b| {
-        a.parameters.iter().zip(&b.parameters).all(|((_, x), (_, y))| {
-            let (x, y) = (x.as_f64().unwrap_or(0.0), y.as_f64().unwrap_or(0.0));
-            (x - y).abs() <= 1e-6 * x.abs().max(y.abs()).max(1e-300)
-        })
+        a.parameters
+            .iter()
+            .zip(&b.parameters)
+            .all(|((_, x), (_, y))| {
+                let (x, y) = (x.as_f64().unwrap_or(0.0), y.as_f64().unwrap_or(0.0));
+                (x - y).abs() <= 1e-6 * x.abs().max(y.abs()).max(1e-300)
+            })
     });
     designs.truncate(opts.max_designs);
     let baseline_passes = {
@@ -667,9 +685,9 @@ pub fn verify_sweep(
     let sw = crate::frequency::sweep(&s, &opts, &|_| {}, cancel)?;
     let peaks: Vec<f64> = sw.peaks.iter().map(|p| p.omega).collect();
     let clear = peaks.iter().all(|&w| {
-        lines.iter().all(|l| {
-            w <= l.band_lo_rad_s * (1.0 - margin) || w >= l.band_hi_rad_s * (1.0 + margin)
-        })
+        lines
+            .iter()
+            .all(|l| w <= l.band_lo_rad_s * (1.0 - margin) || w >= l.band_hi_rad_s * (1.0 + margin))
     });
     Ok((peaks, clear))
 }

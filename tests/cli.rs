@@ -597,15 +597,37 @@ fn grids_and_times_accept_quantities() {
     let tau = std::f64::consts::TAU;
     let frf = |from: &str, to: &str, step: &str| -> Vec<f64> {
         let (code, out, err) = detune(&[
-            "frf", "models/overcentre.toml", "--set", "F0=1", "--param", "omega", "--from", from,
-            "--to", to, "--step", step, "--response", "bar1.theta", "--json",
+            "frf",
+            "models/overcentre.toml",
+            "--set",
+            "F0=1",
+            "--param",
+            "omega",
+            "--from",
+            from,
+            "--to",
+            to,
+            "--step",
+            step,
+            "--response",
+            "bar1.theta",
+            "--json",
         ]);
         assert_eq!(code, 0, "{err}");
         let j: serde_json::Value = serde_json::from_str(&out).unwrap();
-        j["points"].as_array().unwrap().iter().map(|p| p["omega"].as_f64().unwrap()).collect()
+        j["points"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|p| p["omega"].as_f64().unwrap())
+            .collect()
     };
     let hz = frf("0.5 Hz", "1 Hz", "0.1 Hz");
-    let si = frf(&(0.5 * tau).to_string(), &tau.to_string(), &(0.1 * tau).to_string());
+    let si = frf(
+        &(0.5 * tau).to_string(),
+        &tau.to_string(),
+        &(0.1 * tau).to_string(),
+    );
     assert_eq!(hz.len(), 6);
     for (a, b) in hz.iter().zip(&si) {
         assert!((a - b).abs() < 1e-12, "{a} vs {b}");
@@ -613,22 +635,56 @@ fn grids_and_times_accept_quantities() {
     let rpm = frf("30 rpm", "60 rpm", "6 rpm");
     assert!((rpm[0] - std::f64::consts::PI).abs() < 1e-9 && rpm.len() == 6);
     let (code, _, err) = detune(&[
-        "frf", "models/overcentre.toml", "--set", "F0=1", "--param", "omega", "--from", "3 kg",
-        "--to", "2", "--step", "0.1",
+        "frf",
+        "models/overcentre.toml",
+        "--set",
+        "F0=1",
+        "--param",
+        "omega",
+        "--from",
+        "3 kg",
+        "--to",
+        "2",
+        "--step",
+        "0.1",
     ]);
     assert_eq!(code, 1);
     assert!(err.contains("--from 3 kg") && err.contains("Hz"), "{err}");
     let dir = tempfile::tempdir().unwrap();
     let csv = dir.path().join("s.csv");
     let (code, _, err) = detune(&[
-        "simulate", "models/overcentre.toml", "--t-end", "500 ms", "--dt-out", "100 ms", "-o",
+        "simulate",
+        "models/overcentre.toml",
+        "--t-end",
+        "500 ms",
+        "--dt-out",
+        "100 ms",
+        "-o",
         csv.to_str().unwrap(),
     ]);
     assert_eq!(code, 0, "{err}");
     let text = std::fs::read_to_string(&csv).unwrap();
-    let last = text.lines().last().unwrap().split(',').next().unwrap().parse::<f64>().unwrap();
-    assert!((last - 0.5).abs() < 1e-12 && text.lines().count() == 7, "{text}");
-    let (code, _, err) = detune(&["simulate", "models/overcentre.toml", "--t-end", "2 m", "-o", csv.to_str().unwrap()]);
+    let last = text
+        .lines()
+        .last()
+        .unwrap()
+        .split(',')
+        .next()
+        .unwrap()
+        .parse::<f64>()
+        .unwrap();
+    assert!(
+        (last - 0.5).abs() < 1e-12 && text.lines().count() == 7,
+        "{text}"
+    );
+    let (code, _, err) = detune(&[
+        "simulate",
+        "models/overcentre.toml",
+        "--t-end",
+        "2 m",
+        "-o",
+        csv.to_str().unwrap(),
+    ]);
     assert_eq!(code, 1);
     assert!(err.contains("--t-end 2 m"), "{err}");
 }

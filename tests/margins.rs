@@ -153,7 +153,9 @@ fn the_inceptor_clears_the_ah64_and_a_stiffer_shaft_clears_the_uh60() {
     assert_eq!(j["pass"], true);
     let w1p = 288.0 * 2.0 * PI / 60.0;
     let w2 = inceptor_reference()[1].0;
-    let sep = row(&j, "shaft-twist", "1P")["separation_pct"].as_f64().unwrap();
+    let sep = row(&j, "shaft-twist", "1P")["separation_pct"]
+        .as_f64()
+        .unwrap();
     assert!((sep - 100.0 * (w1p - w2) / w1p).abs() < 1e-4);
     assert!(err.contains("PASS"), "{err}");
     // a stiffer output shaft moves mode 2 above the UH-60's 1P by more than 10 %
@@ -172,7 +174,10 @@ fn the_inceptor_clears_the_ah64_and_a_stiffer_shaft_clears_the_uh60() {
     let w = r["omega_n_rad_s"].as_f64().unwrap();
     let w1p = 258.0 * 2.0 * PI / 60.0;
     assert!(w > 1.1 * w1p, "{w}");
-    assert!((w - 29.92).abs() < 0.005, "docs/inceptor.md quotes 29.92 rad/s: {w}");
+    assert!(
+        (w - 29.92).abs() < 0.005,
+        "docs/inceptor.md quotes 29.92 rad/s: {w}"
+    );
     assert_eq!(r["side"], "above");
     assert!((r["separation_pct"].as_f64().unwrap() - 100.0 * (w - w1p) / w1p).abs() < 1e-9);
     assert_eq!(j["provenance"]["overrides"][0], "k_t=500");
@@ -556,11 +561,24 @@ fn a_bad_environment_file_is_reported_with_its_location() {
 fn tolerance_intervals_must_clear_whole() {
     let dir = tempfile::tempdir().unwrap();
     let model = format!("{}/models/inceptor.toml", env!("CARGO_MANIFEST_DIR"));
-    let base = ["margins", model.as_str(), "--environment", "UH-60", "--set", "k_t=500"];
+    let base = [
+        "margins",
+        model.as_str(),
+        "--environment",
+        "UH-60",
+        "--set",
+        "k_t=500",
+    ];
     let (code, _, err) = detune(dir.path().to_str().unwrap(), &base);
     assert_eq!(code, 0, "{err}");
     let mut args = base.to_vec();
-    args.extend(["--vary", "k_fs=±10%", "--vary", "gearbox_scale=±5%", "--json"]);
+    args.extend([
+        "--vary",
+        "k_fs=±10%",
+        "--vary",
+        "gearbox_scale=±5%",
+        "--json",
+    ]);
     let (code, out, err) = detune(dir.path().to_str().unwrap(), &args);
     assert_eq!(code, 3, "{err}");
     let j: serde_json::Value = serde_json::from_str(&out).unwrap();
@@ -570,7 +588,10 @@ fn tolerance_intervals_must_clear_whole() {
         .iter()
         .find(|r| r["mode"] == "shaft-twist" && r["line"] == "1P")
         .unwrap();
-    let (lo, hi) = (row["min_rad_s"].as_f64().unwrap(), row["max_rad_s"].as_f64().unwrap());
+    let (lo, hi) = (
+        row["min_rad_s"].as_f64().unwrap(),
+        row["max_rad_s"].as_f64().unwrap(),
+    );
     let line = 258.0 * std::f64::consts::TAU / 60.0;
     assert!(lo < row["omega_n_rad_s"].as_f64().unwrap() && hi > lo);
     let sep = row["separation_pct"].as_f64().unwrap();
@@ -591,7 +612,15 @@ fn non_monotone_and_unverifiable_boxes() {
     let env = format!("{root}/tests/data/line_14_65.toml");
     let (code, out, err) = detune(
         dir.path().to_str().unwrap(),
-        &["margins", &inceptor, "--environment", &env, "--vary", "l2=±15%", "--json"],
+        &[
+            "margins",
+            &inceptor,
+            "--environment",
+            &env,
+            "--vary",
+            "l2=±15%",
+            "--json",
+        ],
     );
     assert_eq!(code, 3, "{err}");
     assert!(err.contains("not monotonic in l2"), "{err}");
@@ -604,12 +633,24 @@ fn non_monotone_and_unverifiable_boxes() {
         detune::linear::sensitivity::modes_at(&sys, &[(i, 0.135 * 1.1)], None, None).unwrap()
     };
     let at_10 = m.modes[0].omega_n_rad_s;
-    assert!(hi >= at_10 - 1e-3, "interval max {hi} misses l2 +10 %'s {at_10}");
+    assert!(
+        hi >= at_10 - 1e-3,
+        "interval max {hi} misses l2 +10 %'s {at_10}"
+    );
     let overcentre = format!("{root}/models/overcentre.toml");
     let env = format!("{root}/tests/data/line_1_6.toml");
     let (code, _, err) = detune(
         dir.path().to_str().unwrap(),
-        &["margins", &overcentre, "--environment", &env, "--vary", "L0=±5%", "--vary", "k=±10%"],
+        &[
+            "margins",
+            &overcentre,
+            "--environment",
+            &env,
+            "--vary",
+            "L0=±5%",
+            "--vary",
+            "k=±10%",
+        ],
     );
     assert_eq!(code, 1, "{err}");
     assert!(err.contains("cannot be verified"), "{err}");

@@ -241,21 +241,42 @@ fn names_that_would_be_ambiguous_are_refused() {
 fn forcing_amplitude_and_per_unit_response() {
     let text = common::overcentre_text();
     let bad = text.replace("forcing_amplitude = \"F0\"", "forcing_amplitude = \"F00\"");
-    let err = detune::Model::from_str("bad.toml", &bad).unwrap_err().to_string();
-    assert!(err.contains("`forcing_amplitude` names `F00`") && err.contains("bad.toml:"), "{err}");
+    let err = detune::Model::from_str("bad.toml", &bad)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("`forcing_amplitude` names `F00`") && err.contains("bad.toml:"),
+        "{err}"
+    );
     let run = |args: &[&str]| {
         let o = std::process::Command::new(env!("CARGO_BIN_EXE_detune"))
             .current_dir(env!("CARGO_MANIFEST_DIR"))
             .args(args)
             .output()
             .unwrap();
-        (o.status.code(), String::from_utf8_lossy(&o.stdout).into_owned(), String::from_utf8_lossy(&o.stderr).into_owned())
+        (
+            o.status.code(),
+            String::from_utf8_lossy(&o.stdout).into_owned(),
+            String::from_utf8_lossy(&o.stderr).into_owned(),
+        )
     };
     let amp = |out: &str| -> f64 {
         let j: serde_json::Value = serde_json::from_str(out).unwrap();
         j["points"][0]["stick.phi_amplitude"].as_f64().unwrap()
     };
-    let grid = ["--param", "omega", "--from", "20", "--to", "20", "--step", "1", "--response", "stick.phi", "--json"];
+    let grid = [
+        "--param",
+        "omega",
+        "--from",
+        "20",
+        "--to",
+        "20",
+        "--step",
+        "1",
+        "--response",
+        "stick.phi",
+        "--json",
+    ];
     let mut a = vec!["frf", "models/inceptor.toml", "--per-unit"];
     a.extend(grid);
     let (code, per_unit, err) = run(&a);
@@ -264,7 +285,19 @@ fn forcing_amplitude_and_per_unit_response() {
     b.extend(grid);
     let (_, at_7mm, _) = run(&b);
     assert!((amp(&per_unit) * 0.007 - amp(&at_7mm)).abs() < 1e-12 * amp(&at_7mm));
-    let (code, _, err) = run(&["frf", "tests/data/slider_crank.toml", "--per-unit", "--param", "omega", "--from", "1", "--to", "2", "--step", "1"]);
+    let (code, _, err) = run(&[
+        "frf",
+        "tests/data/slider_crank.toml",
+        "--per-unit",
+        "--param",
+        "omega",
+        "--from",
+        "1",
+        "--to",
+        "2",
+        "--step",
+        "1",
+    ]);
     assert_eq!(code, Some(1));
     assert!(err.contains("forcing_amplitude"), "{err}");
 }

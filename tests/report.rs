@@ -548,10 +548,20 @@ fn the_report_renders_in_a_headless_browser() {
 /// and the tuning proposal is `detune tune`'s first design.
 #[test]
 fn sensitivity_margins_and_tuning_sections() {
-    let vary = ["--vary", "k_fs=50%..200%", "--vary", "gearbox_scale=80%..120%"];
+    let vary = [
+        "--vary",
+        "k_fs=50%..200%",
+        "--vary",
+        "gearbox_scale=80%..120%",
+    ];
     let mut extra = vec!["--environment", "UH-60", "--tune"];
     extra.extend(vary);
-    extra.extend(["--tune-vary", "k_fs=50%..200%", "--tune-vary", "gearbox_scale=80%..120%"]);
+    extra.extend([
+        "--tune-vary",
+        "k_fs=50%..200%",
+        "--tune-vary",
+        "gearbox_scale=80%..120%",
+    ]);
     let (_dir, _, page, json) = report("inceptor", &extra);
     for id in ["sensitivity", "margins", "tuning"] {
         assert!(page.contains(&format!("id=\"{id}\"")), "section {id}");
@@ -576,14 +586,18 @@ fn sensitivity_margins_and_tuning_sections() {
     args.extend(vary);
     let out = run(&args);
     let t: Value = serde_json::from_slice(&out.stdout).unwrap();
-    assert_eq!(json["tuning"]["designs"][0]["parameters"], t["designs"][0]["parameters"]);
+    assert_eq!(
+        json["tuning"]["designs"][0]["parameters"],
+        t["designs"][0]["parameters"]
+    );
 }
 
 /// The README's first command is the inceptor report, and it runs as written (its output
 /// redirected to a temporary directory).
 #[test]
 fn the_readmes_first_command_writes_the_report() {
-    let readme = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/README.md")).unwrap();
+    let readme =
+        std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/README.md")).unwrap();
     let first = readme
         .lines()
         .skip_while(|l| !l.starts_with("```"))
@@ -593,7 +607,10 @@ fn the_readmes_first_command_writes_the_report() {
     let args = first
         .strip_prefix("cargo run --release -- ")
         .unwrap_or_else(|| panic!("README's first command: {first}"));
-    assert!(args.starts_with("report models/inceptor.toml --environment UH-60 -o "), "{args}");
+    assert!(
+        args.starts_with("report models/inceptor.toml --environment UH-60 -o "),
+        "{args}"
+    );
     let dir = tempfile::tempdir().unwrap();
     let html = dir.path().join("inceptor-report.html");
     let mut argv: Vec<String> = args.split_whitespace().map(String::from).collect();
@@ -601,11 +618,19 @@ fn the_readmes_first_command_writes_the_report() {
     argv[o + 1] = html.to_str().unwrap().to_string();
     let argv: Vec<&str> = argv.iter().map(|s| s.as_str()).collect();
     let out = run(&argv);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    let json: Value =
-        serde_json::from_str(&std::fs::read_to_string(dir.path().join("inceptor-report.json")).unwrap())
-            .unwrap();
-    assert_eq!(json["margins"]["pass"], false, "the candidate's mode 2 is 1.8 % below 1P");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let json: Value = serde_json::from_str(
+        &std::fs::read_to_string(dir.path().join("inceptor-report.json")).unwrap(),
+    )
+    .unwrap();
+    assert_eq!(
+        json["margins"]["pass"], false,
+        "the candidate's mode 2 is 1.8 % below 1P"
+    );
     assert!(json["sensitivity"]["modes"].as_array().unwrap().len() == 2);
 }
 
@@ -630,23 +655,50 @@ fn the_profile_section_states_tone_amplitudes_and_random_rms() {
     let frf = |from: f64, to: f64, step: f64| -> Vec<(f64, f64)> {
         let (f, t, st) = (from.to_string(), to.to_string(), step.to_string());
         let out = run(&[
-            "frf", m.as_str(), "--set", "D0=1", "--param", "omega", "--from", &f, "--to", &t,
-            "--step", &st, "--response", "stick.phi", "--json",
+            "frf",
+            m.as_str(),
+            "--set",
+            "D0=1",
+            "--param",
+            "omega",
+            "--from",
+            &f,
+            "--to",
+            &t,
+            "--step",
+            &st,
+            "--response",
+            "stick.phi",
+            "--json",
         ]);
         let j: Value = serde_json::from_slice(&out.stdout).unwrap();
         j["points"]
             .as_array()
             .unwrap()
             .iter()
-            .map(|r| (r["omega"].as_f64().unwrap(), r["stick.phi_amplitude"].as_f64().unwrap()))
+            .map(|r| {
+                (
+                    r["omega"].as_f64().unwrap(),
+                    r["stick.phi_amplitude"].as_f64().unwrap(),
+                )
+            })
             .collect()
     };
     let one_p = 258.0 * std::f64::consts::TAU / 60.0;
     for (tone, w, level_mm) in [("1P", one_p, 0.5), ("4P", 4.0 * one_p, 0.1)] {
-        let t = r["tones"].as_array().unwrap().iter().find(|t| t["tone"] == tone).unwrap();
+        let t = r["tones"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|t| t["tone"] == tone)
+            .unwrap();
         let h = frf(w, w, 1.0)[0].1;
         let got = t["amplitude"].as_f64().unwrap();
-        assert!((got - h * level_mm * 1e-3).abs() < 1e-9 * got, "{tone}: {got} vs {}", h * level_mm * 1e-3);
+        assert!(
+            (got - h * level_mm * 1e-3).abs() < 1e-9 * got,
+            "{tone}: {got} vs {}",
+            h * level_mm * 1e-3
+        );
     }
     let (lo, hi) = (2.0 * std::f64::consts::TAU, 6.0 * std::f64::consts::TAU);
     let pts = frf(lo, hi, (hi - lo) / 4000.0);
@@ -657,5 +709,9 @@ fn the_profile_section_states_tone_amplitudes_and_random_rms() {
         integral += 0.5 * (pts[k].1.powi(2) + pts[k - 1].1.powi(2)) * psd * df;
     }
     let rms = r["random_rms"].as_f64().unwrap();
-    assert!((rms - integral.sqrt()).abs() < 2e-3 * rms, "{rms} vs {}", integral.sqrt());
+    assert!(
+        (rms - integral.sqrt()).abs() < 2e-3 * rms,
+        "{rms} vs {}",
+        integral.sqrt()
+    );
 }

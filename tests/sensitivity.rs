@@ -80,7 +80,20 @@ fn inceptor_derivatives_equal_finite_differences() {
     // phi0 moves the trim's held pose (the stick's datum), l2 the closure
     assert_derivatives_match(
         &sys,
-        &["k_fs", "gearbox_scale", "k_t", "c_d", "c_fs", "m1", "m2", "m3", "I4xx", "g", "l2", "phi0"],
+        &[
+            "k_fs",
+            "gearbox_scale",
+            "k_t",
+            "c_d",
+            "c_fs",
+            "m1",
+            "m2",
+            "m3",
+            "I4xx",
+            "g",
+            "l2",
+            "phi0",
+        ],
     );
 }
 
@@ -92,10 +105,15 @@ fn the_equilibrium_shift_is_needed_on_the_overcentre() {
         let i = s.param_index(name).unwrap();
         let with = mode_derivatives(&s, &ma, i, true).unwrap()[0].domega_n;
         let without = mode_derivatives(&s, &ma, i, false).unwrap()[0].domega_n;
-        let fd = sensitivity(&s, &[vary(&s, name, 0.01)], None, None).unwrap().modes[0]
+        let fd = sensitivity(&s, &[vary(&s, name, 0.01)], None, None)
+            .unwrap()
+            .modes[0]
             .derivatives[0]
             .fd;
-        assert!((with - fd).abs() < 1e-6 * fd.abs(), "{name}: {with} vs {fd}");
+        assert!(
+            (with - fd).abs() < 1e-6 * fd.abs(),
+            "{name}: {with} vs {fd}"
+        );
         assert!(
             (without - fd).abs() > 0.1 * fd.abs(),
             "{name}: without the shift {without} should miss {fd}"
@@ -115,7 +133,10 @@ fn spring_chain_elasticities_sum_to_plus_and_minus_one_half() {
     assert_eq!(s.modes.len(), 2);
     // closed form: 3w² − 4300w + 1380000 = 0 (w = ω²)
     let disc = (4300.0f64 * 4300.0 - 12.0 * 1380000.0).sqrt();
-    let closed = [((4300.0 - disc) / 6.0).sqrt(), ((4300.0 + disc) / 6.0).sqrt()];
+    let closed = [
+        ((4300.0 - disc) / 6.0).sqrt(),
+        ((4300.0 + disc) / 6.0).sqrt(),
+    ];
     for (m, w) in s.modes.iter().zip(closed) {
         assert!((m.undamped_omega_rad_s.unwrap() - w).abs() < 1e-10 * w);
         let sum = |names: &[&str]| -> f64 {
@@ -125,8 +146,18 @@ fn spring_chain_elasticities_sum_to_plus_and_minus_one_half() {
                 .map(|d| d.undamped_elasticity.unwrap())
                 .sum()
         };
-        assert!((sum(&stiff) - 0.5).abs() < 1e-10, "{}: {}", m.name, sum(&stiff));
-        assert!((sum(&masses) + 0.5).abs() < 1e-10, "{}: {}", m.name, sum(&masses));
+        assert!(
+            (sum(&stiff) - 0.5).abs() < 1e-10,
+            "{}: {}",
+            m.name,
+            sum(&stiff)
+        );
+        assert!(
+            (sum(&masses) + 0.5).abs() < 1e-10,
+            "{}: {}",
+            m.name,
+            sum(&masses)
+        );
     }
 }
 
@@ -151,7 +182,11 @@ fn inceptor_tables_2_and_3() {
         "gearbox_scale=+-5%",
         "--json",
     ]);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let j: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     assert!(j["provenance"]["model_sha256"].is_string());
     let modes = j["modes"].as_array().unwrap();
@@ -165,19 +200,43 @@ fn inceptor_tables_2_and_3() {
             .unwrap_or_else(|| panic!("no case {label}"))
     };
     // the undamped frequencies the issue quotes (independent minimal model, 1e-5 relative)
-    for (label, w1, w2) in [("k_fs+10%", 13.4770, 27.0837), ("k_fs-10%", 12.4190, 26.4611)] {
+    for (label, w1, w2) in [
+        ("k_fs+10%", 13.4770, 27.0837),
+        ("k_fs-10%", 12.4190, 26.4611),
+    ] {
         for (m, w) in [(0, w1), (1, w2)] {
             let got = case(m, label)["undamped_omega_rad_s"].as_f64().unwrap();
-            assert!((got - w).abs() < 1e-5 * w + 5e-5, "{label} mode {m}: {got} vs {w}");
+            assert!(
+                (got - w).abs() < 1e-5 * w + 5e-5,
+                "{label} mode {m}: {got} vs {w}"
+            );
         }
     }
     // a heavier gearbox lowers both; a lighter one raises both
     for m in 0..2 {
-        assert!(case(m, "gearbox_scale+5%")["change_pct_undamped"].as_f64().unwrap() < 0.0);
-        assert!(case(m, "gearbox_scale-5%")["change_pct_undamped"].as_f64().unwrap() > 0.0);
-        assert!(case(m, "gearbox_scale+5%")["change_pct_omega_n"].as_f64().unwrap() < 0.0);
+        assert!(
+            case(m, "gearbox_scale+5%")["change_pct_undamped"]
+                .as_f64()
+                .unwrap()
+                < 0.0
+        );
+        assert!(
+            case(m, "gearbox_scale-5%")["change_pct_undamped"]
+                .as_f64()
+                .unwrap()
+                > 0.0
+        );
+        assert!(
+            case(m, "gearbox_scale+5%")["change_pct_omega_n"]
+                .as_f64()
+                .unwrap()
+                < 0.0
+        );
         let w = &modes[m]["worst_case"];
-        let (lo, hi) = (w["min_rad_s"].as_f64().unwrap(), w["max_rad_s"].as_f64().unwrap());
+        let (lo, hi) = (
+            w["min_rad_s"].as_f64().unwrap(),
+            w["max_rad_s"].as_f64().unwrap(),
+        );
         for c in modes[m]["cases"].as_array().unwrap() {
             let x = c["omega_n_rad_s"].as_f64().unwrap();
             assert!(lo <= x && x <= hi);
@@ -210,7 +269,11 @@ fn sensitivity_writes_its_table_and_tornado() {
         "--plot",
         svg.to_str().unwrap(),
     ]);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let (header, rows) = {
         let text = std::fs::read_to_string(&csv).unwrap();
         let mut l = text.lines();
@@ -226,9 +289,21 @@ fn sensitivity_writes_its_table_and_tornado() {
     let texts: Vec<String> = svg
         .split("<text")
         .skip(1)
-        .filter_map(|t| Some(t.split_once('>')?.1.split_once("</text>")?.0.trim().to_string()))
+        .filter_map(|t| {
+            Some(
+                t.split_once('>')?
+                    .1
+                    .split_once("</text>")?
+                    .0
+                    .trim()
+                    .to_string(),
+            )
+        })
         .collect();
-    assert!(texts.contains(&"k".to_string()) && texts.contains(&"m1".to_string()), "bar labels: {texts:?}");
+    assert!(
+        texts.contains(&"k".to_string()) && texts.contains(&"m1".to_string()),
+        "bar labels: {texts:?}"
+    );
     let text = String::from_utf8_lossy(&out.stdout);
     assert!(text.contains("k+10%") && text.contains("m1=1.2"), "{text}");
 }
@@ -276,15 +351,33 @@ fn sweep_peaks_per_case_match_the_linear_response_at_small_forcing() {
         "both",
         "--json",
     ]);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let j: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     let m = &j["modes"][0];
     let frf_peak = |k: &str| -> f64 {
         let set_k = format!("k={k}");
         let o = detune(&[
-            "frf", "models/overcentre.toml", "--set", "F0=0.05", "--set", &set_k, "--param",
-            "omega", "--from", "1.5", "--to", "4.5", "--step", "0.05", "--response",
-            "bar1.theta", "--json",
+            "frf",
+            "models/overcentre.toml",
+            "--set",
+            "F0=0.05",
+            "--set",
+            &set_k,
+            "--param",
+            "omega",
+            "--from",
+            "1.5",
+            "--to",
+            "4.5",
+            "--step",
+            "0.05",
+            "--response",
+            "bar1.theta",
+            "--json",
         ]);
         let f: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
         f["peaks"][0]["omega"].as_f64().unwrap()
@@ -292,13 +385,28 @@ fn sweep_peaks_per_case_match_the_linear_response_at_small_forcing() {
     let check = |got: f64, want: f64| assert!((got - want).abs() < 1e-3 * want, "{got} vs {want}");
     check(m["peak_omega_rad_s"].as_f64().unwrap(), frf_peak("50"));
     for (label, k) in [("k+10%", "55"), ("k-10%", "45")] {
-        let c = m["cases"].as_array().unwrap().iter().find(|c| c["label"] == label).unwrap();
+        let c = m["cases"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|c| c["label"] == label)
+            .unwrap();
         check(c["peak_omega_rad_s"].as_f64().unwrap(), frf_peak(k));
     }
-    let out = detune(&["sensitivity", "models/inceptor.toml", "--vary", "k_fs=±10%", "--method", "sweep"]);
+    let out = detune(&[
+        "sensitivity",
+        "models/inceptor.toml",
+        "--vary",
+        "k_fs=±10%",
+        "--method",
+        "sweep",
+    ]);
     let err = String::from_utf8_lossy(&out.stderr);
     assert_eq!(out.status.code(), Some(1));
-    assert!(err.contains("D0=7 mm") && err.contains("zero forcing"), "{err}");
+    assert!(
+        err.contains("D0=7 mm") && err.contains("zero forcing"),
+        "{err}"
+    );
 }
 
 /// Mode tracking's derivative predictor: from k_t = 374 to 400 N·m/rad the analytic
@@ -311,7 +419,12 @@ fn the_analytic_predictor_beats_the_secant() {
     let i = sys.param_index("k_t").unwrap();
     let solved = |v: f64| {
         let (_, ma) = modes_at(&sys, &[(i, v)], None, None).unwrap();
-        Solved { value: v, modes: vec![Some(0), Some(1)], macs: vec![1.0; 2], modal: ma }
+        Solved {
+            value: v,
+            modes: vec![Some(0), Some(1)],
+            macs: vec![1.0; 2],
+            modal: ma,
+        }
     };
     let (s350, s374, s400) = (solved(350.0), solved(374.0), solved(400.0));
     let actual: Vec<nalgebra::Complex<f64>> = s400
@@ -321,11 +434,15 @@ fn the_analytic_predictor_beats_the_secant() {
         .map(|m| nalgebra::Complex::new(m.eigenvalue.re, m.eigenvalue.im))
         .collect();
     let base = sys.with_param(i, 374.0).unwrap();
-    let analytic = detune::linear::sensitivity::Analytic { param: i }.predict(&base, &[s374.clone()], 400.0);
+    let analytic =
+        detune::linear::sensitivity::Analytic { param: i }.predict(&base, &[s374.clone()], 400.0);
     let secant = Secant.predict(&base, &[s350, s374], 400.0);
     for k in 0..2 {
         let ea = (analytic[k].unwrap() - actual[k]).norm() / actual[k].norm();
         let es = (secant[k].unwrap() - actual[k]).norm() / actual[k].norm();
-        assert!(ea < 1e-3 && ea < 0.6 * es, "mode {k}: analytic {ea:e}, secant {es:e}");
+        assert!(
+            ea < 1e-3 && ea < 0.6 * es,
+            "mode {k}: analytic {ea:e}, secant {es:e}"
+        );
     }
 }

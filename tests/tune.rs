@@ -51,7 +51,9 @@ fn spring_chain_tuning_matches_the_closed_form() {
     assert!(d.margins.iter().all(|r| r.pass));
     assert_eq!(t.designs.len(), 1, "the other side is out of reach");
     assert!(
-        t.infeasible.iter().any(|i| i.reason.contains("mode 1") && i.reason.contains("probe")),
+        t.infeasible
+            .iter()
+            .any(|i| i.reason.contains("mode 1") && i.reason.contains("probe")),
         "{:?}",
         t.infeasible
     );
@@ -76,8 +78,14 @@ fn inceptor_tuned_design_passes_margins() {
     let j: serde_json::Value = serde_json::from_str(&out).unwrap();
     let designs = j["designs"].as_array().unwrap();
     assert!(!designs.is_empty());
-    let costs: Vec<f64> = designs.iter().map(|d| d["cost"].as_f64().unwrap()).collect();
-    assert!(costs.windows(2).all(|w| w[0] <= w[1]), "best first: {costs:?}");
+    let costs: Vec<f64> = designs
+        .iter()
+        .map(|d| d["cost"].as_f64().unwrap())
+        .collect();
+    assert!(
+        costs.windows(2).all(|w| w[0] <= w[1]),
+        "best first: {costs:?}"
+    );
     for d in designs {
         let p = d["parameters"].as_object().unwrap();
         let k = p["k_fs"].as_f64().unwrap();
@@ -118,7 +126,10 @@ fn infeasible_tuning_names_the_mode_and_the_line() {
         "k_fs=95%..105%",
     ]);
     assert_eq!(code, 3, "{out}{err}");
-    assert!(out.contains("shaft-twist") && out.contains("1P"), "{out}{err}");
+    assert!(
+        out.contains("shaft-twist") && out.contains("1P"),
+        "{out}{err}"
+    );
     let (code, _, err) = detune(&["tune", "models/inceptor.toml", "--environment", "UH-60"]);
     assert_eq!(code, 1);
     assert!(err.contains("free parameter"), "{err}");
@@ -130,9 +141,21 @@ fn infeasible_tuning_names_the_mode_and_the_line() {
 #[test]
 fn verify_sweep_peaks_equal_the_linear_peaks_at_small_forcing() {
     let (code, out, err) = detune(&[
-        "tune", "models/inceptor.toml", "--environment", "UH-60", "--set", "D0=0.7 mm", "--vary",
-        "k_fs=50%..200%", "--vary", "gearbox_scale=80%..120%", "--designs", "1", "--verify",
-        "sweep", "--json",
+        "tune",
+        "models/inceptor.toml",
+        "--environment",
+        "UH-60",
+        "--set",
+        "D0=0.7 mm",
+        "--vary",
+        "k_fs=50%..200%",
+        "--vary",
+        "gearbox_scale=80%..120%",
+        "--designs",
+        "1",
+        "--verify",
+        "sweep",
+        "--json",
     ]);
     assert_eq!(code, 0, "{err}");
     let j: serde_json::Value = serde_json::from_str(&out).unwrap();
@@ -146,8 +169,14 @@ fn verify_sweep_peaks_equal_the_linear_peaks_at_small_forcing() {
     }
     assert_eq!(d["sweep_peaks_clear"], d["frf_peaks_clear"]);
     let (code, _, err) = detune(&[
-        "tune", "models/inceptor.toml", "--environment", "UH-60", "--vary", "k_fs=50%..200%",
-        "--verify", "sweep",
+        "tune",
+        "models/inceptor.toml",
+        "--environment",
+        "UH-60",
+        "--vary",
+        "k_fs=50%..200%",
+        "--verify",
+        "sweep",
     ]);
     assert_eq!(code, 1);
     assert!(err.contains("D0=7 mm"), "{err}");

@@ -259,22 +259,23 @@ pub fn vary(model: &Model, sys: &System, text: &str) -> Result<detune::linear::s
         return Err(bad("expected NAME=CHANGE".into()));
     };
     let (name, change) = (name.trim(), change.trim());
-    let param = detune::request::parameter(
-        sys.param_names(),
-        name,
-        detune::request::Argument::Varied,
-    )
-    .map_err(|e| detune::diag::Error::Invalid {
-        invalid: e,
-        context: Vec::new(),
-    })?;
+    let param =
+        detune::request::parameter(sys.param_names(), name, detune::request::Argument::Varied)
+            .map_err(|e| detune::diag::Error::Invalid {
+                invalid: e,
+                context: Vec::new(),
+            })?;
     if let Some(t) = &sys.trim
         && t.off.is_none()
         && t.params.contains(&param)
     {
         return Err(Error::request(
-            format!("--vary {text}: `{name}` is solved by the model's [trim] at every change, so varying it has no effect"),
-            format!("vary another parameter (the trim re-solves `{name}` for it), or fix `{name}` with --set {name}=VALUE, which turns the trim off"),
+            format!(
+                "--vary {text}: `{name}` is solved by the model's [trim] at every change, so varying it has no effect"
+            ),
+            format!(
+                "vary another parameter (the trim re-solves `{name}` for it), or fix `{name}` with --set {name}=VALUE, which turns the trim off"
+            ),
         ));
     }
     let p0 = sys.param(param);
@@ -301,12 +302,16 @@ pub fn vary(model: &Model, sys: &System, text: &str) -> Result<detune::linear::s
             }),
         }
     };
-    let percent = |t: &str| -> Option<f64> { t.trim().strip_suffix('%')?.trim().parse::<f64>().ok() };
+    let percent =
+        |t: &str| -> Option<f64> { t.trim().strip_suffix('%')?.trim().parse::<f64>().ok() };
     let relative = |frac: f64| -> Result<f64> {
         if p0 == 0.0 {
             return Err(Error::request(
                 format!("--vary {text}: `{name}` is 0, so a relative change of it is 0"),
-                format!("give an absolute change, e.g. --vary \"{name}=±0.1 {}\"", dim_unit(dim)),
+                format!(
+                    "give an absolute change, e.g. --vary \"{name}=±0.1 {}\"",
+                    dim_unit(dim)
+                ),
             ));
         }
         Ok(p0 * frac)
@@ -322,7 +327,9 @@ pub fn vary(model: &Model, sys: &System, text: &str) -> Result<detune::linear::s
     if plusminus {
         if let Some(pc) = percent(rest) {
             if !(pc > 0.0) {
-                return Err(bad(format!("a change of ±{pc}% varies nothing: give a change > 0")));
+                return Err(bad(format!(
+                    "a change of ±{pc}% varies nothing: give a change > 0"
+                )));
             }
             let d = relative(pc / 100.0)?;
             let r = rest.trim();
@@ -336,10 +343,14 @@ pub fn vary(model: &Model, sys: &System, text: &str) -> Result<detune::linear::s
         }
     } else if let Some((a, b)) = change.split_once("..") {
         let (Some(a), Some(b)) = (percent(a), percent(b)) else {
-            return Err(bad("a range of levels is written a%..b%, e.g. 80%..120%".into()));
+            return Err(bad(
+                "a range of levels is written a%..b%, e.g. 80%..120%".into()
+            ));
         };
         if a >= b {
-            return Err(bad(format!("the range {a}%..{b}% is empty: give the lower level first")));
+            return Err(bad(format!(
+                "the range {a}%..{b}% is empty: give the lower level first"
+            )));
         }
         if a <= 0.0 {
             return Err(bad(format!(
@@ -364,8 +375,11 @@ pub fn vary(model: &Model, sys: &System, text: &str) -> Result<detune::linear::s
             return Err(bad(format!("{label} gives {name} = {v}")));
         }
         let mut s = sys.clone();
-        s.set_param(param, *v)
-            .map_err(|e| e.context(&format!("--vary {text}: the case {label} ({name} = {v} SI)")))?;
+        s.set_param(param, *v).map_err(|e| {
+            e.context(&format!(
+                "--vary {text}: the case {label} ({name} = {v} SI)"
+            ))
+        })?;
     }
     let lo = cases.iter().map(|c| c.1).fold(p0, f64::min);
     let hi = cases.iter().map(|c| c.1).fold(p0, f64::max);
@@ -378,7 +392,11 @@ pub fn vary(model: &Model, sys: &System, text: &str) -> Result<detune::linear::s
 }
 
 /// Every `--vary`, each parameter at most once.
-pub fn varies(model: &Model, sys: &System, texts: &[String]) -> Result<Vec<detune::linear::sensitivity::Vary>> {
+pub fn varies(
+    model: &Model,
+    sys: &System,
+    texts: &[String],
+) -> Result<Vec<detune::linear::sensitivity::Vary>> {
     let mut out: Vec<detune::linear::sensitivity::Vary> = Vec::new();
     for t in texts {
         let v = vary(model, sys, t)?;
@@ -395,7 +413,11 @@ pub fn varies(model: &Model, sys: &System, texts: &[String]) -> Result<Vec<detun
 
 /// An SI unit to suggest for a dimension in a hint.
 fn dim_unit(dim: Dim) -> String {
-    if dim == Dim::NONE { String::new() } else { format!("{dim}") }
+    if dim == Dim::NONE {
+        String::new()
+    } else {
+        format!("{dim}")
+    }
 }
 
 /// A frequency given to `flag`: a number (rad/s) or a quantity of frequency ("0.5 Hz",

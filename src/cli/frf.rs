@@ -48,7 +48,9 @@ pub fn run(a: FrfArgs) -> Result<()> {
         };
         let name = &sys.param_names()[i];
         let unit = model.param_unit(name);
-        eprintln!("note: per unit of the forcing amplitude {name} (1 {unit}): amplitudes are per {unit}");
+        eprintln!(
+            "note: per unit of the forcing amplitude {name} (1 {unit}): amplitudes are per {unit}"
+        );
         sys.with_param(i, 1.0)?
     } else {
         sys

@@ -116,7 +116,10 @@ fn intervals(
     }
     let vs = super::args::varies(model, sys, vary)?;
     let study = detune::linear::sensitivity::sensitivity(sys, &vs, None, None)?;
-    let failed: usize = study.modes.first().map_or(0, |m| m.worst_case.corners_failed);
+    let failed: usize = study
+        .modes
+        .first()
+        .map_or(0, |m| m.worst_case.corners_failed);
     if failed > 0 {
         return Err(Error::request(
             format!(
@@ -226,7 +229,13 @@ fn print_table(check: &MarginCheck) {
         }
     );
     let varied = check.rows.iter().any(|r| r.min_rad_s < r.max_rad_s);
-    let mw = check.rows.iter().map(|r| r.mode.chars().count()).max().unwrap_or(4).max(4);
+    let mw = check
+        .rows
+        .iter()
+        .map(|r| r.mode.chars().count())
+        .max()
+        .unwrap_or(4)
+        .max(4);
     println!(
         "{:<mw$} {:>12} {:>9} {:>8} {}{:<8} {:>12} {:>9} {:>12} {:>8} {:>11} {:>5}",
         "mode",

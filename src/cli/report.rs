@@ -34,7 +34,11 @@ pub struct ReportArgs {
     pub tune: bool,
     /// A parameter the tuning may change, with its range (`k_fs=50%..200%`); separate
     /// from --vary (the tolerances). Repeatable; needed by --tune.
-    #[arg(long = "tune-vary", value_name = "NAME=RANGE", allow_hyphen_values = true)]
+    #[arg(
+        long = "tune-vary",
+        value_name = "NAME=RANGE",
+        allow_hyphen_values = true
+    )]
     pub tune_vary: Vec<String>,
     /// Output HTML; the JSON sidecar is written beside it with the extension .json.
     #[arg(short = 'o', long = "output", value_name = "REPORT.html")]
@@ -97,10 +101,7 @@ pub fn run(a: ReportArgs) -> Result<()> {
         .and_then(|m| detune::linear::tracking::describe_modes(&sys, &m).ok())
         .map(|d| detune::report::build::ModeExtras {
             names: d.iter().map(|x| Some(x.name.name.clone())).collect(),
-            energy_shares: d
-                .iter()
-                .map(|x| x.energy.kinetic.0.clone())
-                .collect(),
+            energy_shares: d.iter().map(|x| x.energy.kinetic.0.clone()).collect(),
         });
     let mut report = build(&ReportInputs {
         model: &model,
@@ -151,9 +152,7 @@ pub fn run(a: ReportArgs) -> Result<()> {
                     ))
                 })
                 .min_by(|a, b| (a.2 - 100.0).abs().total_cmp(&(b.2 - 100.0).abs()))
-                .map(|(m, l, p)| {
-                    format!("; {m} meets {l} at {p:.1} % of the nominal rotor speed")
-                })
+                .map(|(m, l, p)| format!("; {m} meets {l} at {p:.1} % of the nominal rotor speed"))
         });
     println!("wrote {} and {json}", a.output);
     println!(

@@ -28,7 +28,12 @@ pub struct SensitivityArgs {
     pub model: ModelArgs,
     /// A varied parameter, NAME=CHANGE: `k_fs=±10%` (or `+-10%`), `k_fs=±0.5 N/m`,
     /// `k_fs=80%..120%`, or a list `k_fs=1.1e5,1.4e5`. Repeatable, each parameter once.
-    #[arg(long = "vary", value_name = "NAME=CHANGE", allow_hyphen_values = true, required = true)]
+    #[arg(
+        long = "vary",
+        value_name = "NAME=CHANGE",
+        allow_hyphen_values = true,
+        required = true
+    )]
     pub vary: Vec<String>,
     /// How the resonances are found in each case.
     #[arg(long, value_enum, default_value_t = Method::Linear)]
@@ -50,7 +55,10 @@ pub struct SensitivityArgs {
 
 pub fn run(a: SensitivityArgs) -> Result<()> {
     let (model, sys) = a.model.load()?;
-    check_outputs(&model.source.path, &[a.output.as_deref(), a.plot.as_deref()])?;
+    check_outputs(
+        &model.source.path,
+        &[a.output.as_deref(), a.plot.as_deref()],
+    )?;
     let vs = varies(&model, &sys, &a.vary)?;
     let response = match &a.response {
         Some(r) => {
@@ -133,7 +141,11 @@ pub fn run(a: SensitivityArgs) -> Result<()> {
                 max: v.range.1,
             })
             .collect();
-        print_json(&SensitivityReport::new(&study, &Provenance::of(&model), params));
+        print_json(&SensitivityReport::new(
+            &study,
+            &Provenance::of(&model),
+            params,
+        ));
         return Ok(());
     }
     print_tables(&study, &|n| unit(n), &|n| {
@@ -183,11 +195,20 @@ fn print_tables(s: &Sensitivity, unit: &dyn Fn(&str) -> String, value: &dyn Fn(&
         }
         println!(
             "  {:<16} {:>22} {:>22} {:>11} {:>16} {:>16}",
-            "parameter", "dω_n/dp", "(central difference)", "elasticity", "dζ/dp", "(central diff.)"
+            "parameter",
+            "dω_n/dp",
+            "(central difference)",
+            "elasticity",
+            "dζ/dp",
+            "(central diff.)"
         );
         for d in &m.derivatives {
             let u = unit(&d.param);
-            let per = if u.is_empty() { String::new() } else { format!(" per {u}") };
+            let per = if u.is_empty() {
+                String::new()
+            } else {
+                format!(" per {u}")
+            };
             println!(
                 "  {:<16} {:>22} {:>22} {:>11.5} {:>16.6e} {:>16.6e}",
                 d.param,

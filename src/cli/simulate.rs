@@ -20,10 +20,20 @@ pub struct SimulateArgs {
     #[command(flatten)]
     pub model: ModelArgs,
     /// End time: s, or a quantity ("500 ms").
-    #[arg(long, default_value = "20", value_name = "S", allow_hyphen_values = true)]
+    #[arg(
+        long,
+        default_value = "20",
+        value_name = "S",
+        allow_hyphen_values = true
+    )]
     pub t_end: String,
     /// Output interval: s, or a quantity ("1 ms").
-    #[arg(long, default_value = "0.01", value_name = "S", allow_hyphen_values = true)]
+    #[arg(
+        long,
+        default_value = "0.01",
+        value_name = "S",
+        allow_hyphen_values = true
+    )]
     pub dt_out: String,
     #[command(flatten)]
     pub tol: Tolerances,

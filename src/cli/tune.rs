@@ -187,7 +187,8 @@ pub fn run(a: TuneArgs) -> Result<super::Outcome> {
                         .join(", "),
                     match d.frf_peaks_clear {
                         Some(true) => " (every peak clears every band too)",
-                        Some(false) => " (NOTE: a peak lies within the margin of a band although every mode clears it: a response peak is not at ω_n; ask a larger --margin if the peaks must clear too)",
+                        Some(false) =>
+                            " (NOTE: a peak lies within the margin of a band although every mode clears it: a response peak is not at ω_n; ask a larger --margin if the peaks must clear too)",
                         None => "",
                     }
                 );
@@ -195,8 +196,15 @@ pub fn run(a: TuneArgs) -> Result<super::Outcome> {
             if let (Some(p), Some(clear)) = (&d.sweep_peaks_rad_s, d.sweep_peaks_clear) {
                 println!(
                     "  stepped-sine peaks: {} rad/s ({})",
-                    p.iter().map(|w| format!("{w:.4}")).collect::<Vec<_>>().join(", "),
-                    if clear { "every peak clears every band" } else { "NOTE: a peak lies within the margin of a band" }
+                    p.iter()
+                        .map(|w| format!("{w:.4}"))
+                        .collect::<Vec<_>>()
+                        .join(", "),
+                    if clear {
+                        "every peak clears every band"
+                    } else {
+                        "NOTE: a peak lies within the margin of a band"
+                    }
                 );
             }
             let sets: Vec<String> = d
@@ -230,4 +238,3 @@ pub fn run(a: TuneArgs) -> Result<super::Outcome> {
         super::Outcome::Passed
     })
 }
-

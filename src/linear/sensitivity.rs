@@ -80,7 +80,12 @@ pub fn equilibrium_shift(
     let mut j = st.kkt_jacobian(&x);
     let mut rhs = -st.residual_dp(&x, param);
     let trim: Vec<(usize, usize)> = match (&sys.trim, sys.trim_solved()) {
-        (Some(t), Some(_)) => t.coords.iter().copied().zip(t.params.iter().copied()).collect(),
+        (Some(t), Some(_)) => t
+            .coords
+            .iter()
+            .copied()
+            .zip(t.params.iter().copied())
+            .collect(),
         _ => Vec::new(),
     };
     let trim: Vec<(usize, usize)> = trim.into_iter().filter(|&(_, p)| p != param).collect();
@@ -124,12 +129,7 @@ pub struct MatrixDerivatives {
 
 /// The derivatives of the linearization's matrices along `d`, by automatic
 /// differentiation.
-pub fn matrix_derivatives(
-    st: &Statics,
-    q: &[f64],
-    lambda: &[f64],
-    d: &Shift,
-) -> MatrixDerivatives {
+pub fn matrix_derivatives(st: &Statics, q: &[f64], lambda: &[f64], d: &Shift) -> MatrixDerivatives {
     let sys: &System = &st.sys;
     let n = sys.n();
     let m = sys.m();
@@ -282,7 +282,10 @@ pub fn undamped_modes(lin: &Linearization) -> (Vec<f64>, DMatrix<f64>) {
         return (Vec::new(), DMatrix::zeros(k, 0));
     };
     let l = chol.l();
-    let li = l.clone().try_inverse().unwrap_or_else(|| DMatrix::identity(k, k));
+    let li = l
+        .clone()
+        .try_inverse()
+        .unwrap_or_else(|| DMatrix::identity(k, k));
     let s = &li * &lin.stiffness * li.transpose();
     let s = (&s + s.transpose()) * 0.5;
     let eig = s.symmetric_eigen();
@@ -627,7 +630,11 @@ pub(crate) fn evaluate(ma: &ModalAnalysis) -> Evaluated {
 
 /// For each baseline mode, the case's mode with the best mass-weighted MAC (the full mass
 /// matrix at the baseline equilibrium), one-to-one; with the MAC.
-pub(crate) fn match_modes(mass: &DMatrix<f64>, base: &Evaluated, case: &Evaluated) -> Vec<Option<(usize, f64)>> {
+pub(crate) fn match_modes(
+    mass: &DMatrix<f64>,
+    base: &Evaluated,
+    case: &Evaluated,
+) -> Vec<Option<(usize, f64)>> {
     let mut taken = vec![false; case.shapes.len()];
     base.shapes
         .iter()
@@ -651,7 +658,9 @@ pub(crate) fn match_modes(mass: &DMatrix<f64>, base: &Evaluated, case: &Evaluate
 pub fn mode_names(sys: &System, ma: &ModalAnalysis) -> Vec<String> {
     match super::tracking::name_modes(sys, ma) {
         Ok(n) => n.into_iter().map(|m| m.name).collect(),
-        Err(_) => (0..ma.modes.len()).map(|k| format!("mode {}", k + 1)).collect(),
+        Err(_) => (0..ma.modes.len())
+            .map(|k| format!("mode {}", k + 1))
+            .collect(),
     }
 }
 
@@ -686,7 +695,10 @@ pub fn sensitivity(
             _ => default_names[i].clone(),
         }
     };
-    let run = |label: &str, param: &str, values: &[(usize, f64)]| -> Result<(Evaluated, Vec<Option<(usize, f64)>>)> {
+    let run = |label: &str,
+               param: &str,
+               values: &[(usize, f64)]|
+     -> Result<(Evaluated, Vec<Option<(usize, f64)>>)> {
         let (_, m) = modes_at(sys, values, normalize, Some(&ma))
             .map_err(|e| e.context(&format!("{param}: the case {label}")))?;
         let ev = evaluate(&m);
@@ -733,7 +745,11 @@ pub fn sensitivity(
         .map(|&(v, k)| {
             let vary = &varies[v];
             let value = sys.param(vary.param) + k * steps[v];
-            run(&format!("{}{:+e}", vary.name, k * steps[v]), &vary.name, &[(vary.param, value)])
+            run(
+                &format!("{}{:+e}", vary.name, k * steps[v]),
+                &vary.name,
+                &[(vary.param, value)],
+            )
         })
         .collect::<Result<_>>()?;
 
@@ -804,7 +820,16 @@ pub fn sensitivity(
         .par_iter()
         .map(|&(v, x)| {
             let vary = &varies[v];
-            (v, x, run(&format!("{}={x}", vary.name), &vary.name, &[(vary.param, x)]).ok())
+            (
+                v,
+                x,
+                run(
+                    &format!("{}={x}", vary.name),
+                    &vary.name,
+                    &[(vary.param, x)],
+                )
+                .ok(),
+            )
         })
         .collect();
     let axis_failed = axis_results.iter().filter(|r| r.2.is_none()).count();
@@ -816,7 +841,9 @@ pub fn sensitivity(
         let mut case_rows = Vec::new();
         for (&(v, c), (ev, matched)) in jobs.iter().zip(&cases) {
             let vary = &varies[v];
-            let Some((j, macv)) = matched[i] else { continue };
+            let Some((j, macv)) = matched[i] else {
+                continue;
+            };
             let (w, z, u) = ev.modes[j];
             case_rows.push(CaseResult {
                 param: vary.name.clone(),

@@ -27,7 +27,11 @@ pub struct ParameterJson {
 }
 
 impl<'a> SensitivityReport<'a> {
-    pub fn new(study: &'a Sensitivity, provenance: &'a Provenance, parameters: Vec<ParameterJson>) -> Self {
+    pub fn new(
+        study: &'a Sensitivity,
+        provenance: &'a Provenance,
+        parameters: Vec<ParameterJson>,
+    ) -> Self {
         let units = [
             ("omega_n_rad_s", "rad/s"),
             ("undamped_omega_rad_s", "rad/s"),
@@ -70,7 +74,11 @@ pub fn write_sensitivity_csv(path: &str, s: &Sensitivity) -> Result<()> {
                 num(m.omega_n_rad_s),
                 num(m.damping_ratio),
                 opt(m.undamped_omega_rad_s),
-                if m.undamped_omega_rad_s.is_some() { "0" } else { "" }
+                if m.undamped_omega_rad_s.is_some() {
+                    "0"
+                } else {
+                    ""
+                }
             )?;
             for c in &m.cases {
                 writeln!(
@@ -93,14 +101,14 @@ pub fn write_sensitivity_csv(path: &str, s: &Sensitivity) -> Result<()> {
     })
 }
 
-
 /// The tornado chart as SVG: one panel per mode, one bar per parameter from its lowest
 /// to its highest case's change of ω_n (%), widest on top, labelled with the cases.
 pub fn tornado_svg(s: &Sensitivity, title: &str) -> std::result::Result<String, String> {
     let mut svg = String::new();
     let rows: usize = s.modes.len().max(1);
     {
-        let root = SVGBackend::with_string(&mut svg, (900, 130 + 260 * rows as u32)).into_drawing_area();
+        let root =
+            SVGBackend::with_string(&mut svg, (900, 130 + 260 * rows as u32)).into_drawing_area();
         root.fill(&WHITE).map_err(|e| e.to_string())?;
         let (top, body) = root.split_vertically(56);
         top.draw(&Text::new(
@@ -120,7 +128,11 @@ pub fn tornado_svg(s: &Sensitivity, title: &str) -> std::result::Result<String, 
             // per parameter: (name, lowest change, highest change, their cases' labels)
             let mut bars: Vec<(String, f64, f64, String, String)> = Vec::new();
             for c in &m.cases {
-                let short = c.label.strip_prefix(&c.param).unwrap_or(&c.label).to_string();
+                let short = c
+                    .label
+                    .strip_prefix(&c.param)
+                    .unwrap_or(&c.label)
+                    .to_string();
                 match bars.iter_mut().find(|b| b.0 == c.param) {
                     Some(b) => {
                         if c.change_pct_omega_n < b.1 {
@@ -199,7 +211,11 @@ pub fn tornado_svg(s: &Sensitivity, title: &str) -> std::result::Result<String, 
                         chart
                             .draw_series(std::iter::once(Text::new(
                                 format!("{label}: {x:+.2} %"),
-                                (x + anchor * span * 0.02 - if anchor < 0.0 { span * 0.30 } else { 0.0 }, y + 0.62),
+                                (
+                                    x + anchor * span * 0.02
+                                        - if anchor < 0.0 { span * 0.30 } else { 0.0 },
+                                    y + 0.62,
+                                ),
                                 ("sans-serif", 15).into_font(),
                             )))
                             .map_err(|e| e.to_string())?;
@@ -207,7 +223,10 @@ pub fn tornado_svg(s: &Sensitivity, title: &str) -> std::result::Result<String, 
                 }
             }
             chart
-                .draw_series(LineSeries::new(vec![(0.0, 0.0), (0.0, n as f64)], BLACK.stroke_width(1)))
+                .draw_series(LineSeries::new(
+                    vec![(0.0, 0.0), (0.0, n as f64)],
+                    BLACK.stroke_width(1),
+                ))
                 .map_err(|e| e.to_string())?;
         }
         root.present().map_err(|e| e.to_string())?;

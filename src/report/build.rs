@@ -136,7 +136,9 @@ struct ModeJson {
 impl ModeJson {
     /// The mode's name (the model's `[[modes]]`), or `mode N`.
     fn label(&self) -> String {
-        self.name.clone().unwrap_or_else(|| format!("mode {}", self.mode))
+        self.name
+            .clone()
+            .unwrap_or_else(|| format!("mode {}", self.mode))
     }
 }
 
@@ -249,7 +251,8 @@ fn frf_with_forcing(
     // the declared amplitude (`[model] forcing_amplitude`) first, then any zero-valued
     // parameter that makes a forcing
     let mut order: Vec<usize> = sys.forcing_amplitude_param().into_iter().collect();
-    order.extend((0..sys.param_names().len()).filter(|&i| Some(i) != sys.forcing_amplitude_param()));
+    order
+        .extend((0..sys.param_names().len()).filter(|&i| Some(i) != sys.forcing_amplitude_param()));
     for i in order {
         let name = &sys.param_names()[i];
         if i == f || sys.param(i) != 0.0 || sys.param_definition(i).is_some() {
@@ -963,10 +966,7 @@ fn campbell(env: &Environment, modes: &[ModeJson], data: &mut Sidecar) -> Result
         rotor: main.name.clone(),
         rpm_nominal: main.rpm,
         rpm_range: main.rpm_range,
-        modes: osc
-            .iter()
-            .map(|m| (m.label(), m.omega_n_rad_s))
-            .collect(),
+        modes: osc.iter().map(|m| (m.label(), m.omega_n_rad_s)).collect(),
         lines,
         crossings: crossings
             .iter()

@@ -142,5 +142,7 @@ pub fn from_environment(e: &crate::environment::Environment) -> Environment {
 /// The environment `name_or_path` (a shipped one's id or name, or a file), as the report
 /// reads it.
 pub fn resolve(name_or_path: &str) -> Result<Environment> {
-    Ok(from_environment(&crate::environment::resolve(name_or_path)?))
+    Ok(from_environment(&crate::environment::resolve(
+        name_or_path,
+    )?))
 }

@@ -85,7 +85,10 @@ fn default_candidates(sys: &System, forcing_amplitude: Option<usize>) -> Vec<Var
             let name = sys.param_names()[i].clone();
             Vary {
                 param: i,
-                cases: vec![(format!("{name}+10%"), p * 1.1), (format!("{name}-10%"), p * 0.9)],
+                cases: vec![
+                    (format!("{name}+10%"), p * 1.1),
+                    (format!("{name}-10%"), p * 0.9),
+                ],
                 name,
                 range: (p.min(p * 0.9).min(p * 1.1), p.max(p * 0.9).max(p * 1.1)),
             }
@@ -226,7 +229,10 @@ pub fn add_studies(report: &mut Report, s: &Studies) -> Result<()> {
                 rows.push(vec![
                     Cell::text(name),
                     d.num(format!("tuning_baseline/{key}"), Digits::Sig(7)),
-                    d.num(format!("tuning/designs/{k}/parameters/{key}"), Digits::Sig(7)),
+                    d.num(
+                        format!("tuning/designs/{k}/parameters/{key}"),
+                        Digits::Sig(7),
+                    ),
                     Cell::text((s.units)(name)),
                 ]);
             }
@@ -362,8 +368,9 @@ fn sensitivity_section(report: &Report, study: &Sensitivity, s: &Studies) -> Res
             rows,
         });
     }
-    let svg = crate::output::sensitivity::tornado_svg(study, "Change of each mode's ω_n per parameter")
-        .map_err(|e| crate::diag::Error::io("report.html", e))?;
+    let svg =
+        crate::output::sensitivity::tornado_svg(study, "Change of each mode's ω_n per parameter")
+            .map_err(|e| crate::diag::Error::io("report.html", e))?;
     Ok(section.figure(
         "Tornado chart: the change of ω_n (%) at each parameter's lowest and highest case, widest on top.",
         svg,
@@ -428,8 +435,14 @@ fn profile_section(
         return Ok(section);
     };
     let unit_ma = crate::linear::modal_analysis(&unit_sys, None)?;
-    let coords: Vec<usize> = (0..unit_sys.n()).filter(|&i| unit_sys.is_angle(i)).collect();
-    let coords = if coords.is_empty() { (0..unit_sys.n()).collect() } else { coords };
+    let coords: Vec<usize> = (0..unit_sys.n())
+        .filter(|&i| unit_sys.is_angle(i))
+        .collect();
+    let coords = if coords.is_empty() {
+        (0..unit_sys.n()).collect()
+    } else {
+        coords
+    };
     let at = std::cell::RefCell::new(unit_sys.clone());
     let cache: std::cell::RefCell<Vec<(f64, Vec<f64>)>> = std::cell::RefCell::new(Vec::new());
     let gains = |w: f64| -> Vec<f64> {

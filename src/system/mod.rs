@@ -1231,11 +1231,8 @@ impl System {
                         }
                     } else {
                         let z = D::from(0.0);
-                        let p = Pose3::from_parts(
-                            [z; 3],
-                            &q[g.offset + 3..g.offset + 3 + n],
-                            &g.axes,
-                        );
+                        let p =
+                            Pose3::from_parts([z; 3], &q[g.offset + 3..g.offset + 3 + n], &g.axes);
                         spatial::rotational_mass(&p, n, &t, &mut blk);
                     }
                     for i in 0..n {
