@@ -11,8 +11,11 @@
 //! per mode ("sides"), so every choice that the tolerance box can reach is solved as its
 //! own smooth problem: SLSQP (the `slsqp` crate, a port of NLopt's) with the constraint
 //! gradients from the analytic eigenvalue derivatives
-//! ([`crate::linear::sensitivity::mode_derivatives`]). Modes are followed from the
-//! baseline by MAC (each evaluation starts from the baseline's equilibrium). Each design
+//! ([`crate::linear::sensitivity::mode_derivatives`]). Each evaluation follows the modes
+//! from the baseline along the straight path to the trial point, by MAC against the
+//! previous step with step halving where the match is poor
+//! ([`crate::linear::sensitivity::modes_followed`]), so a label stays on its physical mode
+//! through a veering or a crossing. Each design
 //! found is then verified as `margins` checks it: the parameters set, the trim re-solved,
 //! the modes about the equilibrium nearest the initial pose, every row of the margins
 //! table. Choices that cannot be met are reported with the mode and the band that block
@@ -21,7 +24,7 @@
 use crate::diag::{Error, Result};
 use crate::environment::ForcingLine;
 use crate::linear::sensitivity::{
-    Evaluated, Vary, evaluate, match_modes, mode_derivatives, modes_at, oscillatory,
+    Vary, evaluate, mode_derivatives, modes_followed, oscillatory,
 };
 use crate::linear::{ModalAnalysis, modal_analysis};
 use crate::margins::{MarginRow, Requirement, check_margins, mode_points_named};
@@ -183,7 +186,6 @@ struct Problem<'a> {
     sys: &'a System,
     varies: &'a [Vary],
     base: &'a ModalAnalysis,
-    base_ev: Evaluated,
     /// The baseline modes followed (indices into `base.modes`).
     keep: Vec<usize>,
     p0: Vec<f64>,
@@ -204,9 +206,8 @@ impl Problem<'_> {
         if let Some(e) = self.cache.borrow().iter().find(|e| e.x == x) {
             return Some(e.clone());
         }
-        let (s, ma) = modes_at(self.sys, &self.values(x), None, Some(self.base)).ok()?;
+        let (s, ma, matched) = modes_followed(self.sys, &self.values(x), None, self.base).ok()?;
         let ev = evaluate(&ma);
-        let matched = match_modes(&self.base.linearization.full_mass, &self.base_ev, &ev);
         let mut omega = Vec::new();
         let mut grad = Vec::new();
         let derivs: Vec<_> = self
@@ -286,7 +287,6 @@ pub fn tune(
         sys,
         varies,
         base: &base,
-        base_ev: evaluate(&base),
         keep: keep.clone(),
         p0: p0.clone(),
         scale: scale.clone(),

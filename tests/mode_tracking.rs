@@ -419,3 +419,49 @@ fn element_stiffnesses_add_up_to_the_linearization() {
         assert!((reactions - k).amax() > 1e-3 * scale);
     }
 }
+
+/// `sensitivity` follows each label from the baseline to a case past the veering (step
+/// halving along the way), so the case's frequency is the one `track_modes` and the closed
+/// form give the label there; matching the case's shapes to the baseline's directly would
+/// have swapped the two (the MAC with the baseline's shape is near 0).
+#[test]
+fn sensitivity_cases_follow_the_labels_through_the_veering() {
+    use detune::linear::sensitivity::{Vary, sensitivity};
+    let sys = pendulums(&[]);
+    let i = sys.param_index("l2").unwrap();
+    let vary = Vary {
+        param: i,
+        name: "l2".into(),
+        cases: vec![("l2=1.25".into(), 1.25), ("l2=0.85".into(), 0.85)],
+        range: (0.8, 1.25),
+    };
+    let s = sensitivity(&sys, &[vary], None, None).unwrap();
+    let one = s
+        .modes
+        .iter()
+        .find(|m| m.name == "pendulum 1 swings")
+        .unwrap();
+    let two = s
+        .modes
+        .iter()
+        .find(|m| m.name == "pendulum 2 swings")
+        .unwrap();
+    for (case, l2) in [(0, 1.25), (1, 0.85)] {
+        let (lo, hi, _) = closed_form(l2, 0.05);
+        let (w1, w2) = (
+            one.cases[case].omega_n_rad_s,
+            two.cases[case].omega_n_rad_s,
+        );
+        assert!((w1 - lo).abs() < 1e-7 * lo, "l2 = {l2}: {w1} vs {lo}");
+        assert!((w2 - hi).abs() < 1e-7 * hi, "l2 = {l2}: {w2} vs {hi}");
+    }
+    // past the veering the label's shape has become pendulum 2's: far from its baseline
+    assert!(one.cases[0].mac < 0.1, "{}", one.cases[0].mac);
+    // before it, the same shape
+    assert!(one.cases[1].mac > 0.9, "{}", one.cases[1].mac);
+    // the tolerance interval holds the lower branch only
+    let (lo_end, _, _) = closed_form(1.25, 0.05);
+    let (lo_start, hi_start, _) = closed_form(0.8, 0.05);
+    assert!((one.worst_case.min_rad_s - lo_end.min(lo_start)).abs() < 1e-7);
+    assert!(one.worst_case.max_rad_s < hi_start);
+}

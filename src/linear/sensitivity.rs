@@ -333,18 +333,6 @@ fn reduced(lin: &Linearization, mode: &Mode) -> DVector<Complex<f64>> {
     lin.basis.map(|v| Complex::new(v, 0.0)).transpose() * full
 }
 
-/// Mass-weighted MAC of two reduced vectors, |aᴴ M b|² / ((aᴴ M a)(bᴴ M b)).
-pub fn mac(m: &DMatrix<f64>, a: &DVector<Complex<f64>>, b: &DVector<Complex<f64>>) -> f64 {
-    let mc = m.map(|v| Complex::new(v, 0.0));
-    let ab = (a.adjoint() * &mc * b)[(0, 0)].norm_sqr();
-    let aa = (a.adjoint() * &mc * a)[(0, 0)].re;
-    let bb = (b.adjoint() * &mc * b)[(0, 0)].re;
-    if aa <= 0.0 || bb <= 0.0 {
-        return 0.0;
-    }
-    ab / (aa * bb)
-}
-
 /// For each of `modes`, the undamped mode (index into the ascending ω²) with the best MAC,
 /// one-to-one where possible.
 fn pair_undamped(lin: &Linearization, modes: &[Mode], phi: &DMatrix<f64>) -> Vec<Option<usize>> {
@@ -357,7 +345,7 @@ fn pair_undamped(lin: &Linearization, modes: &[Mode], phi: &DMatrix<f64>) -> Vec
                 .filter(|&k| !taken[k])
                 .map(|k| {
                     let u = phi.column(k).map(|v| Complex::new(v, 0.0));
-                    (k, mac(&lin.mass, &x, &u))
+                    (k, super::tracking::mac(&x, &u, &lin.mass))
                 })
                 .max_by(|a, b| a.1.total_cmp(&b.1));
             best.map(|(k, _)| {
@@ -593,12 +581,10 @@ pub struct Sensitivity {
     pub modes: Vec<ModeSensitivity>,
 }
 
-/// The baseline's modes, and their undamped partners.
+/// A modal analysis's frequencies, with their undamped partners.
 pub(crate) struct Evaluated {
     /// ω_n, ζ, undamped ω (when paired) of every mode in `ma.modes` order.
     pub(crate) modes: Vec<(f64, f64, Option<f64>)>,
-    /// Shapes (model coordinates) for matching.
-    pub(crate) shapes: Vec<DVector<Complex<f64>>>,
 }
 
 pub(crate) fn evaluate(ma: &ModalAnalysis) -> Evaluated {
@@ -615,41 +601,144 @@ pub(crate) fn evaluate(ma: &ModalAnalysis) -> Evaluated {
                 (m.omega_n_rad_s, m.damping_ratio, w)
             })
             .collect(),
-        shapes: ma
-            .modes
-            .iter()
-            .map(|m| {
-                DVector::from_iterator(
-                    m.shape.len(),
-                    m.shape.iter().map(|z| Complex::new(z.re, z.im)),
-                )
-            })
-            .collect(),
     }
 }
 
-/// For each baseline mode, the case's mode with the best mass-weighted MAC (the full mass
-/// matrix at the baseline equilibrium), one-to-one; with the MAC.
-pub(crate) fn match_modes(
-    mass: &DMatrix<f64>,
-    base: &Evaluated,
-    case: &Evaluated,
-) -> Vec<Option<(usize, f64)>> {
-    let mut taken = vec![false; case.shapes.len()];
-    base.shapes
-        .iter()
-        .map(|a| {
-            let best = (0..case.shapes.len())
-                .filter(|&k| !taken[k])
-                .map(|k| (k, mac(mass, a, &case.shapes[k])))
-                .max_by(|x, y| x.1.total_cmp(&y.1));
-            if let Some((k, _)) = best {
-                taken[k] = true;
+/// [`modes_at`] with each oscillatory baseline mode followed to the case: its label is
+/// carried from the baseline along the straight path p0 + s (p1 − p0), s from 0 to 1, by
+/// mass-weighted MAC against the previous step ([`super::tracking::carry_labels`]) with
+/// the analytic dλ/dp as predictor, the step halved (down to 2^−[`FOLLOW_HALVINGS`] of
+/// the way) where the best match is poor or ambiguous, where a label's mode is not the one
+/// nearest its predicted λ, or where two labels' frequencies change order (a crossing or a
+/// veering inside the step, which a long step's shapes cannot tell: across a veering the
+/// two modes exchange shapes), and doubled again after a clear step; each step's
+/// equilibrium is continued from the previous one. A case that one
+/// step reaches with a clear match costs one modal analysis, as before; a case past a
+/// veering or a crossing keeps the label on its physical mode, as `modes --param` does.
+/// Returns, for each baseline mode, the case's mode and its MAC with the baseline's shape
+/// (None for modes that are not oscillatory, or lost).
+pub(crate) fn modes_followed(
+    sys: &System,
+    values: &[(usize, f64)],
+    normalize: Option<&str>,
+    base: &ModalAnalysis,
+) -> Result<(System, ModalAnalysis, Vec<Option<(usize, f64)>>)> {
+    use super::tracking::{Solved, TrackOptions, carry_labels};
+    let opts = TrackOptions::default();
+    let p0: Vec<f64> = values.iter().map(|&(i, _)| sys.param(i)).collect();
+    let at = |s: f64| -> Vec<(usize, f64)> {
+        values
+            .iter()
+            .zip(&p0)
+            .map(|(&(i, p1), &p0)| (i, if s == 1.0 { p1 } else { p0 + s * (p1 - p0) }))
+            .collect()
+    };
+    // dλ/ds of every mode of `modal` (a modal analysis of `s`) along the path
+    let slope = |s: &System, modal: &ModalAnalysis| -> Option<Vec<Complex<f64>>> {
+        let mut dl = vec![Complex::new(0.0, 0.0); modal.modes.len()];
+        for (&(i, p1), &p0) in values.iter().zip(&p0) {
+            let d = mode_derivatives(s, modal, i, true).ok()?;
+            for (k, dk) in d.iter().enumerate() {
+                dl[k] += dk.dlambda * (p1 - p0);
             }
-            best
+        }
+        Some(dl)
+    };
+    let mut last = Solved {
+        value: 0.0,
+        modal: base.clone(),
+        modes: (0..base.modes.len())
+            .map(|k| oscillatory(&base.modes[k]).then_some(k))
+            .collect(),
+        macs: vec![1.0; base.modes.len()],
+    };
+    let mut last_slope = slope(sys, base);
+    let mut step = 1.0;
+    const MIN_STEP: f64 = 1.0 / (1 << FOLLOW_HALVINGS) as f64;
+    let end = loop {
+        let s = (last.value + step).min(1.0);
+        let (sy, ma) = modes_at(sys, &at(s), normalize, Some(&last.modal))?;
+        let predicted: Vec<Option<Complex<f64>>> = last
+            .modes
+            .iter()
+            .map(|k| {
+                let k = (*k)?;
+                let e = last.modal.modes[k].eigenvalue;
+                Some(Complex::new(e.re, e.im) + last_slope.as_ref()?[k] * (s - last.value))
+            })
+            .collect();
+        let (modes, macs, mut poor) = carry_labels(&last, &ma, &predicted, &opts);
+        // the shapes alone cannot tell a long step across a veering (where the two modes
+        // exchange their shapes, so each label's shape matches the other's mode well):
+        // the mode each label is given must also be the one nearest its predicted λ
+        for (l, j) in modes.iter().enumerate() {
+            if let (Some(j), Some(p)) = (j, predicted[l]) {
+                let dist = |k: usize| {
+                    let e = ma.modes[k].eigenvalue;
+                    (Complex::new(e.re, e.im) - p).norm()
+                };
+                let nearest = (0..ma.modes.len()).min_by(|&a, &b| dist(a).total_cmp(&dist(b)));
+                if nearest != Some(*j) {
+                    poor = true;
+                }
+            }
+        }
+        // two labels whose frequencies change order crossed or veered within the step:
+        // resolve it with smaller steps (a true crossing stays one at the smallest)
+        let omega = |sol: &[Option<usize>], modal: &ModalAnalysis, l: usize| {
+            sol[l].map(|k| modal.modes[k].omega_n_rad_s)
+        };
+        for l in 0..modes.len() {
+            for m in l + 1..modes.len() {
+                if let (Some(a0), Some(b0), Some(a1), Some(b1)) = (
+                    omega(&last.modes, &last.modal, l),
+                    omega(&last.modes, &last.modal, m),
+                    omega(&modes, &ma, l),
+                    omega(&modes, &ma, m),
+                ) && (a0 < b0) != (a1 < b1)
+                {
+                    poor = true;
+                }
+            }
+        }
+        if poor && step > MIN_STEP {
+            step *= 0.5;
+            continue;
+        }
+        step = (2.0 * step).min(1.0);
+        let done = s == 1.0;
+        if !done {
+            last_slope = slope(&sy, &ma);
+        }
+        last = Solved {
+            value: s,
+            modal: ma,
+            modes,
+            macs,
+        };
+        if done {
+            break sy;
+        }
+    };
+    let mass = &base.linearization.full_mass;
+    let matched = last
+        .modes
+        .iter()
+        .enumerate()
+        .map(|(k, j)| {
+            j.map(|j| {
+                let a = super::tracking::shape_vector(&base.modes[k].shape);
+                let b = super::tracking::shape_vector(&last.modal.modes[j].shape);
+                (j, super::tracking::mac(&a, &b, mass))
+            })
         })
-        .collect()
+        .collect();
+    Ok((end, last.modal, matched))
 }
+
+/// The most halvings of the path from the baseline to a case in [`modes_followed`] (the
+/// smallest step is 1/1024 of the way).
+pub const FOLLOW_HALVINGS: usize = 10;
 
 /// The name of every mode of `ma` (in its order): the model's declared modes matched by
 /// MAC ([`super::tracking::name_modes`]), the others `mode k` by rank; `mode k` for all
@@ -684,7 +773,6 @@ pub fn sensitivity(
     use rayon::prelude::*;
     let ma = modal_analysis(sys, normalize)?;
     let base = evaluate(&ma);
-    let mass = ma.linearization.full_mass.clone();
     let keep: Vec<usize> = (0..ma.modes.len())
         .filter(|&i| oscillatory(&ma.modes[i]))
         .collect();
@@ -699,11 +787,9 @@ pub fn sensitivity(
                param: &str,
                values: &[(usize, f64)]|
      -> Result<(Evaluated, Vec<Option<(usize, f64)>>)> {
-        let (_, m) = modes_at(sys, values, normalize, Some(&ma))
+        let (_, m, matched) = modes_followed(sys, values, normalize, &ma)
             .map_err(|e| e.context(&format!("{param}: the case {label}")))?;
-        let ev = evaluate(&m);
-        let matched = match_modes(&mass, &base, &ev);
-        Ok((ev, matched))
+        Ok((evaluate(&m), matched))
     };
 
     // the cases
