@@ -24,8 +24,9 @@
 use crate::diag::{Error, Result};
 use crate::environment::ForcingLine;
 use crate::linear::sensitivity::{
-    Vary, evaluate, mode_derivatives, modes_followed, oscillatory,
+    Vary, evaluate, follow, mode_derivatives, oscillatory,
 };
+use crate::linear::tracking::Solved;
 use crate::linear::{ModalAnalysis, modal_analysis};
 use crate::margins::{MarginRow, Requirement, check_margins, mode_points_named};
 use crate::system::System;
@@ -44,6 +45,62 @@ pub struct TuneOptions {
     pub max_designs: usize,
     /// The most SLSQP evaluations per side choice.
     pub max_evaluations: usize,
+    /// Manufacturing tolerances the design must clear the bands over (each mode's whole
+    /// interval over the tolerance box about the design, as `margins --vary` checks it);
+    /// none: the nominal design only.
+    pub tolerances: Vec<Tolerance>,
+    /// The optimizer: SLSQP with COBYLA as fallback (default), or one of them only.
+    pub optimizer: Optimizer,
+}
+
+/// Which constrained optimizer solves each choice of sides.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Optimizer {
+    /// SLSQP with the analytic gradients; COBYLA where SLSQP does not meet the choice.
+    #[default]
+    Auto,
+    /// SLSQP only.
+    Slsqp,
+    /// COBYLA (derivative-free) only.
+    Cobyla,
+}
+
+/// A parameter's tolerance: its range about its value, given about the baseline
+/// (`k_fs=±10%`). A relative tolerance scales with the design's value (±10 % of the tuned
+/// k_fs); an absolute one (`±500 N/m`) is the same offset about it.
+#[derive(Debug, Clone)]
+pub struct Tolerance {
+    /// As parsed about the baseline value.
+    pub vary: Vary,
+    /// Given in % of the value.
+    pub relative: bool,
+}
+
+impl Tolerance {
+    /// The parameter's range about the value `p` (the baseline's being `p0`).
+    pub fn about(&self, p0: f64, p: f64) -> (f64, f64) {
+        let (lo, hi) = self.vary.range;
+        if self.relative && p0 != 0.0 {
+            let (a, b) = (lo / p0 * p, hi / p0 * p);
+            (a.min(b), a.max(b))
+        } else {
+            (p + lo - p0, p + hi - p0)
+        }
+    }
+
+    /// The tolerance about the value `p`, as a [`Vary`] whose cases are its two ends.
+    pub fn at(&self, p0: f64, p: f64) -> Vary {
+        let (lo, hi) = self.about(p0, p);
+        Vary {
+            param: self.vary.param,
+            name: self.vary.name.clone(),
+            cases: vec![
+                (format!("{}={lo}", self.vary.name), lo),
+                (format!("{}={hi}", self.vary.name), hi),
+            ],
+            range: (lo, hi),
+        }
+    }
 }
 
 impl Default for TuneOptions {
@@ -54,6 +111,8 @@ impl Default for TuneOptions {
             weights: Vec::new(),
             max_designs: 3,
             max_evaluations: 200,
+            tolerances: Vec::new(),
+            optimizer: Optimizer::Auto,
         }
     }
 }
@@ -85,6 +144,14 @@ pub struct Design {
     /// The optimizer that found it: `SLSQP` (with the analytic gradients), or `COBYLA`
     /// (derivative-free), tried where SLSQP did not meet the side choice.
     pub optimizer: &'static str,
+    /// The free parameters the design leaves at a bound of their range: a wider range
+    /// would give a cheaper design.
+    pub at_bounds: Vec<BoundHit>,
+    /// With tolerances: each mode's lowest and highest ω_n over the tolerance box about
+    /// the design (full modal analyses at its corners and along its edges), rad/s, as
+    /// `margins --vary` computes them; the margins rows use these intervals.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub tolerance_intervals: Option<serde_json::Map<String, serde_json::Value>>,
     /// The peaks of the design's linear frequency response (the first angle coordinate,
     /// per unit of the forcing amplitude; none when the model declares no forcing), rad/s.
     pub frf_peaks_rad_s: Vec<f64>,
@@ -97,6 +164,16 @@ pub struct Design {
     pub sweep_peaks_rad_s: Option<Vec<f64>>,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub sweep_peaks_clear: Option<bool>,
+}
+
+/// A free parameter at a bound of its range.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct BoundHit {
+    pub param: String,
+    /// `lower` or `upper`.
+    pub bound: &'static str,
+    /// The bound, SI.
+    pub value: f64,
 }
 
 /// A choice of sides that no design within the bounds meets, and why.
@@ -180,17 +257,24 @@ struct Eval {
     x: Vec<f64>,
     omega: Vec<f64>,
     grad: Vec<Vec<f64>>,
+    /// Per mode, the first-order lowest and highest change of ω_n over the tolerance box
+    /// about x (≤ 0, ≥ 0), rad/s.
+    spread: Vec<(f64, f64)>,
 }
 
 struct Problem<'a> {
     sys: &'a System,
     varies: &'a [Vary],
-    base: &'a ModalAnalysis,
     /// The baseline modes followed (indices into `base.modes`).
     keep: Vec<usize>,
     p0: Vec<f64>,
     scale: Vec<f64>,
+    tolerances: &'a [Tolerance],
     cache: RefCell<Vec<Eval>>,
+    /// Points solved so far with their labels (the baseline first): each evaluation
+    /// follows the modes from the nearest of them, so the labels move with the
+    /// optimizer's steps and a step costs one modal analysis.
+    solved: RefCell<Vec<(Vec<f64>, System, Solved)>>,
 }
 
 impl Problem<'_> {
@@ -206,15 +290,53 @@ impl Problem<'_> {
         if let Some(e) = self.cache.borrow().iter().find(|e| e.x == x) {
             return Some(e.clone());
         }
-        let (s, ma, matched) = modes_followed(self.sys, &self.values(x), None, self.base).ok()?;
-        let ev = evaluate(&ma);
+        let (s, solved) = {
+            let paths = self.solved.borrow();
+            let dist = |y: &[f64]| -> f64 { y.iter().zip(x).map(|(a, b)| (a - b).powi(2)).sum() };
+            let (y, sy, start) = paths
+                .iter()
+                .min_by(|a, b| dist(&a.0).total_cmp(&dist(&b.0)))
+                .expect("the baseline is solved");
+            let from: Vec<f64> = self.values(y).iter().map(|v| v.1).collect();
+            follow(self.sys, &from, sy.clone(), start.clone(), &self.values(x), None).ok()?
+        };
+        {
+            let mut paths = self.solved.borrow_mut();
+            if paths.len() > 16 {
+                paths.remove(1);
+            }
+            paths.push((x.to_vec(), s.clone(), solved.clone()));
+        }
+        let ma = &solved.modal;
+        let matched: Vec<Option<(usize, f64)>> = solved.modes.iter().map(|j| j.map(|j| (j, 1.0))).collect();
+        let ev = evaluate(ma);
         let mut omega = Vec::new();
         let mut grad = Vec::new();
         let derivs: Vec<_> = self
             .varies
             .iter()
-            .map(|v| mode_derivatives(&s, &ma, v.param, true).ok())
+            .map(|v| mode_derivatives(&s, ma, v.param, true).ok())
             .collect::<Option<Vec<_>>>()?;
+        // each tolerance's range about x, and the derivatives along it
+        let values = self.values(x);
+        let tol: Vec<((f64, f64), Vec<_>)> = self
+            .tolerances
+            .iter()
+            .map(|t| {
+                let i = t.vary.param;
+                let p = values
+                    .iter()
+                    .find(|v| v.0 == i)
+                    .map_or(self.sys.param(i), |v| v.1);
+                let (lo, hi) = t.about(self.sys.param(i), p);
+                let d = match self.varies.iter().position(|v| v.param == i) {
+                    Some(k) => derivs[k].clone(),
+                    None => mode_derivatives(&s, ma, i, true).ok()?,
+                };
+                Some(((lo - p, hi - p), d))
+            })
+            .collect::<Option<Vec<_>>>()?;
+        let mut spread = Vec::new();
         for &k in &self.keep {
             let (j, _) = matched[k]?;
             omega.push(ev.modes[j].0);
@@ -223,11 +345,19 @@ impl Problem<'_> {
                     .map(|i| derivs[i][j].domega_n * self.scale[i])
                     .collect(),
             );
+            let (mut down, mut up) = (0.0, 0.0);
+            for ((a, b), d) in &tol {
+                let (a, b) = (d[j].domega_n * a, d[j].domega_n * b);
+                down += a.min(b).min(0.0);
+                up += a.max(b).max(0.0);
+            }
+            spread.push((down, up));
         }
         let e = Eval {
             x: x.to_vec(),
             omega,
             grad,
+            spread,
         };
         let mut c = self.cache.borrow_mut();
         if c.len() > 8 {
@@ -286,11 +416,23 @@ pub fn tune(
     let problem = Problem {
         sys,
         varies,
-        base: &base,
         keep: keep.clone(),
         p0: p0.clone(),
         scale: scale.clone(),
+        tolerances: &opts.tolerances,
         cache: RefCell::new(Vec::new()),
+        solved: RefCell::new(vec![(
+            vec![0.0; varies.len()],
+            sys.clone(),
+            Solved {
+                value: 0.0,
+                modal: base.clone(),
+                modes: (0..base.modes.len())
+                    .map(|k| oscillatory(&base.modes[k]).then_some(k))
+                    .collect(),
+                macs: vec![1.0; base.modes.len()],
+            },
+        )]),
     };
 
     // what the box can reach, mode by mode (the sensitivity study's worst case)
@@ -334,12 +476,15 @@ pub fn tune(
             });
         }
     }
+    // the baseline as the designs are checked (over its tolerances, when given)
+    let baseline_passes = verify_design(&problem, &vec![0.0; varies.len()], lines, opts)
+        .map(|v| v.check.pass)
+        .unwrap_or(false);
     if !infeasible.is_empty() {
-        let (points, _) = mode_points_named(&base, &all_names);
         return Ok(Tuning {
             designs: Vec::new(),
             infeasible,
-            baseline_passes: check_margins(&points, lines, opts.margin, Requirement::Fixed)?.pass,
+            baseline_passes,
             choices: 0,
         });
     }
@@ -389,184 +534,97 @@ pub fn tune(
     let mut designs: Vec<Design> = Vec::new();
     let nchoices = choices.len();
     for choice in &choices {
-        let x0 = vec![0.0; varies.len()];
-        // constraints c(x) ≤ 0, relative: (lo − ω)/lo and (ω − hi)/hi
-        let mut cons: Vec<Box<dyn Fn(&[f64], Option<&mut [f64]>, &mut ()) -> f64 + '_>> =
-            Vec::new();
-        for (m, &g) in choice.iter().enumerate() {
-            let gap = &gaps[g];
-            let p = &problem;
-            if gap.lo > 0.0 {
-                let lo = gap.lo;
-                cons.push(Box::new(
-                    move |x: &[f64], grad: Option<&mut [f64]>, _: &mut ()| match p.eval(x) {
-                        Some(e) => {
-                            if let Some(gr) = grad {
-                                for (i, gi) in gr.iter_mut().enumerate() {
-                                    *gi = -e.grad[m][i] / lo;
-                                }
-                            }
-                            (lo - e.omega[m]) / lo
-                        }
-                        None => {
-                            if let Some(gr) = grad {
-                                gr.fill(0.0);
-                            }
-                            1e3
-                        }
-                    },
-                ));
-            }
-            if gap.hi.is_finite() {
-                let hi = gap.hi;
-                cons.push(Box::new(
-                    move |x: &[f64], grad: Option<&mut [f64]>, _: &mut ()| match p.eval(x) {
-                        Some(e) => {
-                            if let Some(gr) = grad {
-                                for (i, gi) in gr.iter_mut().enumerate() {
-                                    *gi = e.grad[m][i] / hi;
-                                }
-                            }
-                            (e.omega[m] - hi) / hi
-                        }
-                        None => {
-                            if let Some(gr) = grad {
-                                gr.fill(0.0);
-                            }
-                            1e3
-                        }
-                    },
-                ));
-            }
-        }
-        let w = weights.clone();
-        let cost = move |x: &[f64], grad: Option<&mut [f64]>, _: &mut ()| -> f64 {
-            if let Some(g) = grad {
-                for i in 0..x.len() {
-                    g[i] = 2.0 * w[i] * x[i];
-                }
-            }
-            x.iter().zip(&w).map(|(x, w)| w * x * x).sum()
-        };
-        type Con<'c> = &'c dyn Fn(&[f64], Option<&mut [f64]>, &mut ()) -> f64;
-        let cons_ref: Vec<Con<'_>> = cons.iter().map(|c| c.as_ref()).collect();
-        let tol = slsqp::StopTols {
-            ftol_rel: 1e-10,
-            xtol_rel: 1e-10,
-            ..slsqp::StopTols::default()
-        };
-        let x = match slsqp::minimize(
-            cost,
-            &x0,
-            &bounds,
-            &cons_ref,
-            (),
-            opts.max_evaluations,
-            Some(tol),
-        ) {
-            Ok((_, x, _)) => x,
-            Err((_, x, _)) => x,
-        };
-        // feasible as solved?
-        let blocking_at = |x: &[f64]| {
-            match problem.eval(x) {
-            None => Some("the modes could not be computed at the optimizer's last point".to_string()),
-            Some(e) => choice.iter().enumerate().find_map(|(m, &g)| {
-                let gap = &gaps[g];
-                let w = e.omega[m];
-                if w < gap.lo * (1.0 - 0.5 * opts.clearance) {
-                    Some(format!(
-                        "{} stays at {:.4} rad/s, below {:.4} rad/s: it cannot be raised above {} by the margin within the bounds",
-                        names[m], w, gap.lo, gap.below.last().cloned().unwrap_or_default()
-                    ))
-                } else if w > gap.hi * (1.0 + 0.5 * opts.clearance) {
-                    Some(format!(
-                        "{} stays at {:.4} rad/s, above {:.4} rad/s: it cannot be lowered below {} by the margin within the bounds",
-                        names[m], w, gap.hi, gap.above.first().cloned().unwrap_or_default()
-                    ))
-                } else {
-                    None
-                }
-            }),
-        }
-        };
-        let mut x = x;
-        let mut blocking = blocking_at(&x);
-        let mut method = "SLSQP";
-        if blocking.is_some() {
-            // the derivative-free fallback (COBYLA, the `cobyla` crate): constraints as
-            // c(x) ≥ 0, no gradients
-            type Cob<'c> = Box<dyn Fn(&[f64], &mut ()) -> f64 + 'c>;
-            let cob: Vec<Cob<'_>> = cons
-                .iter()
-                .map(|c| Box::new(move |x: &[f64], _: &mut ()| -c(x, None, &mut ())) as Cob<'_>)
-                .collect();
-            let cob_ref: Vec<&dyn Fn(&[f64], &mut ()) -> f64> =
-                cob.iter().map(|c| c.as_ref()).collect();
-            let w = weights.clone();
-            let cost = move |x: &[f64], _: &mut ()| -> f64 {
-                x.iter().zip(&w).map(|(x, w)| w * x * x).sum()
-            };
-            let y = match cobyla::minimize(
-                cost,
-                &vec![0.0; varies.len()],
-                &bounds,
-                &cob_ref,
-                (),
-                opts.max_evaluations,
-                cobyla::RhoBeg::All(0.1),
-                None,
+        // per mode, what the verification found the tolerance box to add to the
+        // first-order spread (≤ 0 below, ≥ 0 above), rad/s
+        let mut extra: Vec<(f64, f64)> = vec![(0.0, 0.0); keep.len()];
+        let mut outcome = Err(String::new());
+        let mut last_x: Option<Vec<f64>> = None;
+        for _ in 0..ROUNDS {
+            let (x, method) = match solve_choice(
+                &problem, choice, &gaps, &bounds, &weights, &extra, opts, &names,
             ) {
-                Ok((_, y, _)) => y,
-                Err((_, y, _)) => y,
+                Ok(v) => v,
+                Err(reason) => {
+                    if outcome.is_err() {
+                        outcome = Err(reason);
+                    }
+                    break;
+                }
             };
-            if blocking_at(&y).is_none() {
-                x = y;
-                blocking = None;
-                method = "COBYLA";
+            // the same point again: the spreads have settled
+            if last_x.as_ref().is_some_and(|l| {
+                l.iter()
+                    .zip(&x)
+                    .all(|(a, b)| (a - b).abs() <= 1e-10 * (1.0 + a.abs()))
+            }) {
+                break;
+            }
+            last_x = Some(x.clone());
+            let v = match verify_design(&problem, &x, lines, opts) {
+                Ok(v) => v,
+                Err(e) => {
+                    if outcome.is_err() {
+                        outcome = Err(format!("the design found does not verify: {e}"));
+                    }
+                    break;
+                }
+            };
+            let Some(e) = problem.eval(&x) else {
+                break;
+            };
+            let pass = v.check.pass;
+            if !pass && outcome.is_err() {
+                let worst = v.check.failures().first().map_or(String::new(), |r| {
+                    format!(
+                        ": {} spans {:.4}–{:.4} rad/s, {:.3} % from {} (needs {:.3} %)",
+                        r.mode, r.min_rad_s, r.max_rad_s, r.separation_pct, r.line, r.required_pct
+                    )
+                });
+                outcome = Err(if opts.tolerances.is_empty() {
+                    format!(
+                        "the design found fails the full margins check (mode tracking lost?){worst}"
+                    )
+                } else {
+                    format!("the design found fails the margins check over the tolerance box{worst}")
+                });
+            }
+            if opts.tolerances.is_empty() {
+                if pass {
+                    outcome = Ok((x, method, v));
+                }
+                break;
+            }
+            // the box's true reach about x against the first-order spread: solve again
+            // with the difference (a fifth more where the design failed), keeping the
+            // cheapest design that passes
+            let pad = if pass { 1.0 } else { 1.2 };
+            for (m, name) in names.iter().enumerate() {
+                if let Some(&(lo, hi)) = v.intervals.get(name) {
+                    extra[m] = (
+                        pad * (lo - e.omega[m] - e.spread[m].0),
+                        pad * (hi - e.omega[m] - e.spread[m].1),
+                    );
+                }
+            }
+            if pass {
+                let cost = |x: &[f64]| -> f64 { x.iter().zip(&weights).map(|(x, w)| w * x * x).sum() };
+                match &outcome {
+                    Ok((best, _, _)) if cost(best) <= cost(&x) => {}
+                    _ => outcome = Ok((x, method, v)),
+                }
             }
         }
-        if let Some(reason) = blocking {
-            infeasible.push(Infeasible {
-                sides: sides_of(choice),
-                reason,
-            });
-            continue;
-        }
-        // verify as `margins` does
-        let values = problem.values(&x);
-        let verified = (|| -> Result<(crate::margins::MarginCheck, ModalAnalysis)> {
-            let mut s = sys.clone();
-            for &(i, v) in &values {
-                s.set_param(i, v)?;
-            }
-            let (s, _) = crate::statics::trim::trim(&s)?;
-            let ma = modal_analysis(&s, None)?;
-            let (points, _) =
-                mode_points_named(&ma, &crate::linear::sensitivity::mode_names(&s, &ma));
-            Ok((
-                check_margins(&points, lines, opts.margin, Requirement::Fixed)?,
-                ma,
-            ))
-        })();
-        let (check, ma) = match verified {
-            Ok(v) => v,
-            Err(e) => {
+        let (x, method, v) = match outcome {
+            Ok(o) => o,
+            Err(reason) => {
                 infeasible.push(Infeasible {
                     sides: sides_of(choice),
-                    reason: format!("the design found does not verify: {e}"),
+                    reason,
                 });
                 continue;
             }
         };
-        if !check.pass {
-            infeasible.push(Infeasible {
-                sides: sides_of(choice),
-                reason: "the design found fails the full margins check (mode tracking lost?)"
-                    .into(),
-            });
-            continue;
-        }
+        let values = problem.values(&x);
         // the linear frequency response of the design: its peaks (per unit of the
         // declared forcing amplitude)
         let frf_peaks: Option<Vec<f64>> = (|| {
@@ -578,7 +636,7 @@ pub fn tune(
             }
             s.set_param(a, 1.0).ok()?;
             let (s, _) = crate::statics::trim::trim(&s).ok()?;
-            let ws: Vec<f64> = ma.modes.iter().map(|m| m.omega_n_rad_s).collect();
+            let ws: Vec<f64> = v.modal.modes.iter().map(|m| m.omega_n_rad_s).collect();
             let lo = ws.iter().copied().fold(f64::INFINITY, f64::min) * 0.5;
             let hi = ws.iter().copied().fold(0.0, f64::max) * 1.5;
             let grid: Vec<f64> = (0..=200)
@@ -599,23 +657,50 @@ pub fn tune(
             parameters.insert(v.name.clone(), value.into());
         }
         let mut modes = serde_json::Map::new();
-        let design_names = crate::linear::sensitivity::mode_names(sys, &ma);
-        for (k, m) in ma.modes.iter().enumerate().filter(|(_, m)| oscillatory(m)) {
-            modes.insert(design_names[k].clone(), m.omega_n_rad_s.into());
+        for (k, m) in v.modal.modes.iter().enumerate().filter(|(_, m)| oscillatory(m)) {
+            modes.insert(v.names[k].clone(), m.omega_n_rad_s.into());
         }
-        let closest = check
+        let closest = v
+            .check
             .rows
             .iter()
             .map(|r| r.separation_pct)
             .fold(f64::INFINITY, f64::min);
+        let at_bounds = varies
+            .iter()
+            .enumerate()
+            .filter_map(|(i, vary)| {
+                let tol = 1e-6 * (bounds[i].1 - bounds[i].0).abs().max(1e-12);
+                let (bound, at) = if x[i] <= bounds[i].0 + tol {
+                    ("lower", vary.range.0)
+                } else if x[i] >= bounds[i].1 - tol {
+                    ("upper", vary.range.1)
+                } else {
+                    return None;
+                };
+                Some(BoundHit {
+                    param: vary.name.clone(),
+                    bound,
+                    value: at,
+                })
+            })
+            .collect();
+        let tolerance_intervals = (!opts.tolerances.is_empty()).then(|| {
+            v.intervals
+                .iter()
+                .map(|(n, &(lo, hi))| (n.clone(), serde_json::json!([lo, hi])))
+                .collect()
+        });
         designs.push(Design {
             parameters,
             cost: x.iter().zip(&weights).map(|(x, w)| w * x * x).sum(),
             sides: sides_of(choice),
-            margins: check.rows,
+            margins: v.check.rows,
             modes,
             closest_pct: closest,
             optimizer: method,
+            at_bounds,
+            tolerance_intervals,
             sweep_peaks_rad_s: None,
             sweep_peaks_clear: None,
             frf_peaks_rad_s: frf_peaks.clone().unwrap_or_default(),
@@ -641,15 +726,243 @@ pub fn tune(
             })
     });
     designs.truncate(opts.max_designs);
-    let baseline_passes = {
-        let (points, _) = mode_points_named(&base, &all_names);
-        check_margins(&points, lines, opts.margin, Requirement::Fixed)?.pass
-    };
     Ok(Tuning {
         designs,
         infeasible,
         baseline_passes,
         choices: nchoices,
+    })
+}
+
+/// Solves of one choice of sides: the first with the first-order tolerance spread, then
+/// again with the spread the verification found about the last design (the cheapest
+/// design that passes is kept).
+const ROUNDS: usize = 5;
+
+/// Solve one choice of sides (a gap per mode): the smallest change that puts each mode's
+/// ω_n, widened by its tolerance spread (first-order, plus `extra`), inside its gap.
+/// Returns x and the optimizer that met the choice, or why none did.
+#[allow(clippy::too_many_arguments)]
+fn solve_choice(
+    problem: &Problem<'_>,
+    choice: &[usize],
+    gaps: &[Gap],
+    bounds: &[(f64, f64)],
+    weights: &[f64],
+    extra: &[(f64, f64)],
+    opts: &TuneOptions,
+    names: &[String],
+) -> std::result::Result<(Vec<f64>, &'static str), String> {
+    let n = bounds.len();
+    // the lowest and highest ω_n of mode m over the tolerance box, first-order
+    let low = |e: &Eval, m: usize| e.omega[m] + e.spread[m].0 + extra[m].0;
+    let high = |e: &Eval, m: usize| e.omega[m] + e.spread[m].1 + extra[m].1;
+    // constraints c(x) ≤ 0, relative: (lo − ω_low)/lo and (ω_high − hi)/hi; the
+    // gradient is ω_n's (the spread changes slowly)
+    type Con<'c> = Box<dyn Fn(&[f64], Option<&mut [f64]>, &mut ()) -> f64 + 'c>;
+    let mut cons: Vec<Con<'_>> = Vec::new();
+    for (m, &g) in choice.iter().enumerate() {
+        let gap = &gaps[g];
+        if gap.lo > 0.0 {
+            let lo = gap.lo;
+            cons.push(Box::new(move |x: &[f64], grad: Option<&mut [f64]>, _: &mut ()| {
+                match problem.eval(x) {
+                    Some(e) => {
+                        if let Some(gr) = grad {
+                            for (i, gi) in gr.iter_mut().enumerate() {
+                                *gi = -e.grad[m][i] / lo;
+                            }
+                        }
+                        (lo - low(&e, m)) / lo
+                    }
+                    None => {
+                        if let Some(gr) = grad {
+                            gr.fill(0.0);
+                        }
+                        1e3
+                    }
+                }
+            }));
+        }
+        if gap.hi.is_finite() {
+            let hi = gap.hi;
+            cons.push(Box::new(move |x: &[f64], grad: Option<&mut [f64]>, _: &mut ()| {
+                match problem.eval(x) {
+                    Some(e) => {
+                        if let Some(gr) = grad {
+                            for (i, gi) in gr.iter_mut().enumerate() {
+                                *gi = e.grad[m][i] / hi;
+                            }
+                        }
+                        (high(&e, m) - hi) / hi
+                    }
+                    None => {
+                        if let Some(gr) = grad {
+                            gr.fill(0.0);
+                        }
+                        1e3
+                    }
+                }
+            }));
+        }
+    }
+    // why x does not meet the choice (None: it does)
+    let blocking_at = |x: &[f64]| match problem.eval(x) {
+        None => Some("the modes could not be computed at the optimizer's last point".to_string()),
+        Some(e) => choice.iter().enumerate().find_map(|(m, &g)| {
+            let gap = &gaps[g];
+            let (a, b) = (low(&e, m), high(&e, m));
+            let over = if opts.tolerances.is_empty() {
+                String::new()
+            } else {
+                " over its tolerances".to_string()
+            };
+            if a < gap.lo * (1.0 - 0.5 * opts.clearance) {
+                Some(format!(
+                    "{} stays at {:.4} rad/s{over}, below {:.4} rad/s: it cannot be raised above {} by the margin within the bounds",
+                    names[m],
+                    a,
+                    gap.lo,
+                    gap.below.last().cloned().unwrap_or_default()
+                ))
+            } else if b > gap.hi * (1.0 + 0.5 * opts.clearance) {
+                Some(format!(
+                    "{} stays at {:.4} rad/s{over}, above {:.4} rad/s: it cannot be lowered below {} by the margin within the bounds",
+                    names[m],
+                    b,
+                    gap.hi,
+                    gap.above.first().cloned().unwrap_or_default()
+                ))
+            } else {
+                None
+            }
+        }),
+    };
+    let cost_of = |x: &[f64]| -> f64 { x.iter().zip(weights).map(|(x, w)| w * x * x).sum() };
+    let mut blocking = Some(String::new());
+    let mut found: Option<(Vec<f64>, &'static str)> = None;
+    if opts.optimizer != Optimizer::Cobyla {
+        let cost = |x: &[f64], grad: Option<&mut [f64]>, _: &mut ()| -> f64 {
+            if let Some(g) = grad {
+                for i in 0..x.len() {
+                    g[i] = 2.0 * weights[i] * x[i];
+                }
+            }
+            cost_of(x)
+        };
+        type ConRef<'c> = &'c dyn Fn(&[f64], Option<&mut [f64]>, &mut ()) -> f64;
+        let cons_ref: Vec<ConRef<'_>> = cons.iter().map(|c| c.as_ref()).collect();
+        let tol = slsqp::StopTols {
+            ftol_rel: 1e-10,
+            xtol_rel: 1e-10,
+            ..slsqp::StopTols::default()
+        };
+        let x = match slsqp::minimize(
+            cost,
+            &vec![0.0; n],
+            bounds,
+            &cons_ref,
+            (),
+            opts.max_evaluations,
+            Some(tol),
+        ) {
+            Ok((_, x, _)) | Err((_, x, _)) => x,
+        };
+        blocking = blocking_at(&x);
+        if blocking.is_none() {
+            found = Some((x, "SLSQP"));
+        }
+    }
+    if found.is_none() && opts.optimizer != Optimizer::Slsqp {
+        // the derivative-free fallback (COBYLA, the `cobyla` crate): constraints as
+        // c(x) ≥ 0, no gradients
+        type Cob<'c> = Box<dyn Fn(&[f64], &mut ()) -> f64 + 'c>;
+        let cob: Vec<Cob<'_>> = cons
+            .iter()
+            .map(|c| Box::new(move |x: &[f64], _: &mut ()| -c(x, None, &mut ())) as Cob<'_>)
+            .collect();
+        let cob_ref: Vec<&dyn Fn(&[f64], &mut ()) -> f64> =
+            cob.iter().map(|c| c.as_ref()).collect();
+        let y = match cobyla::minimize(
+            |x: &[f64], _: &mut ()| cost_of(x),
+            &vec![0.0; n],
+            bounds,
+            &cob_ref,
+            (),
+            // without gradients it needs more evaluations than SLSQP
+            5 * opts.max_evaluations,
+            // the first simplex spans half of each range
+            cobyla::RhoBeg::Set(bounds.iter().map(|b| 0.5 * (b.1 - b.0)).collect()),
+            None,
+        ) {
+            Ok((_, y, _)) | Err((_, y, _)) => y,
+        };
+        blocking = blocking_at(&y);
+        if blocking.is_none() {
+            found = Some((y, "COBYLA"));
+        }
+    }
+    found.ok_or_else(|| blocking.unwrap_or_default())
+}
+
+/// A design checked as `margins` checks it.
+struct Verified {
+    check: crate::margins::MarginCheck,
+    modal: ModalAnalysis,
+    /// Every mode's name, in `modal.modes` order.
+    names: Vec<String>,
+    /// With tolerances: each mode's (lowest, highest) ω_n over the box about the design.
+    intervals: std::collections::BTreeMap<String, (f64, f64)>,
+}
+
+/// Verify x as `margins` does: the parameters set, the trim re-solved, the modes about
+/// the equilibrium nearest the initial pose, every row of the margins table; with
+/// tolerances, each mode's interval over the box about the design from a full
+/// sensitivity study (its corners and edges), as `margins --vary` computes it.
+fn verify_design(
+    problem: &Problem<'_>,
+    x: &[f64],
+    lines: &[ForcingLine],
+    opts: &TuneOptions,
+) -> Result<Verified> {
+    let sys = problem.sys;
+    let values = problem.values(x);
+    let mut s = sys.clone();
+    for &(i, v) in &values {
+        s.set_param(i, v)?;
+    }
+    let (s, _) = crate::statics::trim::trim(&s)?;
+    let modal = modal_analysis(&s, None)?;
+    let names = crate::linear::sensitivity::mode_names(&s, &modal);
+    let (mut points, _) = mode_points_named(&modal, &names);
+    let mut intervals = std::collections::BTreeMap::new();
+    if !opts.tolerances.is_empty() {
+        let box_: Vec<Vary> = opts
+            .tolerances
+            .iter()
+            .map(|t| t.at(sys.param(t.vary.param), s.param(t.vary.param)))
+            .collect();
+        let study = crate::linear::sensitivity::sensitivity(&s, &box_, Some(&names), None)?;
+        if let Some(m) = study.modes.iter().find(|m| m.worst_case.corners_failed > 0) {
+            return Err(Error::request(
+                format!(
+                    "{} corner(s) of the tolerance box about the design cannot be solved (no equilibrium near the design's, or a linkage that no longer closes): its intervals are no guarantee",
+                    m.worst_case.corners_failed
+                ),
+                "narrow the tolerances or the ranges",
+            ));
+        }
+        for m in &study.modes {
+            intervals.insert(m.name.clone(), (m.worst_case.min_rad_s, m.worst_case.max_rad_s));
+        }
+        points = crate::margins::with_intervals(points, &study);
+    }
+    let check = check_margins(&points, lines, opts.margin, Requirement::Fixed)?;
+    Ok(Verified {
+        check,
+        modal,
+        names,
+        intervals,
     })
 }
 

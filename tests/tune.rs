@@ -181,3 +181,190 @@ fn verify_sweep_peaks_equal_the_linear_peaks_at_small_forcing() {
     assert_eq!(code, 1);
     assert!(err.contains("D0=7 mm"), "{err}");
 }
+
+fn spring_chain_k1() -> (System, Environment, Vary) {
+    let model = detune::Model::load(&common::data("spring_chain.toml")).unwrap();
+    let sys = System::new(&model).unwrap();
+    let env = Environment::load(&common::data("probe_line.toml")).unwrap();
+    let i = sys.param_index("k1").unwrap();
+    let vary = Vary {
+        param: i,
+        name: "k1".into(),
+        cases: vec![("k1=50%".into(), 500.0), ("k1=150%".into(), 1500.0)],
+        range: (500.0, 1500.0),
+    };
+    (sys, env, vary)
+}
+
+/// k1 that puts mode 1 of the spring chain at ω (det(K − ω²M) = 0), for a given k2.
+fn chain_k1(omega: f64, k2: f64) -> f64 {
+    let w2 = omega * omega;
+    k2 * k2 / (k2 + 700.0 - 1.5 * w2) - k2 + 2.0 * w2
+}
+
+/// COBYLA alone (the derivative-free fallback) meets the closed form as SLSQP does, and on
+/// the inceptor finds both of SLSQP's designs.
+#[test]
+fn cobyla_alone_finds_the_closed_form_and_slsqps_designs() {
+    use detune::tune::Optimizer;
+    let (sys, env, vary) = spring_chain_k1();
+    let opts = TuneOptions {
+        optimizer: Optimizer::Cobyla,
+        ..TuneOptions::default()
+    };
+    let t = tune(&sys, &[vary], &env.forcing_lines(), &opts).unwrap();
+    let d = &t.designs[0];
+    assert_eq!(d.optimizer, "COBYLA");
+    let k1 = chain_k1(23.0 * (1.0 - 0.1 - 1e-4), 400.0);
+    let got = d.parameters["k1"].as_f64().unwrap();
+    assert!((got - k1).abs() < 1e-6 * k1, "k1 = {got}, closed form {k1}");
+
+    let run = |optimizer: &str| -> serde_json::Value {
+        let (code, out, err) = detune(&[
+            "tune",
+            "models/inceptor.toml",
+            "--environment",
+            "UH-60",
+            "--vary",
+            "k_fs=50%..200%",
+            "--vary",
+            "gearbox_scale=80%..120%",
+            "--optimizer",
+            optimizer,
+            "--json",
+        ]);
+        assert_eq!(code, 0, "{err}");
+        serde_json::from_str(&out).unwrap()
+    };
+    let (s, c) = (run("slsqp"), run("cobyla"));
+    let (s, c) = (
+        s["designs"].as_array().unwrap(),
+        c["designs"].as_array().unwrap(),
+    );
+    assert_eq!(s.len(), 2);
+    assert_eq!(c.len(), 2);
+    for (a, b) in s.iter().zip(c) {
+        assert_eq!(a["optimizer"], "SLSQP");
+        assert_eq!(b["optimizer"], "COBYLA");
+        for p in ["k_fs", "gearbox_scale"] {
+            let (x, y) = (
+                a["parameters"][p].as_f64().unwrap(),
+                b["parameters"][p].as_f64().unwrap(),
+            );
+            assert!((x - y).abs() < 1e-6 * x.abs(), "{p}: {x} vs {y}");
+        }
+    }
+    // each design leaves gearbox_scale at a bound of its range, and says so
+    assert_eq!(s[0]["at_bounds"][0]["param"], "gearbox_scale");
+    assert_eq!(s[0]["at_bounds"][0]["bound"], "upper");
+    assert_eq!(s[1]["at_bounds"][0]["bound"], "lower");
+}
+
+/// With tolerances (k1 ±2 %, k2 ±5 %), the design must clear the band over the whole box:
+/// mode 1 rises with both stiffnesses, so its highest value is at k1·1.02, k2·1.05, and the
+/// best design puts that corner at the band's edge: 1.02·k1 = k1*(ω_edge, 1.05·k2).
+#[test]
+fn toleranced_spring_chain_design_clears_the_band_over_the_box() {
+    use detune::tune::Tolerance;
+    let (sys, env, vary) = spring_chain_k1();
+    let tol = |name: &str, frac: f64| {
+        let i = sys.param_index(name).unwrap();
+        let p = sys.param(i);
+        Tolerance {
+            vary: Vary {
+                param: i,
+                name: name.into(),
+                cases: vec![
+                    (format!("{name}-"), p * (1.0 - frac)),
+                    (format!("{name}+"), p * (1.0 + frac)),
+                ],
+                range: (p * (1.0 - frac), p * (1.0 + frac)),
+            },
+            relative: true,
+        }
+    };
+    let opts = TuneOptions {
+        tolerances: vec![tol("k1", 0.02), tol("k2", 0.05)],
+        ..TuneOptions::default()
+    };
+    let t = tune(&sys, &[vary], &env.forcing_lines(), &opts).unwrap();
+    let d = &t.designs[0];
+    let edge = 23.0 * (1.0 - 0.1 - 1e-4);
+    let best = chain_k1(edge, 420.0) / 1.02;
+    let got = d.parameters["k1"].as_f64().unwrap();
+    // the best design, to 1e-6 (the solves with the spread found about each design
+    // converge on it)
+    assert!((got - best).abs() < 1e-6 * best, "k1 = {got}, best {best}");
+    // the interval is the box's (mode 1 at the corners), and clears the band
+    let iv = d.tolerance_intervals.as_ref().unwrap();
+    let (lo, hi) = (
+        iv["mode 1"][0].as_f64().unwrap(),
+        iv["mode 1"][1].as_f64().unwrap(),
+    );
+    let omega1 = |k1: f64, k2: f64| {
+        // the lower root of det(K − ω²M) = 0 for the chain (m1 = 2, m2 = 1.5, k3 = 700)
+        let (a, b, c) = (
+            2.0 * 1.5,
+            -(2.0 * (k2 + 700.0) + 1.5 * (k1 + k2)),
+            (k1 + k2) * (k2 + 700.0) - k2 * k2,
+        );
+        ((-b - (b * b - 4.0 * a * c).sqrt()) / (2.0 * a)).sqrt()
+    };
+    assert!((hi - omega1(got * 1.02, 420.0)).abs() < 1e-9 * hi);
+    assert!((lo - omega1(got * 0.98, 380.0)).abs() < 1e-9 * lo);
+    // clear of the margin by at least half the 1e-4 clearance
+    assert!(hi <= 23.0 * 0.9 * (1.0 - 0.5e-4), "{hi}");
+    assert!(d.margins.iter().all(|r| r.pass));
+    assert!(
+        d.margins
+            .iter()
+            .filter(|r| r.mode == "mode 1")
+            .all(|r| r.max_rad_s == hi && r.min_rad_s == lo)
+    );
+}
+
+/// `tune --tolerance` prints a design that `margins --vary` with the same tolerances
+/// passes (the check command it prints, run as printed), where the nominal design fails
+/// over the same box.
+#[test]
+fn inceptor_toleranced_design_passes_margins_over_the_box() {
+    let (code, out, err) = detune(&[
+        "tune",
+        "models/inceptor.toml",
+        "--environment",
+        "UH-60",
+        "--vary",
+        "k_fs=20%..500%",
+        "--vary",
+        "gearbox_scale=50%..150%",
+        "--tolerance",
+        "k_fs=±10%",
+        "--tolerance",
+        "gearbox_scale=±5%",
+    ]);
+    assert_eq!(code, 0, "{err}");
+    let check = out
+        .lines()
+        .find_map(|l| l.trim().strip_prefix("check: detune "))
+        .unwrap_or_else(|| panic!("no check command in {out}"));
+    assert!(check.contains("--vary k_fs=±10% --vary gearbox_scale=±5%"), "{check}");
+    let args: Vec<&str> = check.split_whitespace().collect();
+    let (code, out, err) = detune(&args);
+    assert_eq!(code, 0, "{check}: {out}{err}");
+    // the nominal design (no tolerances) fails over the same box
+    let nominal = [
+        "margins",
+        "models/inceptor.toml",
+        "--environment",
+        "UH-60",
+        "--set",
+        "k_fs=80433.40268528654",
+        "--set",
+        "gearbox_scale=1.2",
+        "--vary",
+        "k_fs=±10%",
+        "--vary",
+        "gearbox_scale=±5%",
+    ];
+    assert_eq!(detune(&nominal).0, 3);
+}

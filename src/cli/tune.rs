@@ -8,7 +8,7 @@ use clap::Args;
 use detune::diag::{Error, Result};
 use detune::environment::resolve;
 use detune::output::{Provenance, check_outputs};
-use detune::tune::{TuneOptions, Tuning, tune};
+use detune::tune::{Optimizer, Tolerance, TuneOptions, Tuning, tune};
 
 #[derive(Args)]
 pub struct TuneArgs {
@@ -36,6 +36,15 @@ pub struct TuneArgs {
     /// The response the sweep measures [default: the first angle coordinate].
     #[arg(long, value_name = "NAME")]
     pub response: Option<String>,
+    /// A manufacturing tolerance the design must clear the bands over, as `margins --vary`
+    /// checks it: `k_fs=±10%` (relative: ±10 % of the design's value) or `k_fs=±500 N/m`.
+    /// Repeatable; a parameter may be both free (--vary) and toleranced.
+    #[arg(long = "tolerance", value_name = "NAME=±TOL", allow_hyphen_values = true)]
+    pub tolerance: Vec<String>,
+    /// The optimizer of each choice of sides: auto (SLSQP with the analytic gradients,
+    /// COBYLA where SLSQP fails), slsqp, or cobyla (derivative-free).
+    #[arg(long, default_value = "auto", value_parser = ["auto", "slsqp", "cobyla"])]
+    pub optimizer: String,
     /// The most designs listed.
     #[arg(long, default_value_t = 3, value_name = "N")]
     pub designs: usize,
@@ -85,10 +94,17 @@ pub fn run(a: TuneArgs) -> Result<super::Outcome> {
         weights[i] = v;
     }
     let lines = env.forcing_lines();
+    let tolerances = tolerances(&model, &sys, &a.tolerance)?;
     let opts = TuneOptions {
         margin,
         weights,
         max_designs: a.designs.max(1),
+        tolerances,
+        optimizer: match a.optimizer.as_str() {
+            "slsqp" => Optimizer::Slsqp,
+            "cobyla" => Optimizer::Cobyla,
+            _ => Optimizer::Auto,
+        },
         ..TuneOptions::default()
     };
     let sweep = match a.verify.as_deref() {
@@ -170,13 +186,36 @@ pub fn run(a: TuneArgs) -> Result<super::Outcome> {
                 .map(|(n, w)| format!("{n} {:.4} rad/s", w.as_f64().unwrap_or(f64::NAN)))
                 .collect();
             println!(
-                "\ndesign {}: cost {:.6e}; {}\n  modes: {}; closest separation {:.3} %",
+                "\ndesign {}: cost {:.6e}; {}\n  modes: {}; closest separation {:.3} %{}",
                 k + 1,
                 d.cost,
                 params.join(", "),
                 modes.join(", "),
-                d.closest_pct
+                d.closest_pct,
+                if d.tolerance_intervals.is_some() {
+                    " (over the tolerances)"
+                } else {
+                    ""
+                }
             );
+            if let Some(iv) = &d.tolerance_intervals {
+                let spans: Vec<String> = iv
+                    .iter()
+                    .map(|(n, v)| {
+                        let at = |k: usize| v.get(k).and_then(|x| x.as_f64()).unwrap_or(f64::NAN);
+                        format!("{n} {:.4}–{:.4} rad/s", at(0), at(1))
+                    })
+                    .collect();
+                println!("  over the tolerance box: {}", spans.join(", "));
+            }
+            for b in &d.at_bounds {
+                println!(
+                    "  {} is at its {} bound ({}): a wider range would allow a smaller change",
+                    b.param,
+                    b.bound,
+                    format!("{} {}", b.value, model.param_unit(&b.param)).trim_end()
+                );
+            }
             if !d.frf_peaks_rad_s.is_empty() {
                 println!(
                     "  linear response peaks: {} rad/s{}",
@@ -213,11 +252,15 @@ pub fn run(a: TuneArgs) -> Result<super::Outcome> {
                 .map(|(n, v)| format!("--set {n}={}", v.as_f64().unwrap_or(f64::NAN)))
                 .collect();
             println!(
-                "  check: detune margins {} --environment {} --margin {}% {}",
+                "  check: detune margins {} --environment {} --margin {}% {}{}",
                 model.source.path,
                 a.environment,
                 margin * 100.0,
-                sets.join(" ")
+                sets.join(" "),
+                a.tolerance
+                    .iter()
+                    .map(|t| format!(" --vary {}", shell_word(t)))
+                    .collect::<String>()
             );
         }
         if !t.infeasible.is_empty() {
@@ -237,4 +280,34 @@ pub fn run(a: TuneArgs) -> Result<super::Outcome> {
     } else {
         super::Outcome::Passed
     })
+}
+
+/// Every `--tolerance`, parsed as `--vary` is (about the baseline); relative when given
+/// in %.
+fn tolerances(
+    model: &detune::Model,
+    sys: &detune::System,
+    texts: &[String],
+) -> Result<Vec<Tolerance>> {
+    let vs = varies(model, sys, texts).map_err(|e| e.context("--tolerance"))?;
+    Ok(vs
+        .into_iter()
+        .zip(texts)
+        .map(|(vary, t)| Tolerance {
+            vary,
+            relative: t.contains('%'),
+        })
+        .collect())
+}
+
+/// `text` as one shell word (quoted when it holds a space or a shell character).
+pub fn shell_word(text: &str) -> String {
+    if text
+        .chars()
+        .all(|c| c.is_ascii_alphanumeric() || "±+-_=.,%/:@".contains(c) || !c.is_ascii())
+    {
+        text.to_string()
+    } else {
+        format!("'{}'", text.replace('\'', "'\\''"))
+    }
 }

@@ -623,28 +623,7 @@ pub(crate) fn modes_followed(
     normalize: Option<&str>,
     base: &ModalAnalysis,
 ) -> Result<(System, ModalAnalysis, Vec<Option<(usize, f64)>>)> {
-    use super::tracking::{Solved, TrackOptions, carry_labels};
-    let opts = TrackOptions::default();
-    let p0: Vec<f64> = values.iter().map(|&(i, _)| sys.param(i)).collect();
-    let at = |s: f64| -> Vec<(usize, f64)> {
-        values
-            .iter()
-            .zip(&p0)
-            .map(|(&(i, p1), &p0)| (i, if s == 1.0 { p1 } else { p0 + s * (p1 - p0) }))
-            .collect()
-    };
-    // dλ/ds of every mode of `modal` (a modal analysis of `s`) along the path
-    let slope = |s: &System, modal: &ModalAnalysis| -> Option<Vec<Complex<f64>>> {
-        let mut dl = vec![Complex::new(0.0, 0.0); modal.modes.len()];
-        for (&(i, p1), &p0) in values.iter().zip(&p0) {
-            let d = mode_derivatives(s, modal, i, true).ok()?;
-            for (k, dk) in d.iter().enumerate() {
-                dl[k] += dk.dlambda * (p1 - p0);
-            }
-        }
-        Some(dl)
-    };
-    let mut last = Solved {
+    let start = super::tracking::Solved {
         value: 0.0,
         modal: base.clone(),
         modes: (0..base.modes.len())
@@ -652,19 +631,77 @@ pub(crate) fn modes_followed(
             .collect(),
         macs: vec![1.0; base.modes.len()],
     };
-    let mut last_slope = slope(sys, base);
+    let from: Vec<f64> = values.iter().map(|&(i, _)| sys.param(i)).collect();
+    let (end, last) = follow(sys, &from, sys.clone(), start, values, normalize)?;
+    let mass = &base.linearization.full_mass;
+    let matched = last
+        .modes
+        .iter()
+        .enumerate()
+        .map(|(k, j)| {
+            j.map(|j| {
+                let a = super::tracking::shape_vector(&base.modes[k].shape);
+                let b = super::tracking::shape_vector(&last.modal.modes[j].shape);
+                (j, super::tracking::mac(&a, &b, mass))
+            })
+        })
+        .collect();
+    Ok((end, last.modal, matched))
+}
+
+/// The path of [`modes_followed`] from any solved point: `start` (labels per baseline
+/// mode, `start.value` ignored) is `start_sys` with the varied parameters at `from`;
+/// returns the system at `values` and its labels.
+pub(crate) fn follow(
+    sys: &System,
+    from: &[f64],
+    start_sys: System,
+    start: super::tracking::Solved,
+    values: &[(usize, f64)],
+    normalize: Option<&str>,
+) -> Result<(System, super::tracking::Solved)> {
+    use super::tracking::{Solved, TrackOptions, carry_labels};
+    let opts = TrackOptions::default();
+    let p0 = from;
+    let at = |s: f64| -> Vec<(usize, f64)> {
+        values
+            .iter()
+            .zip(p0)
+            .map(|(&(i, p1), &p0)| (i, if s == 1.0 { p1 } else { p0 + s * (p1 - p0) }))
+            .collect()
+    };
+    // dλ/ds of every mode of `modal` (a modal analysis of `s`) along the path
+    let slope = |s: &System, modal: &ModalAnalysis| -> Option<Vec<Complex<f64>>> {
+        let mut dl = vec![Complex::new(0.0, 0.0); modal.modes.len()];
+        for (&(i, p1), &p0) in values.iter().zip(p0) {
+            let d = mode_derivatives(s, modal, i, true).ok()?;
+            for (k, dk) in d.iter().enumerate() {
+                dl[k] += dk.dlambda * (p1 - p0);
+            }
+        }
+        Some(dl)
+    };
+    let mut last = Solved { value: 0.0, ..start };
+    // the slope at the last solved point, computed once a step has had to be halved (a
+    // case one clear step reaches needs no prediction)
+    let mut last_sys = start_sys;
+    let mut last_slope: Option<Option<Vec<Complex<f64>>>> = None;
     let mut step = 1.0;
     const MIN_STEP: f64 = 1.0 / (1 << FOLLOW_HALVINGS) as f64;
     let end = loop {
         let s = (last.value + step).min(1.0);
         let (sy, ma) = modes_at(sys, &at(s), normalize, Some(&last.modal))?;
+        if step < 1.0 && last_slope.is_none() {
+            last_slope = Some(slope(&last_sys, &last.modal));
+        }
         let predicted: Vec<Option<Complex<f64>>> = last
             .modes
             .iter()
             .map(|k| {
                 let k = (*k)?;
                 let e = last.modal.modes[k].eigenvalue;
-                Some(Complex::new(e.re, e.im) + last_slope.as_ref()?[k] * (s - last.value))
+                let d = last_slope.as_ref()?.as_ref()?[k];
+                Some(Complex::new(e.re, e.im) + d * (s - last.value))
             })
             .collect();
         let (modes, macs, mut poor) = carry_labels(&last, &ma, &predicted, &opts);
@@ -707,9 +744,7 @@ pub(crate) fn modes_followed(
         }
         step = (2.0 * step).min(1.0);
         let done = s == 1.0;
-        if !done {
-            last_slope = slope(&sy, &ma);
-        }
+        last_slope = None;
         last = Solved {
             value: s,
             modal: ma,
@@ -719,21 +754,9 @@ pub(crate) fn modes_followed(
         if done {
             break sy;
         }
+        last_sys = sy;
     };
-    let mass = &base.linearization.full_mass;
-    let matched = last
-        .modes
-        .iter()
-        .enumerate()
-        .map(|(k, j)| {
-            j.map(|j| {
-                let a = super::tracking::shape_vector(&base.modes[k].shape);
-                let b = super::tracking::shape_vector(&last.modal.modes[j].shape);
-                (j, super::tracking::mac(&a, &b, mass))
-            })
-        })
-        .collect();
-    Ok((end, last.modal, matched))
+    Ok((end, last))
 }
 
 /// The most halvings of the path from the baseline to a case in [`modes_followed`] (the
