@@ -23,9 +23,7 @@
 
 use crate::diag::{Error, Result};
 use crate::environment::ForcingLine;
-use crate::linear::sensitivity::{
-    Vary, evaluate, follow, mode_derivatives, oscillatory,
-};
+use crate::linear::sensitivity::{Vary, evaluate, follow, mode_derivatives, oscillatory};
 use crate::linear::tracking::Solved;
 use crate::linear::{ModalAnalysis, modal_analysis};
 use crate::margins::{MarginRow, Requirement, check_margins, mode_points_named};
@@ -298,7 +296,15 @@ impl Problem<'_> {
                 .min_by(|a, b| dist(&a.0).total_cmp(&dist(&b.0)))
                 .expect("the baseline is solved");
             let from: Vec<f64> = self.values(y).iter().map(|v| v.1).collect();
-            follow(self.sys, &from, sy.clone(), start.clone(), &self.values(x), None).ok()?
+            follow(
+                self.sys,
+                &from,
+                sy.clone(),
+                start.clone(),
+                &self.values(x),
+                None,
+            )
+            .ok()?
         };
         {
             let mut paths = self.solved.borrow_mut();
@@ -308,7 +314,8 @@ impl Problem<'_> {
             paths.push((x.to_vec(), s.clone(), solved.clone()));
         }
         let ma = &solved.modal;
-        let matched: Vec<Option<(usize, f64)>> = solved.modes.iter().map(|j| j.map(|j| (j, 1.0))).collect();
+        let matched: Vec<Option<(usize, f64)>> =
+            solved.modes.iter().map(|j| j.map(|j| (j, 1.0))).collect();
         let ev = evaluate(ma);
         let mut omega = Vec::new();
         let mut grad = Vec::new();
@@ -585,7 +592,9 @@ pub fn tune(
                         "the design found fails the full margins check (mode tracking lost?){worst}"
                     )
                 } else {
-                    format!("the design found fails the margins check over the tolerance box{worst}")
+                    format!(
+                        "the design found fails the margins check over the tolerance box{worst}"
+                    )
                 });
             }
             if opts.tolerances.is_empty() {
@@ -607,7 +616,8 @@ pub fn tune(
                 }
             }
             if pass {
-                let cost = |x: &[f64]| -> f64 { x.iter().zip(&weights).map(|(x, w)| w * x * x).sum() };
+                let cost =
+                    |x: &[f64]| -> f64 { x.iter().zip(&weights).map(|(x, w)| w * x * x).sum() };
                 match &outcome {
                     Ok((best, _, _)) if cost(best) <= cost(&x) => {}
                     _ => outcome = Ok((x, method, v)),
@@ -657,7 +667,13 @@ pub fn tune(
             parameters.insert(v.name.clone(), value.into());
         }
         let mut modes = serde_json::Map::new();
-        for (k, m) in v.modal.modes.iter().enumerate().filter(|(_, m)| oscillatory(m)) {
+        for (k, m) in v
+            .modal
+            .modes
+            .iter()
+            .enumerate()
+            .filter(|(_, m)| oscillatory(m))
+        {
             modes.insert(v.names[k].clone(), m.omega_n_rad_s.into());
         }
         let closest = v
@@ -765,8 +781,8 @@ fn solve_choice(
         let gap = &gaps[g];
         if gap.lo > 0.0 {
             let lo = gap.lo;
-            cons.push(Box::new(move |x: &[f64], grad: Option<&mut [f64]>, _: &mut ()| {
-                match problem.eval(x) {
+            cons.push(Box::new(
+                move |x: &[f64], grad: Option<&mut [f64]>, _: &mut ()| match problem.eval(x) {
                     Some(e) => {
                         if let Some(gr) = grad {
                             for (i, gi) in gr.iter_mut().enumerate() {
@@ -781,13 +797,13 @@ fn solve_choice(
                         }
                         1e3
                     }
-                }
-            }));
+                },
+            ));
         }
         if gap.hi.is_finite() {
             let hi = gap.hi;
-            cons.push(Box::new(move |x: &[f64], grad: Option<&mut [f64]>, _: &mut ()| {
-                match problem.eval(x) {
+            cons.push(Box::new(
+                move |x: &[f64], grad: Option<&mut [f64]>, _: &mut ()| match problem.eval(x) {
                     Some(e) => {
                         if let Some(gr) = grad {
                             for (i, gi) in gr.iter_mut().enumerate() {
@@ -802,12 +818,13 @@ fn solve_choice(
                         }
                         1e3
                     }
-                }
-            }));
+                },
+            ));
         }
     }
     // why x does not meet the choice (None: it does)
-    let blocking_at = |x: &[f64]| match problem.eval(x) {
+    let blocking_at = |x: &[f64]| {
+        match problem.eval(x) {
         None => Some("the modes could not be computed at the optimizer's last point".to_string()),
         Some(e) => choice.iter().enumerate().find_map(|(m, &g)| {
             let gap = &gaps[g];
@@ -837,6 +854,7 @@ fn solve_choice(
                 None
             }
         }),
+    }
     };
     let cost_of = |x: &[f64]| -> f64 { x.iter().zip(weights).map(|(x, w)| w * x * x).sum() };
     let mut blocking = Some(String::new());
@@ -889,8 +907,13 @@ fn solve_choice(
             bounds,
             &cob_ref,
             (),
-            // without gradients it needs more evaluations than SLSQP
-            5 * opts.max_evaluations,
+            // without gradients it needs more evaluations than SLSQP; as a fallback after
+            // SLSQP failed (most often a choice that cannot be met) it gets SLSQP's
+            if opts.optimizer == Optimizer::Cobyla {
+                5 * opts.max_evaluations
+            } else {
+                opts.max_evaluations
+            },
             // the first simplex spans half of each range
             cobyla::RhoBeg::Set(bounds.iter().map(|b| 0.5 * (b.1 - b.0)).collect()),
             None,
@@ -953,7 +976,10 @@ fn verify_design(
             ));
         }
         for m in &study.modes {
-            intervals.insert(m.name.clone(), (m.worst_case.min_rad_s, m.worst_case.max_rad_s));
+            intervals.insert(
+                m.name.clone(),
+                (m.worst_case.min_rad_s, m.worst_case.max_rad_s),
+            );
         }
         points = crate::margins::with_intervals(points, &study);
     }

@@ -448,10 +448,7 @@ fn sensitivity_cases_follow_the_labels_through_the_veering() {
         .unwrap();
     for (case, l2) in [(0, 1.25), (1, 0.85)] {
         let (lo, hi, _) = closed_form(l2, 0.05);
-        let (w1, w2) = (
-            one.cases[case].omega_n_rad_s,
-            two.cases[case].omega_n_rad_s,
-        );
+        let (w1, w2) = (one.cases[case].omega_n_rad_s, two.cases[case].omega_n_rad_s);
         assert!((w1 - lo).abs() < 1e-7 * lo, "l2 = {l2}: {w1} vs {lo}");
         assert!((w2 - hi).abs() < 1e-7 * hi, "l2 = {l2}: {w2} vs {hi}");
     }

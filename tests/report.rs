@@ -545,23 +545,15 @@ fn the_report_renders_in_a_headless_browser() {
 
 /// The design sections: the sensitivity equals `detune sensitivity --json`'s for the same
 /// --vary, the margins flag the baseline's mode 2 against the UH-60 1P as `margins` does,
-/// and the tuning proposal is `detune tune`'s first design.
+/// and the tuning proposal is `detune tune`'s first design with the --vary as its
+/// tolerances, whose printed check command passes `margins`.
 #[test]
 fn sensitivity_margins_and_tuning_sections() {
-    let vary = [
-        "--vary",
-        "k_fs=50%..200%",
-        "--vary",
-        "gearbox_scale=80%..120%",
-    ];
+    let vary = ["--vary", "k_fs=±10%", "--vary", "gearbox_scale=±5%"];
+    let ranges = ["k_fs=60%..150%", "gearbox_scale=55%..145%"];
     let mut extra = vec!["--environment", "UH-60", "--tune"];
     extra.extend(vary);
-    extra.extend([
-        "--tune-vary",
-        "k_fs=50%..200%",
-        "--tune-vary",
-        "gearbox_scale=80%..120%",
-    ]);
+    extra.extend(["--tune-vary", ranges[0], "--tune-vary", ranges[1]]);
     let (_dir, _, page, json) = report("inceptor", &extra);
     for id in ["sensitivity", "margins", "tuning"] {
         assert!(page.contains(&format!("id=\"{id}\"")), "section {id}");
@@ -583,12 +575,38 @@ fn sensitivity_margins_and_tuning_sections() {
     assert_eq!(fails[0]["mode"], "shaft-twist");
     assert_eq!(fails[0]["line"], "1P");
     let mut args = vec!["tune", m.as_str(), "--environment", "UH-60", "--json"];
-    args.extend(vary);
+    args.extend(["--vary", ranges[0], "--vary", ranges[1]]);
+    args.extend([
+        "--tolerance",
+        "k_fs=±10%",
+        "--tolerance",
+        "gearbox_scale=±5%",
+    ]);
     let out = run(&args);
     let t: Value = serde_json::from_slice(&out.stdout).unwrap();
     assert_eq!(
         json["tuning"]["designs"][0]["parameters"],
         t["designs"][0]["parameters"]
+    );
+    assert!(json["tuning"]["designs"][0]["tolerance_intervals"].is_object());
+    // the check command the report prints, run as printed, passes
+    let text = page.replace("&#39;", "'");
+    let at = text
+        .find("Check design 1: detune ")
+        .expect("a check command");
+    let command = &text[at + "Check design 1: detune ".len()..];
+    let command = &command[..command.find('<').unwrap()];
+    assert!(
+        command.contains("--vary k_fs=±10% --vary gearbox_scale=±5%"),
+        "{command}"
+    );
+    let words: Vec<&str> = command.split_whitespace().collect();
+    let out = run(&words);
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{command}: {}",
+        String::from_utf8_lossy(&out.stdout)
     );
 }
 

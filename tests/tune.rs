@@ -347,7 +347,10 @@ fn inceptor_toleranced_design_passes_margins_over_the_box() {
         .lines()
         .find_map(|l| l.trim().strip_prefix("check: detune "))
         .unwrap_or_else(|| panic!("no check command in {out}"));
-    assert!(check.contains("--vary k_fs=±10% --vary gearbox_scale=±5%"), "{check}");
+    assert!(
+        check.contains("--vary k_fs=±10% --vary gearbox_scale=±5%"),
+        "{check}"
+    );
     let args: Vec<&str> = check.split_whitespace().collect();
     let (code, out, err) = detune(&args);
     assert_eq!(code, 0, "{check}: {out}{err}");

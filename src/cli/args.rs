@@ -19,6 +19,20 @@ pub struct ModelArgs {
 }
 
 impl ModelArgs {
+    /// The model file and the `--set` overrides as shell words for a printed command,
+    /// leaving out the overrides of `except` (which the command sets itself).
+    pub fn command_words(&self, except: &[&str]) -> String {
+        let mut out = detune::output::command::shell_word(&self.model);
+        for s in &self.set {
+            let name = s.split_once('=').map_or(s.as_str(), |(n, _)| n.trim());
+            if !except.contains(&name) {
+                out.push_str(" --set ");
+                out.push_str(&detune::output::command::shell_word(s));
+            }
+        }
+        out
+    }
+
     /// The model file with the `--set` overrides applied, and compiled (names,
     /// dimensions and values checked).
     pub fn load(&self) -> Result<(Model, System)> {

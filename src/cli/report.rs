@@ -123,6 +123,8 @@ pub fn run(a: ReportArgs) -> Result<()> {
             tune: a.tune,
             tune_varies: &tune_varies,
             units: &unit,
+            vary_texts: &a.vary,
+            command_words: &|except: &[&str]| a.model.command_words(except),
         },
     )?;
     report.write(&a.output, &json)?;

@@ -7,6 +7,7 @@ use super::print_json;
 use clap::Args;
 use detune::diag::{Error, Result};
 use detune::environment::resolve;
+use detune::output::command::shell_word;
 use detune::output::{Provenance, check_outputs};
 use detune::tune::{Optimizer, Tolerance, TuneOptions, Tuning, tune};
 
@@ -39,7 +40,11 @@ pub struct TuneArgs {
     /// A manufacturing tolerance the design must clear the bands over, as `margins --vary`
     /// checks it: `k_fs=±10%` (relative: ±10 % of the design's value) or `k_fs=±500 N/m`.
     /// Repeatable; a parameter may be both free (--vary) and toleranced.
-    #[arg(long = "tolerance", value_name = "NAME=±TOL", allow_hyphen_values = true)]
+    #[arg(
+        long = "tolerance",
+        value_name = "NAME=±TOL",
+        allow_hyphen_values = true
+    )]
     pub tolerance: Vec<String>,
     /// The optimizer of each choice of sides: auto (SLSQP with the analytic gradients,
     /// COBYLA where SLSQP fails), slsqp, or cobyla (derivative-free).
@@ -251,10 +256,11 @@ pub fn run(a: TuneArgs) -> Result<super::Outcome> {
                 .iter()
                 .map(|(n, v)| format!("--set {n}={}", v.as_f64().unwrap_or(f64::NAN)))
                 .collect();
+            let names: Vec<&str> = d.parameters.keys().map(|k| k.as_str()).collect();
             println!(
                 "  check: detune margins {} --environment {} --margin {}% {}{}",
-                model.source.path,
-                a.environment,
+                a.model.command_words(&names),
+                shell_word(&a.environment),
                 margin * 100.0,
                 sets.join(" "),
                 a.tolerance
@@ -298,16 +304,4 @@ fn tolerances(
             relative: t.contains('%'),
         })
         .collect())
-}
-
-/// `text` as one shell word (quoted when it holds a space or a shell character).
-pub fn shell_word(text: &str) -> String {
-    if text
-        .chars()
-        .all(|c| c.is_ascii_alphanumeric() || "±+-_=.,%/:@".contains(c) || !c.is_ascii())
-    {
-        text.to_string()
-    } else {
-        format!("'{}'", text.replace('\'', "'\\''"))
-    }
 }

@@ -681,7 +681,10 @@ pub(crate) fn follow(
         }
         Some(dl)
     };
-    let mut last = Solved { value: 0.0, ..start };
+    let mut last = Solved {
+        value: 0.0,
+        ..start
+    };
     // the slope at the last solved point, computed once a step has had to be halved (a
     // case one clear step reaches needs no prediction)
     let mut last_sys = start_sys;

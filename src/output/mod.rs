@@ -3,6 +3,7 @@
 //! Every file is written to a temporary file in the target directory and renamed into
 //! place when complete, so an error or an interrupt never leaves a half-written output.
 
+pub mod command;
 pub mod figures;
 pub mod json;
 pub mod margins;

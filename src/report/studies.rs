@@ -9,6 +9,7 @@ use crate::diag::Result;
 use crate::environment::Environment;
 use crate::linear::sensitivity::{Sensitivity, Vary, sensitivity};
 use crate::margins::{Requirement, check_margins, mode_points_named};
+use crate::output::command::shell_word;
 use crate::system::System;
 
 /// What the design sections need.
@@ -30,6 +31,12 @@ pub struct Studies<'a> {
     pub tune_varies: &'a [Vary],
     /// Each parameter's unit, for the tables.
     pub units: &'a dyn Fn(&str) -> String,
+    /// The `--vary` texts as given (with `given`): the tolerances a tuning must clear the
+    /// bands over, and the flags of the printed check commands.
+    pub vary_texts: &'a [String],
+    /// The model file and the user's overrides as shell words, leaving out those of the
+    /// given parameters (for the printed check commands).
+    pub command_words: &'a dyn Fn(&[&str]) -> String,
 }
 
 /// Each parameter the report varies when none is given: every parameter with a value of
@@ -197,12 +204,27 @@ pub fn add_studies(report: &mut Report, s: &Studies) -> Result<()> {
     report.document.sections.push(section);
 
     if s.tune {
+        // the given tolerances are the tuning's too: its designs clear every band over
+        // the box about them
+        let tolerances: Vec<crate::tune::Tolerance> = if s.given {
+            s.varies
+                .iter()
+                .zip(s.vary_texts)
+                .map(|(v, t)| crate::tune::Tolerance {
+                    vary: v.clone(),
+                    relative: t.contains('%'),
+                })
+                .collect()
+        } else {
+            Vec::new()
+        };
         let t = crate::tune::tune(
             s.sys,
             s.tune_varies,
             &lines,
             &crate::tune::TuneOptions {
                 margin: s.margin,
+                tolerances,
                 ..Default::default()
             },
         )?;
@@ -215,10 +237,18 @@ pub fn add_studies(report: &mut Report, s: &Studies) -> Result<()> {
         report.add_data("tuning_baseline", &baseline)?;
         let d = &report.sidecar;
         let mut section = Section::new("tuning", "Tuning proposal").prose(format!(
-            "The smallest change Σ((p − p0)/p0)² of {} within the given ranges that puts every mode outside every line of {} by {:.1} % (plus 1e-4), one design per choice of sides, each verified by a full modal analysis and margins check. {} design(s) found, {} choice(s) infeasible.",
+            "The smallest change Σ((p − p0)/p0)² of {} within the given ranges that puts every mode outside every line of {} by {:.1} % (plus 1e-4){}, one design for each way of placing the modes between the lines, each verified by a full modal analysis and margins check. {} design(s) found, {} placement(s) infeasible.",
             s.tune_varies.iter().map(|v| v.name.as_str()).collect::<Vec<_>>().join(", "),
             env.name,
             s.margin * 100.0,
+            if s.given {
+                format!(
+                    " over the whole tolerance box about the design ({}), as the margins section checks the baseline",
+                    s.vary_texts.join(", ")
+                )
+            } else {
+                " at the nominal design (no tolerances given: with --vary the designs clear the bands over the tolerance box too)".to_string()
+            },
             t.designs.len(),
             t.infeasible.len()
         ));
@@ -246,12 +276,59 @@ pub fn add_studies(report: &mut Report, s: &Studies) -> Result<()> {
                     ),
                     Cell::text("rad/s"),
                 ]);
+                if design
+                    .tolerance_intervals
+                    .as_ref()
+                    .is_some_and(|iv| iv.contains_key(name))
+                {
+                    for (end, label) in [(0, "lowest"), (1, "highest")] {
+                        rows.push(vec![
+                            Cell::text(format!("{name} ω_n, {label} over the tolerances")),
+                            Cell::text(""),
+                            d.num(
+                                format!(
+                                    "tuning/designs/{k}/tolerance_intervals/{}/{end}",
+                                    super::escape_key(name)
+                                ),
+                                Digits::Fixed(4),
+                            ),
+                            Cell::text("rad/s"),
+                        ]);
+                    }
+                }
             }
+            let names: Vec<&str> = design.parameters.keys().map(|k| k.as_str()).collect();
             let sets: Vec<String> = design
                 .parameters
                 .iter()
                 .map(|(n, v)| format!("--set {n}={}", v.as_f64().unwrap_or(f64::NAN)))
+                .chain(
+                    s.vary_texts
+                        .iter()
+                        .filter(|_| s.given)
+                        .map(|t| format!("--vary {}", shell_word(t))),
+                )
                 .collect();
+            let mut notes = Vec::new();
+            for b in &design.at_bounds {
+                notes.push(format!(
+                    "{} is at the {} bound of its range ({}): a wider range would allow a smaller change.",
+                    b.param,
+                    b.bound,
+                    format!("{} {}", b.value, (s.units)(&b.param)).trim_end()
+                ));
+            }
+            if design.frf_peaks_clear == Some(false) {
+                notes.push(format!(
+                    "Note: a peak of the design's linear frequency response ({} rad/s) lies within the margin of a line although every mode clears it (a response peak is not at ω_n); ask a larger margin if the peaks must clear too.",
+                    design
+                        .frf_peaks_rad_s
+                        .iter()
+                        .map(|w| format!("{w:.4}"))
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                ));
+            }
             section = section
                 .table(Table {
                     caption: format!(
@@ -264,12 +341,16 @@ pub fn add_studies(report: &mut Report, s: &Studies) -> Result<()> {
                     rows,
                 })
                 .prose(format!(
-                    "Check design {}: detune margins MODEL --environment {} --margin {}% {}",
+                    "Check design {}: detune margins {} --environment {} --margin {}% {}",
                     k + 1,
-                    env.id,
+                    (s.command_words)(&names),
+                    shell_word(&env.id),
                     s.margin * 100.0,
                     sets.join(" ")
                 ));
+            for n in notes {
+                section = section.prose(n);
+            }
         }
         for i in &t.infeasible {
             section = section.prose(format!("Infeasible: {}", i.reason));
