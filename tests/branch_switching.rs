@@ -306,11 +306,27 @@ fn the_pitchfork_reached_along_a_side_branch_is_a_branch_point_not_a_fold() {
         "0.05",
     ]);
     let text = String::from_utf8(out.stdout).unwrap();
-    let first = text.lines().next().unwrap();
+    let mut lines = text.lines();
+    // the total over every branch first (the CSV's rows), then branch 0's own count
+    let total = lines.next().unwrap();
+    let n: usize = total.split(' ').next().unwrap().parse().unwrap();
+    assert!(total.ends_with("points on 3 branches (the CSV's `branch` column: 0 is the start's)"), "{total}");
+    let first = lines.next().unwrap();
+    assert!(first.starts_with("branch 0: "), "{first}");
     assert!(
         first.ends_with(
             "points from L0 = 2 turned at the branch point at L0 = 2.828427; ends at L0 = 2"
         ),
         "{first}"
     );
+    let counts: usize = text
+        .lines()
+        .filter_map(|l| {
+            let l = l.strip_prefix("branch 0: ").or_else(|| {
+                l.starts_with("branch ").then(|| l.split(": ").nth(1).unwrap_or(""))
+            })?;
+            l.split(' ').next()?.parse::<usize>().ok()
+        })
+        .sum();
+    assert_eq!(counts, n, "{text}");
 }

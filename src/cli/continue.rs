@@ -111,8 +111,21 @@ pub fn run(a: ContinueArgs) -> Result<()> {
         } else {
             format!("ends at {param} = {end} (before {})", a.to)
         };
+        if !branch.switched.is_empty() {
+            let total: usize =
+                branch.points.len() + branch.switched.iter().map(|s| s.points.len()).sum::<usize>();
+            println!(
+                "{total} points on {} branches (the CSV's `branch` column: 0 is the start's)",
+                1 + branch.switched.len()
+            );
+        }
         println!(
-            "{} points from {param} = {} {how}{}",
+            "{}{} points from {param} = {} {how}{}",
+            if branch.switched.is_empty() {
+                ""
+            } else {
+                "branch 0: "
+            },
             branch.points.len(),
             a.from,
             if branch.truncated {
