@@ -241,6 +241,16 @@ fn print_tables(s: &Sensitivity, unit: &dyn Fn(&str) -> String, value: &dyn Fn(&
             w.first_order_min_rad_s,
             w.first_order_max_rad_s
         );
+        // the first-order estimate off by more than a tenth of the interval: the ranges
+        // are too wide for the derivatives alone
+        let miss = (w.first_order_min_rad_s - w.min_rad_s)
+            .abs()
+            .max((w.first_order_max_rad_s - w.max_rad_s).abs());
+        if miss > 0.1 * (w.max_rad_s - w.min_rad_s) {
+            println!(
+                "  note: the first-order estimate misses the evaluated interval by up to {miss:.4} rad/s: ω_n is far from linear in the parameters over these ranges; the evaluated interval is the one to use\n"
+            );
+        }
         if !w.non_monotone.is_empty() {
             println!(
                 "  WARNING: ω_n is not monotonic in {} over the range: its extreme lies inside the box; the interval includes {} interior samples but is an estimate there\n",
