@@ -1005,6 +1005,7 @@ fn campbell(env: &Environment, modes: &[ModeJson], data: &mut Sidecar) -> Result
             )
         })
         .unwrap_or_default();
+    let any_range = json.crossings.iter().any(|c| c.in_operating_range.is_some());
     let range = match main.rpm_range {
         Some(_) => format!(
             "{} of {} crossings fall inside the operating range {rpm_lo:.1}–{rpm_hi:.1} rpm (filled circles).",
@@ -1039,31 +1040,38 @@ fn campbell(env: &Environment, modes: &[ModeJson], data: &mut Sidecar) -> Result
         .figure("Campbell-style interference diagram: dashed, the modes' ω_n; orange, the n/rev lines and the nominal speed; shaded, the operating range (when given); circles, crossings (filled inside the operating range).", svg)
         .table(Table {
             caption: "Crossings of the modes with the rotor lines".into(),
-            columns: cols(&[
-                ("mode", ""),
-                ("line", ""),
-                ("rotor speed", "rpm"),
-                ("of nominal", "%"),
-                ("ω", "rad/s"),
-                ("in operating range", ""),
-            ]),
+            // the in-range column only where the environment gives a range (the prose says
+            // when it does not)
+            columns: cols(
+                &[
+                    ("mode", ""),
+                    ("line", ""),
+                    ("rotor speed", "rpm"),
+                    ("of nominal", "%"),
+                    ("ω", "rad/s"),
+                    ("in operating range", ""),
+                ][..if any_range { 6 } else { 5 }],
+            ),
             rows: json
                 .crossings
                 .iter()
                 .enumerate()
                 .map(|(k, c)| {
-                    vec![
+                    let mut row = vec![
                         Cell::text(c.mode_name.clone()),
                         Cell::text(&c.line),
                         data.num(format!("campbell/crossings/{k}/rotor_rpm"), Digits::Fixed(1)),
                         data.num(format!("campbell/crossings/{k}/percent_nominal"), Digits::Fixed(1)),
                         data.num(format!("campbell/crossings/{k}/omega_rad_s"), Digits::Fixed(3)),
-                        Cell::text(match c.in_operating_range {
+                    ];
+                    if any_range {
+                        row.push(Cell::text(match c.in_operating_range {
                             Some(true) => "YES",
                             Some(false) => "no",
                             None => "no range given",
-                        }),
-                    ]
+                        }));
+                    }
+                    row
                 })
                 .collect(),
         });
