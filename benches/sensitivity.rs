@@ -89,3 +89,36 @@ fn tune_uh60(bencher: divan::Bencher) {
             .len()
     });
 }
+
+/// The toleranced tuning of docs/sensitivity-and-tuning.md: ranges k_fs 60–150 %,
+/// gearbox_scale 55–145 %, tolerances ±10 % / ±5 % (each design checked over its box).
+#[divan::bench(sample_count = 5)]
+fn tune_uh60_toleranced(bencher: divan::Bencher) {
+    let sys = inceptor();
+    let v = [
+        vary(&sys, "k_fs", 0.6, 1.5),
+        vary(&sys, "gearbox_scale", 0.55, 1.45),
+    ];
+    let tolerances = vec![
+        detune::tune::Tolerance {
+            vary: vary(&sys, "k_fs", 0.9, 1.1),
+            relative: true,
+        },
+        detune::tune::Tolerance {
+            vary: vary(&sys, "gearbox_scale", 0.95, 1.05),
+            relative: true,
+        },
+    ];
+    let env = detune::environment::resolve("UH-60").unwrap();
+    let lines = env.forcing_lines();
+    let opts = detune::tune::TuneOptions {
+        tolerances,
+        ..Default::default()
+    };
+    bencher.bench_local(|| {
+        detune::tune::tune(&sys, &v, &lines, &opts)
+            .unwrap()
+            .designs
+            .len()
+    });
+}
