@@ -23,7 +23,9 @@
 
 use crate::diag::{Error, Result};
 use crate::environment::ForcingLine;
-use crate::linear::sensitivity::{Vary, evaluate, follow, mode_derivatives, oscillatory};
+use crate::linear::sensitivity::{
+    Vary, baseline_labels, evaluate, follow, mode_derivatives, oscillatory,
+};
 use crate::linear::tracking::Solved;
 use crate::linear::{ModalAnalysis, modal_analysis};
 use crate::margins::{MarginRow, Requirement, check_margins, mode_points_named};
@@ -431,14 +433,7 @@ pub fn tune(
         solved: RefCell::new(vec![(
             vec![0.0; varies.len()],
             sys.clone(),
-            Solved {
-                value: 0.0,
-                modal: base.clone(),
-                modes: (0..base.modes.len())
-                    .map(|k| oscillatory(&base.modes[k]).then_some(k))
-                    .collect(),
-                macs: vec![1.0; base.modes.len()],
-            },
+            baseline_labels(&base),
         )]),
     };
 

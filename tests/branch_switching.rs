@@ -310,7 +310,10 @@ fn the_pitchfork_reached_along_a_side_branch_is_a_branch_point_not_a_fold() {
     // the total over every branch first (the CSV's rows), then branch 0's own count
     let total = lines.next().unwrap();
     let n: usize = total.split(' ').next().unwrap().parse().unwrap();
-    assert!(total.ends_with("points on 3 branches (the CSV's `branch` column: 0 is the start's)"), "{total}");
+    assert!(
+        total.ends_with("points on 3 branches (the CSV's `branch` column: 0 is the start's)"),
+        "{total}"
+    );
     let first = lines.next().unwrap();
     assert!(first.starts_with("branch 0: "), "{first}");
     assert!(
@@ -323,7 +326,8 @@ fn the_pitchfork_reached_along_a_side_branch_is_a_branch_point_not_a_fold() {
         .lines()
         .filter_map(|l| {
             let l = l.strip_prefix("branch 0: ").or_else(|| {
-                l.starts_with("branch ").then(|| l.split(": ").nth(1).unwrap_or(""))
+                l.starts_with("branch ")
+                    .then(|| l.split(": ").nth(1).unwrap_or(""))
             })?;
             l.split(' ').next()?.parse::<usize>().ok()
         })

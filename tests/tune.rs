@@ -30,21 +30,11 @@ fn detune(args: &[&str]) -> (i32, String, String) {
 /// k1 = k2²/(k2 + k3 − m2 ω²) − k2 + m1 ω².
 #[test]
 fn spring_chain_tuning_matches_the_closed_form() {
-    let model = detune::Model::load(&common::data("spring_chain.toml")).unwrap();
-    let sys = System::new(&model).unwrap();
-    let env = Environment::load(&common::data("probe_line.toml")).unwrap();
-    let i = sys.param_index("k1").unwrap();
-    let vary = Vary {
-        param: i,
-        name: "k1".into(),
-        cases: vec![("k1=50%".into(), 500.0), ("k1=150%".into(), 1500.0)],
-        range: (500.0, 1500.0),
-    };
+    let (sys, env, vary) = spring_chain_k1();
     let t = tune(&sys, &[vary], &env.forcing_lines(), &TuneOptions::default()).unwrap();
     assert!(!t.baseline_passes);
     let d = &t.designs[0];
-    let w2 = (23.0f64 * (1.0 - 0.1 - 1e-4)).powi(2);
-    let k1 = 400.0f64.powi(2) / (400.0 + 700.0 - 1.5 * w2) - 400.0 + 2.0 * w2;
+    let k1 = chain_k1(23.0 * (1.0 - 0.1 - 1e-4), 400.0);
     let got = d.parameters["k1"].as_f64().unwrap();
     assert!((got - k1).abs() < 1e-6 * k1, "k1 = {got}, closed form {k1}");
     assert!((d.cost - (k1 / 1000.0 - 1.0).powi(2)).abs() < 1e-6);

@@ -112,8 +112,12 @@ pub fn run(a: ContinueArgs) -> Result<()> {
             format!("ends at {param} = {end} (before {})", a.to)
         };
         if !branch.switched.is_empty() {
-            let total: usize =
-                branch.points.len() + branch.switched.iter().map(|s| s.points.len()).sum::<usize>();
+            let total: usize = branch.points.len()
+                + branch
+                    .switched
+                    .iter()
+                    .map(|s| s.points.len())
+                    .sum::<usize>();
             println!(
                 "{total} points on {} branches (the CSV's `branch` column: 0 is the start's)",
                 1 + branch.switched.len()

@@ -623,14 +623,7 @@ pub(crate) fn modes_followed(
     normalize: Option<&str>,
     base: &ModalAnalysis,
 ) -> Result<(System, ModalAnalysis, Vec<Option<(usize, f64)>>)> {
-    let start = super::tracking::Solved {
-        value: 0.0,
-        modal: base.clone(),
-        modes: (0..base.modes.len())
-            .map(|k| oscillatory(&base.modes[k]).then_some(k))
-            .collect(),
-        macs: vec![1.0; base.modes.len()],
-    };
+    let start = baseline_labels(base);
     let from: Vec<f64> = values.iter().map(|&(i, _)| sys.param(i)).collect();
     let (end, last) = follow(sys, &from, sys.clone(), start, values, normalize)?;
     let mass = &base.linearization.full_mass;
@@ -647,6 +640,18 @@ pub(crate) fn modes_followed(
         })
         .collect();
     Ok((end, last.modal, matched))
+}
+
+/// The start of a path of [`follow`]: the baseline, each oscillatory mode its own label.
+pub(crate) fn baseline_labels(base: &ModalAnalysis) -> super::tracking::Solved {
+    super::tracking::Solved {
+        value: 0.0,
+        modal: base.clone(),
+        modes: (0..base.modes.len())
+            .map(|k| oscillatory(&base.modes[k]).then_some(k))
+            .collect(),
+        macs: vec![1.0; base.modes.len()],
+    }
 }
 
 /// The path of [`modes_followed`] from any solved point: `start` (labels per baseline

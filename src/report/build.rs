@@ -1005,7 +1005,10 @@ fn campbell(env: &Environment, modes: &[ModeJson], data: &mut Sidecar) -> Result
             )
         })
         .unwrap_or_default();
-    let any_range = json.crossings.iter().any(|c| c.in_operating_range.is_some());
+    let any_range = json
+        .crossings
+        .iter()
+        .any(|c| c.in_operating_range.is_some());
     let range = match main.rpm_range {
         Some(_) => format!(
             "{} of {} crossings fall inside the operating range {rpm_lo:.1}–{rpm_hi:.1} rpm (filled circles).",
