@@ -23,6 +23,26 @@ fn detune(args: &[&str]) -> (i32, String, String) {
     )
 }
 
+/// `tune --json` of the inceptor against the UH-60 over k_fs 50–200 % and gearbox_scale
+/// 80–120 %, with `extra` arguments; it must succeed.
+fn inceptor_tune(extra: &[&str]) -> serde_json::Value {
+    let mut args = vec![
+        "tune",
+        "models/inceptor.toml",
+        "--environment",
+        "UH-60",
+        "--vary",
+        "k_fs=50%..200%",
+        "--vary",
+        "gearbox_scale=80%..120%",
+        "--json",
+    ];
+    args.extend_from_slice(extra);
+    let (code, out, err) = detune(&args);
+    assert_eq!(code, 0, "{err}");
+    serde_json::from_str(&out).unwrap()
+}
+
 /// Spring chain (k1 = 1000, k2 = 400, k3 = 700 N/m; m1 = 2, m2 = 1.5 kg): mode 1 at
 /// 22.03 rad/s is 4.2 % below a line at 23 rad/s. With k1 free in 50–150 %, the mode can
 /// only go down (k1 → 1500 N/m raises it to 24.2 rad/s, short of 23·1.1 = 25.3), so the
@@ -53,19 +73,7 @@ fn spring_chain_tuning_matches_the_closed_form() {
 fn inceptor_tuned_design_passes_margins() {
     let (code, _, err) = detune(&["margins", "models/inceptor.toml", "--environment", "UH-60"]);
     assert_eq!(code, 3, "the baseline fails: {err}");
-    let (code, out, err) = detune(&[
-        "tune",
-        "models/inceptor.toml",
-        "--environment",
-        "UH-60",
-        "--vary",
-        "k_fs=50%..200%",
-        "--vary",
-        "gearbox_scale=80%..120%",
-        "--json",
-    ]);
-    assert_eq!(code, 0, "{err}");
-    let j: serde_json::Value = serde_json::from_str(&out).unwrap();
+    let j = inceptor_tune(&[]);
     let designs = j["designs"].as_array().unwrap();
     assert!(!designs.is_empty());
     let costs: Vec<f64> = designs
@@ -209,24 +217,10 @@ fn cobyla_alone_finds_the_closed_form_and_slsqps_designs() {
     let got = d.parameters["k1"].as_f64().unwrap();
     assert!((got - k1).abs() < 1e-6 * k1, "k1 = {got}, closed form {k1}");
 
-    let run = |optimizer: &str| -> serde_json::Value {
-        let (code, out, err) = detune(&[
-            "tune",
-            "models/inceptor.toml",
-            "--environment",
-            "UH-60",
-            "--vary",
-            "k_fs=50%..200%",
-            "--vary",
-            "gearbox_scale=80%..120%",
-            "--optimizer",
-            optimizer,
-            "--json",
-        ]);
-        assert_eq!(code, 0, "{err}");
-        serde_json::from_str(&out).unwrap()
-    };
-    let (s, c) = (run("slsqp"), run("cobyla"));
+    let (s, c) = (
+        inceptor_tune(&["--optimizer", "slsqp"]),
+        inceptor_tune(&["--optimizer", "cobyla"]),
+    );
     let (s, c) = (
         s["designs"].as_array().unwrap(),
         c["designs"].as_array().unwrap(),
