@@ -36,6 +36,8 @@ pub mod dynamics;
 pub mod environment;
 pub mod failure;
 pub mod frequency;
+#[doc(hidden)]
+pub mod fuzz_harness;
 pub mod kinematics;
 pub mod linalg;
 pub mod linear;
