@@ -89,7 +89,8 @@ extern "C" fn on_signal(sig: libc::c_int) {
     // SAFETY: write(2) and _exit(2) are async-signal-safe.
     unsafe {
         libc::write(2, msg.as_ptr().cast(), msg.len());
-        libc::_exit(128 + sig);
+        // the first signal names the exit code
+        libc::_exit(128 + SIGNAL.load(Ordering::SeqCst));
     }
 }
 

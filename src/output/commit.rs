@@ -316,7 +316,11 @@ fn plan_one(given: &str) -> Result<Planned> {
             "give a file name, e.g. out.csv",
         ));
     }
-    let in_dev = |p: &Path| [Path::new("/dev"), Path::new("/proc")].iter().any(|d| p.starts_with(d));
+    let in_dev = |p: &Path| {
+        [Path::new("/dev"), Path::new("/proc")]
+            .iter()
+            .any(|d| p.starts_with(d))
+    };
     // `/dev/stdout` is written as itself (its link may point at `pipe:[…]`)
     let target = if in_dev(Path::new(given)) {
         PathBuf::from(given)
@@ -637,10 +641,7 @@ mod tests {
     #[test]
     fn temp_names_parse_back() {
         let name = format!("{}abc123.tmp", temp_prefix());
-        assert_eq!(
-            parse_temp_name(&name),
-            Some((host(), std::process::id()))
-        );
+        assert_eq!(parse_temp_name(&name), Some((host(), std::process::id())));
         assert_eq!(
             parse_temp_name(".detune-my_host.x-42-zz.tmp"),
             Some(("my_host.x", 42))
