@@ -292,8 +292,11 @@ fn parent_dir(p: &Path) -> PathBuf {
     }
 }
 
+/// A file's identity: (device, inode).
+type FileId = (u64, u64);
+
 /// (device, inode) of an existing file, symlinks followed.
-fn file_id(p: &Path) -> Option<(u64, u64)> {
+fn file_id(p: &Path) -> Option<FileId> {
     use std::os::unix::fs::MetadataExt;
     std::fs::metadata(p).ok().map(|m| (m.dev(), m.ino()))
 }
@@ -415,14 +418,14 @@ impl OutputSet {
     /// as in `("model file", "models/inceptor.toml")`: check each output (see the module
     /// doc) and make its temporary file, before any work.
     pub fn plan(inputs: &[(&str, &str)], outputs: &[Option<&str>]) -> Result<OutputSet> {
-        let input_ids: Vec<(&str, &str, (u64, u64))> = inputs
+        let input_ids: Vec<(&str, &str, FileId)> = inputs
             .iter()
             .filter_map(|(what, i)| file_id(Path::new(i)).map(|id| (*what, *i, id)))
             .collect();
         let mut planned: Vec<Planned> = Vec::new();
         // identities of the regular outputs so far: (dev, ino) when the file exists, else
         // the canonical directory and the name
-        let mut seen: Vec<(Option<(u64, u64)>, PathBuf, String)> = Vec::new();
+        let mut seen: Vec<(Option<FileId>, PathBuf, String)> = Vec::new();
         for given in outputs.iter().flatten() {
             let p = plan_one(given)?;
             if !p.special {
