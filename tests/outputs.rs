@@ -224,7 +224,7 @@ fn interrupt(args: &[&str], dir: &Path, signal: libc::c_int) -> std::process::Ou
         }
         std::thread::sleep(Duration::from_millis(10));
     }
-    std::thread::sleep(Duration::from_millis(700));
+    std::thread::sleep(Duration::from_millis(1000));
     // SAFETY: sending a signal to our own child.
     assert_eq!(unsafe { libc::kill(child.id() as libc::pid_t, signal) }, 0);
     child.wait_with_output().unwrap()
