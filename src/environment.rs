@@ -280,7 +280,7 @@ impl Environment {
 
     /// Read an environment file.
     pub fn load(path: &str) -> Result<Environment> {
-        let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+        let text = crate::model::read_input(path, "environment file")?;
         Environment::from_str(path, &text)
     }
 

@@ -92,6 +92,8 @@ fn main() {
         libc::signal(libc::SIGPIPE, libc::SIG_DFL);
     }
     let cli = Cli::parse();
+    // SIGINT, SIGTERM, SIGHUP: a long command stops and keeps what it has; exit 130/143/129
+    cli::handle_signals();
     // a command that checks something sets the exit code of its outcome (`cli::Outcome`)
     let mut exit_code = 0;
     let result = match cli.command {
@@ -109,12 +111,20 @@ fn main() {
         Command::Tune(a) => cli::tune::run(a).map(|o| exit_code = o.exit_code()),
         Command::Report(a) => cli::report::run(a),
     };
+    // exit codes (README, docs/reliability.md): 0 success, 1 error, 2 usage (clap), 3 a
+    // check failed, 128 + the signal (130 SIGINT, 143 SIGTERM, 129 SIGHUP) interrupted
+    let interrupted = cli::interrupted_by();
     if let Err(e) = result {
         eprint!(
             "{}",
             e.render_with(std::io::stderr().is_terminal(), &cli::advice::Cli)
         );
-        std::process::exit(1);
+        std::process::exit(interrupted.unwrap_or(1));
+    }
+    if let Some(code) = interrupted {
+        use std::io::Write;
+        let _ = std::io::stdout().flush();
+        std::process::exit(code);
     }
     if exit_code != 0 {
         use std::io::Write;

@@ -37,6 +37,7 @@ pub fn advice(f: &Failure) -> Option<String> {
         ConstraintsNotKept { .. } => "tighten --rtol/--atol (the defaults are 1e-10 and 1e-12); if that does not help, the mechanism may pass a singular pose".into(),
         ContinuationStalled { .. } => "the branch may end here (a singular pose or no equilibrium), or --step is far too large for this model (the default is the range / 50): try a smaller --step".into(),
         SweepInterrupted => "the frequencies completed were written and marked incomplete".into(),
+        Interrupted { .. } => "nothing was written: a simulation's outputs are kept only for a run that reaches --t-end (exit 130 SIGINT, 143 SIGTERM, 129 SIGHUP)".into(),
         BranchTurns { .. } => "the branch may end here (a singular pose); try a smaller --step".into(),
         SingularStart => "start away from it: --set the initial value of the coordinate the model fixes for assembly to another value".into(),
         NoStartEquilibrium { .. } => "start --from where the mechanism has an equilibrium near its initial pose, or --set the initial angle or the loads; the branch is followed from there".into(),

@@ -52,7 +52,7 @@ pub struct ContinueArgs {
 
 pub fn run(a: ContinueArgs) -> Result<()> {
     let (model, sys) = a.model.load()?;
-    check_outputs(
+    let outputs = check_outputs(
         &model.source.path,
         &[a.output.as_deref(), a.plot.as_deref()],
     )?;
@@ -84,6 +84,7 @@ pub fn run(a: ContinueArgs) -> Result<()> {
             &branch_figure(&model.name, &branch, idx, sys.is_angle(idx)),
         )?;
     }
+    outputs.commit()?;
     if a.json {
         print_json(&BranchReport::new(&branch, &Provenance::of(&model)));
     } else {

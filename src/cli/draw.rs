@@ -19,9 +19,10 @@ pub struct DrawArgs {
 
 pub fn run(a: DrawArgs) -> Result<()> {
     let (model, sys) = a.model.load_untrimmed()?;
-    check_outputs(&model.source.path, &[Some(&a.output)])?;
+    let outputs = check_outputs(&model.source.path, &[Some(&a.output)])?;
     let start = detune::dynamics::assemble_at_rest(&sys)?;
     write_pose_svg(&a.output, &sys, &start.q, &model.name, &sys.force_names)?;
+    outputs.commit()?;
     println!("wrote {}", a.output);
     Ok(())
 }

@@ -55,7 +55,7 @@ pub fn run(a: FrfArgs) -> Result<()> {
     } else {
         sys
     };
-    check_outputs(
+    let outputs = check_outputs(
         &model.source.path,
         &[a.output.as_deref(), a.plot.as_deref()],
     )?;
@@ -64,7 +64,6 @@ pub fn run(a: FrfArgs) -> Result<()> {
     let fr = frequency_response(&sys, &a.grid.param, &values, &responses)?;
     if let Some(o) = &a.output {
         write_frf_csv(o, &fr)?;
-        eprintln!("wrote {o}");
     }
     if let Some(p) = &a.plot {
         let units: Vec<&str> = responses
@@ -87,7 +86,10 @@ pub fn run(a: FrfArgs) -> Result<()> {
             p,
             &detune::output::figures::frf_figures(&fr, &units, &natural, &marks),
         )?;
-        eprintln!("wrote {p}");
+    }
+    outputs.commit()?;
+    for f in [&a.output, &a.plot].into_iter().flatten() {
+        eprintln!("wrote {f}");
     }
     if a.json {
         print_json(&FrfReport::new(&fr, &Provenance::of(&model)));

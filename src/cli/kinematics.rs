@@ -38,7 +38,7 @@ pub struct KinematicsArgs {
 
 pub fn run(a: KinematicsArgs) -> Result<()> {
     let (model, sys) = a.model.load_untrimmed()?;
-    check_outputs(
+    let outputs = check_outputs(
         &model.source.path,
         &[a.output.as_deref(), a.plot.as_deref()],
     )?;
@@ -58,6 +58,7 @@ pub fn run(a: KinematicsArgs) -> Result<()> {
     if let Some(p) = &a.plot {
         write_panels(p, &path.figures(&model.name))?;
     }
+    outputs.commit()?;
     if a.output.is_none() {
         print_table(&path);
     } else {

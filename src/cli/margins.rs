@@ -9,7 +9,7 @@ use detune::environment::{Environment, ForcingLine, resolve};
 use detune::linear::modal_analysis;
 use detune::margins::{MarginCheck, MarginRow, ModeInterval, Requirement, Side, check_margins};
 use detune::output::margins::{MarginsReport, write_margins_csv};
-use detune::output::{Provenance, check_outputs};
+use detune::output::Provenance;
 use std::f64::consts::TAU;
 
 #[derive(Args)]
@@ -48,17 +48,12 @@ pub struct MarginsArgs {
 pub fn run(a: MarginsArgs) -> Result<Outcome> {
     let margin = parse_margin(&a.margin)?;
     let env = resolve(&a.environment)?;
-    check_outputs(&a.model.model, &[a.output.as_deref()])?;
+    // the output is neither the model file nor the environment file (nor a link to one)
+    let mut inputs = vec![("model file", a.model.model.as_str())];
     if !env.shipped {
-        // nor the environment file (`check_outputs` calls it the model file)
-        check_outputs(&env.file, &[a.output.as_deref()]).map_err(|e| match e {
-            Error::Request { message, help } => Error::Request {
-                message: message.replace("the model file", "the environment file"),
-                help,
-            },
-            e => e,
-        })?;
+        inputs.push(("environment file", env.file.as_str()));
     }
+    let outputs = detune::output::OutputSet::plan(&inputs, &[a.output.as_deref()])?;
     let (model, sys) = a.model.load()?;
     let modal = modal_analysis(&sys, None)?;
     let names = detune::linear::sensitivity::mode_names(&sys, &modal);
@@ -73,6 +68,7 @@ pub fn run(a: MarginsArgs) -> Result<Outcome> {
     let check = check_margins(&modes, &lines, margin, rule)?;
     if let Some(o) = &a.output {
         write_margins_csv(o, &check)?;
+        outputs.commit()?;
         eprintln!("wrote {o}");
     }
     if a.json {

@@ -1,7 +1,7 @@
 //! The commands of the `detune` binary, one file each, and what they share: argument
-//! groups ([`args`]), the progress bar, the Ctrl-C flag, printing JSON.
+//! groups ([`args`]), the progress bar, the signal flag, printing JSON.
 //!
-//! The command line parses arguments, shows progress, handles Ctrl-C and turns errors
+//! The command line parses arguments, shows progress, handles signals and turns errors
 //! into advice; the work itself is the library's.
 
 pub mod advice;
@@ -20,7 +20,7 @@ pub mod simulate;
 pub mod sweep;
 pub mod tune;
 
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicI32, Ordering};
 
 /// How a command that ran to its end finished, for a command that checks something
 /// (`margins`): the check passed (exit 0) or failed (exit 3). An error is not an outcome:
@@ -41,13 +41,72 @@ impl Outcome {
     }
 }
 
-/// Set by Ctrl-C once [`interrupt_on_ctrl_c`] is called: a long run stops and writes
-/// what it has.
+/// Set by SIGINT, SIGTERM or SIGHUP (see [`handle_signals`]) once a command called
+/// [`interrupt_on_ctrl_c`]: a long run stops at its next step and writes what it has.
 pub static INTERRUPTED: AtomicBool = AtomicBool::new(false);
 
-/// From now on, Ctrl-C sets [`INTERRUPTED`] instead of ending the process.
+/// The first signal received (0: none).
+static SIGNAL: AtomicI32 = AtomicI32::new(0);
+/// The running command checks [`INTERRUPTED`] between its steps.
+static POLLS: AtomicBool = AtomicBool::new(false);
+
+/// SIGINT, SIGTERM and SIGHUP, handled alike from the start of `main`: a command that
+/// checks [`INTERRUPTED`] (it called [`interrupt_on_ctrl_c`]) gets the flag set, stops
+/// at its next step, keeps its partial results where meaningful and exits 128 + the
+/// signal (130, 143, 129: [`interrupted_by`]). Any other command, or a second signal
+/// (during the write, say), ends the process at once with that code after unlinking its
+/// temporary files ([`detune::output::commit::remove_temps_now`]), so no `.detune-*`
+/// file lingers.
+///
+/// Written with `libc::sigaction` rather than `ctrlc`: ctrlc's handler is not told which
+/// signal came, and the exit code must say it.
+pub fn handle_signals() {
+    #[cfg(unix)]
+    for sig in [libc::SIGINT, libc::SIGTERM, libc::SIGHUP] {
+        // SAFETY: a zeroed sigaction with a handler that only does async-signal-safe work
+        // (atomics, unlink, write, _exit).
+        unsafe {
+            let mut sa: libc::sigaction = std::mem::zeroed();
+            sa.sa_sigaction = on_signal as *const () as libc::sighandler_t;
+            sa.sa_flags = libc::SA_RESTART;
+            libc::sigemptyset(&mut sa.sa_mask);
+            libc::sigaction(sig, &sa, std::ptr::null_mut());
+        }
+    }
+}
+
+#[cfg(unix)]
+extern "C" fn on_signal(sig: libc::c_int) {
+    INTERRUPTED.store(true, Ordering::SeqCst);
+    let first = SIGNAL
+        .compare_exchange(0, sig, Ordering::SeqCst, Ordering::SeqCst)
+        .is_ok();
+    if first && POLLS.load(Ordering::SeqCst) {
+        return;
+    }
+    detune::output::commit::remove_temps_now();
+    let msg = b"\ninterrupted: stopped; no output written\n";
+    // SAFETY: write(2) and _exit(2) are async-signal-safe.
+    unsafe {
+        libc::write(2, msg.as_ptr().cast(), msg.len());
+        // the first signal names the exit code
+        libc::_exit(128 + SIGNAL.load(Ordering::SeqCst));
+    }
+}
+
+/// From now on the running command checks [`INTERRUPTED`] between its steps: SIGINT,
+/// SIGTERM or SIGHUP set it instead of ending the process (see [`handle_signals`]).
 pub fn interrupt_on_ctrl_c() {
-    let _ = ctrlc::set_handler(|| INTERRUPTED.store(true, Ordering::SeqCst));
+    POLLS.store(true, Ordering::SeqCst);
+}
+
+/// The signal that interrupted the run, if one did, as its exit code: 130 (SIGINT),
+/// 143 (SIGTERM), 129 (SIGHUP).
+pub fn interrupted_by() -> Option<i32> {
+    match SIGNAL.load(Ordering::SeqCst) {
+        0 => None,
+        s => Some(128 + s),
+    }
 }
 
 /// A progress bar of `len` steps drawn with `template` (shown on a terminal only).

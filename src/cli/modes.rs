@@ -192,7 +192,7 @@ fn print_names(named: &[detune::linear::tracking::NamedMode]) {
 /// `detune modes --param`: the modes tracked over the parameter's values.
 fn track(a: ModesArgs, param: &str) -> Result<()> {
     let (model, sys) = a.model.load()?;
-    check_outputs(
+    let outputs = check_outputs(
         &model.source.path,
         &[a.output.as_deref(), a.plot.as_deref()],
     )?;
@@ -226,14 +226,16 @@ fn track(a: ModesArgs, param: &str) -> Result<()> {
         .unwrap_or("");
     if let Some(o) = &a.output {
         detune::output::results::write_tracking_csv(o, &t)?;
-        eprintln!("wrote {o}");
     }
     if let Some(p) = &a.plot {
         detune::output::plot::write_line_plot(
             p,
             &detune::output::figures::tracking_figure(&t, unit),
         )?;
-        eprintln!("wrote {p}");
+    }
+    outputs.commit()?;
+    for f in [&a.output, &a.plot].into_iter().flatten() {
+        eprintln!("wrote {f}");
     }
     for w in &t.warnings {
         eprintln!("warning: {w}");

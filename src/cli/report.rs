@@ -4,7 +4,6 @@
 use super::args::ModelArgs;
 use clap::Args;
 use detune::diag::{Error, Result};
-use detune::output::check_outputs;
 use detune::report::{ReportInputs, build, environment};
 use std::path::Path;
 use std::time::Instant;
@@ -74,7 +73,12 @@ pub fn run(a: ReportArgs) -> Result<()> {
         .transpose()?;
     let env = full_env.as_ref().map(environment::from_environment);
     let (model, sys) = a.model.load()?;
-    check_outputs(&model.source.path, &[Some(&a.output), Some(&json)])?;
+    let mut inputs = vec![("model file", model.source.path.as_str())];
+    if let Some(e) = full_env.as_ref().filter(|e| !e.shipped) {
+        inputs.push(("environment file", e.file.as_str()));
+    }
+    // checked before any work; `Report::write` commits the page and its sidecar together
+    let _outputs = detune::output::OutputSet::plan(&inputs, &[Some(&a.output), Some(&json)])?;
     if a.tune && (a.tune_vary.is_empty() || full_env.is_none()) {
         return Err(Error::request(
             "--tune needs the parameters the design may change, with their ranges, and an environment",

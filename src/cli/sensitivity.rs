@@ -55,7 +55,7 @@ pub struct SensitivityArgs {
 
 pub fn run(a: SensitivityArgs) -> Result<()> {
     let (model, sys) = a.model.load()?;
-    check_outputs(
+    let outputs = check_outputs(
         &model.source.path,
         &[a.output.as_deref(), a.plot.as_deref()],
     )?;
@@ -107,7 +107,6 @@ pub fn run(a: SensitivityArgs) -> Result<()> {
     let unit = |name: &str| -> String { model.param_unit(name) };
     if let Some(o) = &a.output {
         write_sensitivity_csv(o, &study)?;
-        eprintln!("wrote {o}");
     }
     if let Some(p) = &a.plot {
         let title = format!(
@@ -128,7 +127,10 @@ pub fn run(a: SensitivityArgs) -> Result<()> {
             }
         );
         write_tornado(p, &study, &title)?;
-        eprintln!("wrote {p}");
+    }
+    outputs.commit()?;
+    for f in [&a.output, &a.plot].into_iter().flatten() {
+        eprintln!("wrote {f}");
     }
     if a.json {
         let params = vs

@@ -59,10 +59,12 @@ pub struct SimulateArgs {
 
 pub fn run(a: SimulateArgs) -> Result<()> {
     let (model, sys) = a.model.load()?;
-    check_outputs(
+    let outputs = check_outputs(
         &model.source.path,
         &[Some(&a.output), a.plot.as_deref(), a.json.as_deref()],
     )?;
+    // a signal stops the run at the next output step (nothing is written then)
+    super::interrupt_on_ctrl_c();
     let mut probe = Probe::new(&sys, sys.outputs(&a.response)?);
     let mut values = vec![0.0; a.response.len()];
     let start = assemble(&sys)?;
@@ -112,7 +114,7 @@ pub fn run(a: SimulateArgs) -> Result<()> {
                 if began.elapsed().as_millis() > 300 {
                     bar.set_position((f * 1000.0) as u64);
                 }
-                true
+                !super::INTERRUPTED.load(std::sync::atomic::Ordering::SeqCst)
             },
         );
         let failed = run.is_err();
@@ -141,6 +143,7 @@ pub fn run(a: SimulateArgs) -> Result<()> {
             &SimulationSummary::new(&provenance, &opts, &traj, &a.output),
         )?;
     }
+    outputs.commit()?;
     let st = &traj.stats;
     println!(
         "simulated {} s in {:.3} s: {} steps ({} rejected), {} right-hand sides, {} projections; largest constraint residual {:.2e} (drift before projection {:.2e})",

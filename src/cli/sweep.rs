@@ -71,7 +71,7 @@ pub struct SweepArgs {
 
 pub fn run(a: SweepArgs) -> Result<()> {
     let (model, _compiled) = a.model.load()?;
-    check_outputs(
+    let outputs = check_outputs(
         &model.source.path,
         &[a.output.as_deref(), a.plot.as_deref()],
     )?;
@@ -124,11 +124,17 @@ pub fn run(a: SweepArgs) -> Result<()> {
     let complete = runs.iter().all(|r| r.sweep.complete);
     if let Some(o) = &a.output {
         write_sweep_csv(o, &runs)?;
-        eprintln!("wrote {o}{}", if complete { "" } else { " (incomplete)" });
     }
     if let Some(p) = &a.plot {
         let natural = study.natural_frequencies(runs.len())?;
         write_panels(p, &sweep_figures(&runs, &natural, &marks))?;
+    }
+    // an interrupted sweep keeps the frequencies completed, marked incomplete
+    outputs.commit()?;
+    if let Some(o) = &a.output {
+        eprintln!("wrote {o}{}", if complete { "" } else { " (incomplete)" });
+    }
+    if let Some(p) = &a.plot {
         eprintln!("wrote {p}");
     }
     if a.json {

@@ -7,8 +7,8 @@ use super::print_json;
 use clap::Args;
 use detune::diag::{Error, Result};
 use detune::environment::resolve;
+use detune::output::Provenance;
 use detune::output::command::shell_word;
-use detune::output::{Provenance, check_outputs};
 use detune::tune::{Optimizer, Tolerance, TuneOptions, Tuning, tune};
 
 #[derive(Args)]
@@ -74,7 +74,11 @@ pub fn run(a: TuneArgs) -> Result<super::Outcome> {
     let margin = parse_margin(&a.margin)?;
     let env = resolve(&a.environment)?;
     let (model, sys) = a.model.load()?;
-    check_outputs(&model.source.path, &[a.output.as_deref()])?;
+    let mut inputs = vec![("model file", model.source.path.as_str())];
+    if !env.shipped {
+        inputs.push(("environment file", env.file.as_str()));
+    }
+    let outputs = detune::output::OutputSet::plan(&inputs, &[a.output.as_deref()])?;
     if a.vary.is_empty() {
         return Err(Error::request(
             "tune needs at least one free parameter",
@@ -155,6 +159,7 @@ pub fn run(a: TuneArgs) -> Result<super::Outcome> {
     if let Some(o) = &a.output {
         let text = serde_json::to_string_pretty(&report).unwrap_or_default();
         detune::output::write_atomic(o, |w| w.write_all(text.as_bytes()))?;
+        outputs.commit()?;
         eprintln!("wrote {o}");
     }
     if a.json {

@@ -399,9 +399,9 @@ impl Model {
             .unwrap_or_default()
     }
 
-    /// Read and check a model file.
+    /// Read and check a model file (at most [`MAX_INPUT_BYTES`]; see [`read_input`]).
     pub fn load(path: &str) -> Result<Model> {
-        let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+        let text = read_input(path, "model file")?;
         Model::from_str(path, &text)
     }
 
@@ -1431,4 +1431,63 @@ impl Builder<'_> {
             kind: e.kind,
         })
     }
+}
+
+/// The most an input file (model, environment) may hold: 16 MiB. A model is a few kB;
+/// the limit keeps `detune check /dev/zero` or a wrong file from eating the memory.
+pub const MAX_INPUT_BYTES: u64 = 16 * 1024 * 1024;
+
+/// Read an input file (`what`: "model file", "environment file") as UTF-8 text: a
+/// regular file or a pipe (`-` is not special, but `/dev/stdin` and `<(…)` work), at most
+/// [`MAX_INPUT_BYTES`]. A directory, a character or block device (`/dev/zero`) or a
+/// socket is refused before reading, a longer file when the limit is passed; each error
+/// names the file and says what to give instead.
+pub fn read_input(path: &str, what: &str) -> Result<String> {
+    use std::io::Read;
+    let meta = std::fs::metadata(path).map_err(|e| Error::io(path, e))?;
+    let kind = {
+        #[cfg(unix)]
+        {
+            use std::os::unix::fs::FileTypeExt;
+            let t = meta.file_type();
+            if t.is_char_device() {
+                Some("a character device")
+            } else if t.is_block_device() {
+                Some("a block device")
+            } else if t.is_socket() {
+                Some("a socket")
+            } else {
+                None
+            }
+        }
+        #[cfg(not(unix))]
+        None::<&str>
+    };
+    let kind = kind.or(meta.is_dir().then_some("a directory"));
+    if let Some(kind) = kind {
+        return Err(Error::request(
+            format!("{path}: is {kind}, not a {what}"),
+            format!("give the path of a {what} (TOML text); a pipe such as <(...) works too"),
+        ));
+    }
+    let file = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
+    let mut bytes = Vec::new();
+    file.take(MAX_INPUT_BYTES + 1)
+        .read_to_end(&mut bytes)
+        .map_err(|e| Error::io(path, e))?;
+    if bytes.len() as u64 > MAX_INPUT_BYTES {
+        return Err(Error::request(
+            format!(
+                "{path}: longer than the {} MiB a {what} may have (reading stopped there)",
+                MAX_INPUT_BYTES / (1024 * 1024)
+            ),
+            format!("give the right file: a {what} is TOML text of a few kB"),
+        ));
+    }
+    String::from_utf8(bytes).map_err(|e| {
+        Error::io(
+            path,
+            format!("not UTF-8 text (byte {}): is this a {what}?", e.utf8_error().valid_up_to()),
+        )
+    })
 }

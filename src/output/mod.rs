@@ -1,9 +1,11 @@
 //! Results to files: CSV, JSON with provenance, SVG plots.
 //!
 //! Every file is written to a temporary file in the target directory and renamed into
-//! place when complete, so an error or an interrupt never leaves a half-written output.
+//! place when complete, so an error or an interrupt never leaves a half-written output;
+//! a run's outputs are planned before any work and committed together ([`commit`]).
 
 pub mod command;
+pub mod commit;
 pub mod figures;
 pub mod json;
 pub mod margins;
@@ -11,96 +13,29 @@ pub mod plot;
 pub mod results;
 pub mod sensitivity;
 
-use crate::diag::{Error, Result};
+use crate::diag::Result;
 use crate::model::Model;
+pub use commit::OutputSet;
 use std::io::Write;
-use std::path::Path;
 
-/// Write `path` atomically: `fill` writes the content into a temporary file next to it,
-/// which is renamed to `path` only if `fill` succeeds.
+/// Write `path` atomically: `fill` writes the content into a temporary file, which is
+/// put in place only if `fill` succeeds. Under a planned [`OutputSet`] that names `path`,
+/// it is put in place by the set's commit, together with the set's other outputs; else at
+/// once. See [`commit`].
 pub fn write_atomic(
     path: &str,
     fill: impl FnOnce(&mut dyn Write) -> std::io::Result<()>,
 ) -> Result<()> {
-    let p = Path::new(path);
-    let dir = match p.parent() {
-        Some(d) if !d.as_os_str().is_empty() => d,
-        _ => Path::new("."),
-    };
-    let mut tmp = tempfile::Builder::new()
-        .prefix(".detune-")
-        .tempfile_in(dir)
-        .map_err(|e| {
-            Error::io(
-                path,
-                format!("cannot create a file in {}: {e}", dir.display()),
-            )
-        })?;
-    {
-        let mut w = std::io::BufWriter::new(tmp.as_file_mut());
-        fill(&mut w).map_err(|e| Error::io(path, e))?;
-        w.flush().map_err(|e| Error::io(path, e))?;
-    }
-    // tempfile creates 0600; an output file gets the ordinary 0644 (less the umask).
-    #[cfg(unix)]
-    {
-        use std::os::unix::fs::PermissionsExt;
-        let _ = std::fs::set_permissions(tmp.path(), std::fs::Permissions::from_mode(0o644));
-    }
-    tmp.persist(p).map_err(|e| Error::io(path, e.error))?;
-    Ok(())
+    commit::render(path, fill)
 }
 
-/// Check, before any work, that every output can be written where asked: its directory
-/// exists, it is not a directory, no two outputs share a path, and none overwrites the
-/// model file. A run then does not fail after minutes of work, or after writing one of
-/// its files but not another.
-pub fn check_outputs(model_path: &str, outputs: &[Option<&str>]) -> Result<()> {
-    let key = |p: &str| -> std::path::PathBuf {
-        let p = Path::new(p);
-        let dir = match p.parent() {
-            Some(d) if !d.as_os_str().is_empty() => d,
-            _ => Path::new("."),
-        };
-        let dir = dir.canonicalize().unwrap_or_else(|_| dir.to_path_buf());
-        dir.join(p.file_name().unwrap_or_default())
-    };
-    let model = key(model_path);
-    let mut seen: Vec<(std::path::PathBuf, &str)> = Vec::new();
-    for path in outputs.iter().flatten() {
-        let p = Path::new(path);
-        let dir = match p.parent() {
-            Some(d) if !d.as_os_str().is_empty() => d,
-            _ => Path::new("."),
-        };
-        if !dir.is_dir() {
-            return Err(Error::request(
-                format!("{path}: the directory {} does not exist", dir.display()),
-                "create it first, or write the output elsewhere",
-            ));
-        }
-        if p.is_dir() || p.file_name().is_none() {
-            return Err(Error::request(
-                format!("{path}: is a directory, not a file name"),
-                "give a file name, e.g. out.csv",
-            ));
-        }
-        let k = key(path);
-        if k == model {
-            return Err(Error::request(
-                format!("{path}: this would overwrite the model file"),
-                "give the output another name",
-            ));
-        }
-        if let Some((_, other)) = seen.iter().find(|(s, _)| *s == k) {
-            return Err(Error::request(
-                format!("{path}: the same file as the output {other}"),
-                "give each output its own name",
-            ));
-        }
-        seen.push((k, path));
-    }
-    Ok(())
+/// Plan a run's outputs before any work ([`OutputSet::plan`] with the model file as the
+/// input): each can be written where asked (its directory exists, it is not a directory,
+/// not the model file or a link to it, no two outputs are one file), so a run does not
+/// fail after minutes of work. The outputs are written by the returned set's
+/// [`OutputSet::commit`], all together, or none.
+pub fn check_outputs(model_path: &str, outputs: &[Option<&str>]) -> Result<OutputSet> {
+    OutputSet::plan(&[("model file", model_path)], outputs)
 }
 
 /// Where a result came from: detune version, model file and hash, overrides.

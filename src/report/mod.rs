@@ -257,20 +257,18 @@ impl Report {
     }
 
     /// Write the HTML page to `html_path` and the sidecar to `json_path`, both or
-    /// neither: each is written to a temporary file first; the sidecar is renamed into
-    /// place only after the page, and the page removed again if that fails.
+    /// neither: each is rendered to a temporary file first and the two are committed
+    /// together ([`crate::output::OutputSet`]).
     pub fn write(&self, html_path: &str, json_path: &str) -> Result<()> {
         let page = self.document.html();
         let json = self.sidecar.to_json();
+        let outputs = crate::output::OutputSet::plan(&[], &[Some(html_path), Some(json_path)])?;
         crate::output::write_atomic(html_path, |w| w.write_all(page.as_bytes()))?;
-        if let Err(e) = crate::output::write_atomic(json_path, |w| {
+        crate::output::write_atomic(json_path, |w| {
             w.write_all(json.as_bytes())?;
             w.write_all(b"\n")
-        }) {
-            let _ = std::fs::remove_file(html_path);
-            return Err(e);
-        }
-        Ok(())
+        })?;
+        outputs.commit()
     }
 }
 

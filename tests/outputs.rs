@@ -1,0 +1,475 @@
+//! Outputs that never destroy or linger, signals and exit codes (issue 13, defect 5),
+//! through the built binary: symlinks, hard links, FIFOs and devices as outputs, all
+//! outputs committed together or none, SIGTERM/SIGHUP during long runs, stale temporary
+//! files, bounded model input.
+
+use std::os::unix::fs::FileTypeExt;
+use std::path::Path;
+use std::process::{Command, Stdio};
+use std::time::Duration;
+
+mod common;
+
+fn detune(args: &[&str]) -> (i32, String, String) {
+    let o = Command::new(env!("CARGO_BIN_EXE_detune"))
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .args(args)
+        .output()
+        .unwrap();
+    (
+        o.status.code().unwrap_or(-1),
+        String::from_utf8_lossy(&o.stdout).into_owned(),
+        String::from_utf8_lossy(&o.stderr).into_owned(),
+    )
+}
+
+/// A short simulation of the overcentre mechanism writing its CSV to `out`, plus `extra`.
+fn simulate(out: &str, extra: &[&str]) -> (i32, String, String) {
+    let mut args = vec![
+        "simulate",
+        "models/overcentre.toml",
+        "--t-end",
+        "0.5",
+        "--dt-out",
+        "0.05",
+        "-o",
+        out,
+    ];
+    args.extend_from_slice(extra);
+    detune(&args)
+}
+
+/// The reference CSV of [`simulate`], written to a plain file.
+fn reference_csv() -> String {
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("ref.csv");
+    let (code, _, err) = simulate(p.to_str().unwrap(), &[]);
+    assert_eq!(code, 0, "{err}");
+    std::fs::read_to_string(p).unwrap()
+}
+
+/// The `.detune-*` temporary files in `dir`.
+fn temps(dir: &Path) -> Vec<String> {
+    std::fs::read_dir(dir)
+        .unwrap()
+        .flatten()
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .filter(|n| n.starts_with(".detune-"))
+        .collect()
+}
+
+fn s(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
+
+#[test]
+fn an_output_through_a_symlink_writes_its_target_and_keeps_the_link() {
+    let dir = tempfile::tempdir().unwrap();
+    let target = dir.path().join("target.csv");
+    let link = dir.path().join("link.csv");
+    std::fs::write(&target, "old\n").unwrap();
+    std::os::unix::fs::symlink("target.csv", &link).unwrap();
+    let (code, _, err) = simulate(s(&link), &[]);
+    assert_eq!(code, 0, "{err}");
+    assert!(
+        std::fs::symlink_metadata(&link)
+            .unwrap()
+            .file_type()
+            .is_symlink()
+    );
+    assert_eq!(std::fs::read_to_string(&target).unwrap(), reference_csv());
+    // a dangling link is followed too: its target is created
+    std::fs::remove_file(&target).unwrap();
+    let (code, _, err) = simulate(s(&link), &[]);
+    assert_eq!(code, 0, "{err}");
+    assert_eq!(std::fs::read_to_string(&target).unwrap(), reference_csv());
+    assert!(temps(dir.path()).is_empty());
+}
+
+#[test]
+fn an_output_that_is_the_model_through_a_link_is_refused_and_the_model_kept() {
+    let dir = tempfile::tempdir().unwrap();
+    let model = dir.path().join("m.toml");
+    let text = common::overcentre_text();
+    std::fs::write(&model, &text).unwrap();
+    let hard = dir.path().join("hard.csv");
+    std::fs::hard_link(&model, &hard).unwrap();
+    let soft = dir.path().join("soft.csv");
+    std::os::unix::fs::symlink(&model, &soft).unwrap();
+    for out in [&hard, &soft, &model] {
+        let (code, _, err) = detune(&["simulate", s(&model), "--t-end", "0.1", "-o", s(out)]);
+        assert_eq!(code, 1, "{err}");
+        assert!(err.contains("would overwrite the model file"), "{err}");
+        assert!(err.contains(s(out)), "the error names the output: {err}");
+        assert_eq!(std::fs::read_to_string(&model).unwrap(), text);
+    }
+    // the same for the JSON and the plot
+    let (code, _, err) = detune(&[
+        "simulate",
+        s(&model),
+        "--t-end",
+        "0.1",
+        "-o",
+        s(&dir.path().join("ok.csv")),
+        "--json",
+        s(&hard),
+    ]);
+    assert_eq!(code, 1, "{err}");
+    assert_eq!(std::fs::read_to_string(&model).unwrap(), text);
+    assert!(!dir.path().join("ok.csv").exists());
+    assert!(temps(dir.path()).is_empty());
+}
+
+#[test]
+fn an_output_that_is_the_environment_file_through_a_link_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let env = dir.path().join("env.toml");
+    let text = std::fs::read_to_string(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("environments/uh-60.toml"),
+    )
+    .unwrap();
+    std::fs::write(&env, &text).unwrap();
+    let link = dir.path().join("out.csv");
+    std::fs::hard_link(&env, &link).unwrap();
+    let (code, _, err) = detune(&[
+        "margins",
+        "models/inceptor.toml",
+        "--environment",
+        s(&env),
+        "-o",
+        s(&link),
+    ]);
+    assert_eq!(code, 1, "{err}");
+    assert!(
+        err.contains("would overwrite the environment file"),
+        "{err}"
+    );
+    assert_eq!(std::fs::read_to_string(&env).unwrap(), text);
+}
+
+#[test]
+fn a_fifo_gets_the_csv_written_directly() {
+    let dir = tempfile::tempdir().unwrap();
+    let fifo = dir.path().join("pipe.csv");
+    let ok = Command::new("mkfifo").arg(&fifo).status().unwrap();
+    assert!(ok.success());
+    let reader = {
+        let fifo = fifo.clone();
+        std::thread::spawn(move || std::fs::read_to_string(fifo).unwrap())
+    };
+    let (code, _, err) = simulate(s(&fifo), &[]);
+    if code != 0 {
+        // the reader waits for a writer: give it an empty one rather than hang
+        drop(std::fs::OpenOptions::new().write(true).open(&fifo));
+    }
+    assert_eq!(code, 0, "{err}");
+    assert_eq!(reader.join().unwrap(), reference_csv());
+    assert!(
+        std::fs::symlink_metadata(&fifo)
+            .unwrap()
+            .file_type()
+            .is_fifo()
+    );
+    assert!(temps(dir.path()).is_empty());
+}
+
+#[test]
+fn dev_null_stays_a_device() {
+    let (code, _, err) = simulate("/dev/null", &["--json", "/dev/null"]);
+    assert_eq!(code, 0, "{err}");
+    let t = std::fs::symlink_metadata("/dev/null").unwrap().file_type();
+    assert!(t.is_char_device());
+}
+
+#[test]
+fn a_failing_last_output_leaves_none_of_the_others() {
+    let dir = tempfile::tempdir().unwrap();
+    let csv = dir.path().join("a.csv");
+    let json = dir.path().join("a.json");
+    std::fs::write(&csv, "the previous run's\n").unwrap();
+    // /dev/full takes no byte (ENOSPC): the plot, a special file, is written last, after
+    // the CSV and the JSON were renamed into place; they are rolled back
+    let (code, _, err) = simulate(s(&csv), &["--json", s(&json), "--plot", "/dev/full"]);
+    assert_eq!(code, 1, "{err}");
+    assert!(err.contains("/dev/full"), "{err}");
+    assert_eq!(
+        std::fs::read_to_string(&csv).unwrap(),
+        "the previous run's\n"
+    );
+    assert!(!json.exists());
+    assert!(temps(dir.path()).is_empty());
+    // a plot whose directory is a file: refused before any work, nothing written
+    let (code, _, err) = simulate(
+        s(&dir.path().join("b.csv")),
+        &["--plot", s(&csv.join("p.svg"))],
+    );
+    assert_eq!(code, 1, "{err}");
+    assert!(!dir.path().join("b.csv").exists());
+    assert!(temps(dir.path()).is_empty());
+}
+
+/// Spawn `detune args`, wait until it has made its temporary files, send `signal`.
+fn interrupt(args: &[&str], dir: &Path, signal: libc::c_int) -> std::process::Output {
+    let child = Command::new(env!("CARGO_BIN_EXE_detune"))
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .args(args)
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    // the outputs are planned (temporary files made) before any work; then let it work
+    for _ in 0..500 {
+        if !temps(dir).is_empty() {
+            break;
+        }
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    std::thread::sleep(Duration::from_millis(1000));
+    // SAFETY: sending a signal to our own child.
+    assert_eq!(unsafe { libc::kill(child.id() as libc::pid_t, signal) }, 0);
+    child.wait_with_output().unwrap()
+}
+
+fn long_sweep(csv: &str) -> Vec<String> {
+    [
+        "sweep",
+        "models/overcentre.toml",
+        "--set",
+        "theta1_0=-0.85",
+        "--set",
+        "F0=4",
+        "--set",
+        "c=0.2",
+        "--param",
+        "omega",
+        "--from",
+        "0.5",
+        "--to",
+        "8",
+        "--step",
+        "0.002",
+        "--mode",
+        "up",
+        "--response",
+        "bar1.theta",
+        "-o",
+        csv,
+    ]
+    .map(String::from)
+    .to_vec()
+}
+
+#[test]
+fn sigterm_and_sighup_stop_a_sweep_keeping_the_points_marked_incomplete() {
+    for (signal, code) in [(libc::SIGTERM, 143), (libc::SIGHUP, 129)] {
+        let dir = tempfile::tempdir().unwrap();
+        let csv = dir.path().join("fr.csv");
+        let args = long_sweep(s(&csv));
+        let args: Vec<&str> = args.iter().map(String::as_str).collect();
+        let out = interrupt(&args, dir.path(), signal);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(code), "{err}");
+        let text = std::fs::read_to_string(&csv).unwrap();
+        let lines: Vec<&str> = text.lines().collect();
+        assert!(lines[0].starts_with("omega,direction,bar1.theta_amplitude"));
+        assert!(lines.last().unwrap().starts_with("# incomplete"), "{text}");
+        // the rows kept are whole and in the sweep's order (0.5, 0.502, ... rad/s)
+        let omegas: Vec<f64> = lines[1..lines.len() - 1]
+            .iter()
+            .map(|r| r.split(',').next().unwrap().parse().unwrap())
+            .collect();
+        assert!(
+            !omegas.is_empty() && omegas.len() < 3751,
+            "{}",
+            omegas.len()
+        );
+        for (k, w) in omegas.iter().enumerate() {
+            assert!((w - (0.5 + 0.002 * k as f64)).abs() < 1e-9, "{w}");
+        }
+        assert!(temps(dir.path()).is_empty(), "{:?}", temps(dir.path()));
+    }
+}
+
+fn long_simulation(csv: &str) -> Vec<String> {
+    [
+        "simulate",
+        "models/overcentre.toml",
+        "--t-end",
+        "100000",
+        "--dt-out",
+        "0.01",
+        "-o",
+        csv,
+    ]
+    .map(String::from)
+    .to_vec()
+}
+
+#[test]
+fn sigterm_and_sighup_stop_a_simulation_leaving_nothing() {
+    for (signal, code) in [(libc::SIGTERM, 143), (libc::SIGHUP, 129)] {
+        let dir = tempfile::tempdir().unwrap();
+        let csv = dir.path().join("long.csv");
+        let args = long_simulation(s(&csv));
+        let args: Vec<&str> = args.iter().map(String::as_str).collect();
+        let out = interrupt(&args, dir.path(), signal);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(code), "{err}");
+        assert!(err.contains("interrupted at t = "), "{err}");
+        assert!(!csv.exists());
+        assert!(temps(dir.path()).is_empty(), "{:?}", temps(dir.path()));
+    }
+}
+
+#[test]
+fn a_second_signal_ends_the_run_at_once_leaving_no_temporary_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let csv = dir.path().join("long.csv");
+    let args = long_simulation(s(&csv));
+    let mut child = Command::new(env!("CARGO_BIN_EXE_detune"))
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .args(&args)
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    for _ in 0..500 {
+        if !temps(dir.path()).is_empty() {
+            break;
+        }
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    assert!(
+        !temps(dir.path()).is_empty(),
+        "the run made no temporary file"
+    );
+    std::thread::sleep(Duration::from_millis(300));
+    let pid = child.id() as libc::pid_t;
+    // SAFETY: signals to our own child.
+    unsafe {
+        libc::kill(pid, libc::SIGINT);
+        // (delivered to another thread at the same moment, the two would race)
+        std::thread::sleep(Duration::from_millis(5));
+        libc::kill(pid, libc::SIGTERM);
+    }
+    // the first signal names the exit code
+    assert_eq!(child.wait().unwrap().code(), Some(130));
+    assert!(!csv.exists());
+    assert!(temps(dir.path()).is_empty(), "{:?}", temps(dir.path()));
+}
+
+#[test]
+fn stale_temporary_files_of_dead_runs_are_removed_and_live_ones_kept() {
+    let dir = tempfile::tempdir().unwrap();
+    let host = detune::output::commit::host();
+    // a process that has ended: its id is free
+    let mut dead = Command::new("true").spawn().unwrap();
+    let dead_pid = dead.id();
+    dead.wait().unwrap();
+    let stale = format!(".detune-{host}-{dead_pid}-a1b2c3.tmp");
+    let live = format!(".detune-{host}-{}-d4e5f6.tmp", std::process::id());
+    let other_host = format!(".detune-{host}x-{dead_pid}-a1b2c3.tmp");
+    for n in [&stale, &live, &other_host] {
+        std::fs::write(dir.path().join(n), "partial").unwrap();
+    }
+    let (code, _, err) = simulate(s(&dir.path().join("o.csv")), &[]);
+    assert_eq!(code, 0, "{err}");
+    let mut left = temps(dir.path());
+    left.sort();
+    let mut expected = vec![live, other_host];
+    expected.sort();
+    assert_eq!(left, expected);
+}
+
+#[test]
+fn a_device_as_model_is_refused_and_a_pipe_read() {
+    let (code, _, err) = detune(&["check", "/dev/zero"]);
+    assert_eq!(code, 1, "{err}");
+    assert!(
+        err.contains("/dev/zero") && err.contains("character device"),
+        "{err}"
+    );
+    // a pipe works: the model on standard input
+    let text = common::overcentre_text();
+    let mut child = Command::new(env!("CARGO_BIN_EXE_detune"))
+        .args(["check", "/dev/stdin"])
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    {
+        use std::io::Write;
+        let mut stdin = child.stdin.take().unwrap();
+        stdin.write_all(text.as_bytes()).unwrap();
+    }
+    let out = child.wait_with_output().unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(stdout.contains("degrees of freedom: 1"), "{stdout}");
+}
+
+#[test]
+fn a_model_over_16_mib_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let model = dir.path().join("huge.toml");
+    let mut text = common::overcentre_text();
+    let line = format!("# {}\n", "x".repeat(1021));
+    while text.len() < 17 * 1024 * 1024 {
+        text.push_str(&line);
+    }
+    std::fs::write(&model, &text).unwrap();
+    let (code, _, err) = detune(&["check", s(&model)]);
+    assert_eq!(code, 1, "{err}");
+    assert!(err.contains(s(&model)) && err.contains("16 MiB"), "{err}");
+    // just under the limit it is a model like any other
+    text.truncate(common::overcentre_text().len());
+    while text.len() + line.len() < 16 * 1024 * 1024 {
+        text.push_str(&line);
+    }
+    std::fs::write(&model, &text).unwrap();
+    let (code, _, err) = detune(&["check", s(&model)]);
+    assert_eq!(code, 0, "{err}");
+}
+
+#[test]
+fn usage_errors_exit_2_and_errors_1() {
+    let (code, _, _) = detune(&["simulate", "--no-such-flag"]);
+    assert_eq!(code, 2);
+    let (code, _, _) = detune(&["check", "no/such/model.toml"]);
+    assert_eq!(code, 1);
+}
+
+#[test]
+fn a_command_without_steps_to_stop_at_ends_at_a_signal_leaving_no_temporary_file() {
+    // `frf` does not check the flag between its points: the signal handler itself
+    // unlinks the run's temporary files and exits 128 + the signal
+    let dir = tempfile::tempdir().unwrap();
+    let csv = dir.path().join("fr.csv");
+    let args = [
+        "frf",
+        "models/overcentre.toml",
+        "--set",
+        "F0=1",
+        "--param",
+        "omega",
+        "--from",
+        "1",
+        "--to",
+        "100",
+        "--step",
+        "0.0005",
+        "-o",
+        s(&csv),
+    ];
+    let out = interrupt(&args, dir.path(), libc::SIGTERM);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(143), "{err}");
+    assert!(!csv.exists());
+    assert!(temps(dir.path()).is_empty(), "{:?}", temps(dir.path()));
+}
