@@ -391,9 +391,28 @@ impl Model {
     /// The SI unit of parameter `name`'s dimension (`N/m`), empty when it has none or is
     /// not known.
     pub fn param_unit(&self, name: &str) -> String {
-        self.parameters
-            .index(name)
-            .and_then(|i| self.parameters.dims[i])
+        let Some(i) = self.parameters.index(name) else {
+            return String::new();
+        };
+        // the declared unit where the value is in it (an SI unit, kept as written:
+        // N·m/rad, not N·m); an angle or an angular speed declared in deg or rpm is held
+        // in rad or rad/s
+        if let Some((text, dim)) = &self.parameters.list[i].unit
+            && let Ok((factor, _)) = units::parse_unit(text)
+        {
+            if factor == 1.0 && !text.trim().is_empty() && text.trim() != "1" {
+                return text.trim().replace('*', "·");
+            }
+            if *dim == units::Dim::NONE
+                && matches!(text.trim(), "deg" | "degree" | "degrees" | "°" | "rev" | "turn")
+            {
+                return "rad".into();
+            }
+            if *dim == units::Dim::FREQUENCY {
+                return "rad/s".into();
+            }
+        }
+        self.parameters.dims[i]
             .map(|d| d.to_string())
             .filter(|d| d != "1")
             .unwrap_or_default()
