@@ -684,16 +684,50 @@ pub fn sweep(
             break;
         }
     }
-    // Jumps of the sequential sweeps, on the coarse grid.
+    // Jumps of the sequential sweeps, on the coarse grid. An edge (ω_k → ω_k+1 in the
+    // sweep's order) whose response changes well is a jump; one whose amplitude changes
+    // steeply is stepped back: the steady state at ω_k from the one at ω_k+1. On a smooth
+    // curve (one response at ω_k, however steep the flank) it is the same response; past a
+    // fold it is another (the branch the sweep jumped to still exists at ω_k): a jump.
     let mut jumps = Vec::new();
-    for &dir in directions.iter().filter(|d| **d != Direction::Independent) {
-        let mut line: Vec<&SweepPoint> = points.iter().filter(|p| p.direction == dir).collect();
-        line.sort_by(|a, b| a.steady.omega.total_cmp(&b.steady.omega));
-        if dir == Direction::Down {
-            line.reverse();
-        }
-        for (r, name) in opts.responses.iter().enumerate() {
-            jumps.extend(find_jumps(&line, r, name, dir));
+    if complete {
+        for &dir in directions.iter().filter(|d| **d != Direction::Independent) {
+            let mut line: Vec<&SweepPoint> = points
+                .iter()
+                .filter(|p| p.direction == dir && !p.refined)
+                .collect();
+            line.sort_by(|a, b| a.steady.omega.total_cmp(&b.steady.omega));
+            if dir == Direction::Down {
+                line.reverse();
+            }
+            for (r, name) in opts.responses.iter().enumerate() {
+                for (k, well) in jump_candidates(&line, r) {
+                    let (p0, p1) = (&line[k].steady, &line[k + 1].steady);
+                    let jump = well || {
+                        let back = match eval(p0.omega, &relative_end(p1)?) {
+                            Ok(b) => b,
+                            Err(e) if cancel.load(Ordering::Relaxed) => {
+                                complete = false;
+                                let _ = e;
+                                break;
+                            }
+                            Err(e) => return Err(e),
+                        };
+                        let (a, b) = (p0.measures[r].amplitude, back.measures[r].amplitude);
+                        (a - b).abs() > JUMP_DIFFER * a.abs().max(b.abs())
+                    };
+                    if jump {
+                        jumps.push(Jump {
+                            response: name.clone(),
+                            direction: dir,
+                            from: p0.omega,
+                            to: p1.omega,
+                            amplitude_before: p0.measures[r].amplitude,
+                            amplitude_after: p1.measures[r].amplitude,
+                        });
+                    }
+                }
+            }
         }
     }
     let is_jump_edge = |dir: Direction, r: usize, w0: f64, w1: f64| {
@@ -800,45 +834,29 @@ pub fn sweep(
     })
 }
 
-/// The relative change of amplitude between neighbours above which an edge may be a jump.
-pub const JUMP_MIN_CHANGE: f64 = 0.25;
+/// The relative change of amplitude between neighbours above which an edge is checked
+/// for a jump.
+pub const JUMP_MIN_CHANGE: f64 = 0.1;
 
-/// The factor by which a jump's change exceeds the changes of the edges next to it.
-pub const JUMP_RATIO: f64 = 3.0;
+/// Two responses at one frequency differ when their amplitudes differ by more than this
+/// fraction of the larger (as for hysteresis).
+pub const JUMP_DIFFER: f64 = 0.01;
 
-/// Jumps of response `r` along a sequential sweep (`line`: its coarse-grid points in the
-/// sweep's order). An edge is a jump when the response changes well across it, or when
-/// its amplitude changes by more than [`JUMP_MIN_CHANGE`] of the larger amplitude and by
-/// more than [`JUMP_RATIO`] times the change of either neighbouring edge: a
-/// discontinuity stands out of the local slope, where a steep but smooth resonance flank
-/// changes by similar amounts from edge to edge.
-pub fn find_jumps(line: &[&SweepPoint], r: usize, name: &str, dir: Direction) -> Vec<Jump> {
-    let pts: Vec<&&SweepPoint> = line.iter().filter(|p| !p.refined).collect();
-    let amp = |k: usize| pts[k].steady.measures[r].amplitude;
-    let change = |k: usize| (amp(k + 1) - amp(k)).abs();
-    let mut out = Vec::new();
-    for k in 0..pts.len().saturating_sub(1) {
-        let (a0, a1) = (amp(k), amp(k + 1));
-        let dc = change(k);
-        let before = if k > 0 { change(k - 1) } else { 0.0 };
-        let after = if k + 2 < pts.len() {
-            change(k + 1)
-        } else {
-            0.0
-        };
-        let steep = dc > JUMP_MIN_CHANGE * a0.max(a1) && dc > JUMP_RATIO * before.max(after);
-        if pts[k].well != pts[k + 1].well || steep {
-            out.push(Jump {
-                response: name.to_string(),
-                direction: dir,
-                from: pts[k].steady.omega,
-                to: pts[k + 1].steady.omega,
-                amplitude_before: a0,
-                amplitude_after: a1,
-            });
-        }
-    }
-    out
+/// Candidate jumps of response `r` along a sequential sweep (`line`: its coarse-grid
+/// points in the sweep's order), as indices k of the edges (k, k + 1): the response
+/// changes well across the edge, or its amplitude changes by more than
+/// [`JUMP_MIN_CHANGE`] of the larger amplitude. A candidate that changes well is a jump;
+/// the others are checked by stepping back (see [`sweep`]).
+fn jump_candidates(line: &[&SweepPoint], r: usize) -> Vec<(usize, bool)> {
+    let amp = |k: usize| line[k].steady.measures[r].amplitude;
+    (0..line.len().saturating_sub(1))
+        .filter_map(|k| {
+            let (a0, a1) = (amp(k), amp(k + 1));
+            let well = line[k].well != line[k + 1].well;
+            let steep = (a1 - a0).abs() > JUMP_MIN_CHANGE * a0.max(a1);
+            (well || steep).then_some((k, well))
+        })
+        .collect()
 }
 
 /// A start state at t = 0 (forcing phase 0) of `sys` from one whose velocities are
