@@ -254,3 +254,41 @@ fn up_and_down_jumps_are_jumps_not_peaks() {
         }
     }
 }
+
+#[test]
+fn simulate_reports_the_well_it_ends_in() {
+    // F0 = 10 N at 3 rad/s snaps through (tests/overcentre.rs pins the motion against the
+    // Lagrange reference): the last period oscillates about the lower stable pose
+    let dir = tempfile::tempdir().unwrap();
+    let (csv, json) = (dir.path().join("s.csv"), dir.path().join("s.json"));
+    let truth = closed_form_equilibria();
+    for (sets, theta, text) in [
+        (
+            vec!["--set", "F0=10", "--set", "omega=3", "--t-end", "40"],
+            truth[0].0,
+            "oscillates about the stable equilibrium (bar1.theta = -0.866 rad",
+        ),
+        (
+            vec!["--t-end", "2"],
+            truth[2].0,
+            "the final pose is nearest to the stable equilibrium (bar1.theta = 0.644 rad",
+        ),
+    ] {
+        let mut args = vec!["simulate", "models/overcentre.toml"];
+        args.extend(sets);
+        args.extend([
+            "-o",
+            csv.to_str().unwrap(),
+            "--json",
+            json.to_str().unwrap(),
+        ]);
+        let (code, out, err) = detune(&args);
+        assert_eq!(code, 0, "{err}");
+        assert!(out.contains(text), "{out}");
+        let j: Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+        let k = j["well"].as_i64().unwrap() as usize;
+        let e = &j["equilibria"][k];
+        assert!((e["coordinates"]["bar1.theta"].as_f64().unwrap() - theta).abs() < 1e-8);
+        assert_eq!(e["stable"], true);
+    }
+}

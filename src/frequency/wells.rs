@@ -159,3 +159,31 @@ pub fn mean_configuration(sys: &System, orbit: &[Vec<f64>]) -> Vec<f64> {
     sys.retract(&mut mean, &sum, 1.0);
     mean
 }
+
+/// The well of the end of a simulation of `sys` from `start`: `tail` holds the last
+/// samples (t, q); with a forcing frequency ω > 0 the samples of the last forcing period
+/// (t > t_end − 2π/ω) are classified as an orbit (their mean: exact for samples evenly
+/// spaced over the period, approximate when `--dt-out` does not divide it), else the
+/// final pose alone. None when no equilibrium can be found from `start`.
+pub fn end_well(sys: &System, start: &[f64], tail: &[(f64, Vec<f64>)]) -> Option<(Wells, isize)> {
+    let (t_end, last) = tail.last()?;
+    let rest = crate::dynamics::State {
+        t: 0.0,
+        q: start.to_vec(),
+        v: vec![0.0; sys.nv()],
+    };
+    let eq = Statics::new(sys, start).ok()?.nearest(&rest).ok()?;
+    let wells = Wells::find(sys, &eq);
+    let orbit: Vec<Vec<f64>> = match sys.forcing_frequency().filter(|w| *w > 0.0) {
+        Some(w) => {
+            let from = t_end - std::f64::consts::TAU / w;
+            tail.iter()
+                .filter(|(t, _)| *t > from + 1e-12)
+                .map(|(_, q)| q.clone())
+                .collect()
+        }
+        None => vec![last.clone()],
+    };
+    let well = wells.classify(sys, &orbit);
+    Some((wells, well))
+}

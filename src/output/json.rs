@@ -95,6 +95,12 @@ pub struct SimulationSummary<'a> {
     pub final_state: FinalState<'a>,
     /// The CSV file written.
     pub output: &'a str,
+    /// The equilibrium the end state oscillates about (see [`SimulationSummary::with_wells`]):
+    /// an index into `equilibria`, −1 across two wells.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub well: Option<isize>,
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub equilibria: Vec<WellJson<'a>>,
 }
 
 impl<'a> SimulationSummary<'a> {
@@ -119,7 +125,27 @@ impl<'a> SimulationSummary<'a> {
                 coordinates: Named::new(&traj.coordinates, &traj.q[last]),
             },
             output,
+            well: None,
+            equilibria: Vec::new(),
         }
+    }
+
+    /// With the end state's well and the equilibria it indexes.
+    pub fn with_wells(mut self, wells: &'a crate::frequency::wells::Wells, well: isize) -> Self {
+        self.well = Some(well);
+        self.equilibria = wells
+            .equilibria
+            .iter()
+            .enumerate()
+            .map(|(k, e)| WellJson {
+                index: k,
+                coordinates: Named::new(self.final_state.coordinates.names, &e.q),
+                stable: e.stable,
+                omega2: &e.omega2,
+                start: k == wells.start,
+            })
+            .collect();
+        self
     }
 }
 
