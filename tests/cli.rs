@@ -430,7 +430,7 @@ fn sweep_csv_and_json_contract() {
     let header = text.lines().next().unwrap();
     assert_eq!(
         header,
-        "omega,direction,F0,bar1.theta_amplitude,bar1.theta_max,bar1.theta_min,bar1.theta_mean,bar1.theta_h1,bar1.theta_phase_deg,bar1.theta_h2,bar1.theta_thd,settled,periods,period_multiple,refined"
+        "omega,direction,F0,bar1.theta_amplitude,bar1.theta_max,bar1.theta_min,bar1.theta_mean,bar1.theta_h1,bar1.theta_phase_deg,bar1.theta_h2,bar1.theta_thd,settled,periods,period_multiple,refined,well"
     );
     let j: serde_json::Value = serde_json::from_str(&out).unwrap();
     assert_eq!(j["complete"], true);

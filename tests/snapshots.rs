@@ -350,7 +350,10 @@ fn sweep_values_json_csv_svg_and_text() {
     let j = json_snapshot("sweep_values", &run.stdout);
     csv_header_snapshot("sweep_values", Path::new(&csv));
     svg_snapshot("sweep_values", Path::new(&svg));
-    let e = j["equilibria"].as_array().unwrap();
+    // every run's equilibria (the wells); `start` marks the one each run starts from
+    let all = j["equilibria"].as_array().unwrap();
+    assert_eq!(all.len(), 6);
+    let e: Vec<&Value> = all.iter().filter(|e| e["start"] == true).collect();
     assert_eq!(e.len(), 2);
     close(&e[0]["F0"], 0.1, 0.0);
     close(&e[1]["F0"], 1.0, 0.0);

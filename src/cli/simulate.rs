@@ -86,6 +86,13 @@ pub fn run(a: SimulateArgs) -> Result<()> {
     let keep_all = a.plot.is_some();
     let mut traj = Trajectory::empty(&sys);
     let mut outcome = None;
+    // the last forcing period's poses (all the samples when unforced: the last is used),
+    // to classify the end state by its well
+    let period = sys
+        .forcing_frequency()
+        .filter(|w| *w > 0.0)
+        .map_or(0.0, |w| std::f64::consts::TAU / w);
+    let mut tail: std::collections::VecDeque<(f64, Vec<f64>)> = Default::default();
     let written = write_atomic(&a.output, |w| {
         let columns = a.velocities.then(|| sys.velocity_columns());
         trajectory_header(w, &sys.coordinates, columns.as_deref(), &a.response)?;
@@ -104,6 +111,10 @@ pub fn run(a: SimulateArgs) -> Result<()> {
                     traj.t.clear();
                     traj.q.clear();
                     traj.v.clear();
+                }
+                tail.push_back((t, q.to_vec()));
+                while tail.front().is_some_and(|(t0, _)| *t0 < t - period - 1e-9) {
+                    tail.pop_front();
                 }
                 traj.t.push(t);
                 traj.q.push(q.to_vec());
@@ -136,12 +147,15 @@ pub fn run(a: SimulateArgs) -> Result<()> {
     if let Some(p) = &a.plot {
         write_line_plot(p, &trajectory_figure(&model.name, &traj))?;
     }
+    let tail: Vec<(f64, Vec<f64>)> = tail.into_iter().collect();
+    let end = detune::frequency::wells::end_well(&sys, &start.q, &tail);
     if let Some(j) = &a.json {
         let provenance = Provenance::of(&model);
-        write_json(
-            j,
-            &SimulationSummary::new(&provenance, &opts, &traj, &a.output),
-        )?;
+        let mut summary = SimulationSummary::new(&provenance, &opts, &traj, &a.output);
+        if let Some((wells, well)) = &end {
+            summary = summary.with_wells(wells, *well);
+        }
+        write_json(j, &summary)?;
     }
     outputs.commit()?;
     let st = &traj.stats;
@@ -156,6 +170,43 @@ pub fn run(a: SimulateArgs) -> Result<()> {
         st.max_constraint_residual,
         st.max_drift
     );
+    if let Some((wells, well)) = &end {
+        let what = if period > 0.0 {
+            "the last forcing period oscillates about"
+        } else {
+            "the final pose is nearest to"
+        };
+        match usize::try_from(*well) {
+            Ok(k) => {
+                let pose: Vec<String> = sys
+                    .coordinates
+                    .iter()
+                    .zip(&wells.equilibria[k].q)
+                    .filter(|(c, _)| sys.coordinate_index(c).is_some_and(|i| sys.is_angle(i)))
+                    .map(|(c, v)| format!("{c} = {v:.3} rad"))
+                    .collect();
+                println!(
+                    "well {k} of {}: {what} the {} equilibrium ({}){}",
+                    wells.equilibria.len(),
+                    if wells.equilibria[k].stable {
+                        "stable"
+                    } else {
+                        "UNSTABLE"
+                    },
+                    pose.join(", "),
+                    if k == wells.start {
+                        ", where it started"
+                    } else {
+                        ", not where it started"
+                    }
+                );
+            }
+            Err(_) => println!(
+                "well -1: the last forcing period spans two wells (of {} equilibria)",
+                wells.equilibria.len()
+            ),
+        }
+    }
     println!("wrote {}", a.output);
     if let Some(p) = &a.plot {
         println!("wrote {p}");

@@ -166,6 +166,27 @@ pub fn run(a: SweepArgs) -> Result<()> {
                 .tag()
                 .map(|(n, v)| format!(" [{n} = {v}]"))
                 .unwrap_or_default();
+            for line in detune::output::figures::well_summary(run) {
+                println!("{line}{tag}");
+            }
+            for j in &run.sweep.jumps {
+                let unit = run
+                    .sweep
+                    .responses
+                    .iter()
+                    .position(|r| *r == j.response)
+                    .map(|i| run.sweep.units[i])
+                    .unwrap_or("");
+                println!(
+                    "jump {} between {} and {} rad/s{tag}: {} amplitude {:.4} → {:.4} {unit}",
+                    j.direction.name(),
+                    j.from,
+                    j.to,
+                    j.response,
+                    j.amplitude_before,
+                    j.amplitude_after
+                );
+            }
             for pk in &run.sweep.peaks {
                 println!(
                     "peak{tag} {} ({}): {} = {:.6} ± {:.1e} rad/s, amplitude {:.6e}",

@@ -16,6 +16,7 @@
 
 pub mod measure;
 pub mod study;
+pub mod wells;
 
 use crate::diag::Result;
 use crate::dynamics::simulate::SimOptions;
@@ -79,6 +80,9 @@ pub struct SteadyState {
     pub measures: Vec<Measures>,
     /// State at the end (forcing phase 0), to start the next frequency of a sequential sweep.
     pub end: State,
+    /// The coordinates (nq) at the samples of the measured period(s), the endpoint
+    /// excluded: what [`wells::Wells::classify`] reads.
+    pub orbit: Vec<Vec<f64>>,
 }
 
 /// Steady response from `start` (t = 0 at forcing phase 0) at the system's forcing
@@ -110,6 +114,7 @@ pub fn steady_state(
         order: (2 * dof).clamp(1, 8),
         points: Vec::new(),
         recent: Vec::new(),
+        recent_q: Vec::new(),
         extrapolate: opts.extrapolate,
         pending_check: None,
         last_change: f64::INFINITY,
@@ -156,7 +161,7 @@ pub fn steady_state(
                     v: v.to_vec(),
                 };
                 let action = if opts.fixed_periods.is_some() {
-                    map.record(&vals);
+                    map.record(&buf, &vals);
                     Action::Continue
                 } else {
                     map.period_end(&buf, &vals, &end, done)
@@ -194,6 +199,7 @@ pub fn steady_state(
         period_multiple: 1,
         measures,
         end: state,
+        orbit: map.recent_q.last().cloned().unwrap_or_default(),
     })
 }
 
@@ -215,6 +221,8 @@ struct Poincare<'a> {
     points: Vec<DVector<f64>>,
     /// Per period, per response: the samples (without the period's end).
     recent: Vec<Vec<Vec<f64>>>,
+    /// Per period: the coordinates at its samples (without the period's end).
+    recent_q: Vec<Vec<Vec<f64>>>,
     extrapolate: bool,
     pending_check: Option<(f64, State)>,
     last_change: f64,
@@ -229,10 +237,15 @@ impl Poincare<'_> {
         pack(self.sys, &self.q_ref, s)
     }
 
-    /// Keep the response samples of a period (`vals`: the responses at its samples and
-    /// its end).
-    fn record(&mut self, vals: &[Vec<f64>]) {
+    /// Keep the samples of a period (`buf`: the states at its samples and its end,
+    /// `vals`: the responses there).
+    fn record(&mut self, buf: &[(Vec<f64>, Vec<f64>)], vals: &[Vec<f64>]) {
         let k_last = vals.len() - 1;
+        self.recent_q
+            .push(buf[..k_last].iter().map(|(q, _)| q.clone()).collect());
+        if self.recent_q.len() > 4 {
+            self.recent_q.remove(0);
+        }
         self.recent.push(
             (0..self.responses)
                 .map(|r| vals[..k_last].iter().map(|s| s[r]).collect())
@@ -253,7 +266,7 @@ impl Poincare<'_> {
         p: usize,
     ) -> Action {
         let opts = self.opts;
-        self.record(vals);
+        self.record(buf, vals);
         let y = self.pack(end);
         let scale = amplitude_scale(buf);
         let change = relative_change(&y, self.points.last().expect("non-empty"), &scale);
@@ -294,6 +307,7 @@ impl Poincare<'_> {
                             Measures::of(&samples, k)
                         })
                         .collect();
+                    let orbit = self.recent_q[self.recent_q.len() - k..].concat();
                     return Action::Settled(SteadyState {
                         omega: self.omega,
                         settled: true,
@@ -301,6 +315,7 @@ impl Poincare<'_> {
                         period_multiple: k,
                         measures,
                         end: end.clone(),
+                        orbit,
                     });
                 }
             }
@@ -462,6 +477,10 @@ pub struct SweepPoint {
     pub steady: SteadyState,
     /// Added by peak refinement (not on the coarse grid).
     pub refined: bool,
+    /// The equilibrium the response oscillates about: an index into
+    /// [`Sweep::wells`]' equilibria, or [`wells::SPANS`] (−1) for an orbit that spans two
+    /// wells.
+    pub well: isize,
 }
 
 /// A located resonance.
@@ -476,6 +495,22 @@ pub struct Peak {
     /// rad/s: the larger of the final bracket's half-width and the shift of the maximum
     /// that amplitude errors at the settling tolerance can cause (see `refine_peak`).
     pub uncertainty: f64,
+}
+
+/// An edge of a sequential (`up`/`down`) sweep where the response jumps: between two
+/// neighbouring frequencies of the coarse grid, in the sweep's order (see [`jumps`]).
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct Jump {
+    pub response: String,
+    pub direction: Direction,
+    /// The frequency before the jump, rad/s (in the sweep's order: `from > to` down).
+    pub from: f64,
+    /// The frequency after it, rad/s.
+    pub to: f64,
+    /// Half peak-to-peak amplitude at `from` (SI).
+    pub amplitude_before: f64,
+    /// Half peak-to-peak amplitude at `to` (SI).
+    pub amplitude_after: f64,
 }
 
 /// A frequency interval where the up and down sweeps settle on different responses.
@@ -497,7 +532,12 @@ pub struct Sweep {
     pub equilibrium: Vec<f64>,
     /// Sorted by direction, then frequency.
     pub points: Vec<SweepPoint>,
+    /// Local maxima of the amplitude within one well, jump edges excluded.
     pub peaks: Vec<Peak>,
+    /// Jumps of the sequential sweeps (`up`, `down`, `both`).
+    pub jumps: Vec<Jump>,
+    /// The equilibria the responses are classified by, and the one the sweep starts from.
+    pub wells: wells::Wells,
     /// Where up and down differ by more than 1 % (mode `both`).
     pub hysteresis: Vec<Hysteresis>,
     /// False when interrupted: `points` holds what was computed.
@@ -566,6 +606,13 @@ pub fn sweep(
 ) -> Result<Sweep> {
     let (sys0, responses, eq) = prepare(sys, opts)?;
     let index = sys0.forcing_param().expect("checked by prepare");
+    // the wells: the statics under the loads' mean, the same at every ω of the sweep
+    let wells = wells::Wells::find(&sys0, &eq);
+    let classify = |pts: &mut [SweepPoint]| {
+        for p in pts {
+            p.well = wells.classify(&sys0, &p.steady.orbit);
+        }
+    };
     // Start states are kept relative to the ground (which may move with the forcing):
     // each frequency starts from one with the ground's velocity at that frequency.
     let rest = State {
@@ -630,12 +677,67 @@ pub fn sweep(
             }
             complete = false;
         }
+        let mut pts = pts;
+        classify(&mut pts);
         points.extend(pts);
         if !complete {
             break;
         }
     }
-    // Refinement around every local maximum, per response and direction.
+    // Jumps of the sequential sweeps, on the coarse grid. An edge (ω_k → ω_k+1 in the
+    // sweep's order) whose response changes well is a jump; one whose amplitude changes
+    // steeply is stepped back: the steady state at ω_k from the one at ω_k+1. On a smooth
+    // curve (one response at ω_k, however steep the flank) it is the same response; past a
+    // fold it is another (the branch the sweep jumped to still exists at ω_k): a jump.
+    let mut jumps = Vec::new();
+    if complete {
+        for &dir in directions.iter().filter(|d| **d != Direction::Independent) {
+            let mut line: Vec<&SweepPoint> = points
+                .iter()
+                .filter(|p| p.direction == dir && !p.refined)
+                .collect();
+            line.sort_by(|a, b| a.steady.omega.total_cmp(&b.steady.omega));
+            if dir == Direction::Down {
+                line.reverse();
+            }
+            for (r, name) in opts.responses.iter().enumerate() {
+                for (k, well) in jump_candidates(&line, r) {
+                    let (p0, p1) = (&line[k].steady, &line[k + 1].steady);
+                    let jump = well || {
+                        let back = match eval(p0.omega, &relative_end(p1)?) {
+                            Ok(b) => b,
+                            Err(e) if cancel.load(Ordering::Relaxed) => {
+                                complete = false;
+                                let _ = e;
+                                break;
+                            }
+                            Err(e) => return Err(e),
+                        };
+                        let (a, b) = (p0.measures[r].amplitude, back.measures[r].amplitude);
+                        (a - b).abs() > JUMP_DIFFER * a.abs().max(b.abs())
+                    };
+                    if jump {
+                        jumps.push(Jump {
+                            response: name.clone(),
+                            direction: dir,
+                            from: p0.omega,
+                            to: p1.omega,
+                            amplitude_before: p0.measures[r].amplitude,
+                            amplitude_after: p1.measures[r].amplitude,
+                        });
+                    }
+                }
+            }
+        }
+    }
+    let is_jump_edge = |dir: Direction, r: usize, w0: f64, w1: f64| {
+        jumps.iter().any(|j| {
+            j.direction == dir
+                && j.response == opts.responses[r]
+                && ((j.from == w0 && j.to == w1) || (j.from == w1 && j.to == w0))
+        })
+    };
+    // Refinement around every local maximum within one well, per response and direction.
     let mut peaks = Vec::new();
     if complete {
         let mut jobs = Vec::new();
@@ -645,7 +747,15 @@ pub fn sweep(
             for r in 0..responses.len() {
                 for i in 1..line.len().saturating_sub(1) {
                     let a = |k: usize| line[k].steady.measures[r].amplitude;
-                    if a(i) > a(i - 1) && a(i) >= a(i + 1) {
+                    let w = |k: usize| line[k].steady.omega;
+                    // a maximum is a resonance of one well: not a point where the response
+                    // changes well, nor the edge of a jump
+                    let one_well = line[i].well != wells::SPANS
+                        && line[i - 1].well == line[i].well
+                        && line[i + 1].well == line[i].well;
+                    let edge = is_jump_edge(dir, r, w(i - 1), w(i))
+                        || is_jump_edge(dir, r, w(i), w(i + 1));
+                    if a(i) > a(i - 1) && a(i) >= a(i + 1) && one_well && !edge {
                         // start state on the branch: the neighbour before it in the sweep
                         let from = match dir {
                             Direction::Independent => rest.clone(),
@@ -683,8 +793,9 @@ pub fn sweep(
             .collect();
         for res in refined {
             match res {
-                Ok((peak, extra)) => {
+                Ok((peak, mut extra)) => {
                     peaks.push(peak);
+                    classify(&mut extra);
                     points.extend(extra);
                 }
                 Err(e) => {
@@ -716,9 +827,36 @@ pub fn sweep(
         equilibrium: eq.q,
         points,
         peaks,
+        jumps,
+        wells,
         hysteresis,
         complete,
     })
+}
+
+/// The relative change of amplitude between neighbours above which an edge is checked
+/// for a jump.
+pub const JUMP_MIN_CHANGE: f64 = 0.1;
+
+/// Two responses at one frequency differ when their amplitudes differ by more than this
+/// fraction of the larger (as for hysteresis).
+pub const JUMP_DIFFER: f64 = 0.01;
+
+/// Candidate jumps of response `r` along a sequential sweep (`line`: its coarse-grid
+/// points in the sweep's order), as indices k of the edges (k, k + 1): the response
+/// changes well across the edge, or its amplitude changes by more than
+/// [`JUMP_MIN_CHANGE`] of the larger amplitude. A candidate that changes well is a jump;
+/// the others are checked by stepping back (see [`sweep`]).
+fn jump_candidates(line: &[&SweepPoint], r: usize) -> Vec<(usize, bool)> {
+    let amp = |k: usize| line[k].steady.measures[r].amplitude;
+    (0..line.len().saturating_sub(1))
+        .filter_map(|k| {
+            let (a0, a1) = (amp(k), amp(k + 1));
+            let well = line[k].well != line[k + 1].well;
+            let steep = (a1 - a0).abs() > JUMP_MIN_CHANGE * a0.max(a1);
+            (well || steep).then_some((k, well))
+        })
+        .collect()
 }
 
 /// A start state at t = 0 (forcing phase 0) of `sys` from one whose velocities are
@@ -758,6 +896,7 @@ fn collect(results: Vec<Result<SteadyState>>, dir: Direction) -> (Vec<SweepPoint
                 direction: dir,
                 steady: s,
                 refined: false,
+                well: 0,
             }),
             Err(e) => {
                 if status.is_ok() {
@@ -827,6 +966,7 @@ fn refine_peak(
                 direction: dir,
                 steady: s,
                 refined: true,
+                well: 0,
             });
         }
         if fl > fb && fl >= fr {

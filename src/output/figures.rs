@@ -106,8 +106,44 @@ pub fn branch_figure(name: &str, b: &Branch, idx: usize, angle: bool) -> LinePlo
     }
 }
 
+/// A well in a legend: `well 1 (bar1.theta = -0.866 rad)`, the pose given by the first
+/// response when it is a coordinate, else by the coordinate that differs most between the
+/// run's equilibria; `across wells` for −1.
+pub fn well_name(run: &SweepRun, k: isize) -> String {
+    let w = &run.sweep.wells;
+    let Ok(k) = usize::try_from(k) else {
+        return "across wells".to_string();
+    };
+    let spread = |i: usize| {
+        let (lo, hi) = w
+            .equilibria
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), e| {
+                (l.min(e.q[i]), h.max(e.q[i]))
+            });
+        hi - lo
+    };
+    let n = run.sweep.coordinates.len();
+    let i = run
+        .sweep
+        .coordinates
+        .iter()
+        .position(|c| *c == run.sweep.responses[0])
+        .or_else(|| (0..n).max_by(|a, b| spread(*a).total_cmp(&spread(*b))))
+        .unwrap_or(0);
+    let unit = if run.angles.get(i).copied().unwrap_or(false) {
+        "rad"
+    } else {
+        "m"
+    };
+    format!(
+        "well {k} ({} = {:.3} {unit})",
+        run.sweep.coordinates[i], w.equilibria[k].q[i]
+    )
+}
+
 /// Amplitude of the first response against frequency, one curve per run (`--values`
-/// entry) and direction, the natural frequencies as vertical lines; for a family, a
+/// entry), direction and well, the natural frequencies as vertical lines; for a family, a
 /// second panel with the amplitude divided by the run's value (the paper's Figures 8–9).
 pub fn sweep_figures(
     runs: &[SweepRun],
@@ -117,17 +153,50 @@ pub fn sweep_figures(
     let first = &runs[0].sweep;
     let name = &first.responses[0];
     let unit = first.units[0];
-    let vertical: Vec<(f64, String)> = natural
+    // the wells the responses visit: with more than one, each curve is split by well and
+    // each well's linear natural frequencies are marked, named by the well
+    let visited = |run: &SweepRun| -> Vec<isize> {
+        let mut w: Vec<isize> = run.sweep.points.iter().map(|p| p.well).collect();
+        w.sort();
+        w.dedup();
+        w
+    };
+    let several = runs.iter().any(|r| visited(r).len() > 1);
+    let start_tag = if several {
+        format!(", well {}", first.wells.start)
+    } else {
+        String::new()
+    };
+    let mut vertical: Vec<(f64, String)> = natural
         .iter()
         .map(|n| {
             let tag = n
                 .run
                 .as_ref()
-                .map(|(p, v)| format!(" ({p} = {v})"))
-                .unwrap_or_default();
+                .map(|(p, v)| format!(" ({p} = {v}{start_tag})"))
+                .unwrap_or_else(|| {
+                    if several {
+                        format!(" (well {})", first.wells.start)
+                    } else {
+                        String::new()
+                    }
+                });
             (n.omega, format!("linear ω_n = {:.4} rad/s{tag}", n.omega))
         })
         .collect();
+    if several && runs.len() == 1 {
+        let w = &first.wells;
+        for k in visited(&runs[0]) {
+            let Ok(k) = usize::try_from(k) else { continue };
+            if k == w.start || !w.equilibria[k].stable {
+                continue;
+            }
+            for w2 in w.equilibria[k].omega2.iter().filter(|x| **x > 0.0) {
+                let omega = w2.sqrt();
+                vertical.push((omega, format!("linear ω_n = {omega:.4} rad/s (well {k})")));
+            }
+        }
+    }
     let marks: Vec<(f64, String)> = marks
         .iter()
         .map(|(label, w)| (*w, format!("{label} ({w:.4} rad/s)")))
@@ -157,19 +226,31 @@ pub fn sweep_figures(
                 if dir != Direction::Independent {
                     label.push_str(&format!(" ({})", dir.name()));
                 }
-                out.push(Series {
-                    label,
-                    x: pts.iter().map(|p| p.steady.omega).collect(),
-                    y: pts
-                        .iter()
-                        .map(|p| p.steady.measures[0].amplitude * scale)
-                        .collect(),
-                    style: if dir == Direction::Down {
-                        Style::Dashed
+                let mut wells: Vec<isize> = pts.iter().map(|p| p.well).collect();
+                wells.sort();
+                wells.dedup();
+                // one series per well, never joined across wells
+                for &k in &wells {
+                    let mine: Vec<_> = pts.iter().filter(|p| p.well == k).collect();
+                    let label = if wells.len() > 1 {
+                        format!("{label}, {}", well_name(run, k))
                     } else {
-                        Style::Solid
-                    },
-                });
+                        label.clone()
+                    };
+                    out.push(Series {
+                        label,
+                        x: mine.iter().map(|p| p.steady.omega).collect(),
+                        y: mine
+                            .iter()
+                            .map(|p| p.steady.measures[0].amplitude * scale)
+                            .collect(),
+                        style: if dir == Direction::Down {
+                            Style::Dashed
+                        } else {
+                            Style::Solid
+                        },
+                    });
+                }
             }
         }
         out
@@ -301,4 +382,57 @@ pub fn tracking_figure(t: &crate::linear::tracking::ModeTracking, unit: &str) ->
         vertical,
         marks: Vec::new(),
     }
+}
+
+/// The summary lines of a sweep's wells, per direction, when a response leaves the well
+/// the sweep starts from: "the response left its starting well (well 2: bar1.theta =
+/// 0.644 rad) at 15 of 23 frequencies (independent): 0.5–4 rad/s in well 0 (bar1.theta =
+/// -0.866 rad)". Coarse-grid points only (refinement adds none across wells). None when
+/// every response stays in the starting well.
+pub fn well_summary(run: &SweepRun) -> Vec<String> {
+    let start = run.sweep.wells.start as isize;
+    let mut out = Vec::new();
+    for dir in [Direction::Independent, Direction::Up, Direction::Down] {
+        let pts: Vec<_> = run
+            .sweep
+            .points
+            .iter()
+            .filter(|p| p.direction == dir && !p.refined)
+            .collect();
+        let left: Vec<_> = pts.iter().filter(|p| p.well != start).collect();
+        if left.is_empty() {
+            continue;
+        }
+        let mut wells: Vec<isize> = left.iter().map(|p| p.well).collect();
+        wells.sort();
+        wells.dedup();
+        let parts: Vec<String> = wells
+            .iter()
+            .map(|&k| {
+                let w: Vec<f64> = left
+                    .iter()
+                    .filter(|p| p.well == k)
+                    .map(|p| p.steady.omega)
+                    .collect();
+                let (lo, hi) = (w[0], w[w.len() - 1]);
+                let range = if lo == hi {
+                    format!("{lo} rad/s")
+                } else {
+                    format!("{lo}–{hi} rad/s")
+                };
+                format!("{range} in {}", well_name(run, k))
+            })
+            .collect();
+        out.push(format!(
+            "the response left its starting well ({}) at {} of {} frequencies ({}): {}",
+            well_name(run, start)
+                .replacen(" (", ": ", 1)
+                .trim_end_matches(')'),
+            left.len(),
+            pts.len(),
+            dir.name(),
+            parts.join("; ")
+        ));
+    }
+    out
 }

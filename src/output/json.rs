@@ -9,7 +9,7 @@ use super::Provenance;
 use super::results::{Cell, frf_header, frf_rows, sweep_header, sweep_rows};
 use crate::dynamics::simulate::{SimOptions, SimStats, Trajectory};
 use crate::frequency::study::SweepRun;
-use crate::frequency::{Hysteresis, Peak};
+use crate::frequency::{Hysteresis, Jump, Peak};
 use crate::linear::{C64, FrequencyResponse, ModalAnalysis};
 use crate::statics::Equilibrium;
 use crate::statics::continuation::{Branch, BranchPoint};
@@ -95,6 +95,12 @@ pub struct SimulationSummary<'a> {
     pub final_state: FinalState<'a>,
     /// The CSV file written.
     pub output: &'a str,
+    /// The equilibrium the end state oscillates about (see [`SimulationSummary::with_wells`]):
+    /// an index into `equilibria`, −1 across two wells.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub well: Option<isize>,
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub equilibria: Vec<WellJson<'a>>,
 }
 
 impl<'a> SimulationSummary<'a> {
@@ -119,7 +125,27 @@ impl<'a> SimulationSummary<'a> {
                 coordinates: Named::new(&traj.coordinates, &traj.q[last]),
             },
             output,
+            well: None,
+            equilibria: Vec::new(),
         }
+    }
+
+    /// With the end state's well and the equilibria it indexes.
+    pub fn with_wells(mut self, wells: &'a crate::frequency::wells::Wells, well: isize) -> Self {
+        self.well = Some(well);
+        self.equilibria = wells
+            .equilibria
+            .iter()
+            .enumerate()
+            .map(|(k, e)| WellJson {
+                index: k,
+                coordinates: Named::new(self.final_state.coordinates.names, &e.q),
+                stable: e.stable,
+                omega2: &e.omega2,
+                start: k == wells.start,
+            })
+            .collect();
+        self
     }
 }
 
@@ -366,25 +392,33 @@ impl<'a> FrfReport<'a> {
     }
 }
 
-/// The equilibrium a run of a `--values` family starts from.
+/// One equilibrium of a sweep's `equilibria` (a well): its index (a point's `well`),
+/// its coordinates by name, its stability, ω² of M_r⁻¹ K_r (rad²/s²) and whether the
+/// sweep (this run) starts from it.
 #[derive(Debug, Clone, Serialize)]
-pub struct RunEquilibrium<'a> {
+pub struct WellJson<'a> {
+    pub index: usize,
     pub coordinates: Named<'a, f64>,
+    pub stable: bool,
+    pub omega2: &'a [f64],
+    pub start: bool,
 }
 
-/// `sweep --json`: the equilibrium, the points (the CSV rows as objects), peaks,
-/// hysteresis; with `--values`, each run's equilibrium too (a static load moves it),
-/// and every peak, hysteresis and equilibrium tagged with its run's value.
+/// `sweep --json`: the equilibrium, the points (the CSV rows as objects, each with its
+/// `well`), peaks (within one well), jumps, hysteresis, and every equilibrium a point's
+/// `well` indexes; with `--values`, the equilibria of every run (a static load moves
+/// them, `start` marks the one each run starts from), and every peak, jump, hysteresis
+/// and equilibrium tagged with its run's value.
 #[derive(Debug, Clone, Serialize)]
 pub struct SweepReport<'a> {
     pub equilibrium: Named<'a, f64>,
     pub points: Vec<Map<String, Value>>,
     pub peaks: Vec<Tagged<'a, &'a Peak>>,
+    pub jumps: Vec<Tagged<'a, &'a Jump>>,
     pub hysteresis: Vec<Tagged<'a, &'a Hysteresis>>,
     pub complete: bool,
     pub provenance: &'a Provenance,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub equilibria: Option<Vec<Tagged<'a, RunEquilibrium<'a>>>>,
+    pub equilibria: Vec<Tagged<'a, WellJson<'a>>>,
 }
 
 impl<'a> SweepReport<'a> {
@@ -406,6 +440,15 @@ impl<'a> SweepReport<'a> {
                     })
                 })
                 .collect(),
+            jumps: runs
+                .iter()
+                .flat_map(|r| {
+                    r.sweep.jumps.iter().map(move |j| Tagged {
+                        item: j,
+                        tag: r.tag(),
+                    })
+                })
+                .collect(),
             hysteresis: runs
                 .iter()
                 .flat_map(|r| {
@@ -417,16 +460,22 @@ impl<'a> SweepReport<'a> {
                 .collect(),
             complete: runs.iter().all(|r| r.sweep.complete),
             provenance,
-            equilibria: runs.iter().any(|r| r.value.is_some()).then(|| {
-                runs.iter()
-                    .map(|r| Tagged {
-                        item: RunEquilibrium {
-                            coordinates: Named::new(&r.sweep.coordinates, &r.sweep.equilibrium),
+            equilibria: runs
+                .iter()
+                .flat_map(|r| {
+                    let w = &r.sweep.wells;
+                    w.equilibria.iter().enumerate().map(move |(k, e)| Tagged {
+                        item: WellJson {
+                            index: k,
+                            coordinates: Named::new(&r.sweep.coordinates, &e.q),
+                            stable: e.stable,
+                            omega2: &e.omega2,
+                            start: k == w.start,
                         },
                         tag: r.tag(),
                     })
-                    .collect()
-            }),
+                })
+                .collect(),
         }
     }
 }

@@ -16,6 +16,8 @@ pub enum Cell<'a> {
     /// 1 or 0 in CSV, true or false in JSON.
     Flag(bool),
     Text(&'a str),
+    /// A signed integer (an index, −1 for none).
+    Index(isize),
 }
 
 impl Cell<'_> {
@@ -26,6 +28,7 @@ impl Cell<'_> {
             Cell::Count(n) => n.to_string(),
             Cell::Flag(b) => u8::from(b).to_string(),
             Cell::Text(s) => s.to_string(),
+            Cell::Index(i) => i.to_string(),
         }
     }
 
@@ -36,6 +39,7 @@ impl Cell<'_> {
             Cell::Count(n) => Value::from(n),
             Cell::Flag(b) => Value::Bool(b),
             Cell::Text(s) => Value::from(s),
+            Cell::Index(i) => Value::from(i),
         }
     }
 }
@@ -131,7 +135,8 @@ fn measure_values(m: &crate::frequency::measure::Measures) -> [f64; 8] {
 }
 
 /// Header of a sweep: `<param>,direction[,<values param>],<response>_<measure>...,
-/// settled,periods,period_multiple,refined`.
+/// settled,periods,period_multiple,refined,well` (`well`: the index of the equilibrium
+/// the response oscillates about in the JSON's `equilibria`, −1 across two wells).
 pub fn sweep_header(runs: &[SweepRun]) -> Vec<String> {
     let first = &runs[0].sweep;
     let mut h = vec![first.param.clone(), "direction".to_string()];
@@ -143,7 +148,7 @@ pub fn sweep_header(runs: &[SweepRun]) -> Vec<String> {
             h.push(format!("{r}_{m}"));
         }
     }
-    h.extend(["settled", "periods", "period_multiple", "refined"].map(String::from));
+    h.extend(["settled", "periods", "period_multiple", "refined", "well"].map(String::from));
     h
 }
 
@@ -165,6 +170,7 @@ pub fn sweep_rows(runs: &[SweepRun]) -> Vec<Vec<Cell<'_>>> {
                 Cell::Count(p.steady.periods),
                 Cell::Count(p.steady.period_multiple),
                 Cell::Flag(p.refined),
+                Cell::Index(p.well),
             ]);
             rows.push(row);
         }

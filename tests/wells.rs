@@ -1,0 +1,294 @@
+//! Snap-through and well changes are results (issue 10, point 1): the F0 = 10 N sweep of
+//! the overcentre from its upper well snaps into the lower well below 4 rad/s; every
+//! steady state is classified by its well (against the equilibria of the closed form),
+//! no peak joins two wells, the plot has one series per well; jumps of up/down sweeps
+//! are reported as jumps, not peaks.
+
+use serde_json::Value;
+use std::process::Command;
+
+fn detune(args: &[&str]) -> (i32, String, String) {
+    let o = Command::new(env!("CARGO_BIN_EXE_detune"))
+        .args(args)
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .output()
+        .unwrap();
+    (
+        o.status.code().unwrap_or(-1),
+        String::from_utf8_lossy(&o.stdout).into_owned(),
+        String::from_utf8_lossy(&o.stderr).into_owned(),
+    )
+}
+
+/// The overcentre's equilibria in closed form: both bars of length L, the spring between
+/// the centres of mass (length L cos θ), both centres at height L/2 sin θ, so
+/// V(θ) = (m1 + m2) g L/2 sin θ + ½ k (L cos θ − L0)² and V′(θ) = 0 is
+/// (m1 + m2) g L/2 cos θ − k (L cos θ − L0) L sin θ = 0, solved by bisection on a fine
+/// grid over (−π/2, π/2). Returns (θ, stable = V″ > 0).
+fn closed_form_equilibria() -> Vec<(f64, bool)> {
+    let (l, g, k, l0) = (2.0 * 2f64.sqrt(), 9.81, 50.0, 2.0);
+    let dv = |t: f64| 2.0 * g * l / 2.0 * t.cos() - k * (l * t.cos() - l0) * l * t.sin();
+    let mut out = Vec::new();
+    let n = 2000;
+    let h = 3.1 / n as f64;
+    for i in 0..n {
+        let (mut a, mut b) = (-1.55 + i as f64 * h, -1.55 + (i + 1) as f64 * h);
+        if dv(a) * dv(b) > 0.0 {
+            continue;
+        }
+        for _ in 0..100 {
+            let m = 0.5 * (a + b);
+            if dv(a) * dv(m) <= 0.0 {
+                b = m;
+            } else {
+                a = m;
+            }
+        }
+        let t = 0.5 * (a + b);
+        let stable = (dv(t + 1e-6) - dv(t - 1e-6)) > 0.0;
+        out.push((t, stable));
+    }
+    out
+}
+
+#[test]
+fn snap_through_is_reported_by_well() {
+    let dir = tempfile::tempdir().unwrap();
+    let csv = dir.path().join("snap.csv");
+    let svg = dir.path().join("snap.svg");
+    let common = [
+        "sweep",
+        "models/overcentre.toml",
+        "--set",
+        "F0=10",
+        "--param",
+        "omega",
+        "--from",
+        "0.5",
+        "--to",
+        "6",
+        "--step",
+        "0.25",
+        "--response",
+        "bar1.theta",
+    ];
+    let mut args = common.to_vec();
+    args.extend(["-o", csv.to_str().unwrap(), "--plot", svg.to_str().unwrap()]);
+    let (code, out, err) = detune(&args);
+    assert_eq!(code, 0, "{err}");
+
+    // the equilibria listed are the closed form's, with its stability
+    let truth = closed_form_equilibria();
+    assert_eq!(truth.len(), 3, "{truth:?}");
+    let mut json_args = common.to_vec();
+    json_args.push("--json");
+    let (code, json, err) = detune(&json_args);
+    assert_eq!(code, 0, "{err}");
+    let j: Value = serde_json::from_str(&json).unwrap();
+    let eqs = j["equilibria"].as_array().unwrap();
+    assert_eq!(eqs.len(), 3);
+    let index_of = |theta: f64| -> i64 {
+        let e = eqs
+            .iter()
+            .find(|e| (e["coordinates"]["bar1.theta"].as_f64().unwrap() - theta).abs() < 1e-8)
+            .unwrap_or_else(|| panic!("no equilibrium at θ1 = {theta}: {eqs:?}"));
+        e["index"].as_i64().unwrap()
+    };
+    for (t, stable) in &truth {
+        let e = &eqs[index_of(*t) as usize];
+        assert_eq!(e["stable"].as_bool().unwrap(), *stable, "θ1 = {t}");
+    }
+    let upper = index_of(truth[2].0); // θ1 ≈ +0.644 rad
+    let lower = index_of(truth[0].0); // θ1 ≈ −0.866 rad
+    assert!(truth[2].0 > 0.6 && truth[0].0 < -0.8);
+    assert!(eqs[upper as usize]["start"].as_bool().unwrap());
+
+    // the well column: the lower well up to 4 rad/s, the upper one from 4.25 rad/s
+    // (the direction column is text: parse by hand)
+    let text = std::fs::read_to_string(&csv).unwrap();
+    let mut lines = text.lines();
+    let header: Vec<String> = lines.next().unwrap().split(',').map(String::from).collect();
+    let rows: Vec<Vec<f64>> = lines
+        .map(|l| {
+            l.split(',')
+                .map(|f| f.parse().unwrap_or(f64::NAN))
+                .collect()
+        })
+        .collect();
+    let col = |name: &str| header.iter().position(|h| h == name).unwrap();
+    let (w, well, mean) = (col("omega"), col("well"), col("bar1.theta_mean"));
+    assert_eq!(header.last().unwrap(), "well");
+    assert_eq!(rows.len(), 23);
+    for r in &rows {
+        let expected = if r[w] <= 4.0 { lower } else { upper };
+        assert_eq!(r[well] as i64, expected, "ω = {}", r[w]);
+        // and the mean pose lies in that well (a second check, by θ1 alone)
+        let nearest = truth
+            .iter()
+            .min_by(|a, b| (a.0 - r[mean]).abs().total_cmp(&(b.0 - r[mean]).abs()))
+            .unwrap();
+        assert_eq!(index_of(nearest.0), expected, "ω = {}", r[w]);
+    }
+
+    // the summary says so, with units
+    assert!(
+        out.contains(&format!(
+            "the response left its starting well (well {upper}: bar1.theta = 0.644 rad) at 15 of 23 frequencies (independent): 0.5–4 rad/s in well {lower} (bar1.theta = -0.866 rad)"
+        )),
+        "{out}"
+    );
+
+    // no peak joins the two wells: the grid maximum (4 rad/s, next to 4.25 in the other
+    // well) is not reported, and any peak's neighbours share its well
+    assert!(!out.contains("peak"), "{out}");
+    for p in j["peaks"].as_array().unwrap() {
+        let om = p["omega"].as_f64().unwrap();
+        let near: Vec<i64> = j["points"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .filter(|q| (q["omega"].as_f64().unwrap() - om).abs() <= 0.25 + 1e-9)
+            .map(|q| q["well"].as_i64().unwrap())
+            .collect();
+        assert!(near.windows(2).all(|x| x[0] == x[1]), "{p}");
+    }
+    assert_eq!(j["jumps"].as_array().unwrap().len(), 0); // independent: no jumps
+
+    // the plot: one series per well, each named in the legend, not joined
+    let text = std::fs::read_to_string(&svg).unwrap();
+    assert!(text.contains(&format!("well {lower} (bar1.theta = -0.866 rad)")));
+    assert!(text.contains(&format!("well {upper} (bar1.theta = 0.644 rad)")));
+    assert!(
+        text.contains(&format!("(well {upper})")),
+        "ω_n named by its well"
+    );
+}
+
+#[test]
+fn up_and_down_jumps_are_jumps_not_peaks() {
+    // F0 = 3 N: the upper well's softening resonance folds; the up sweep jumps up onto the
+    // resonant branch, the down sweep falls off it, and between them up and down differ
+    let (code, out, err) = detune(&[
+        "sweep",
+        "models/overcentre.toml",
+        "--set",
+        "F0=3",
+        "--param",
+        "omega",
+        "--from",
+        "1.8",
+        "--to",
+        "3",
+        "--step",
+        "0.1",
+        "--response",
+        "bar1.theta",
+        "--mode",
+        "both",
+        "--json",
+    ]);
+    assert_eq!(code, 0, "{err}");
+    let j: Value = serde_json::from_str(&out).unwrap();
+    let jumps = j["jumps"].as_array().unwrap();
+    assert_eq!(jumps.len(), 2, "{jumps:?}");
+    for jp in jumps {
+        let keys: Vec<&str> = jp.as_object().unwrap().keys().map(|k| k.as_str()).collect();
+        assert_eq!(
+            keys,
+            [
+                "response",
+                "direction",
+                "from",
+                "to",
+                "amplitude_before",
+                "amplitude_after"
+            ]
+        );
+    }
+    let (up, down) = (&jumps[0], &jumps[1]);
+    assert_eq!(up["direction"], "up");
+    assert_eq!(down["direction"], "down");
+    // the jumps bound the interval where the two sweeps differ (found independently, by
+    // comparing them point by point)
+    let h = &j["hysteresis"].as_array().unwrap()[0];
+    let (h0, h1) = (h["from"].as_f64().unwrap(), h["to"].as_f64().unwrap());
+    assert!((up["from"].as_f64().unwrap() - h1).abs() < 1e-9, "{up} {h}");
+    assert!((up["to"].as_f64().unwrap() - (h1 + 0.1)).abs() < 1e-9);
+    assert!(
+        (down["from"].as_f64().unwrap() - h0).abs() < 1e-9,
+        "{down} {h}"
+    );
+    assert!((down["to"].as_f64().unwrap() - (h0 - 0.1)).abs() < 1e-9);
+    // up jumps up, down falls down; each lands on the other sweep's amplitude there
+    let amp = |dir: &str, w: f64| {
+        j["points"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|p| p["direction"] == dir && (p["omega"].as_f64().unwrap() - w).abs() < 1e-9)
+            .unwrap()["bar1.theta_amplitude"]
+            .as_f64()
+            .unwrap()
+    };
+    let (ub, ua) = (
+        up["amplitude_before"].as_f64().unwrap(),
+        up["amplitude_after"].as_f64().unwrap(),
+    );
+    assert!(ua > 1.2 * ub);
+    assert!((ua - amp("down", h1 + 0.1)).abs() < 1e-6 * ua);
+    let (db, da) = (
+        down["amplitude_before"].as_f64().unwrap(),
+        down["amplitude_after"].as_f64().unwrap(),
+    );
+    assert!(db > 1.5 * da);
+    assert!((da - amp("up", h0 - 0.1)).abs() < 1e-6 * da);
+    // no peak at a jump edge: the up sweep's largest grid amplitude is right after its jump
+    for p in j["peaks"].as_array().unwrap() {
+        let om = p["omega"].as_f64().unwrap();
+        for jp in jumps {
+            let (a, b) = (jp["from"].as_f64().unwrap(), jp["to"].as_f64().unwrap());
+            assert!(
+                (om - a).abs() > 1e-9 && (om - b).abs() > 1e-9,
+                "peak {p} on jump {jp}"
+            );
+        }
+    }
+}
+
+#[test]
+fn simulate_reports_the_well_it_ends_in() {
+    // F0 = 10 N at 3 rad/s snaps through (tests/overcentre.rs pins the motion against the
+    // Lagrange reference): the last period oscillates about the lower stable pose
+    let dir = tempfile::tempdir().unwrap();
+    let (csv, json) = (dir.path().join("s.csv"), dir.path().join("s.json"));
+    let truth = closed_form_equilibria();
+    for (sets, theta, text) in [
+        (
+            vec!["--set", "F0=10", "--set", "omega=3", "--t-end", "40"],
+            truth[0].0,
+            "oscillates about the stable equilibrium (bar1.theta = -0.866 rad",
+        ),
+        (
+            vec!["--t-end", "2"],
+            truth[2].0,
+            "the final pose is nearest to the stable equilibrium (bar1.theta = 0.644 rad",
+        ),
+    ] {
+        let mut args = vec!["simulate", "models/overcentre.toml"];
+        args.extend(sets);
+        args.extend([
+            "-o",
+            csv.to_str().unwrap(),
+            "--json",
+            json.to_str().unwrap(),
+        ]);
+        let (code, out, err) = detune(&args);
+        assert_eq!(code, 0, "{err}");
+        assert!(out.contains(text), "{out}");
+        let j: Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+        let k = j["well"].as_i64().unwrap() as usize;
+        let e = &j["equilibria"][k];
+        assert!((e["coordinates"]["bar1.theta"].as_f64().unwrap() - theta).abs() < 1e-8);
+        assert_eq!(e["stable"], true);
+    }
+}
