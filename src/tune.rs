@@ -141,8 +141,9 @@ pub struct Design {
     pub modes: serde_json::Map<String, serde_json::Value>,
     /// The smallest separation over every mode and line, %.
     pub closest_pct: f64,
-    /// The optimizer that found it: `SLSQP` (with the analytic gradients), or `COBYLA`
-    /// (derivative-free), tried where SLSQP did not meet the side choice.
+    /// The optimizer that found it: `SLSQP` (with the analytic gradients), `COBYLA`
+    /// (derivative-free), tried where SLSQP did not meet the side choice, or
+    /// `SLSQP+COBYLA` (with tolerances, SLSQP's point polished by COBYLA).
     pub optimizer: &'static str,
     /// The free parameters the design leaves at a bound of their range: a wider range
     /// would give a cheaper design.
@@ -886,38 +887,53 @@ fn solve_choice(
             found = Some((x, "SLSQP"));
         }
     }
-    if found.is_none() && opts.optimizer != Optimizer::Slsqp {
-        // the derivative-free fallback (COBYLA, the `cobyla` crate): constraints as
-        // c(x) ≥ 0, no gradients
-        type Cob<'c> = Box<dyn Fn(&[f64], &mut ()) -> f64 + 'c>;
-        let cob: Vec<Cob<'_>> = cons
-            .iter()
-            .map(|c| Box::new(move |x: &[f64], _: &mut ()| -c(x, None, &mut ())) as Cob<'_>)
-            .collect();
-        let cob_ref: Vec<&dyn Fn(&[f64], &mut ()) -> f64> =
-            cob.iter().map(|c| c.as_ref()).collect();
-        let y = match cobyla::minimize(
+    // the derivative-free COBYLA (the `cobyla` crate; constraints as c(x) ≥ 0, no
+    // gradients): the fallback where SLSQP did not meet the choice, and with tolerances a
+    // polish of SLSQP's point, whose constraint gradients leave out the spread's own
+    // (second-derivative) change and so stop short of the minimum
+    type Cob<'c> = Box<dyn Fn(&[f64], &mut ()) -> f64 + 'c>;
+    let cob: Vec<Cob<'_>> = cons
+        .iter()
+        .map(|c| Box::new(move |x: &[f64], _: &mut ()| -c(x, None, &mut ())) as Cob<'_>)
+        .collect();
+    let cob_ref: Vec<&dyn Fn(&[f64], &mut ()) -> f64> = cob.iter().map(|c| c.as_ref()).collect();
+    let cobyla_from = |x0: &[f64], span: f64, evaluations: usize| -> Vec<f64> {
+        match cobyla::minimize(
             |x: &[f64], _: &mut ()| cost_of(x),
-            &vec![0.0; n],
+            x0,
             bounds,
             &cob_ref,
             (),
-            // without gradients it needs more evaluations than SLSQP; as a fallback after
-            // SLSQP failed (most often a choice that cannot be met) it gets SLSQP's
+            evaluations,
+            cobyla::RhoBeg::Set(bounds.iter().map(|b| span * (b.1 - b.0)).collect()),
+            None,
+        ) {
+            Ok((_, y, _)) | Err((_, y, _)) => y,
+        }
+    };
+    if found.is_none() && opts.optimizer != Optimizer::Slsqp {
+        // from the baseline, the first simplex spanning half of each range; without
+        // gradients it needs more evaluations than SLSQP, but as a fallback after SLSQP
+        // failed (most often a choice that cannot be met) it gets SLSQP's
+        let y = cobyla_from(
+            &vec![0.0; n],
+            0.5,
             if opts.optimizer == Optimizer::Cobyla {
                 5 * opts.max_evaluations
             } else {
                 opts.max_evaluations
             },
-            // the first simplex spans half of each range
-            cobyla::RhoBeg::Set(bounds.iter().map(|b| 0.5 * (b.1 - b.0)).collect()),
-            None,
-        ) {
-            Ok((_, y, _)) | Err((_, y, _)) => y,
-        };
+        );
         blocking = blocking_at(&y);
         if blocking.is_none() {
             found = Some((y, "COBYLA"));
+        }
+    } else if opts.optimizer == Optimizer::Auto && !opts.tolerances.is_empty() {
+        if let Some((x, _)) = found.clone() {
+            let y = cobyla_from(&x, 0.05, opts.max_evaluations);
+            if blocking_at(&y).is_none() && cost_of(&y) < cost_of(&x) {
+                found = Some((y, "SLSQP+COBYLA"));
+            }
         }
     }
     found.ok_or_else(|| blocking.unwrap_or_default())

@@ -8,8 +8,8 @@ use detune::diag::{Error, Result};
 use detune::environment::{Environment, ForcingLine, resolve};
 use detune::linear::modal_analysis;
 use detune::margins::{MarginCheck, MarginRow, ModeInterval, Requirement, Side, check_margins};
-use detune::output::margins::{MarginsReport, write_margins_csv};
 use detune::output::Provenance;
+use detune::output::margins::{MarginsReport, write_margins_csv};
 use std::f64::consts::TAU;
 
 #[derive(Args)]

@@ -404,7 +404,10 @@ impl Model {
                 return text.trim().replace('*', "·");
             }
             if *dim == units::Dim::NONE
-                && matches!(text.trim(), "deg" | "degree" | "degrees" | "°" | "rev" | "turn")
+                && matches!(
+                    text.trim(),
+                    "deg" | "degree" | "degrees" | "°" | "rev" | "turn"
+                )
             {
                 return "rad".into();
             }
@@ -1506,7 +1509,10 @@ pub fn read_input(path: &str, what: &str) -> Result<String> {
     String::from_utf8(bytes).map_err(|e| {
         Error::io(
             path,
-            format!("not UTF-8 text (byte {}): is this a {what}?", e.utf8_error().valid_up_to()),
+            format!(
+                "not UTF-8 text (byte {}): is this a {what}?",
+                e.utf8_error().valid_up_to()
+            ),
         )
     })
 }
