@@ -9,7 +9,145 @@
 //! so it must not allocate; faer's sparse Cholesky needs its own matrix types, a symbolic
 //! phase and ~60 s more of build for the same result on these sizes.
 
-use nalgebra::{DMatrix, DVector};
+use nalgebra::Complex;
+use nalgebra::{ComplexField, DMatrix, DVector, Dyn, SVD, SymmetricEigen};
+
+use crate::failure::Failure;
+
+// ---------------------------------------------------------------------------------------
+// Guarded decompositions
+// ---------------------------------------------------------------------------------------
+//
+// nalgebra's `svd`, `symmetric_eigen` and `Schur` iterate until convergence with no cap
+// (`max_niter = 0`): on a NaN or an infinity they never return, and a NaN singular value
+// panics in the sort. Every decomposition in detune goes through the helpers below: the
+// input is checked finite first (a typed error naming the first bad entry), the iteration
+// is capped (a typed error when the cap is reached), and the output is checked finite.
+
+/// Iteration cap of the guarded decompositions: `ITER_PER_DIM` sweeps per row or column
+/// (QR-type iterations need a few per eigenvalue; 100 is far above what a finite,
+/// reasonably scaled matrix takes), at least 1000.
+pub const ITER_PER_DIM: usize = 100;
+
+fn max_iter(rows: usize, cols: usize) -> usize {
+    (ITER_PER_DIM * rows.max(cols)).max(1000)
+}
+
+/// The first non-finite entry of `m` as a [`Failure::NonFiniteMatrix`], or `Ok`.
+pub fn check_finite<T: ComplexField<RealField = f64>>(
+    m: &DMatrix<T>,
+    what: &str,
+) -> Result<(), Failure> {
+    // column-major: the first bad entry by column, then row
+    for (k, col) in m.column_iter().enumerate() {
+        for (i, v) in col.iter().enumerate() {
+            if !v.is_finite() {
+                return Err(Failure::NonFiniteMatrix {
+                    what: what.to_string(),
+                    row: i,
+                    col: k,
+                    value: format!("{v}"),
+                });
+            }
+        }
+    }
+    Ok(())
+}
+
+/// SVD of a finite matrix, singular values sorted descending, iterations capped. `what`
+/// names the matrix in errors ("constraint Jacobian").
+pub fn svd<T: ComplexField<RealField = f64>>(
+    m: DMatrix<T>,
+    compute_u: bool,
+    compute_v: bool,
+    what: &str,
+) -> Result<SVD<T, Dyn, Dyn>, Failure> {
+    check_finite(&m, what)?;
+    let cap = max_iter(m.nrows(), m.ncols());
+    let mut svd =
+        SVD::try_new_unordered(m, compute_u, compute_v, f64::EPSILON, cap).ok_or_else(|| {
+            Failure::NoConvergence {
+                what: format!("SVD of the {what}"),
+                iterations: cap,
+            }
+        })?;
+    // finite input can still overflow inside (entries near 1e308)
+    if let Some(s) = svd.singular_values.iter().find(|s| !s.is_finite()) {
+        return Err(Failure::NonFiniteResult {
+            quantity: format!("a singular value of the {what}"),
+            value: *s,
+        });
+    }
+    svd.sort_by_singular_values();
+    Ok(svd)
+}
+
+/// [`svd`] where the caller has no error path (a Jacobian's rank, a null vector): on
+/// failure an SVD of NaNs of the right shapes, so that the NaN reaches the result and the
+/// finiteness check of what is reported ([`crate::diag::check_finite_result`]).
+pub fn svd_or_nan<T: ComplexField<RealField = f64>>(
+    m: DMatrix<T>,
+    compute_u: bool,
+    compute_v: bool,
+) -> SVD<T, Dyn, Dyn> {
+    let (r, c) = m.shape();
+    let k = r.min(c);
+    svd(m, compute_u, compute_v, "matrix").unwrap_or_else(|_| {
+        let nan = || T::from_real(f64::NAN);
+        SVD {
+            u: compute_u.then(|| DMatrix::from_fn(r, k, |_, _| nan())),
+            v_t: compute_v.then(|| DMatrix::from_fn(k, c, |_, _| nan())),
+            singular_values: DVector::from_element(k, f64::NAN),
+        }
+    })
+}
+
+/// Eigen-decomposition of a finite symmetric matrix, iterations capped.
+pub fn symmetric_eigen(m: DMatrix<f64>, what: &str) -> Result<SymmetricEigen<f64, Dyn>, Failure> {
+    check_finite(&m, what)?;
+    let cap = max_iter(m.nrows(), m.ncols());
+    let eig =
+        SymmetricEigen::try_new(m, f64::EPSILON, cap).ok_or_else(|| Failure::NoConvergence {
+            what: format!("eigenvalues of the {what}"),
+            iterations: cap,
+        })?;
+    if let Some(v) = eig.eigenvalues.iter().find(|v| !v.is_finite()) {
+        return Err(Failure::NonFiniteResult {
+            quantity: format!("an eigenvalue of the {what}"),
+            value: *v,
+        });
+    }
+    Ok(eig)
+}
+
+/// [`symmetric_eigen`] where the caller has no error path: NaNs of the right shapes on
+/// failure (see [`svd_or_nan`]).
+pub fn symmetric_eigen_or_nan(m: DMatrix<f64>) -> SymmetricEigen<f64, Dyn> {
+    let n = m.nrows();
+    symmetric_eigen(m, "matrix").unwrap_or_else(|_| SymmetricEigen {
+        eigenvectors: DMatrix::from_element(n, n, f64::NAN),
+        eigenvalues: DVector::from_element(n, f64::NAN),
+    })
+}
+
+/// Eigenvalues of a finite general real matrix (real Schur form, iterations capped).
+pub fn complex_eigenvalues(m: DMatrix<f64>, what: &str) -> Result<Vec<Complex<f64>>, Failure> {
+    check_finite(&m, what)?;
+    let cap = max_iter(m.nrows(), m.ncols());
+    let schur =
+        nalgebra::Schur::try_new(m, f64::EPSILON, cap).ok_or_else(|| Failure::NoConvergence {
+            what: format!("eigenvalues of the {what}"),
+            iterations: cap,
+        })?;
+    let ev: Vec<Complex<f64>> = schur.complex_eigenvalues().iter().copied().collect();
+    if let Some(v) = ev.iter().find(|v| !(v.re.is_finite() && v.im.is_finite())) {
+        return Err(Failure::NonFiniteResult {
+            quantity: format!("an eigenvalue of the {what}"),
+            value: if v.re.is_finite() { v.im } else { v.re },
+        });
+    }
+    Ok(ev)
+}
 
 /// Singular values below `RANK_TOL · σ_max` count as zero.
 pub const RANK_TOL: f64 = 1e-10;
@@ -61,7 +199,7 @@ pub fn pinv_solve(
         }
     }
     *svd_count += 1;
-    let svd = bm.clone().svd(true, true);
+    let svd = svd_or_nan(bm.clone(), true, true);
     let smax = svd.singular_values.max();
     let eps = RANK_TOL * smax;
     let rank = svd.rank(eps);
@@ -82,7 +220,7 @@ pub fn solve_least_squares(j: DMatrix<f64>, r: &DVector<f64>) -> DVector<f64> {
         // undefined (nalgebra's SVD panics or never returns on NaN): pass the NaN on
         return DVector::from_element(cols, f64::NAN);
     }
-    let svd = j.svd(true, true);
+    let svd = svd_or_nan(j, true, true);
     let eps = RANK_TOL * svd.singular_values.max().max(f64::MIN_POSITIVE);
     svd.solve(r, eps).unwrap_or_else(|_| DVector::zeros(cols))
 }
@@ -121,7 +259,9 @@ pub fn null_space_of(a: &DMatrix<f64>) -> DMatrix<f64> {
     }
     // SVD of Aᵀ A (n × n) gives the full right singular basis even when m < n.
     let ata = a.transpose() * a;
-    let eig = nalgebra::SymmetricEigen::new(ata);
+    let Ok(eig) = symmetric_eigen(ata, "matrix AᵀA") else {
+        return DMatrix::from_element(n, 1, f64::NAN);
+    };
     let max = eig.eigenvalues.iter().fold(0.0f64, |a, v| a.max(v.abs()));
     let cols: Vec<usize> = (0..n)
         .filter(|&i| eig.eigenvalues[i].abs() <= RANK_TOL * max.max(f64::MIN_POSITIVE))
@@ -143,6 +283,9 @@ pub fn generalized_eigenvalues(k: &DMatrix<f64>, m: &DMatrix<f64>) -> Vec<f64> {
     if k.nrows() == 0 {
         return Vec::new(); // no degree of freedom
     }
+    if !all_finite(k.as_slice()) || !all_finite(m.as_slice()) {
+        return vec![f64::NAN; k.nrows()];
+    }
     let asym = (k - k.transpose()).amax();
     let mut w: Vec<f64> = if asym <= 1e-9 * k.amax().max(f64::MIN_POSITIVE) {
         let l = m
@@ -152,18 +295,16 @@ pub fn generalized_eigenvalues(k: &DMatrix<f64>, m: &DMatrix<f64>) -> Vec<f64> {
             .l();
         let linv = l.clone().try_inverse().expect("invertible");
         let s = &linv * (k + k.transpose()) * 0.5 * linv.transpose();
-        nalgebra::SymmetricEigen::new(s)
-            .eigenvalues
-            .iter()
-            .copied()
-            .collect()
+        match symmetric_eigen(s, "matrix M⁻¹K") {
+            Ok(e) => e.eigenvalues.iter().copied().collect(),
+            Err(_) => vec![f64::NAN; k.nrows()],
+        }
     } else {
         let minv = m.clone().try_inverse().expect("invertible");
-        (minv * k)
-            .complex_eigenvalues()
-            .iter()
-            .map(|c| c.re)
-            .collect()
+        match complex_eigenvalues(minv * k, "matrix M⁻¹K") {
+            Ok(e) => e.iter().map(|c| c.re).collect(),
+            Err(_) => vec![f64::NAN; k.nrows()],
+        }
     };
     w.sort_by(f64::total_cmp);
     w
