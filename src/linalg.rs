@@ -466,4 +466,40 @@ mod tests {
         sing.add(1, 1, 1.0);
         assert!(!sing.factor(1e-10));
     }
+
+    #[test]
+    fn guarded_decompositions_refuse_non_finite_input() {
+        let mut m = DMatrix::from_row_slice(2, 2, &[3.0, 1.0, 1.0, 2.0]);
+        // a finite matrix: the closed-form eigenvalues (5 ± √5)/2 and singular values
+        let e = symmetric_eigen(m.clone(), "test").unwrap();
+        let mut ev: Vec<f64> = e.eigenvalues.iter().copied().collect();
+        ev.sort_by(f64::total_cmp);
+        assert!((ev[0] - (5.0 - 5f64.sqrt()) / 2.0).abs() < 1e-14);
+        assert!((ev[1] - (5.0 + 5f64.sqrt()) / 2.0).abs() < 1e-14);
+        let sv = svd(m.clone(), true, true, "test").unwrap().singular_values;
+        assert!((sv[0] - (5.0 + 5f64.sqrt()) / 2.0).abs() < 1e-14); // descending
+        let ce = complex_eigenvalues(m.clone(), "test").unwrap();
+        assert!(ce.iter().all(|z| z.im == 0.0));
+        // the first non-finite entry is named, by column then row
+        m[(1, 0)] = f64::INFINITY;
+        m[(0, 1)] = f64::NAN;
+        let err = svd(m.clone(), false, false, "test matrix").unwrap_err();
+        assert_eq!(
+            err,
+            Failure::NonFiniteMatrix {
+                what: "test matrix".into(),
+                row: 1,
+                col: 0,
+                value: "inf".into()
+            }
+        );
+        assert!(symmetric_eigen(m.clone(), "t").is_err());
+        assert!(complex_eigenvalues(m.clone(), "t").is_err());
+        // the fallbacks pass NaN on, shaped
+        let nan = svd_or_nan(m.clone(), true, true);
+        assert_eq!(nan.singular_values.len(), 2);
+        assert!(nan.singular_values[0].is_nan());
+        assert_eq!(nan.v_t.unwrap().shape(), (2, 2));
+        assert!(symmetric_eigen_or_nan(m).eigenvalues[0].is_nan());
+    }
 }
