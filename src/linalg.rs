@@ -3,6 +3,10 @@
 //! eigenvalues, the rank tolerance, and a Cholesky factorization of sparse Gram matrices
 //! A W Aᵀ in envelope (skyline) storage.
 //!
+//! Every decomposition (SVD, symmetric eigen, Schur) goes through the guarded helpers
+//! [`svd`], [`symmetric_eigen`] and [`complex_eigenvalues`]: finite input, capped
+//! iterations, finite output, or a typed [`Failure`] (docs/reliability.md).
+//!
 //! nalgebra does the dense work. The envelope Cholesky is written by hand (about 80
 //! lines): the constraint Gram matrix of a chain is banded, its structure is known when
 //! the model is compiled and never changes, and it is factored on every right-hand side,
