@@ -68,12 +68,10 @@ pub fn svd<T: ComplexField<RealField = f64>>(
 ) -> Result<SVD<T, Dyn, Dyn>, Failure> {
     check_finite(&m, what)?;
     let cap = max_iter(m.nrows(), m.ncols());
-    let mut svd =
-        SVD::try_new_unordered(m, compute_u, compute_v, f64::EPSILON, cap).ok_or_else(|| {
-            Failure::NoConvergence {
-                what: format!("SVD of the {what}"),
-                iterations: cap,
-            }
+    let mut svd = SVD::try_new_unordered(m, compute_u, compute_v, 5.0 * f64::EPSILON, cap)
+        .ok_or_else(|| Failure::NoConvergence {
+            what: format!("SVD of the {what}"),
+            iterations: cap,
         })?;
     // finite input can still overflow inside (entries near 1e308)
     if let Some(s) = svd.singular_values.iter().find(|s| !s.is_finite()) {
