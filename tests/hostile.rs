@@ -123,6 +123,24 @@ fn huge_damper_on_the_inceptor_does_not_panic() {
 
 // Defect 4: no non-finite result reported as a success.
 
+/// The inceptor's damper at 1e160: λ² M + λ C + K overflows for its overdamped mode
+/// (λ ≈ -1.1e160 1/s), whose shape was written as null (NaN) to the report's JSON.
+#[test]
+fn report_with_an_overflowing_mode_shape_is_refused() {
+    let o = run(
+        &["report", "inc.toml", "--set", "c_d=1e160", "-o", "r.html"],
+        &[],
+    );
+    assert_eq!(o.code, Some(1), "{}", o.stderr);
+    assert!(
+        o.stderr
+            .contains("the shape of the mode at λ = -1.1111111111111113e160 1/s"),
+        "{}",
+        o.stderr
+    );
+    assert!(!o.left("r.html") && !o.left("r.json"));
+}
+
 /// c = 1e160: c² overflows in the state matrix's eigenvalues, which were printed as NaN
 /// frequencies with exit 0.
 #[test]

@@ -193,6 +193,25 @@ impl Linearization {
                 *lam
             };
             let x = self.shape(lam);
+            // λ² M + λ C + K overflows for |λ| beyond ~1e154 (a damper near 1e160)
+            if let Some(z) = x.iter().find(|z| !(z.re.is_finite() && z.im.is_finite())) {
+                return Err(Failure::NonFiniteResult {
+                    quantity: if lam.im == 0.0 {
+                        format!(
+                            "the shape of the mode at λ = {} 1/s",
+                            crate::diag::num(lam.re)
+                        )
+                    } else {
+                        format!(
+                            "the shape of the mode at λ = {} ± {}i 1/s",
+                            crate::diag::num(lam.re),
+                            crate::diag::num(lam.im.abs())
+                        )
+                    },
+                    value: if z.re.is_finite() { z.im } else { z.re },
+                }
+                .into());
+            }
             let full = self.basis.map(|v| Complex::new(v, 0.0)) * x;
             let r = full[reference];
             let imax = (0..full.len())
