@@ -85,7 +85,7 @@ fn element_ranks(model: &Model, sys: &System, q: &[f64]) -> Vec<CheckedElement> 
             return 0;
         }
         let sub = a.rows(0, rows).into_owned();
-        let sv = sub.svd(false, false).singular_values;
+        let sv = crate::linalg::svd_or_nan(sub, false, false).singular_values;
         let smax = sv.max();
         if !smax.is_finite() || smax == 0.0 {
             return 0;

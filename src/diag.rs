@@ -402,3 +402,15 @@ mod tests {
         );
     }
 }
+
+/// A number for a message: shortest round-trip decimal for ordinary magnitudes
+/// (`0.01`, `4.3e-5` as `0.000043`), and the shortest round-trip scientific form outside
+/// 1e-6 ≤ |x| < 1e15, so that `1e300` prints as `1e300`, not as 301 digits.
+pub fn num(x: f64) -> String {
+    let a = x.abs();
+    if x == 0.0 || !x.is_finite() || (1e-6..1e15).contains(&a) {
+        format!("{x}")
+    } else {
+        format!("{x:e}")
+    }
+}

@@ -98,6 +98,24 @@ pub enum Failure {
         why: String,
         iterations: usize,
     },
+    /// A matrix handed to a decomposition (SVD, eigenvalues) holds a NaN or an infinity:
+    /// `what` names the matrix, `row`, `col` (from 0) and `value` the first bad entry.
+    #[error(
+        "the {what} is not finite: its entry ({row}, {col}) is {value} (a parameter too large or too small for double precision)"
+    )]
+    NonFiniteMatrix {
+        what: String,
+        row: usize,
+        col: usize,
+        value: String,
+    },
+    /// A decomposition that did not converge within its iteration cap.
+    #[error("the {what} did not converge in {iterations} iterations")]
+    NoConvergence { what: String, iterations: usize },
+    /// A result about to be reported holds a NaN or an infinity: `quantity` names the
+    /// first one.
+    #[error("the result is not finite: {quantity} = {value}")]
+    NonFiniteResult { quantity: String, value: f64 },
     #[error(
         "the trim does not converge: no value of {params} makes the held pose a static equilibrium (residual {residual:.3e})"
     )]
@@ -216,6 +234,8 @@ impl Failure {
             UndefinedEquilibrium { .. } => "a load or a moving constraint is undefined there at some time of the forcing period (statics averages them over it): sqrt or ln of a negative number, or a division by zero".into(),
             TrimFailed { .. } => "check that the solved parameters can balance the held pose (a stiffness of zero, or a load the parameter does not act on, cannot be trimmed), or fix their values".into(),
             NoStartEquilibrium { .. } => "start the range where the mechanism has an equilibrium near its initial pose (change the start value, the initial pose, or the loads); the branch is followed from there".into(),
+            NonFiniteMatrix { .. } | NonFiniteResult { .. } => "a parameter is too large or too small for double precision (beyond about 1e150, a product of two such overflows): give it a physical value".into(),
+            NoConvergence { .. } => "the matrix is badly scaled: parameters differing by many orders of magnitude; give them physical values".into(),
             NoEquilibriumOnBranch => "check the loads: the mechanism may have no static equilibrium (e.g. a force larger than any spring can hold)".into(),
             UndampedResonance { .. } => "add damping or step around that frequency".into(),
             DeadPoint { drive, .. } => format!(

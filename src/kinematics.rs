@@ -348,7 +348,7 @@ impl<'a> Closure<'a> {
             }
         });
         let rank_full = rank(&augmented, tol);
-        let svd = af.svd(true, true);
+        let svd = crate::linalg::svd_or_nan(af, true, true);
         let smax = svd.singular_values.max().max(f64::MIN_POSITIVE);
         let rank_f = svd.rank(tol * smax);
         let y = svd.solve(rhs, RANK_TOL * smax).ok()?;
@@ -465,7 +465,7 @@ impl<'a> Closure<'a> {
 
 /// Numerical rank: singular values above `tol` of the largest.
 fn rank(m: &DMatrix<f64>, tol: f64) -> usize {
-    let s = m.clone().svd(false, false).singular_values;
+    let s = crate::linalg::svd_or_nan(m.clone(), false, false).singular_values;
     let eps = tol * s.max().max(f64::MIN_POSITIVE);
     s.iter().filter(|&&x| x > eps).count()
 }

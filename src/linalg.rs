@@ -3,13 +3,153 @@
 //! eigenvalues, the rank tolerance, and a Cholesky factorization of sparse Gram matrices
 //! A W Aᵀ in envelope (skyline) storage.
 //!
+//! Every decomposition (SVD, symmetric eigen, Schur) goes through the guarded helpers
+//! [`svd`], [`symmetric_eigen`] and [`complex_eigenvalues`]: finite input, capped
+//! iterations, finite output, or a typed [`Failure`] (docs/reliability.md).
+//!
 //! nalgebra does the dense work. The envelope Cholesky is written by hand (about 80
 //! lines): the constraint Gram matrix of a chain is banded, its structure is known when
 //! the model is compiled and never changes, and it is factored on every right-hand side,
 //! so it must not allocate; faer's sparse Cholesky needs its own matrix types, a symbolic
 //! phase and ~60 s more of build for the same result on these sizes.
 
-use nalgebra::{DMatrix, DVector};
+use nalgebra::Complex;
+use nalgebra::{ComplexField, DMatrix, DVector, Dyn, SVD, SymmetricEigen};
+
+use crate::failure::Failure;
+
+// ---------------------------------------------------------------------------------------
+// Guarded decompositions
+// ---------------------------------------------------------------------------------------
+//
+// nalgebra's `svd`, `symmetric_eigen` and `Schur` iterate until convergence with no cap
+// (`max_niter = 0`): on a NaN or an infinity they never return, and a NaN singular value
+// panics in the sort. Every decomposition in detune goes through the helpers below: the
+// input is checked finite first (a typed error naming the first bad entry), the iteration
+// is capped (a typed error when the cap is reached), and the output is checked finite.
+
+/// Iteration cap of the guarded decompositions: `ITER_PER_DIM` sweeps per row or column
+/// (QR-type iterations need a few per eigenvalue; 100 is far above what a finite,
+/// reasonably scaled matrix takes), at least 1000.
+pub const ITER_PER_DIM: usize = 100;
+
+fn max_iter(rows: usize, cols: usize) -> usize {
+    (ITER_PER_DIM * rows.max(cols)).max(1000)
+}
+
+/// The first non-finite entry of `m` as a [`Failure::NonFiniteMatrix`], or `Ok`.
+pub fn check_finite<T: ComplexField<RealField = f64>>(
+    m: &DMatrix<T>,
+    what: &str,
+) -> Result<(), Failure> {
+    // column-major: the first bad entry by column, then row
+    for (k, col) in m.column_iter().enumerate() {
+        for (i, v) in col.iter().enumerate() {
+            if !v.is_finite() {
+                return Err(Failure::NonFiniteMatrix {
+                    what: what.to_string(),
+                    row: i,
+                    col: k,
+                    value: format!("{v}"),
+                });
+            }
+        }
+    }
+    Ok(())
+}
+
+/// SVD of a finite matrix, singular values sorted descending, iterations capped. `what`
+/// names the matrix in errors ("constraint Jacobian").
+pub fn svd<T: ComplexField<RealField = f64>>(
+    m: DMatrix<T>,
+    compute_u: bool,
+    compute_v: bool,
+    what: &str,
+) -> Result<SVD<T, Dyn, Dyn>, Failure> {
+    check_finite(&m, what)?;
+    let cap = max_iter(m.nrows(), m.ncols());
+    let mut svd = SVD::try_new_unordered(m, compute_u, compute_v, 5.0 * f64::EPSILON, cap)
+        .ok_or_else(|| Failure::NoConvergence {
+            what: format!("SVD of the {what}"),
+            iterations: cap,
+        })?;
+    // finite input can still overflow inside (entries near 1e308)
+    if let Some(s) = svd.singular_values.iter().find(|s| !s.is_finite()) {
+        return Err(Failure::NonFiniteResult {
+            quantity: format!("a singular value of the {what}"),
+            value: *s,
+        });
+    }
+    svd.sort_by_singular_values();
+    Ok(svd)
+}
+
+/// [`svd`] where the caller has no error path (a Jacobian's rank, a null vector): on
+/// failure an SVD of NaNs of the right shapes, so that the NaN reaches the result and the
+/// finiteness check of what is reported ([`crate::diag::check_finite_result`]).
+pub fn svd_or_nan<T: ComplexField<RealField = f64>>(
+    m: DMatrix<T>,
+    compute_u: bool,
+    compute_v: bool,
+) -> SVD<T, Dyn, Dyn> {
+    let (r, c) = m.shape();
+    let k = r.min(c);
+    svd(m, compute_u, compute_v, "matrix").unwrap_or_else(|_| {
+        let nan = || T::from_real(f64::NAN);
+        SVD {
+            u: compute_u.then(|| DMatrix::from_fn(r, k, |_, _| nan())),
+            v_t: compute_v.then(|| DMatrix::from_fn(k, c, |_, _| nan())),
+            singular_values: DVector::from_element(k, f64::NAN),
+        }
+    })
+}
+
+/// Eigen-decomposition of a finite symmetric matrix, iterations capped.
+pub fn symmetric_eigen(m: DMatrix<f64>, what: &str) -> Result<SymmetricEigen<f64, Dyn>, Failure> {
+    check_finite(&m, what)?;
+    let cap = max_iter(m.nrows(), m.ncols());
+    let eig =
+        SymmetricEigen::try_new(m, f64::EPSILON, cap).ok_or_else(|| Failure::NoConvergence {
+            what: format!("eigenvalues of the {what}"),
+            iterations: cap,
+        })?;
+    if let Some(v) = eig.eigenvalues.iter().find(|v| !v.is_finite()) {
+        return Err(Failure::NonFiniteResult {
+            quantity: format!("an eigenvalue of the {what}"),
+            value: *v,
+        });
+    }
+    Ok(eig)
+}
+
+/// [`symmetric_eigen`] where the caller has no error path: NaNs of the right shapes on
+/// failure (see [`svd_or_nan`]).
+pub fn symmetric_eigen_or_nan(m: DMatrix<f64>) -> SymmetricEigen<f64, Dyn> {
+    let n = m.nrows();
+    symmetric_eigen(m, "matrix").unwrap_or_else(|_| SymmetricEigen {
+        eigenvectors: DMatrix::from_element(n, n, f64::NAN),
+        eigenvalues: DVector::from_element(n, f64::NAN),
+    })
+}
+
+/// Eigenvalues of a finite general real matrix (real Schur form, iterations capped).
+pub fn complex_eigenvalues(m: DMatrix<f64>, what: &str) -> Result<Vec<Complex<f64>>, Failure> {
+    check_finite(&m, what)?;
+    let cap = max_iter(m.nrows(), m.ncols());
+    let schur =
+        nalgebra::Schur::try_new(m, f64::EPSILON, cap).ok_or_else(|| Failure::NoConvergence {
+            what: format!("eigenvalues of the {what}"),
+            iterations: cap,
+        })?;
+    let ev: Vec<Complex<f64>> = schur.complex_eigenvalues().iter().copied().collect();
+    if let Some(v) = ev.iter().find(|v| !(v.re.is_finite() && v.im.is_finite())) {
+        return Err(Failure::NonFiniteResult {
+            quantity: format!("an eigenvalue of the {what}"),
+            value: if v.re.is_finite() { v.im } else { v.re },
+        });
+    }
+    Ok(ev)
+}
 
 /// Singular values below `RANK_TOL · σ_max` count as zero.
 pub const RANK_TOL: f64 = 1e-10;
@@ -61,7 +201,7 @@ pub fn pinv_solve(
         }
     }
     *svd_count += 1;
-    let svd = bm.clone().svd(true, true);
+    let svd = svd_or_nan(bm.clone(), true, true);
     let smax = svd.singular_values.max();
     let eps = RANK_TOL * smax;
     let rank = svd.rank(eps);
@@ -82,7 +222,7 @@ pub fn solve_least_squares(j: DMatrix<f64>, r: &DVector<f64>) -> DVector<f64> {
         // undefined (nalgebra's SVD panics or never returns on NaN): pass the NaN on
         return DVector::from_element(cols, f64::NAN);
     }
-    let svd = j.svd(true, true);
+    let svd = svd_or_nan(j, true, true);
     let eps = RANK_TOL * svd.singular_values.max().max(f64::MIN_POSITIVE);
     svd.solve(r, eps).unwrap_or_else(|_| DVector::zeros(cols))
 }
@@ -121,7 +261,9 @@ pub fn null_space_of(a: &DMatrix<f64>) -> DMatrix<f64> {
     }
     // SVD of Aᵀ A (n × n) gives the full right singular basis even when m < n.
     let ata = a.transpose() * a;
-    let eig = nalgebra::SymmetricEigen::new(ata);
+    let Ok(eig) = symmetric_eigen(ata, "matrix AᵀA") else {
+        return DMatrix::from_element(n, 1, f64::NAN);
+    };
     let max = eig.eigenvalues.iter().fold(0.0f64, |a, v| a.max(v.abs()));
     let cols: Vec<usize> = (0..n)
         .filter(|&i| eig.eigenvalues[i].abs() <= RANK_TOL * max.max(f64::MIN_POSITIVE))
@@ -143,6 +285,9 @@ pub fn generalized_eigenvalues(k: &DMatrix<f64>, m: &DMatrix<f64>) -> Vec<f64> {
     if k.nrows() == 0 {
         return Vec::new(); // no degree of freedom
     }
+    if !all_finite(k.as_slice()) || !all_finite(m.as_slice()) {
+        return vec![f64::NAN; k.nrows()];
+    }
     let asym = (k - k.transpose()).amax();
     let mut w: Vec<f64> = if asym <= 1e-9 * k.amax().max(f64::MIN_POSITIVE) {
         let l = m
@@ -152,18 +297,16 @@ pub fn generalized_eigenvalues(k: &DMatrix<f64>, m: &DMatrix<f64>) -> Vec<f64> {
             .l();
         let linv = l.clone().try_inverse().expect("invertible");
         let s = &linv * (k + k.transpose()) * 0.5 * linv.transpose();
-        nalgebra::SymmetricEigen::new(s)
-            .eigenvalues
-            .iter()
-            .copied()
-            .collect()
+        match symmetric_eigen(s, "matrix M⁻¹K") {
+            Ok(e) => e.eigenvalues.iter().copied().collect(),
+            Err(_) => vec![f64::NAN; k.nrows()],
+        }
     } else {
         let minv = m.clone().try_inverse().expect("invertible");
-        (minv * k)
-            .complex_eigenvalues()
-            .iter()
-            .map(|c| c.re)
-            .collect()
+        match complex_eigenvalues(minv * k, "matrix M⁻¹K") {
+            Ok(e) => e.iter().map(|c| c.re).collect(),
+            Err(_) => vec![f64::NAN; k.nrows()],
+        }
     };
     w.sort_by(f64::total_cmp);
     w
@@ -324,5 +467,41 @@ mod tests {
         sing.add(1, 0, 1.0);
         sing.add(1, 1, 1.0);
         assert!(!sing.factor(1e-10));
+    }
+
+    #[test]
+    fn guarded_decompositions_refuse_non_finite_input() {
+        let mut m = DMatrix::from_row_slice(2, 2, &[3.0, 1.0, 1.0, 2.0]);
+        // a finite matrix: the closed-form eigenvalues (5 ± √5)/2 and singular values
+        let e = symmetric_eigen(m.clone(), "test").unwrap();
+        let mut ev: Vec<f64> = e.eigenvalues.iter().copied().collect();
+        ev.sort_by(f64::total_cmp);
+        assert!((ev[0] - (5.0 - 5f64.sqrt()) / 2.0).abs() < 1e-14);
+        assert!((ev[1] - (5.0 + 5f64.sqrt()) / 2.0).abs() < 1e-14);
+        let sv = svd(m.clone(), true, true, "test").unwrap().singular_values;
+        assert!((sv[0] - (5.0 + 5f64.sqrt()) / 2.0).abs() < 1e-14); // descending
+        let ce = complex_eigenvalues(m.clone(), "test").unwrap();
+        assert!(ce.iter().all(|z| z.im == 0.0));
+        // the first non-finite entry is named, by column then row
+        m[(1, 0)] = f64::INFINITY;
+        m[(0, 1)] = f64::NAN;
+        let err = svd(m.clone(), false, false, "test matrix").unwrap_err();
+        assert_eq!(
+            err,
+            Failure::NonFiniteMatrix {
+                what: "test matrix".into(),
+                row: 1,
+                col: 0,
+                value: "inf".into()
+            }
+        );
+        assert!(symmetric_eigen(m.clone(), "t").is_err());
+        assert!(complex_eigenvalues(m.clone(), "t").is_err());
+        // the fallbacks pass NaN on, shaped
+        let nan = svd_or_nan(m.clone(), true, true);
+        assert_eq!(nan.singular_values.len(), 2);
+        assert!(nan.singular_values[0].is_nan());
+        assert_eq!(nan.v_t.unwrap().shape(), (2, 2));
+        assert!(symmetric_eigen_or_nan(m).eigenvalues[0].is_nan());
     }
 }

@@ -179,6 +179,16 @@ pub enum Invalid {
         "the refinement resolution {refine} is not finer than a peak's bracket (2 × the frequency step {step}): nothing would be refined"
     )]
     RefineTooCoarse { refine: f64, step: f64 },
+    /// A step too small to change the stepped quantity in double precision
+    /// (|step| < 1e-12 · `scale`, `scale` = max(|from|, |to|, 1)).
+    #[error(
+        "{argument} {step:e} cannot change a value of size {scale:e} in double precision (below 1e-12 of it): nothing would move"
+    )]
+    StepTooSmall {
+        argument: Argument,
+        step: f64,
+        scale: f64,
+    },
     /// A family's values (`PARAM=v1,v2,...`) without `=`.
     #[error("the family of values `{spec}` is not of the form PARAM=v1,v2,...")]
     FamilySyntax { spec: String },
@@ -284,6 +294,7 @@ impl Invalid {
                 _ => "give a larger step",
             }
             .into(),
+            StepTooSmall { .. } => "give a step above 1e-12 of the range's magnitude".into(),
             RefineTooCoarse { .. } => {
                 "give a resolution below the frequency step (e.g. the step / 100), or none".into()
             }
@@ -331,6 +342,11 @@ mod tests {
             RefineTooCoarse {
                 refine: 1.0,
                 step: 0.5,
+            },
+            StepTooSmall {
+                argument: Argument::ArclengthStep,
+                step: 1e-300,
+                scale: 10.0,
             },
             FamilySyntax { spec: "F0".into() },
             FamilyUnnamed { spec: "=1".into() },

@@ -89,7 +89,7 @@ fn unstable_equilibrium_has_real_eigenvalues() {
     assert!(!mid.stable);
     assert!(rel(mid.omega2[0], want["omega2"].as_f64().unwrap()) <= 1e-8);
     let lin = detune::linear::Linearization::new(&st, mid);
-    let modes = lin.modes(2);
+    let modes = lin.modes(2).unwrap();
     assert_eq!(modes.len(), 2);
     let mut re: Vec<f64> = modes.iter().map(|m| m.eigenvalue.re).collect();
     re.sort_by(f64::total_cmp);

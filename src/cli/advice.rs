@@ -157,11 +157,29 @@ pub fn wording(invalid: &Invalid) -> Option<Wording> {
                 not_valid(*argument, *value)?,
                 "that is more than 50 million samples; use a larger --dt-out",
             ),
+            Argument::Duration => said(
+                format!(
+                    "--t-end {} s gives more than 50 million samples at this --dt-out",
+                    detune::diag::num(*value)
+                ),
+                "shorten --t-end, or use a larger --dt-out",
+            ),
             _ => said(
                 format!("{} {value} gives {points} points", flag(*argument)?),
                 &hint,
             ),
         },
+        StepTooSmall {
+            argument,
+            step,
+            scale,
+        } => said(
+            format!(
+                "{} {step:e} cannot move a value of size {scale:e} in double precision (below 1e-12 of it)",
+                flag(*argument)?
+            ),
+            &format!("give {} above {:e}", flag(*argument)?, 1e-12 * scale),
+        ),
         RefineTooCoarse { refine, step } => said(
             format!(
                 "--refine {refine} is not finer than a peak's bracket (2 × the step {step}): nothing would be refined"
@@ -205,7 +223,9 @@ fn not_valid(argument: Argument, value: f64) -> Option<String> {
         Argument::Duration
         | Argument::OutputInterval
         | Argument::RelativeTolerance
-        | Argument::AbsoluteTolerance => format!("{flag} = {value} is not valid"),
-        _ => format!("{flag} {value} is not valid"),
+        | Argument::AbsoluteTolerance => {
+            format!("{flag} = {} is not valid", detune::diag::num(value))
+        }
+        _ => format!("{flag} {} is not valid", detune::diag::num(value)),
     })
 }

@@ -83,7 +83,13 @@ pub fn run(a: MarginsArgs) -> Result<Outcome> {
             println!("\nno oscillatory modes: nothing can resonate with a forcing line");
         }
         for s in &skipped {
-            println!("note: λ = {:.6} 1/s left out: {}", s.eigenvalue, s.reason);
+            let lam = s.eigenvalue;
+            let lam = if lam.abs() < 1e15 {
+                format!("{lam:.6}")
+            } else {
+                detune::diag::num(lam)
+            };
+            println!("note: λ = {lam} 1/s left out: {}", s.reason);
         }
         print_table(&check);
         println!();

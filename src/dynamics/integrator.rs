@@ -239,6 +239,11 @@ fn integration_error(e: differential_equations::error::Error<f64, Vec<f64>>) -> 
         E::StepSize { t, .. } => Failure::StepSizeUnderflow { t }.into(),
         E::MaxSteps { t, .. } => Failure::TooManySteps { t }.into(),
         E::Stiffness { t, .. } => Failure::Stiff { t }.into(),
+        // the initial step estimate is zero when the accelerations at the start are
+        // enormous (a stiffness near 1e308), not because of the run's length
+        E::BadInput { msg } if msg.contains("Initial step size") => {
+            Failure::StepSizeUnderflow { t: 0.0 }.into()
+        }
         E::BadInput { msg } => Failure::Integrator {
             message: msg,
             bad_input: true,

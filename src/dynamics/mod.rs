@@ -136,7 +136,7 @@ impl MassInverse {
         let mut out = DMatrix::zeros(nv, nv);
         for &(c0, n, v0) in &self.groups {
             let m = DMatrix::from_row_slice(n, n, &self.vals[v0..v0 + n * n]);
-            let e = m.symmetric_eigen();
+            let e = crate::linalg::symmetric_eigen_or_nan(m);
             let r = e.eigenvectors.clone()
                 * DMatrix::from_diagonal(&e.eigenvalues.map(|x| x.max(0.0).sqrt()))
                 * e.eigenvectors.transpose();
@@ -279,7 +279,7 @@ pub fn constraint_rank(sys: &System, q: &[f64], t: f64) -> usize {
     if !all_finite(bm.as_slice()) {
         return 0;
     }
-    let svd = bm.svd(false, false);
+    let svd = crate::linalg::svd_or_nan(bm, false, false);
     let smax = svd.singular_values.max();
     svd.singular_values
         .iter()
@@ -544,7 +544,7 @@ fn weighted_min_norm(
     if !all_finite(af.as_slice()) || !all_finite(r.as_slice()) {
         return DVector::from_element(cols.len(), f64::NAN);
     }
-    let svd = af.svd(true, true);
+    let svd = crate::linalg::svd_or_nan(af, true, true);
     let eps = RANK_TOL * svd.singular_values.max().max(f64::MIN_POSITIVE);
     let y = svd
         .solve(r, eps)

@@ -306,9 +306,15 @@ fn check_options(o: &SimOptions) -> Result<()> {
             value: o.atol,
         }
     } else if o.t_end / o.dt_out > MAX_SAMPLES as f64 {
+        // blame the duration unless the output interval is itself unreasonably fine
+        let (argument, value) = if o.dt_out >= 1e-4 {
+            (Argument::Duration, o.t_end)
+        } else {
+            (Argument::OutputInterval, o.dt_out)
+        };
         Invalid::TooManyPoints {
-            argument: Argument::OutputInterval,
-            value: o.dt_out,
+            argument,
+            value,
             points: (o.t_end / o.dt_out) as usize,
             limit: MAX_SAMPLES,
         }

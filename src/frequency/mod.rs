@@ -408,7 +408,7 @@ fn mpe(x: &[DVector<f64>]) -> Option<DVector<f64>> {
     let u = DMatrix::from_fn(d, k + 1, |i, j| x[j + 1][i] - x[j][i]);
     let a = u.columns(0, k).into_owned();
     let b = -u.column(k).into_owned();
-    let svd = a.svd(true, true);
+    let svd = crate::linalg::svd_or_nan(a, true, true);
     let eps = 1e-12 * svd.singular_values.max();
     let c = svd.solve(&b, eps).ok()?;
     let mut coef: Vec<f64> = c.iter().copied().collect();

@@ -157,16 +157,22 @@ impl Linearization {
 
     /// Damped modes sorted by ω_n; one per complex pair, every real eigenvalue. Shapes are
     /// normalized so that coordinate `reference` is 1 (if it moves in that mode).
-    pub fn modes(&self, reference: usize) -> Vec<Mode> {
+    pub fn modes(&self, reference: usize) -> Result<Vec<Mode>> {
         let k = self.dof();
         if k == 0 {
-            return Vec::new();
+            return Ok(Vec::new());
         }
+        crate::linalg::check_finite(&self.mass, "reduced mass matrix")?;
+        crate::linalg::check_finite(&self.stiffness, "reduced stiffness matrix")?;
+        crate::linalg::check_finite(&self.damping, "reduced damping matrix")?;
         let minv = self
             .mass
             .clone()
             .try_inverse()
-            .expect("reduced mass is invertible");
+            .ok_or(Failure::NonFiniteResult {
+                quantity: "the inverse of the reduced mass matrix (singular)".into(),
+                value: f64::INFINITY,
+            })?;
         let mut s = DMatrix::zeros(2 * k, 2 * k);
         s.view_mut((0, k), (k, k))
             .copy_from(&DMatrix::identity(k, k));
@@ -174,7 +180,7 @@ impl Linearization {
             .copy_from(&(-&minv * &self.stiffness));
         s.view_mut((k, k), (k, k))
             .copy_from(&(-&minv * &self.damping));
-        let eig = s.complex_eigenvalues();
+        let eig = crate::linalg::complex_eigenvalues(s, "state matrix [0 I; −M⁻¹K −M⁻¹C]")?;
         let mut modes: Vec<Mode> = Vec::new();
         for lam in eig.iter() {
             let scale = lam.norm().max(1e-300);
@@ -187,6 +193,25 @@ impl Linearization {
                 *lam
             };
             let x = self.shape(lam);
+            // λ² M + λ C + K overflows for |λ| beyond ~1e154 (a damper near 1e160)
+            if let Some(z) = x.iter().find(|z| !(z.re.is_finite() && z.im.is_finite())) {
+                return Err(Failure::NonFiniteResult {
+                    quantity: if lam.im == 0.0 {
+                        format!(
+                            "the shape of the mode at λ = {} 1/s",
+                            crate::diag::num(lam.re)
+                        )
+                    } else {
+                        format!(
+                            "the shape of the mode at λ = {} ± {}i 1/s",
+                            crate::diag::num(lam.re),
+                            crate::diag::num(lam.im.abs())
+                        )
+                    },
+                    value: if z.re.is_finite() { z.im } else { z.re },
+                }
+                .into());
+            }
             let full = self.basis.map(|v| Complex::new(v, 0.0)) * x;
             let r = full[reference];
             let imax = (0..full.len())
@@ -215,7 +240,7 @@ impl Linearization {
                 .total_cmp(&b.omega_n_rad_s)
                 .then(a.eigenvalue.re.total_cmp(&b.eigenvalue.re))
         });
-        modes
+        Ok(modes)
     }
 
     /// Null vector of λ²M_r + λC_r + K_r (right singular vector of the smallest
@@ -224,7 +249,7 @@ impl Linearization {
         let c = |m: &DMatrix<f64>| m.map(|v| Complex::new(v, 0.0));
         let p = c(&self.mass) * (lam * lam) + c(&self.damping) * lam + c(&self.stiffness);
         let k = p.ncols();
-        let svd = p.svd(false, true);
+        let svd = crate::linalg::svd_or_nan(p, false, true);
         let v_t = svd.v_t.expect("requested");
         let imin = (0..k)
             .min_by(|&i, &j| svd.singular_values[i].total_cmp(&svd.singular_values[j]))
@@ -240,6 +265,14 @@ impl Linearization {
         let nb = c(&self.basis);
         let dynamic = c(&self.stiffness) - c(&self.mass) * Complex::new(omega * omega, 0.0)
             + c(&self.damping) * Complex::new(0.0, omega);
+        // ω²M overflows above ω ≈ 1e154 rad/s: an error, not a row of NaN
+        crate::linalg::check_finite(
+            &dynamic,
+            &format!(
+                "dynamic stiffness K − ω²M + iωC at ω = {} rad/s",
+                crate::diag::num(omega)
+            ),
+        )?;
         let moving = forcing.constraint.iter().any(|z| z.norm() > 0.0);
         let particular = if moving {
             // Y_p = −Ā⁺ P (minimum norm), real and imaginary parts separately
@@ -266,7 +299,7 @@ impl Linearization {
         // value, which for one degree of freedom is the smallest one too).
         let scale =
             self.stiffness.norm() + omega * omega * self.mass.norm() + omega * self.damping.norm();
-        let sv = dynamic.clone().svd(false, false).singular_values;
+        let sv = crate::linalg::svd_or_nan(dynamic.clone(), false, false).singular_values;
         if !sv.is_empty() && sv.min() <= 1e-10 * scale {
             return Err(Failure::UndampedResonance { omega }.into());
         }
@@ -274,10 +307,21 @@ impl Linearization {
             .lu()
             .solve(&rhs)
             .ok_or(Failure::UndampedResonance { omega })?;
-        Ok(match particular {
+        let y = match particular {
             None => nb * x,
             Some(yp) => nb * x + yp,
-        })
+        };
+        if let Some(v) = y.iter().find(|z| !(z.re.is_finite() && z.im.is_finite())) {
+            return Err(Failure::NonFiniteResult {
+                quantity: format!(
+                    "a response amplitude at ω = {} rad/s",
+                    crate::diag::num(omega)
+                ),
+                value: if v.re.is_finite() { v.im } else { v.re },
+            }
+            .into());
+        }
+        Ok(y)
     }
 }
 
@@ -363,7 +407,7 @@ pub fn modal_analysis(sys: &System, normalize: Option<&str>) -> Result<ModalAnal
     let st = Statics::new(sys, &start.q)?;
     let equilibrium = st.nearest(&start)?;
     let linearization = Linearization::new(&st, &equilibrium);
-    let modes = linearization.modes(reference);
+    let modes = linearization.modes(reference)?;
     let undamped_omega2 = linearization.undamped_omega2();
     Ok(ModalAnalysis {
         coordinates: sys.coordinates.clone(),

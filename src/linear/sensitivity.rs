@@ -288,7 +288,7 @@ pub fn undamped_modes(lin: &Linearization) -> (Vec<f64>, DMatrix<f64>) {
         .unwrap_or_else(|| DMatrix::identity(k, k));
     let s = &li * &lin.stiffness * li.transpose();
     let s = (&s + s.transpose()) * 0.5;
-    let eig = s.symmetric_eigen();
+    let eig = crate::linalg::symmetric_eigen_or_nan(s);
     let mut idx: Vec<usize> = (0..k).collect();
     idx.sort_by(|&a, &b| eig.eigenvalues[a].total_cmp(&eig.eigenvalues[b]));
     let w2: Vec<f64> = idx.iter().map(|&i| eig.eigenvalues[i]).collect();
@@ -310,7 +310,7 @@ fn null_vectors(
     let p = c(&lin.mass) * (lam * lam) + c(&lin.damping) * lam + c(&lin.stiffness);
     let right = |p: DMatrix<Complex<f64>>| {
         let k = p.ncols();
-        let svd = p.svd(false, true);
+        let svd = crate::linalg::svd_or_nan(p, false, true);
         let imin = (0..k)
             .min_by(|&i, &j| svd.singular_values[i].total_cmp(&svd.singular_values[j]))
             .unwrap_or(0);
@@ -461,7 +461,7 @@ pub fn modes_at(
     };
     let equilibrium = st.solve(&q0)?;
     let linearization = Linearization::new(&st, &equilibrium);
-    let modes = linearization.modes(base.reference);
+    let modes = linearization.modes(base.reference)?;
     let undamped_omega2 = linearization.undamped_omega2();
     let ma = ModalAnalysis {
         coordinates: s.coordinates.clone(),

@@ -571,7 +571,7 @@ fn solve_at(
         Err(_) => st.nearest(&start)?,
     };
     let linearization = Linearization::new(&st, &equilibrium);
-    let modes = linearization.modes(reference);
+    let modes = linearization.modes(reference)?;
     let undamped_omega2 = linearization.undamped_omega2();
     Ok(ModalAnalysis {
         coordinates: at.coordinates.clone(),

@@ -670,6 +670,30 @@ pub fn parse(src: &str) -> Result<Expr, ExprError> {
     if toks.len() == 1 {
         return Err(ExprError::new(0..src.len(), "empty expression"));
     }
+    // The tree's height is at most its token count, and every walk of the tree (dimension
+    // checks, compilation, printing, dropping) recurses once per level: bounding the length
+    // bounds the stack, whatever the shape (a flat sum of 20,000 terms is 20,000 levels).
+    if toks.len() > MAX_TOKENS + 1 {
+        let mut open = 0usize;
+        for t in &toks {
+            match t.tok {
+                Tok::Op(b'(') => open += 1,
+                Tok::Op(b')') => open = open.saturating_sub(1),
+                _ => {}
+            }
+            if open > MAX_DEPTH {
+                return Err(nested_too_deep(t.span.clone()));
+            }
+        }
+        return Err(ExprError::new(
+            toks[MAX_TOKENS].span.start..src.len(),
+            format!(
+                "expression longer than {MAX_TOKENS} tokens ({} numbers, names and operators)",
+                toks.len() - 1
+            ),
+        )
+        .with_help("split it into parameters that sum or multiply smaller parts"));
+    }
     let mut p = Parser {
         src,
         toks,
@@ -687,7 +711,10 @@ pub fn parse(src: &str) -> Result<Expr, ExprError> {
 }
 
 /// Deepest nesting of parentheses and unary operators accepted.
-const MAX_DEPTH: usize = 200;
+pub const MAX_DEPTH: usize = 200;
+
+/// Most tokens (numbers, names, operators, parentheses) in one expression.
+pub const MAX_TOKENS: usize = 2000;
 
 struct Parser<'a> {
     src: &'a str,
@@ -729,10 +756,7 @@ impl<'a> Parser<'a> {
         f: impl FnOnce(&mut Self) -> Result<T, ExprError>,
     ) -> Result<T, ExprError> {
         if self.depth >= MAX_DEPTH {
-            return Err(ExprError::new(
-                self.peek().span.clone(),
-                "expression nested too deeply",
-            ));
+            return Err(nested_too_deep(self.peek().span.clone()));
         }
         self.depth += 1;
         let r = f(self);
@@ -1073,6 +1097,14 @@ fn binary(op: BinOp, lhs: Expr, rhs: Expr) -> Expr {
         lhs: Box::new(lhs),
         rhs: Box::new(rhs),
     }
+}
+
+fn nested_too_deep(at: Span) -> ExprError {
+    ExprError::new(
+        at,
+        format!("expression nested deeper than {MAX_DEPTH} levels"),
+    )
+    .with_help("remove redundant parentheses or signs, or split it into parameters")
 }
 
 fn unclosed(open: Span) -> ExprError {
@@ -1493,6 +1525,46 @@ mod tests {
 
     fn quantity_dim(src: &str) -> Option<Dim> {
         parse(src).unwrap().dim(&|_| None)
+    }
+
+    #[test]
+    fn long_and_deep_expressions_are_refused_without_recursion() {
+        // a flat sum of 20,000 terms: refused at the first token past the bound
+        let sum = vec!["1"; 20_000].join("+");
+        let e = err(&sum);
+        assert!(
+            e.message.contains("longer than 2000 tokens"),
+            "{}",
+            e.message
+        );
+        assert_eq!(e.span.start, MAX_TOKENS); // token 2000 (from 0) is at byte 2000
+        let product = vec!["x"; 20_000].join("*");
+        assert!(err(&product).message.contains("longer than"));
+        // 100,000 parentheses: the nesting message, at the 201st `(`
+        let deep = format!("{}1{}", "(".repeat(100_000), ")".repeat(100_000));
+        let e = err(&deep);
+        assert!(
+            e.message.contains("nested deeper than 200 levels"),
+            "{}",
+            e.message
+        );
+        assert_eq!(e.span.start, MAX_DEPTH);
+        let e = err(&format!("{}1", "-".repeat(100_000)));
+        assert!(e.message.contains("longer than"), "{}", e.message);
+        // short but deep: the parser's own depth limit, located
+        let e = err(&format!("{}1", "-".repeat(300)));
+        assert!(
+            e.message.contains("nested deeper than 200 levels"),
+            "{}",
+            e.message
+        );
+        let e = err(&format!("{}1{}", "sqrt(".repeat(250), ")".repeat(250)));
+        assert!(e.message.contains("nested deeper"), "{}", e.message);
+        // the largest sum accepted evaluates exactly: 1000 ones
+        let sum = vec!["1"; 1000].join("+");
+        assert_eq!(val(&sum), 1000.0);
+        let alt = vec!["2"; 1000].join("-");
+        assert_eq!(val(&alt), 2.0 - 999.0 * 2.0);
     }
 
     #[test]

@@ -641,7 +641,7 @@ impl Family<'_> {
         // appended makes it square, so that the SVD gives all d + 1)
         let mut sq = DMatrix::zeros(d + 1, d + 1);
         sq.view_mut((0, 0), (d, d + 1)).copy_from(&j);
-        let svd = sq.svd(false, true);
+        let svd = crate::linalg::svd_or_nan(sq, false, true);
         let Some(v_t) = svd.v_t else {
             return Ok(None);
         };
@@ -706,6 +706,17 @@ fn check(sys: &System, opts: &ContinuationOptions) -> Result<usize> {
         return Err(Invalid::NotPositive {
             argument: Argument::ArclengthStep,
             value: opts.step,
+        }
+        .into());
+    }
+    // a step that cannot move the parameter in double precision would run every step in
+    // place and report a one-point branch as a success
+    let scale = opts.from.abs().max(opts.to.abs()).max(1.0);
+    if opts.step < 1e-12 * scale {
+        return Err(Invalid::StepTooSmall {
+            argument: Argument::ArclengthStep,
+            step: opts.step,
+            scale,
         }
         .into());
     }

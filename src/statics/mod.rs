@@ -379,7 +379,7 @@ impl<'a> Statics<'a> {
             // which the Newton solve reports as an undefined residual
             return vec![f64::NAN; self.rows.len()];
         }
-        let svd = ar.transpose().svd(true, true);
+        let svd = crate::linalg::svd_or_nan(ar.transpose(), true, true);
         let eps = RANK_TOL * svd.singular_values.max();
         let l = svd
             .solve(&(-DVector::from_column_slice(&f)), eps)
@@ -639,7 +639,7 @@ impl<'a> Statics<'a> {
             if a.nrows() == 0 || a.ncols() == 0 {
                 return 0;
             }
-            let sv = a.svd(false, false).singular_values;
+            let sv = crate::linalg::svd_or_nan(a, false, false).singular_values;
             sv.iter().filter(|&&s| s > RANK_TOL * sv.max()).count()
         };
         let full = rank(ar.clone());
@@ -882,7 +882,7 @@ fn free_jacobian_conditioning(sys: &System, q: &[f64], rows: &[usize]) -> f64 {
     let mut ws = DynWorkspace::new(sys);
     sys.jacobian(&mut ws.sys, q, 0.0, &mut ws.a);
     let af = ws.a.select_rows(rows.iter()).select_columns(free.iter());
-    let sv = af.svd(false, false).singular_values;
+    let sv = crate::linalg::svd_or_nan(af, false, false).singular_values;
     sv.min() / sv.max()
 }
 
@@ -928,7 +928,7 @@ pub fn independent_rows(sys: &System, q: &[f64]) -> Vec<usize> {
         let mut trial = rows.clone();
         trial.push(i);
         let sub = ws.a.select_rows(trial.iter());
-        let sv = sub.svd(false, false).singular_values;
+        let sv = crate::linalg::svd_or_nan(sub, false, false).singular_values;
         let r = sv.iter().filter(|&&s| s > RANK_TOL * sv.max()).count();
         if r > rank {
             rows = trial;

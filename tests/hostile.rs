@@ -1,0 +1,246 @@
+//! Hostile inputs (issue 13, defects 1, 2, 4 and 6): parameters at the edge of double
+//! precision, expressions of 20,000 terms or 100,000 levels, steps that cannot move.
+//! Each runs the built binary under a 20 s limit (a hang fails the test instead of
+//! blocking the suite) and asserts the exit code, that stderr names the cause, and that
+//! no output file is left behind.
+
+use std::path::Path;
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+mod common;
+
+struct Outcome {
+    code: Option<i32>,
+    stdout: String,
+    stderr: String,
+    dir: tempfile::TempDir,
+}
+
+impl Outcome {
+    fn left(&self, name: &str) -> bool {
+        self.dir.path().join(name).exists()
+    }
+}
+
+/// Run `detune ARGS` in a fresh directory holding the overcentre as `oc.toml`, the
+/// inceptor as `inc.toml` and `extra` files; kill it and fail after 20 s.
+fn run(args: &[&str], extra: &[(&str, &str)]) -> Outcome {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("oc.toml"), common::overcentre_text()).unwrap();
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    std::fs::copy(
+        root.join("models/inceptor.toml"),
+        dir.path().join("inc.toml"),
+    )
+    .unwrap();
+    for (name, text) in extra {
+        std::fs::write(dir.path().join(name), text).unwrap();
+    }
+    let out_path = dir.path().join("stdout.txt");
+    let err_path = dir.path().join("stderr.txt");
+    let mut child = Command::new(env!("CARGO_BIN_EXE_detune"))
+        .current_dir(dir.path())
+        .args(args)
+        .stdin(Stdio::null())
+        .stdout(std::fs::File::create(&out_path).unwrap())
+        .stderr(std::fs::File::create(&err_path).unwrap())
+        .spawn()
+        .unwrap();
+    let start = Instant::now();
+    let status = loop {
+        if let Some(s) = child.try_wait().unwrap() {
+            break s;
+        }
+        if start.elapsed() > Duration::from_secs(20) {
+            let _ = child.kill();
+            let _ = child.wait();
+            panic!("detune {:.200?} did not return within 20 s", args);
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    };
+    Outcome {
+        code: status.code(),
+        stdout: std::fs::read_to_string(&out_path).unwrap(),
+        stderr: std::fs::read_to_string(&err_path).unwrap(),
+        dir,
+    }
+}
+
+/// Exit 1 (an error, not a crash or a signal), stderr containing every one of `needles`,
+/// and no `out.csv`.
+fn refused(o: &Outcome, needles: &[&str]) {
+    assert_eq!(o.code, Some(1), "stderr: {}", o.stderr);
+    for n in needles {
+        assert!(o.stderr.contains(n), "`{n}` not in: {}", o.stderr);
+    }
+    assert!(!o.left("out.csv"), "an output file was left");
+    assert!(!o.stderr.contains("panicked"), "{}", o.stderr);
+}
+
+// Defect 1: non-finite input to a decomposition (formerly a hang or a panic).
+
+#[test]
+fn huge_force_does_not_hang_any_analysis() {
+    for cmd in ["equilibrium", "modes"] {
+        for set in ["Fs=1e308", "Fs=-1e308"] {
+            let o = run(&[cmd, "oc.toml", "--set", set], &[]);
+            refused(&o, &["error:"]);
+        }
+    }
+    let o = run(
+        &[
+            "frf", "oc.toml", "--set", "Fs=1e308", "--param", "omega", "--from", "1", "--to", "3",
+            "--step", "1", "-o", "out.csv",
+        ],
+        &[],
+    );
+    refused(&o, &["error:"]);
+}
+
+#[test]
+fn huge_stiffness_is_refused() {
+    for set in ["k=1e308", "k=-1e308"] {
+        let o = run(&["equilibrium", "oc.toml", "--set", set], &[]);
+        refused(&o, &["no equilibrium found"]);
+    }
+}
+
+#[test]
+fn overflowing_gravity_is_the_loads_overflow() {
+    let o = run(&["equilibrium", "oc.toml", "--set", "g=1e308"], &[]);
+    refused(&o, &["the loads overflow", "1.8e308"]);
+}
+
+/// The inceptor's rotary damper at 1e160 N·m·s/rad: nalgebra's SVD used to panic on its
+/// NaN singular values ("Singular value was NaN", exit 101).
+#[test]
+fn huge_damper_on_the_inceptor_does_not_panic() {
+    let o = run(&["modes", "inc.toml", "--set", "c_d=1e160"], &[]);
+    assert_eq!(o.code, Some(1), "{}", o.stderr);
+    assert!(!o.stderr.contains("panicked"), "{}", o.stderr);
+}
+
+// Defect 4: no non-finite result reported as a success.
+
+/// The inceptor's damper at 1e160: λ² M + λ C + K overflows for its overdamped mode
+/// (λ ≈ -1.1e160 1/s), whose shape was written as null (NaN) to the report's JSON.
+#[test]
+fn report_with_an_overflowing_mode_shape_is_refused() {
+    let o = run(
+        &["report", "inc.toml", "--set", "c_d=1e160", "-o", "r.html"],
+        &[],
+    );
+    assert_eq!(o.code, Some(1), "{}", o.stderr);
+    assert!(
+        o.stderr
+            .contains("the shape of the mode at λ = -1.1111111111111113e160 1/s"),
+        "{}",
+        o.stderr
+    );
+    assert!(!o.left("r.html") && !o.left("r.json"));
+}
+
+/// c = 1e160: c² overflows in the state matrix's eigenvalues, which were printed as NaN
+/// frequencies with exit 0.
+#[test]
+fn huge_damping_gives_no_nan_frequencies() {
+    let o = run(&["modes", "oc.toml", "--set", "c=1e160", "--json"], &[]);
+    refused(&o, &["not finite", "double precision"]);
+    assert!(!o.stdout.contains("NaN") && !o.stdout.contains("null"));
+}
+
+/// ω² M overflows above ω ≈ 1.3e154 rad/s: the frf wrote NaN rows.
+#[test]
+fn frf_above_1e154_writes_no_nan_rows() {
+    let o = run(
+        &[
+            "frf", "oc.toml", "--set", "F0=1", "--param", "omega", "--from", "1e154", "--to",
+            "1e160", "--step", "1e159", "-o", "out.csv",
+        ],
+        &[],
+    );
+    refused(
+        &o,
+        &["dynamic stiffness", "is not finite", "1.00001e159 rad/s"],
+    );
+}
+
+// Defect 2: expressions that overflowed the stack (SIGABRT, exit 134).
+
+#[test]
+fn sum_of_20000_terms_via_set_is_a_located_error() {
+    let sum = format!("Fs={}", vec!["1"; 20_000].join("+"));
+    let o = run(&["equilibrium", "oc.toml", "--set", &sum], &[]);
+    refused(&o, &["longer than 2000 tokens"]);
+    let product = format!("Fs={}", vec!["1"; 20_000].join("*"));
+    let o = run(&["equilibrium", "oc.toml", "--set", &product], &[]);
+    refused(&o, &["longer than 2000 tokens"]);
+}
+
+#[test]
+fn sum_of_20000_terms_in_a_model_file_is_located() {
+    let text = common::overcentre_text().replace(
+        "Fs = { value = 0,",
+        &format!("Fs = {{ value = \"{}\",", vec!["1"; 20_000].join("+")),
+    );
+    assert!(text.len() > 40_000);
+    let o = run(&["equilibrium", "long.toml"], &[("long.toml", &text)]);
+    refused(&o, &["longer than 2000 tokens", "long.toml"]);
+    // the line of `Fs` in the file
+    let line = text.lines().position(|l| l.starts_with("Fs = ")).unwrap() + 1;
+    assert!(
+        o.stderr.contains(&format!("long.toml:{line}:")),
+        "{}",
+        o.stderr
+    );
+}
+
+#[test]
+fn nesting_100000_deep_is_a_located_error() {
+    let deep = format!("{}1{}", "(".repeat(100_000), ")".repeat(100_000));
+    let text = common::overcentre_text()
+        .replace("Fs = { value = 0,", &format!("Fs = {{ value = \"{deep}\","));
+    let o = run(&["equilibrium", "deep.toml"], &[("deep.toml", &text)]);
+    refused(&o, &["nested deeper than 200 levels", "deep.toml"]);
+    // unary minus chains through --set (60,000: below the kernel's 128 KiB per argument)
+    let minus = format!("Fs={}1", "-".repeat(60_000));
+    let o = run(&["equilibrium", "oc.toml", "--set", &minus], &[]);
+    refused(&o, &["error:"]);
+}
+
+// Defect 6: messages.
+
+#[test]
+fn t_end_1e300_blames_t_end_in_short_numbers() {
+    let o = run(
+        &["simulate", "oc.toml", "--t-end", "1e300", "-o", "out.csv"],
+        &[],
+    );
+    refused(&o, &["--t-end 1e300 s"]);
+    assert!(!o.stderr.contains("000000000000"), "{}", o.stderr);
+}
+
+#[test]
+fn continue_with_a_step_that_cannot_move_is_refused() {
+    let o = run(
+        &[
+            "continue", "oc.toml", "--param", "Fs", "--from", "0", "--to", "10", "--step",
+            "1e-300", "-o", "out.csv",
+        ],
+        &[],
+    );
+    refused(&o, &["--step 1e-300", "double precision"]);
+}
+
+#[test]
+fn values_nan_keeps_its_context() {
+    let o = run(
+        &[
+            "sweep", "oc.toml", "--param", "omega", "--from", "1", "--to", "2", "--step", "1",
+            "--values", "F0=nan", "-o", "out.csv",
+        ],
+        &[],
+    );
+    refused(&o, &["--values F0=nan"]);
+}
