@@ -896,7 +896,8 @@ fn solve_choice(
         .iter()
         .map(|c| Box::new(move |x: &[f64], _: &mut ()| -c(x, None, &mut ())) as Cob<'_>)
         .collect();
-    let cob_ref: Vec<&dyn Fn(&[f64], &mut ()) -> f64> = cob.iter().map(|c| c.as_ref()).collect();
+    type CobRef<'c> = &'c dyn Fn(&[f64], &mut ()) -> f64;
+    let cob_ref: Vec<CobRef<'_>> = cob.iter().map(|c| c.as_ref()).collect();
     let cobyla_from = |x0: &[f64], span: f64, evaluations: usize| -> Vec<f64> {
         match cobyla::minimize(
             |x: &[f64], _: &mut ()| cost_of(x),
@@ -928,12 +929,13 @@ fn solve_choice(
         if blocking.is_none() {
             found = Some((y, "COBYLA"));
         }
-    } else if opts.optimizer == Optimizer::Auto && !opts.tolerances.is_empty() {
-        if let Some((x, _)) = found.clone() {
-            let y = cobyla_from(&x, 0.05, opts.max_evaluations);
-            if blocking_at(&y).is_none() && cost_of(&y) < cost_of(&x) {
-                found = Some((y, "SLSQP+COBYLA"));
-            }
+    } else if opts.optimizer == Optimizer::Auto
+        && !opts.tolerances.is_empty()
+        && let Some((x, _)) = found.clone()
+    {
+        let y = cobyla_from(&x, 0.05, opts.max_evaluations);
+        if blocking_at(&y).is_none() && cost_of(&y) < cost_of(&x) {
+            found = Some((y, "SLSQP+COBYLA"));
         }
     }
     found.ok_or_else(|| blocking.unwrap_or_default())

@@ -604,10 +604,13 @@ pub(crate) fn evaluate(ma: &ModalAnalysis) -> Evaluated {
     }
 }
 
+/// For each baseline mode, the case's mode and its MAC with the baseline's shape.
+pub(crate) type Matches = Vec<Option<(usize, f64)>>;
+
 /// [`modes_at`] with each oscillatory baseline mode followed to the case: its label is
 /// carried from the baseline along the straight path p0 + s (p1 − p0), s from 0 to 1, by
 /// mass-weighted MAC against the previous step ([`super::tracking::carry_labels`]) with
-/// the analytic dλ/dp as predictor, the step halved (down to 2^−[`FOLLOW_HALVINGS`] of
+/// the analytic dλ/dp as predictor (computed once a step has been halved), the step halved (down to 2^−[`FOLLOW_HALVINGS`] of
 /// the way) where the best match is poor or ambiguous, where a label's mode is not the one
 /// nearest its predicted λ, or where two labels' frequencies change order (a crossing or a
 /// veering inside the step, which a long step's shapes cannot tell: across a veering the
@@ -622,7 +625,7 @@ pub(crate) fn modes_followed(
     values: &[(usize, f64)],
     normalize: Option<&str>,
     base: &ModalAnalysis,
-) -> Result<(System, ModalAnalysis, Vec<Option<(usize, f64)>>)> {
+) -> Result<(System, ModalAnalysis, Matches)> {
     let start = baseline_labels(base);
     let from: Vec<f64> = values.iter().map(|&(i, _)| sys.param(i)).collect();
     let (end, last) = follow(sys, &from, sys.clone(), start, values, normalize)?;
