@@ -314,10 +314,15 @@ fn bad_varies_are_refused_with_advice() {
         (vec!["--vary", "kk=±10%"], "no parameter `kk`"),
         (vec!["--vary", "k=±10%", "--vary", "k=1,2"], "varied twice"),
         (vec!["--vary", "m=±10%"], "relative change"),
-        (vec!["--vary", "m1=±150%"], "mass"),
+        (vec!["--vary", "m1=±150%"], "(m1 = -0.5 kg)"),
         (vec!["--vary", "k=±3 kg"], "N/m"),
         (vec!["--vary", "k"], "NAME=CHANGE"),
-        (vec!["--vary", "k=120%..80%"], "empty"),
+        (
+            vec!["--vary", "k=120%..80%"],
+            "reversed: give the lower level first (80%..120%)",
+        ),
+        (vec!["--vary", "k=100%..100%"], "has one level"),
+        (vec!["--vary", "k=10%"], "without a sign: write ±10%"),
     ] {
         let mut a = vec!["sensitivity", "models/overcentre.toml"];
         a.extend(args.iter().copied());

@@ -361,9 +361,14 @@ pub fn vary(model: &Model, sys: &System, text: &str) -> Result<detune::linear::s
                 "a range of levels is written a%..b%, e.g. 80%..120%".into()
             ));
         };
-        if a >= b {
+        if a == b {
             return Err(bad(format!(
-                "the range {a}%..{b}% is empty: give the lower level first"
+                "the range {a}%..{b}% has one level: give two different levels, lower first (e.g. 80%..120%)"
+            )));
+        }
+        if a > b {
+            return Err(bad(format!(
+                "the range {a}%..{b}% is reversed: give the lower level first ({b}%..{a}%)"
             )));
         }
         if a <= 0.0 {
@@ -376,6 +381,12 @@ pub fn vary(model: &Model, sys: &System, text: &str) -> Result<detune::linear::s
     } else if (change.starts_with('+') || change.starts_with('-')) && percent(change).is_some() {
         let pc = percent(change).unwrap_or(0.0);
         cases.push((format!("{name}{change}"), p0 + relative(pc / 100.0)?));
+    } else if let Some(pc) = percent(change) {
+        return Err(bad(format!(
+            "`{change}` is a change without a sign: write ±{pc}% (both sides), +{pc}% or -{pc}% (one), or a range of levels such as {}%..{}%",
+            100.0 - pc,
+            100.0 + pc
+        )));
     } else {
         for v in change.split(',') {
             if v.trim().is_empty() {
@@ -390,8 +401,10 @@ pub fn vary(model: &Model, sys: &System, text: &str) -> Result<detune::linear::s
         }
         let mut s = sys.clone();
         s.set_param(param, *v).map_err(|e| {
+            let unit = model.param_unit(name);
             e.context(&format!(
-                "--vary {text}: the case {label} ({name} = {v} SI)"
+                "--vary {text}: the case {label} ({name} = {})",
+                format!("{} {unit}", detune::diag::num(*v)).trim_end()
             ))
         })?;
     }
