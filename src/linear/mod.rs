@@ -481,7 +481,10 @@ pub fn harmonic_forcing(
         && forcing.constraint.iter().all(|c| c.norm() <= 1e-14 * size)
     {
         return Err(Error::request(
-            format!("zero forcing: the model's loads have no harmonic part at {param} = {omega}"),
+            format!(
+                "zero forcing: the model's loads have no harmonic part at {param} = {} rad/s",
+                crate::diag::num(omega)
+            ),
             "give the forcing (a load or a ground motion) an amplitude, or check that it depends on this parameter",
         ));
     }
