@@ -263,20 +263,27 @@ fn print_table(check: &MarginCheck) {
         } else {
             String::new()
         };
-        let line_w = if r.band_lo_rad_s < r.band_hi_rad_s {
-            format!("{:.2}–{:.2}", r.band_lo_rad_s, r.band_hi_rad_s)
+        // a band in both columns (rad/s and Hz), a line as one value in each
+        let (line_w, line_f) = if r.band_lo_rad_s < r.band_hi_rad_s {
+            (
+                format!("{:.2}–{:.2}", r.band_lo_rad_s, r.band_hi_rad_s),
+                format!("{:.3}–{:.3}", r.band_lo_rad_s / TAU, r.band_hi_rad_s / TAU),
+            )
         } else {
-            format!("{:.4}", r.line_rad_s)
+            (
+                format!("{:.4}", r.line_rad_s),
+                format!("{:.4}", r.line_rad_s / TAU),
+            )
         };
         println!(
-            "{:<mw$} {:>12.4} {:>9.4} {:>8.4} {interval}{:<8} {:>12} {:>9.4} {:>10.2} % {:>8} {:>9.2} % {:>5}",
+            "{:<mw$} {:>12.4} {:>9.4} {:>8.4} {interval}{:<8} {:>12} {:>9} {:>10.2} % {:>8} {:>9.2} % {:>5}",
             r.mode,
             r.omega_n_rad_s,
             r.omega_n_rad_s / TAU,
             r.damping_ratio,
             r.line,
             line_w,
-            r.line_rad_s / TAU,
+            line_f,
             r.separation_pct,
             r.side.as_str(),
             r.required_pct,
