@@ -933,7 +933,7 @@ fn solve_choice(
         && !opts.tolerances.is_empty()
         && let Some((x, _)) = found.clone()
     {
-        let y = cobyla_from(&x, 0.05, opts.max_evaluations);
+        let y = cobyla_from(&x, 0.02, opts.max_evaluations / 4);
         if blocking_at(&y).is_none() && cost_of(&y) < cost_of(&x) {
             found = Some((y, "SLSQP+COBYLA"));
         }
