@@ -307,25 +307,28 @@ fn toleranced_spring_chain_design_clears_the_band_over_the_box() {
     );
 }
 
+/// The toleranced tuning of docs/sensitivity-and-tuning.md.
+const TOLERANCED: [&str; 12] = [
+    "tune",
+    "models/inceptor.toml",
+    "--environment",
+    "UH-60",
+    "--vary",
+    "k_fs=60%..150%",
+    "--vary",
+    "gearbox_scale=55%..145%",
+    "--tolerance",
+    "k_fs=±10%",
+    "--tolerance",
+    "gearbox_scale=±5%",
+];
+
 /// `tune --tolerance` prints a design that `margins --vary` with the same tolerances
 /// passes (the check command it prints, run as printed), where the nominal design fails
 /// over the same box.
 #[test]
 fn inceptor_toleranced_design_passes_margins_over_the_box() {
-    let (code, out, err) = detune(&[
-        "tune",
-        "models/inceptor.toml",
-        "--environment",
-        "UH-60",
-        "--vary",
-        "k_fs=60%..150%",
-        "--vary",
-        "gearbox_scale=55%..145%",
-        "--tolerance",
-        "k_fs=±10%",
-        "--tolerance",
-        "gearbox_scale=±5%",
-    ]);
+    let (code, out, err) = detune(&TOLERANCED);
     assert_eq!(code, 0, "{err}");
     let check = out
         .lines()
@@ -357,23 +360,9 @@ fn inceptor_toleranced_design_passes_margins_over_the_box() {
     // the default optimizer reaches the same minimum as COBYLA alone (SLSQP's gradients
     // leave out the tolerance spread's own change; COBYLA polishes its point)
     let toleranced = |optimizer: &str| {
-        let (code, out, err) = detune(&[
-            "tune",
-            "models/inceptor.toml",
-            "--environment",
-            "UH-60",
-            "--vary",
-            "k_fs=60%..150%",
-            "--vary",
-            "gearbox_scale=55%..145%",
-            "--tolerance",
-            "k_fs=±10%",
-            "--tolerance",
-            "gearbox_scale=±5%",
-            "--optimizer",
-            optimizer,
-            "--json",
-        ]);
+        let mut args = TOLERANCED.to_vec();
+        args.extend(["--optimizer", optimizer, "--json"]);
+        let (code, out, err) = detune(&args);
         assert_eq!(code, 0, "{err}");
         serde_json::from_str::<serde_json::Value>(&out).unwrap()["designs"].clone()
     };
