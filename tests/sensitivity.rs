@@ -323,6 +323,15 @@ fn bad_varies_are_refused_with_advice() {
         ),
         (vec!["--vary", "k=100%..100%"], "has one level"),
         (vec!["--vary", "k=10%"], "without a sign: write ±10%"),
+        // past a fold: the first case in order is named, and the advice is the range's
+        (
+            vec!["--vary", "L2=±90%"],
+            "the case L2+90%: no equilibrium found",
+        ),
+        (
+            vec!["--vary", "L2=±90%"],
+            "help: narrow the range of that --vary",
+        ),
     ] {
         let mut a = vec!["sensitivity", "models/overcentre.toml"];
         a.extend(args.iter().copied());

@@ -73,12 +73,17 @@ pub fn run(a: SensitivityArgs) -> Result<()> {
             "add `forcing_frequency = \"omega\"` to [model], or use --method linear",
         ));
     }
-    let mut study = sensitivity(&sys, &vs, None, None).inspect_err(|e| {
-        if matches!(e.failure(), Some(detune::failure::Failure::NoEquilibrium { .. })) {
-            eprintln!(
-                "note: each case starts from the baseline's equilibrium; none near it means the change takes the mechanism past a fold (the equilibrium vanishes): give a smaller change, or look with `detune continue --param NAME`"
-            );
-        }
+    // A case with no equilibrium near the baseline's: the change takes the mechanism
+    // past a fold. The statics' generic advice (another initial pose) is wrong here.
+    let mut study = sensitivity(&sys, &vs, None, None).map_err(|e| match &e {
+        Error::Failed {
+            failure: f @ detune::failure::Failure::NoEquilibrium { .. },
+            context,
+        } => Error::numerical(
+            format!("{}: {f}", context.join(": ")),
+            "narrow the range of that --vary: each case starts from the baseline's equilibrium, and none near it means the change takes the mechanism past a fold (the equilibrium vanishes); `detune continue --param NAME` shows where",
+        ),
+        _ => e,
     })?;
     if a.method != Method::Linear {
         super::interrupt_on_ctrl_c();

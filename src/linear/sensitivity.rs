@@ -839,6 +839,9 @@ pub fn sensitivity(
             let (label, value) = &vary.cases[c];
             run(label, &vary.name, &[(vary.param, *value)])
         })
+        // in order, not in whichever order the threads fail: the error is the first case's
+        .collect::<Vec<_>>()
+        .into_iter()
         .collect::<Result<_>>()?;
 
     // derivatives and their finite differences (4-point central, h = 1e-4 |p|)
@@ -871,6 +874,8 @@ pub fn sensitivity(
                 &[(vary.param, value)],
             )
         })
+        .collect::<Vec<_>>()
+        .into_iter()
         .collect::<Result<_>>()?;
 
     // the tolerance box's corners
