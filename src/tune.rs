@@ -181,7 +181,135 @@ pub struct BoundHit {
 #[derive(Debug, Clone, serde::Serialize)]
 pub struct Infeasible {
     pub sides: Vec<SideChoice>,
+    /// [`Infeasible::blocked`] in words.
     pub reason: String,
+    /// Why, with its numbers (None: no reason could be given).
+    pub blocked: Option<Blocked>,
+}
+
+/// Why a choice of sides was not met, with its numbers (rad/s, %).
+#[derive(Debug, Clone, serde::Serialize)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum Blocked {
+    /// The modes could not be computed at the optimizer's last point.
+    NotComputed,
+    /// `mode` reaches no further than `reached_rad_s` (`over_tolerances`: its lowest or
+    /// highest over the tolerance box), short of `limit_rad_s`, the edge of `line`'s zone
+    /// by the margin: `raise` it cannot be raised above the line, else not lowered below.
+    Stays {
+        mode: String,
+        reached_rad_s: f64,
+        limit_rad_s: f64,
+        line: String,
+        raise: bool,
+        over_tolerances: bool,
+    },
+    /// Over the bounds `mode` spans only `min_rad_s`–`max_rad_s`, all within
+    /// `margin_pct` of `lines`.
+    Spans {
+        mode: String,
+        min_rad_s: f64,
+        max_rad_s: f64,
+        margin_pct: f64,
+        lines: String,
+    },
+    /// The optimizer's design fails the full margins check: `mode` spans
+    /// `min_rad_s`–`max_rad_s`, `separation_pct` from `line` where `required_pct` is needed.
+    FailsCheck {
+        over_tolerances: bool,
+        mode: String,
+        min_rad_s: f64,
+        max_rad_s: f64,
+        separation_pct: f64,
+        line: String,
+        required_pct: f64,
+    },
+    /// The design found could not be verified (the error).
+    DoesNotVerify { error: String },
+}
+
+impl std::fmt::Display for Blocked {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Blocked::NotComputed => {
+                write!(
+                    f,
+                    "the modes could not be computed at the optimizer's last point"
+                )
+            }
+            Blocked::Stays {
+                mode,
+                reached_rad_s,
+                limit_rad_s,
+                line,
+                raise,
+                over_tolerances,
+            } => {
+                let over = if *over_tolerances {
+                    " over its tolerances"
+                } else {
+                    ""
+                };
+                let (side, verb) = if *raise {
+                    ("below", "raised above")
+                } else {
+                    ("above", "lowered below")
+                };
+                write!(
+                    f,
+                    "{mode} stays at {reached_rad_s:.4} rad/s{over}, {side} {limit_rad_s:.4} rad/s: it cannot be {verb} {line} by the margin within the bounds"
+                )
+            }
+            Blocked::Spans {
+                mode,
+                min_rad_s,
+                max_rad_s,
+                margin_pct,
+                lines,
+            } => write!(
+                f,
+                "{mode} spans only {min_rad_s:.4}–{max_rad_s:.4} rad/s over the bounds, all within {margin_pct:.4} % of {lines}: it cannot be moved clear of {lines} within the bounds"
+            ),
+            Blocked::FailsCheck {
+                over_tolerances,
+                mode,
+                min_rad_s,
+                max_rad_s,
+                separation_pct,
+                line,
+                required_pct,
+            } => {
+                if *over_tolerances {
+                    write!(
+                        f,
+                        "the design found fails the margins check over the tolerance box"
+                    )?;
+                } else {
+                    write!(
+                        f,
+                        "the design found fails the full margins check (mode tracking lost?)"
+                    )?;
+                }
+                write!(
+                    f,
+                    ": {mode} spans {min_rad_s:.4}–{max_rad_s:.4} rad/s, {separation_pct:.3} % from {line} (needs {required_pct:.3} %)"
+                )
+            }
+            Blocked::DoesNotVerify { error } => {
+                write!(f, "the design found does not verify: {error}")
+            }
+        }
+    }
+}
+
+impl Infeasible {
+    fn new(sides: Vec<SideChoice>, blocked: Option<Blocked>) -> Infeasible {
+        Infeasible {
+            sides,
+            reason: blocked.as_ref().map(|b| b.to_string()).unwrap_or_default(),
+            blocked,
+        }
+    }
 }
 
 /// The designs found (best first) and the side choices that could not be met.
@@ -467,16 +595,16 @@ pub fn tune(
                 .find(|g| g.hi < w.min_rad_s)
                 .map(|g| g.above.join(", "))
                 .unwrap_or_default();
-            infeasible.push(Infeasible {
-                sides: Vec::new(),
-                reason: format!(
-                    "{} spans only {:.4}–{:.4} rad/s over the bounds, all within {:.4} % of {blocking}: it cannot be moved clear of {blocking} within the bounds",
-                    names[m],
-                    w.min_rad_s,
-                    w.max_rad_s,
-                    opts.margin * 100.0
-                ),
-            });
+            infeasible.push(Infeasible::new(
+                Vec::new(),
+                Some(Blocked::Spans {
+                    mode: names[m].clone(),
+                    min_rad_s: w.min_rad_s,
+                    max_rad_s: w.max_rad_s,
+                    margin_pct: opts.margin * 100.0,
+                    lines: blocking,
+                }),
+            ));
         }
     }
     // the baseline as the designs are checked (over its tolerances, when given)
@@ -540,7 +668,7 @@ pub fn tune(
         // per mode, what the verification found the tolerance box to add to the
         // first-order spread (≤ 0 below, ≥ 0 above), rad/s
         let mut extra: Vec<(f64, f64)> = vec![(0.0, 0.0); keep.len()];
-        let mut outcome = Err(String::new());
+        let mut outcome: std::result::Result<_, Option<Blocked>> = Err(None);
         let mut last_x: Option<Vec<f64>> = None;
         for _ in 0..ROUNDS {
             let (x, method) = match solve_choice(
@@ -567,7 +695,9 @@ pub fn tune(
                 Ok(v) => v,
                 Err(e) => {
                     if outcome.is_err() {
-                        outcome = Err(format!("the design found does not verify: {e}"));
+                        outcome = Err(Some(Blocked::DoesNotVerify {
+                            error: e.to_string(),
+                        }));
                     }
                     break;
                 }
@@ -577,21 +707,15 @@ pub fn tune(
             };
             let pass = v.check.pass;
             if !pass && outcome.is_err() {
-                let worst = v.check.failures().first().map_or(String::new(), |r| {
-                    format!(
-                        ": {} spans {:.4}–{:.4} rad/s, {:.3} % from {} (needs {:.3} %)",
-                        r.mode, r.min_rad_s, r.max_rad_s, r.separation_pct, r.line, r.required_pct
-                    )
-                });
-                outcome = Err(if opts.tolerances.is_empty() {
-                    format!(
-                        "the design found fails the full margins check (mode tracking lost?){worst}"
-                    )
-                } else {
-                    format!(
-                        "the design found fails the margins check over the tolerance box{worst}"
-                    )
-                });
+                outcome = Err(v.check.failures().first().map(|r| Blocked::FailsCheck {
+                    over_tolerances: !opts.tolerances.is_empty(),
+                    mode: r.mode.clone(),
+                    min_rad_s: r.min_rad_s,
+                    max_rad_s: r.max_rad_s,
+                    separation_pct: r.separation_pct,
+                    line: r.line.clone(),
+                    required_pct: r.required_pct,
+                }));
             }
             if opts.tolerances.is_empty() {
                 if pass {
@@ -622,11 +746,8 @@ pub fn tune(
         }
         let (x, method, v) = match outcome {
             Ok(o) => o,
-            Err(reason) => {
-                infeasible.push(Infeasible {
-                    sides: sides_of(choice),
-                    reason,
-                });
+            Err(blocked) => {
+                infeasible.push(Infeasible::new(sides_of(choice), blocked));
                 continue;
             }
         };
@@ -764,7 +885,7 @@ fn solve_choice(
     extra: &[(f64, f64)],
     opts: &TuneOptions,
     names: &[String],
-) -> std::result::Result<(Vec<f64>, &'static str), String> {
+) -> std::result::Result<(Vec<f64>, &'static str), Option<Blocked>> {
     let n = bounds.len();
     // the lowest and highest ω_n of mode m over the tolerance box, first-order
     let low = |e: &Eval, m: usize| e.omega[m] + e.spread[m].0 + extra[m].0;
@@ -819,41 +940,32 @@ fn solve_choice(
         }
     }
     // why x does not meet the choice (None: it does)
-    let blocking_at = |x: &[f64]| {
-        match problem.eval(x) {
-        None => Some("the modes could not be computed at the optimizer's last point".to_string()),
+    let blocking_at = |x: &[f64]| match problem.eval(x) {
+        None => Some(Blocked::NotComputed),
         Some(e) => choice.iter().enumerate().find_map(|(m, &g)| {
             let gap = &gaps[g];
             let (a, b) = (low(&e, m), high(&e, m));
-            let over = if opts.tolerances.is_empty() {
-                String::new()
-            } else {
-                " over its tolerances".to_string()
+            let stays = |reached_rad_s, limit_rad_s, line: Option<&String>, raise| {
+                Some(Blocked::Stays {
+                    mode: names[m].clone(),
+                    reached_rad_s,
+                    limit_rad_s,
+                    line: line.cloned().unwrap_or_default(),
+                    raise,
+                    over_tolerances: !opts.tolerances.is_empty(),
+                })
             };
             if a < gap.lo * (1.0 - 0.5 * opts.clearance) {
-                Some(format!(
-                    "{} stays at {:.4} rad/s{over}, below {:.4} rad/s: it cannot be raised above {} by the margin within the bounds",
-                    names[m],
-                    a,
-                    gap.lo,
-                    gap.below.last().cloned().unwrap_or_default()
-                ))
+                stays(a, gap.lo, gap.below.last(), true)
             } else if b > gap.hi * (1.0 + 0.5 * opts.clearance) {
-                Some(format!(
-                    "{} stays at {:.4} rad/s{over}, above {:.4} rad/s: it cannot be lowered below {} by the margin within the bounds",
-                    names[m],
-                    b,
-                    gap.hi,
-                    gap.above.first().cloned().unwrap_or_default()
-                ))
+                stays(b, gap.hi, gap.above.first(), false)
             } else {
                 None
             }
         }),
-    }
     };
     let cost_of = |x: &[f64]| -> f64 { x.iter().zip(weights).map(|(x, w)| w * x * x).sum() };
-    let mut blocking = Some(String::new());
+    let mut blocking = None;
     let mut found: Option<(Vec<f64>, &'static str)> = None;
     if opts.optimizer != Optimizer::Cobyla {
         let cost = |x: &[f64], grad: Option<&mut [f64]>, _: &mut ()| -> f64 {
@@ -938,7 +1050,7 @@ fn solve_choice(
             found = Some((y, "SLSQP+COBYLA"));
         }
     }
-    found.ok_or_else(|| blocking.unwrap_or_default())
+    found.ok_or(blocking)
 }
 
 /// A design checked as `margins` checks it.

@@ -51,21 +51,71 @@ fn unescape(s: &str) -> String {
         .replace("&amp;", "&")
 }
 
-/// Every `<td ... data-key="K">TEXT</td>` of the page: key → text.
-fn keyed_cells(page: &str) -> BTreeMap<String, String> {
-    let mut out = BTreeMap::new();
+/// Every keyed number of the page, in order: `<td ... data-key="K">TEXT</td>` in tables,
+/// `<span class="num" data-key="K">TEXT</span>` in running text; (key, text).
+fn keyed_numbers(page: &str) -> Vec<(String, String)> {
+    let mut out = Vec::new();
     let mut rest = page;
     while let Some(i) = rest.find("data-key=\"") {
         rest = &rest[i + 10..];
         let end = rest.find('"').unwrap();
         let key = unescape(&rest[..end]);
         let open = rest.find('>').unwrap();
-        let close = rest.find("</td>").unwrap();
-        let text = unescape(&rest[open + 1..close]);
-        assert!(out.insert(key.clone(), text).is_none(), "key {key} twice");
+        let close = open + rest[open..].find('<').unwrap();
+        out.push((key, unescape(&rest[open + 1..close])));
         rest = &rest[close..];
     }
     out
+}
+
+/// [`keyed_numbers`] by key: key → text (a table cell is keyed once; a number also named
+/// in a sentence must be shown alike wherever it is, or the first one is kept).
+fn keyed_cells(page: &str) -> BTreeMap<String, String> {
+    let mut out = BTreeMap::new();
+    for (key, text) in keyed_numbers(page) {
+        out.entry(key).or_insert(text);
+    }
+    out
+}
+
+/// `s` without every stretch from `open` to the next `close`.
+fn strip(s: &str, open: &str, close: &str) -> String {
+    let mut out = String::new();
+    let mut rest = s;
+    while let Some(i) = rest.find(open) {
+        out.push_str(&rest[..i]);
+        match rest[i..].find(close) {
+            Some(j) => rest = &rest[i + j + close.len()..],
+            None => return out,
+        }
+    }
+    out + rest
+}
+
+/// The numbers with a decimal point or an exponent (results, not counts or names such
+/// as `1P`) that the page's sections show outside a keyed element, leaving out the
+/// figures (SVG), the commands to copy (`<code>`) and the provenance (version, date).
+fn unkeyed_numbers(page: &str) -> Vec<String> {
+    let body = &page[page.find("<section").unwrap()..page.find("<footer").unwrap()];
+    let mut text = strip(body, "<svg", "</svg>");
+    text = strip(&text, "<code>", "</code>");
+    text = strip(&text, "<section id=\"provenance\">", "</section>");
+    text = strip(&text, " data-key=", "</");
+    // the remaining text, tags dropped
+    let text = strip(&text, "<", ">");
+    let mut found = Vec::new();
+    let chars: Vec<char> = text.chars().collect();
+    for (i, w) in chars.windows(3).enumerate() {
+        let result = w[0].is_ascii_digit()
+            && (w[1] == '.' || w[1] == 'e')
+            && (w[2].is_ascii_digit() || w[2] == '-');
+        if result {
+            let from = i.saturating_sub(40);
+            let to = (i + 40).min(chars.len());
+            found.push(chars[from..to].iter().collect());
+        }
+    }
+    found
 }
 
 /// `value` written the way `shown` is written: as many decimals, fixed or scientific.
@@ -80,7 +130,7 @@ fn as_shown(value: f64, shown: &str) -> String {
 /// The keyed cells whose text is not the sidecar's value written as shown (`n/a` for a
 /// value that is not a number).
 fn mismatches(page: &str, json: &Value) -> Vec<String> {
-    keyed_cells(page)
+    keyed_numbers(page)
         .into_iter()
         .filter_map(|(key, text)| {
             let v = at(json, &key);
@@ -241,7 +291,9 @@ fn crossings_are_where_the_lines_meet_the_modes() {
         (nearest["mode"].as_u64(), nearest["line"].as_str()),
         (Some(2), Some("1P"))
     );
-    assert!(page.contains("shaft-twist with 1P at 253.3 rpm (98.2 % of nominal)"));
+    assert!(
+        strip(&page, "<", ">").contains("shaft-twist with 1P at 253.3 rpm (98.2 % of nominal)")
+    );
     assert_eq!(nearest["mode_name"], "shaft-twist");
 }
 
@@ -589,12 +641,31 @@ fn sensitivity_margins_and_tuning_sections() {
         t["designs"][0]["parameters"]
     );
     assert!(json["tuning"]["designs"][0]["tolerance_intervals"].is_object());
+    // every number on the page, in tables and in sentences, is the sidecar's rounded
+    let bad = mismatches(&page, &json);
+    assert!(bad.is_empty(), "{}", bad.join("\n"));
+    let unkeyed = unkeyed_numbers(&page);
+    assert!(
+        unkeyed.is_empty(),
+        "numbers without a key:\n{}",
+        unkeyed.join("\n")
+    );
+    for key in [
+        "equilibrium/residual",
+        "margins/margin_pct",
+        "sensitivity/modes/1/worst_case/max_rad_s",
+        "tuning/designs/0/cost",
+    ] {
+        assert!(
+            page.contains(&format!("<span class=\"num\" data-key=\"{key}\">")),
+            "{key} not in a sentence"
+        );
+    }
     // the check command the report prints, run as printed, passes
     let text = page.replace("&#39;", "'");
-    let at = text
-        .find("Check design 1: detune ")
-        .expect("a check command");
-    let command = &text[at + "Check design 1: detune ".len()..];
+    let at = text.find("Check design 1:").expect("a check command");
+    let at = at + text[at..].find("<code>detune ").unwrap();
+    let command = &text[at + "<code>detune ".len()..];
     let command = &command[..command.find('<').unwrap()];
     assert!(
         command.contains("--vary k_fs=±10% --vary gearbox_scale=±5%"),

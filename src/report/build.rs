@@ -488,13 +488,13 @@ pub fn build(inp: &ReportInputs) -> Result<Report> {
     sections.push(
         Section::new("equilibrium", "Equilibrium")
             .prose(format!(
-                "The static equilibrium nearest the initial pose, loads at their mean over a period: {}. Static residual {:.1e} (N and m mixed).",
+                "The static equilibrium nearest the initial pose, loads at their mean over a period: {}. Static residual {} (N and m mixed).",
                 if eq.stable {
                     "stable (every undamped ω² positive)"
                 } else {
                     "UNSTABLE (a negative undamped ω²)"
                 },
-                eq.residual
+                data.inline("equilibrium/residual", Digits::Sci(1))
             ))
             .table(Table {
                 caption: "Coordinates at the equilibrium".into(),
@@ -715,10 +715,14 @@ pub fn build(inp: &ReportInputs) -> Result<Report> {
                     .first()
                     .map(|r| r.unit.clone())
                     .unwrap_or_default();
+                data.insert("frf", &frf)?;
                 let forcing_text = match &frf.unit_forcing {
                     Some(f) => format!(
-                        "The model's forcing amplitude is zero, so the response is per unit of {} ({} = 1 {}): amplitudes in {unit}.",
-                        f.param, f.param, f.unit
+                        "The model's forcing amplitude is zero, so the response is per unit of {} ({} = {} {}): amplitudes in {unit}.",
+                        f.param,
+                        f.param,
+                        data.inline("frf/unit_forcing/value", Digits::Sig(3)),
+                        f.unit
                     ),
                     None => format!("The model's own forcing amplitude; amplitudes in {unit}."),
                 };
@@ -754,14 +758,13 @@ pub fn build(inp: &ReportInputs) -> Result<Report> {
                 };
                 let svg = frf_svg(&plot)
                     .map_err(|e| Error::io("report.html", format!("FRF figure: {e}")))?;
-                data.insert("frf", &frf)?;
                 frf_section = frf_section
                     .prose(format!(
-                        "Steady harmonic response of the linearized model to its forcing ({}), {} log-spaced frequencies from {:.3} to {:.3} rad/s (0.2× the lowest to 2.5× the highest natural frequency); peaks refined between grid points. {forcing_text}{}",
+                        "Steady harmonic response of the linearized model to its forcing ({}), {} log-spaced frequencies from {} to {} rad/s (from a fifth of the lowest to two and a half times the highest natural frequency); peaks refined between grid points. {forcing_text}{}",
                         fr.param,
                         fr.omega.len(),
-                        fr.omega[0],
-                        fr.omega[fr.omega.len() - 1],
+                        data.inline("frf/omega_rad_s/0", Digits::Fixed(3)),
+                        data.inline(format!("frf/omega_rad_s/{}", fr.omega.len() - 1), Digits::Fixed(3)),
                         if inp.environment.is_some() {
                             " Shaded: the forcing lines' bands over the rotors' operating range."
                         } else {
@@ -915,7 +918,7 @@ fn campbell(env: &Environment, modes: &[ModeJson], data: &mut Sidecar) -> Result
             Section::new("campbell", "Interference diagram").prose("The environment has no rotor.")
         );
     };
-    let [rpm_lo, rpm_hi] = main.rpm_bounds();
+    let [_, rpm_hi] = main.rpm_bounds();
     let rpm_end = 1.2 * rpm_hi;
     // ω of each line per main-rotor rpm
     let lines: Vec<CampbellLine> = env
@@ -993,15 +996,25 @@ fn campbell(env: &Environment, modes: &[ModeJson], data: &mut Sidecar) -> Result
     let nearest = json
         .crossings
         .iter()
-        .min_by(|a, b| {
+        .enumerate()
+        .min_by(|(_, a), (_, b)| {
             (a.percent_nominal - 100.0)
                 .abs()
                 .total_cmp(&(b.percent_nominal - 100.0).abs())
         })
-        .map(|c| {
+        .map(|(i, c)| {
             format!(
-                " The crossing nearest the nominal speed: {} with {} at {:.1} rpm ({:.1} % of nominal).",
-                c.mode_name, c.line, c.rotor_rpm, c.percent_nominal
+                " The crossing nearest the nominal speed: {} with {} at {} rpm ({} % of nominal).",
+                c.mode_name,
+                c.line,
+                data.inline(
+                    format!("campbell/crossings/{i}/rotor_rpm"),
+                    Digits::Fixed(1)
+                ),
+                data.inline(
+                    format!("campbell/crossings/{i}/percent_nominal"),
+                    Digits::Fixed(1)
+                ),
             )
         })
         .unwrap_or_default();
@@ -1011,16 +1024,19 @@ fn campbell(env: &Environment, modes: &[ModeJson], data: &mut Sidecar) -> Result
         .any(|c| c.in_operating_range.is_some());
     let range = match main.rpm_range {
         Some(_) => format!(
-            "{} of {} crossings fall inside the operating range {rpm_lo:.1}–{rpm_hi:.1} rpm (filled circles).",
+            "{} of {} crossings fall inside the operating range {}–{} rpm (filled circles).",
             json.crossings
                 .iter()
                 .filter(|c| c.in_operating_range == Some(true))
                 .count(),
             json.crossings.len(),
+            data.inline("campbell/rpm_range/0", Digits::Fixed(1)),
+            data.inline("campbell/rpm_range/1", Digits::Fixed(1)),
         ),
         None => format!(
-            "The environment gives the {} rotor no operating range: the vertical line is its nominal {:.1} rpm, and no crossing is judged in or out of range.",
-            main.name, main.rpm
+            "The environment gives the {} rotor no operating range: the vertical line is its nominal {} rpm, and no crossing is judged in or out of range.",
+            main.name,
+            data.inline("campbell/rpm", Digits::Fixed(1))
         ),
     };
     let geared = env

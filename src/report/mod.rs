@@ -12,6 +12,11 @@
 //!   the leading `/`, e.g. `modes/0/omega_n_rad_s`. The cell shows the value rounded to
 //!   its [`Digits`] and carries the key as `data-key`, so the HTML and the JSON cannot
 //!   disagree, and a script (or the test suite) can check every number on the page.
+//! * A number in running text (prose, a caption) is keyed the same way:
+//!   [`Sidecar::inline`] gives it as a marked span inside the `String` (private-use
+//!   characters around the key and the text shown), which the page renders as
+//!   `<span class="num" data-key="...">26.531</span>`. So every number the page shows,
+//!   in a table or in a sentence, is the sidecar's rounded and names where it is.
 //! * [`Document::html`] renders the page with maud (compile-time templates, escaping by
 //!   default): CSS inline in a `<style>`, print-friendly (A4 / letter, a page break before
 //!   each section), no JavaScript and nothing fetched from the network.
@@ -143,6 +148,8 @@ pub struct Figure {
 #[derive(Debug, Clone)]
 pub enum Block {
     Prose(String),
+    /// A command to copy, shown verbatim (its numbers are arguments, not results).
+    Code(String),
     Table(Table),
     Figure(Figure),
 }
@@ -166,6 +173,10 @@ impl Section {
     }
     pub fn prose(mut self, text: impl Into<String>) -> Section {
         self.blocks.push(Block::Prose(text.into()));
+        self
+    }
+    pub fn code(mut self, text: impl Into<String>) -> Section {
+        self.blocks.push(Block::Code(text.into()));
         self
     }
     pub fn table(mut self, t: Table) -> Section {
@@ -227,6 +238,19 @@ impl Sidecar {
         Cell::Number { key, value, digits }
     }
 
+    /// The number at `key` shown with `digits` inside running text (prose, a caption): a
+    /// marked span that the page renders with its `data-key` (see the module doc).
+    pub fn inline(&self, key: impl Into<String>, digits: Digits) -> String {
+        let cell = self.num(key, digits);
+        let shown = cell.shown();
+        match cell {
+            Cell::Number { key, .. } => {
+                format!("{INLINE_OPEN}{key}{INLINE_MID}{shown}{INLINE_CLOSE}")
+            }
+            Cell::Text(t) => t,
+        }
+    }
+
     /// The text at `key` (a string, or any other value as JSON), for a text cell.
     pub fn text(&self, key: &str) -> Cell {
         Cell::Text(match self.get(key) {
@@ -272,6 +296,37 @@ impl Report {
     }
 }
 
+/// The marks of a keyed number in running text ([`Sidecar::inline`]): Unicode private-use
+/// characters, which no model name or message contains.
+const INLINE_OPEN: char = '\u{E000}';
+const INLINE_MID: char = '\u{E001}';
+const INLINE_CLOSE: char = '\u{E002}';
+
+/// Running text with its keyed numbers ([`Sidecar::inline`]) as
+/// `<span class="num" data-key=...>`; the rest escaped.
+fn rich(text: &str) -> Markup {
+    let mut parts: Vec<(Option<&str>, &str)> = Vec::new();
+    let mut rest = text;
+    while let Some(i) = rest.find(INLINE_OPEN) {
+        parts.push((None, &rest[..i]));
+        let after = &rest[i + INLINE_OPEN.len_utf8()..];
+        let (Some(m), Some(c)) = (after.find(INLINE_MID), after.find(INLINE_CLOSE)) else {
+            break;
+        };
+        parts.push((Some(&after[..m]), &after[m + INLINE_MID.len_utf8()..c]));
+        rest = &after[c + INLINE_CLOSE.len_utf8()..];
+    }
+    parts.push((None, rest));
+    html! {
+        @for (key, text) in parts {
+            @match key {
+                Some(k) => span class="num" data-key=(k) { (text) },
+                None => (text),
+            }
+        }
+    }
+}
+
 /// The page's style: readable system fonts, tables with right-aligned numbers, figures
 /// scaled to the page width, A4 / letter print with a page break before each section.
 const CSS: &str = r#"
@@ -286,6 +341,8 @@ table { border-collapse: collapse; margin: 0.8em 0 1.2em; font-size: 0.92em; }
 caption { caption-side: top; text-align: left; font-weight: bold; padding-bottom: 0.3em; }
 th, td { border: 1px solid #bbb; padding: 0.2em 0.55em; vertical-align: top; }
 th { background: #eef1f5; text-align: left; }
+span.num { font-variant-numeric: tabular-nums; }
+pre { white-space: pre-wrap; word-break: break-all; font-size: 0.88em; background: #f4f5f7; padding: 0.4em 0.6em; }
 td.num { text-align: right; font-variant-numeric: tabular-nums; font-family: "DejaVu Sans Mono", "Liberation Mono", Menlo, Consolas, monospace; }
 figure { margin: 1em 0; page-break-inside: avoid; break-inside: avoid; }
 figure svg { max-width: 100%; height: auto; display: block; }
@@ -313,14 +370,14 @@ fn inline_svg(svg: &str) -> String {
 fn render_table(t: &Table) -> Markup {
     html! {
         table {
-            @if !t.caption.is_empty() { caption { (t.caption) } }
+            @if !t.caption.is_empty() { caption { (rich(&t.caption)) } }
             thead { tr { @for c in &t.columns { th { (c.header()) } } } }
             tbody {
                 @for row in &t.rows {
                     tr {
                         @for cell in row {
                             @match cell {
-                                Cell::Text(s) => td { (s) },
+                                Cell::Text(s) => td { (rich(s)) },
                                 Cell::Number { key, .. } => td class="num" data-key=(key) { (cell.shown()) },
                             }
                         }
@@ -357,18 +414,19 @@ impl Document {
                             h2 { (s.title) }
                             @for b in &s.blocks {
                                 @match b {
-                                    Block::Prose(p) => p { (p) },
+                                    Block::Prose(p) => p { (rich(p)) },
+                                    Block::Code(c) => pre { code { (c) } },
                                     Block::Table(t) => (render_table(t)),
                                     Block::Figure(f) => figure {
                                         (PreEscaped(inline_svg(&f.svg)))
-                                        figcaption { (f.caption) }
+                                        figcaption { (rich(&f.caption)) }
                                     },
                                 }
                             }
                         }
                     }
                     footer {
-                        "Every number in a table carries its key into the JSON sidecar (data-key). Made by detune "
+                        "Every number computed for this page carries its key into the JSON sidecar (data-key). Made by detune "
                         (env!("CARGO_PKG_VERSION")) "."
                     }
                 }

@@ -154,24 +154,37 @@ pub fn add_studies(report: &mut Report, s: &Studies) -> Result<()> {
     let failures: Vec<String> = check
         .rows
         .iter()
-        .filter(|r| !r.pass)
-        .map(|r| {
+        .enumerate()
+        .filter(|(_, r)| !r.pass)
+        .map(|(k, r)| {
+            let n = |f: &str| d.inline(format!("margins/rows/{k}/{f}"), Digits::Fixed(2));
             format!(
-                "{} ({:.2}–{:.2} rad/s) is {:.2} % from {} {} ({:.2} rad/s)",
-                r.mode, r.min_rad_s, r.max_rad_s, r.separation_pct, env.name, r.line, r.line_rad_s
+                "{} ({}–{} rad/s) is {} % from {} {} ({} rad/s){}",
+                r.mode,
+                n("min_rad_s"),
+                n("max_rad_s"),
+                n("separation_pct"),
+                env.name,
+                r.line,
+                n("line_rad_s"),
+                // a negative separation: the interval reaches across the line
+                if r.separation_pct < 0.0 {
+                    ", negative: the interval reaches across the line"
+                } else {
+                    ""
+                }
             )
         })
         .collect();
+    let margin = d.inline("margins/margin_pct", Digits::Fixed(1));
     let verdict = if check.pass {
         format!(
-            "PASS: every mode clears every forcing line of {} by {:.1} % (the margin is a choice, not a standard).",
+            "PASS: every mode clears every forcing line of {} by {margin} % (the margin is a choice, not a standard).",
             env.name,
-            s.margin * 100.0
         )
     } else {
         format!(
-            "FAIL at a {:.1} % margin (a choice, not a standard): {}.",
-            s.margin * 100.0,
+            "FAIL at a {margin} % margin (a choice, not a standard): {}.",
             failures.join("; ")
         )
     };
@@ -218,17 +231,14 @@ pub fn add_studies(report: &mut Report, s: &Studies) -> Result<()> {
         } else {
             Vec::new()
         };
-        let t = crate::tune::tune(
-            s.sys,
-            s.tune_varies,
-            &lines,
-            &crate::tune::TuneOptions {
-                margin: s.margin,
-                tolerances,
-                ..Default::default()
-            },
-        )?;
+        let opts = crate::tune::TuneOptions {
+            margin: s.margin,
+            tolerances,
+            ..Default::default()
+        };
+        let t = crate::tune::tune(s.sys, s.tune_varies, &lines, &opts)?;
         report.add_data("tuning", &t)?;
+        report.add_data("tuning_clearance", &opts.clearance)?;
         let baseline: serde_json::Map<String, serde_json::Value> = s
             .tune_varies
             .iter()
@@ -237,10 +247,11 @@ pub fn add_studies(report: &mut Report, s: &Studies) -> Result<()> {
         report.add_data("tuning_baseline", &baseline)?;
         let d = &report.sidecar;
         let mut section = Section::new("tuning", "Tuning proposal").prose(format!(
-            "The smallest change Σ((p − p0)/p0)² of {} within the given ranges that puts every mode outside every line of {} by {:.1} % (plus 1e-4){}, one design for each way of placing the modes between the lines, each verified by a full modal analysis and margins check. {} design(s) found, {} placement(s) infeasible.",
+            "The smallest change Σ((p − p0)/p0)² of {} within the given ranges that puts every mode outside every line of {} by {} % (plus a relative clearance of {}){}, one design for each way of placing the modes between the lines, each verified by a full modal analysis and margins check. {} design(s) found, {} placement(s) infeasible.",
             s.tune_varies.iter().map(|v| v.name.as_str()).collect::<Vec<_>>().join(", "),
             env.name,
-            s.margin * 100.0,
+            d.inline("margins/margin_pct", Digits::Fixed(1)),
+            d.inline("tuning_clearance", Digits::Sci(0)),
             if s.given {
                 format!(
                     " over the whole tolerance box about the design ({}), as the margins section checks the baseline",
@@ -310,21 +321,27 @@ pub fn add_studies(report: &mut Report, s: &Studies) -> Result<()> {
                 )
                 .collect();
             let mut notes = Vec::new();
-            for b in &design.at_bounds {
+            for (j, b) in design.at_bounds.iter().enumerate() {
                 notes.push(format!(
                     "{} is at the {} bound of its range ({}): a wider range would allow a smaller change.",
                     b.param,
                     b.bound,
-                    format!("{} {}", b.value, (s.units)(&b.param)).trim_end()
+                    format!(
+                        "{} {}",
+                        d.inline(format!("tuning/designs/{k}/at_bounds/{j}/value"), Digits::Sig(6)),
+                        (s.units)(&b.param)
+                    )
+                    .trim_end()
                 ));
             }
             if design.frf_peaks_clear == Some(false) {
                 notes.push(format!(
                     "Note: a peak of the design's linear frequency response ({} rad/s) lies within the margin of a line although every mode clears it (a response peak is not at ω_n); ask a larger margin if the peaks must clear too.",
-                    design
-                        .frf_peaks_rad_s
-                        .iter()
-                        .map(|w| format!("{w:.4}"))
+                    (0..design.frf_peaks_rad_s.len())
+                        .map(|i| d.inline(
+                            format!("tuning/designs/{k}/frf_peaks_rad_s/{i}"),
+                            Digits::Fixed(4)
+                        ))
                         .collect::<Vec<_>>()
                         .join(", ")
                 ));
@@ -332,17 +349,17 @@ pub fn add_studies(report: &mut Report, s: &Studies) -> Result<()> {
             section = section
                 .table(Table {
                     caption: format!(
-                        "Design {} (cost {:.4e}; closest separation {:.2} %)",
+                        "Design {} (cost {}; closest separation {} %)",
                         k + 1,
-                        design.cost,
-                        design.closest_pct
+                        d.inline(format!("tuning/designs/{k}/cost"), Digits::Sci(4)),
+                        d.inline(format!("tuning/designs/{k}/closest_pct"), Digits::Fixed(2)),
                     ),
                     columns: cols(&[("", ""), ("baseline", ""), ("design", ""), ("unit", "")]),
                     rows,
                 })
-                .prose(format!(
-                    "Check design {}: detune margins {} --environment {} --margin {}% {}",
-                    k + 1,
+                .prose(format!("Check design {}:", k + 1))
+                .code(format!(
+                    "detune margins {} --environment {} --margin {}% {}",
                     (s.command_words)(&names),
                     shell_word(&env.id),
                     s.margin * 100.0,
@@ -352,8 +369,8 @@ pub fn add_studies(report: &mut Report, s: &Studies) -> Result<()> {
                 section = section.prose(n);
             }
         }
-        for i in &t.infeasible {
-            section = section.prose(format!("Infeasible: {}", i.reason));
+        for (i, inf) in t.infeasible.iter().enumerate() {
+            section = section.prose(format!("Infeasible: {}", blocked_text(d, i, inf)));
         }
         report.document.sections.push(section);
     }
@@ -408,8 +425,16 @@ fn sensitivity_section(report: &Report, study: &Sensitivity, s: &Studies) -> Res
         }
         section = section.table(Table {
             caption: format!(
-                "{}: ω_n = {:.4} rad/s, ζ = {:.4} — cases",
-                m.name, m.omega_n_rad_s, m.damping_ratio
+                "{}: ω_n = {} rad/s, ζ = {} — cases",
+                m.name,
+                d.inline(
+                    format!("sensitivity/modes/{mi}/omega_n_rad_s"),
+                    Digits::Fixed(4)
+                ),
+                d.inline(
+                    format!("sensitivity/modes/{mi}/damping_ratio"),
+                    Digits::Fixed(4)
+                ),
             ),
             columns: cols(&[
                 ("case", ""),
@@ -436,8 +461,16 @@ fn sensitivity_section(report: &Report, study: &Sensitivity, s: &Studies) -> Res
         }
         section = section.table(Table {
             caption: format!(
-                "{}: derivatives (per SI unit of the parameter); worst case {:.4}–{:.4} rad/s",
-                m.name, m.worst_case.min_rad_s, m.worst_case.max_rad_s
+                "{}: derivatives (per SI unit of the parameter); worst case {}–{} rad/s",
+                m.name,
+                d.inline(
+                    format!("sensitivity/modes/{mi}/worst_case/min_rad_s"),
+                    Digits::Fixed(4)
+                ),
+                d.inline(
+                    format!("sensitivity/modes/{mi}/worst_case/max_rad_s"),
+                    Digits::Fixed(4)
+                ),
             ),
             columns: cols(&[
                 ("parameter", ""),
@@ -625,4 +658,60 @@ fn profile_section(
             rows,
         });
     Ok(section)
+}
+
+/// Why the `i`-th infeasible placement of the tuning was not met, its numbers keyed into
+/// the sidecar (`tuning/infeasible/{i}/blocked/...`); the library's words where it gives
+/// no numbers.
+fn blocked_text(d: &super::Sidecar, i: usize, inf: &crate::tune::Infeasible) -> String {
+    use crate::tune::Blocked;
+    let n = |f: &str, digits| d.inline(format!("tuning/infeasible/{i}/blocked/{f}"), digits);
+    match &inf.blocked {
+        Some(Blocked::Stays {
+            mode,
+            line,
+            raise,
+            over_tolerances,
+            ..
+        }) => format!(
+            "{mode} stays at {} rad/s{}, {} {} rad/s: it cannot be {} {line} by the margin within the bounds",
+            n("reached_rad_s", Digits::Fixed(4)),
+            if *over_tolerances {
+                " over its tolerances"
+            } else {
+                ""
+            },
+            if *raise { "below" } else { "above" },
+            n("limit_rad_s", Digits::Fixed(4)),
+            if *raise {
+                "raised above"
+            } else {
+                "lowered below"
+            },
+        ),
+        Some(Blocked::Spans { mode, lines, .. }) => format!(
+            "{mode} spans only {}–{} rad/s over the bounds, all within {} % of {lines}: it cannot be moved clear of {lines} within the bounds",
+            n("min_rad_s", Digits::Fixed(4)),
+            n("max_rad_s", Digits::Fixed(4)),
+            n("margin_pct", Digits::Fixed(1)),
+        ),
+        Some(Blocked::FailsCheck {
+            over_tolerances,
+            mode,
+            line,
+            ..
+        }) => format!(
+            "the design found fails the margins check{}: {mode} spans {}–{} rad/s, {} % from {line} (needs {} %)",
+            if *over_tolerances {
+                " over the tolerance box"
+            } else {
+                ""
+            },
+            n("min_rad_s", Digits::Fixed(4)),
+            n("max_rad_s", Digits::Fixed(4)),
+            n("separation_pct", Digits::Fixed(3)),
+            n("required_pct", Digits::Fixed(3)),
+        ),
+        _ => inf.reason.clone(),
+    }
 }
