@@ -411,7 +411,17 @@ impl Problem<'_> {
         self.varies
             .iter()
             .enumerate()
-            .map(|(i, v)| (v.param, self.p0[i] + self.scale[i] * x[i]))
+            .map(|(i, v)| {
+                // a bound as given, not p0 + scale · x rounded (0.8, not 0.8000000000000046)
+                let value = if x[i] == (v.range.0 - self.p0[i]) / self.scale[i] {
+                    v.range.0
+                } else if x[i] == (v.range.1 - self.p0[i]) / self.scale[i] {
+                    v.range.1
+                } else {
+                    self.p0[i] + self.scale[i] * x[i]
+                };
+                (v.param, value)
+            })
             .collect()
     }
 
@@ -1048,6 +1058,27 @@ fn solve_choice(
         let y = cobyla_from(&x, 0.02, opts.max_evaluations / 4);
         if blocking_at(&y).is_none() && cost_of(&y) < cost_of(&x) {
             found = Some((y, "SLSQP+COBYLA"));
+        }
+    }
+    // a coordinate the optimizer left within 1e-9 of its range of a bound is put on it
+    // (the design then names the bound as given), if the choice still holds there
+    if let Some((x, _)) = &mut found {
+        let snapped: Vec<f64> = x
+            .iter()
+            .zip(bounds)
+            .map(|(&xi, &(lo, hi))| {
+                let tol = 1e-9 * (hi - lo).abs();
+                if (xi - lo).abs() <= tol {
+                    lo
+                } else if (xi - hi).abs() <= tol {
+                    hi
+                } else {
+                    xi
+                }
+            })
+            .collect();
+        if snapped != *x && blocking_at(&snapped).is_none() {
+            *x = snapped;
         }
     }
     found.ok_or(blocking)
