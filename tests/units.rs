@@ -203,6 +203,7 @@ fn degrees_agree(text: &str) -> usize {
         while let Some(at) = rest.find(" rad (") {
             let before = &rest[..at];
             let rad: f64 = before
+                .trim_end()
                 .rsplit(|c: char| c.is_whitespace() || c == '=')
                 .next()
                 .unwrap()
@@ -226,7 +227,8 @@ fn angles_are_printed_in_degrees_beside_radians() {
     // overcentre: two angles per pose; the sliding block of the sdof model has one
     // (its locked θ) and lengths, which get none
     let m = "models/overcentre.toml";
-    assert_eq!(degrees_agree(&ok(&["check", m])), 2);
+    // check: the parameter theta1_0 (declared in rad) and the two angle coordinates
+    assert_eq!(degrees_agree(&ok(&["check", m])), 3);
     assert_eq!(degrees_agree(&ok(&["equilibrium", m])), 2);
     assert!(degrees_agree(&ok(&["equilibrium", m, "--all"])) >= 4);
     assert_eq!(degrees_agree(&ok(&["modes", m])), 2);

@@ -98,13 +98,13 @@ pub fn run(a: EquilibriumArgs) -> Result<()> {
         if e.omega2.is_empty() {
             // nothing can move: the constraints (perhaps driven in time) fix the pose
             println!(
-                "  no degrees of freedom: the constraints fix the pose; residual {:.2e} after {} iterations",
+                "  no degrees of freedom: the constraints fix the pose; residual {:.2e} (SI: N, N·m, m, rad) after {} iterations",
                 e.residual, e.iterations
             );
             continue;
         }
         println!(
-            "  {} (ω² = {} rad²/s²), residual {:.2e} after {} iterations",
+            "  {} (ω² = {} rad²/s²), residual {:.2e} (SI: N, N·m, m, rad) after {} iterations",
             if e.stable { "stable" } else { "UNSTABLE" },
             w2.join(", "),
             e.residual,

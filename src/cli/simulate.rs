@@ -216,7 +216,7 @@ pub fn run(a: SimulateArgs) -> Result<()> {
         return Err(detune::failure::Failure::SimulationInterrupted { t }.into());
     }
     println!(
-        "simulated {} s in {:.3} s: {} steps ({} rejected), {} right-hand sides, {} projections; largest constraint residual {:.2e} (drift before projection {:.2e})",
+        "simulated {} s in {:.3} s: {} steps ({} rejected), {} right-hand sides, {} projections; largest constraint residual {:.2e} m or rad (drift before projection {:.2e} m or rad)",
         opts.t_end,
         began.elapsed().as_secs_f64(),
         st.accepted_steps,
