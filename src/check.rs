@@ -214,8 +214,12 @@ impl fmt::Display for CheckReport {
         }
         writeln!(f, "\nparameters (SI):")?;
         for par in &self.parameters {
+            // an angle's value in degrees beside its radians (the unit says which
+            // parameters are angles)
             let dim = if par.unit.is_empty() {
                 String::new()
+            } else if par.unit == "rad" {
+                format!(" rad ({:.6}°)", par.value.to_degrees())
             } else {
                 format!(" {}", par.unit)
             };
@@ -283,6 +287,10 @@ impl fmt::Display for CheckReport {
             )?;
         }
         writeln!(f, "degrees of freedom: {}", a.dof)?;
-        writeln!(f, "initial constraint residual: {:.3e}", a.residual)
+        writeln!(
+            f,
+            "initial constraint residual: {:.3e} (m or rad)",
+            a.residual
+        )
     }
 }

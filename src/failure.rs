@@ -12,6 +12,9 @@ pub enum Failure {
     Interrupted { t: f64 },
     #[error("the sweep was interrupted")]
     SweepInterrupted,
+    /// A simulation stopped by a signal at model time `t` (s), its samples up to `t` kept.
+    #[error("the simulation was interrupted at model time t = {t:.6} s")]
+    SimulationInterrupted { t: f64 },
     #[error(
         "the equations of motion produced a non-finite value (NaN or infinity) at t = {t:.6} s"
     )]
@@ -205,6 +208,7 @@ impl Failure {
             }
             Interrupted { .. } => "the run was cancelled".into(),
             SweepInterrupted => "the sweep was interrupted".into(),
+            SimulationInterrupted { .. } => "the samples computed up to then are kept, marked incomplete".into(),
             NonFinite { .. } => "an expression in a force or constraint is undefined there (sqrt or ln of a negative number, division by zero), or the mechanism reached a singular pose".into(),
             SingularMass { .. } => "two axes of the body's rotation sequence line up there, so its angles cannot follow the motion: use another rotation sequence whose singular pose the motion does not reach, or `rotation = \"free\"` (a unit quaternion, which has none)".into(),
             StepSizeUnderflow { .. } => "the mechanism may be at a singular pose (a rank loss of the constraints) or the forces change abruptly; check the model, or loosen the integration tolerances".into(),
@@ -258,6 +262,7 @@ mod tests {
             Failure::StepLimit { t: 1.0, steps: 10 },
             Failure::Interrupted { t: 1.0 },
             Failure::SweepInterrupted,
+            Failure::SimulationInterrupted { t: 1.0 },
             Failure::NonFinite { t: 1.0 },
             Failure::StepSizeUnderflow { t: 1.0 },
             Failure::SingularMass {

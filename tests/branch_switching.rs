@@ -188,7 +188,9 @@ fn a_run_that_turns_at_the_fold_in_stiffness_says_where() {
     assert!(count.parse::<usize>().unwrap() > 10, "{first}");
     assert_eq!(
         rest,
-        format!("points from k = 100 turned at the fold at k = {k_fold:.6}; ends at k = 100")
+        format!(
+            "points from k = 100 N/m turned at the fold at k = {k_fold:.6} N/m; ends at k = 100 N/m"
+        )
     );
 }
 
@@ -318,7 +320,7 @@ fn the_pitchfork_reached_along_a_side_branch_is_a_branch_point_not_a_fold() {
     assert!(first.starts_with("branch 0: "), "{first}");
     assert!(
         first.ends_with(
-            "points from L0 = 2 turned at the branch point at L0 = 2.828427; ends at L0 = 2"
+            "points from L0 = 2 m turned at the branch point at L0 = 2.828427 m; ends at L0 = 2 m"
         ),
         "{first}"
     );

@@ -463,3 +463,21 @@ pub fn time_value(flag: &str, text: &str) -> Result<f64> {
         Err(_) => quantity(flag, text.trim(), "a time", Dim::TIME),
     }
 }
+
+/// `--freq-unit`: the unit of the frequencies a command prints and plots.
+#[derive(Args, Clone, Copy)]
+pub struct FreqUnitArg {
+    /// Unit of the frequencies printed and plotted: rad/s, Hz or rpm. CSV and JSON stay
+    /// in SI (rad/s) whatever it is.
+    #[arg(
+        long = "freq-unit",
+        value_name = "UNIT",
+        default_value = "rad/s",
+        value_parser = parse_freq_unit
+    )]
+    pub freq_unit: detune::output::units::FreqUnit,
+}
+
+fn parse_freq_unit(text: &str) -> std::result::Result<detune::output::units::FreqUnit, String> {
+    text.parse()
+}

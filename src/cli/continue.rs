@@ -11,6 +11,7 @@ use detune::output::figures::branch_figure;
 use detune::output::json::BranchReport;
 use detune::output::plot::write_line_plot;
 use detune::output::results::write_branch_csv;
+use detune::output::units::{Units, WithUnits};
 use detune::output::{Provenance, check_outputs};
 use detune::request::Argument;
 use detune::statics::continuation::{ContinuationOptions, continue_equilibria};
@@ -86,17 +87,31 @@ pub fn run(a: ContinueArgs) -> Result<()> {
     }
     outputs.commit()?;
     if a.json {
-        print_json(&BranchReport::new(&branch, &Provenance::of(&model)));
+        let pu = model.param_unit(&branch.param);
+        let mut units = Units::new().with(branch.param.clone(), pu.clone());
+        for name in &branch.solved {
+            units.add(name.clone(), model.param_unit(name));
+        }
+        let units = units.coordinates(&sys).with("value", pu);
+        print_json(&WithUnits {
+            doc: BranchReport::new(&branch, &Provenance::of(&model)),
+            units: &units,
+        });
     } else {
         // the requested ends as given; a run that turned back at a fold says so
         let end = branch.points.last().map_or(from, |p| p.value);
         let param = &branch.param;
+        // the parameter's unit after each of its values (` N`; none when dimensionless)
+        let pu = {
+            let u = model.param_unit(param);
+            if u.is_empty() { u } else { format!(" {u}") }
+        };
         let reached = (end - to).abs() <= 1e-9 * (1.0 + to.abs());
         let how = if reached {
-            format!("to {}", a.to)
+            format!("to {}", given(&a.to, &pu))
         } else if let Some(f) = branch.folds.first() {
             format!(
-                "turned at the fold at {param} = {:.6}; ends at {param} = {end}",
+                "turned at the fold at {param} = {:.6}{pu}; ends at {param} = {end}{pu}",
                 f.value
             )
         } else if let Some(b) = branch
@@ -106,11 +121,11 @@ pub fn run(a: ContinueArgs) -> Result<()> {
         {
             // a pitchfork reached along a side branch: it turns there, onto the other side
             format!(
-                "turned at the branch point at {param} = {:.6}; ends at {param} = {end}",
+                "turned at the branch point at {param} = {:.6}{pu}; ends at {param} = {end}{pu}",
                 b.value
             )
         } else {
-            format!("ends at {param} = {end} (before {})", a.to)
+            format!("ends at {param} = {end}{pu} (before {})", given(&a.to, &pu))
         };
         if !branch.switched.is_empty() {
             let total: usize = branch.points.len()
@@ -132,7 +147,7 @@ pub fn run(a: ContinueArgs) -> Result<()> {
                 "branch 0: "
             },
             branch.points.len(),
-            a.from,
+            given(&a.from, &pu),
             if branch.truncated {
                 " (stopped at --max-steps)"
             } else {
@@ -141,8 +156,10 @@ pub fn run(a: ContinueArgs) -> Result<()> {
         );
         if let (Some(p0), Some(p1)) = (branch.points.first(), branch.points.last()) {
             for (k, name) in branch.solved.iter().enumerate() {
+                let u = model.param_unit(name);
+                let u = if u.is_empty() { u } else { format!(" {u}") };
                 println!(
-                    "solved by [trim]: {name} from {} to {}",
+                    "solved by [trim]: {name} from {}{u} to {}{u}",
                     p0.solved[k], p1.solved[k]
                 );
             }
@@ -153,7 +170,7 @@ pub fn run(a: ContinueArgs) -> Result<()> {
         ] {
             for p in points {
                 println!(
-                    "{kind} at {} = {:.10}: {}",
+                    "{kind} at {} = {:.10}{pu}: {}",
                     branch.param,
                     p.value,
                     pose(&sys, &p.q)
@@ -174,11 +191,12 @@ pub fn run(a: ContinueArgs) -> Result<()> {
                 _ => "stable in part",
             };
             println!(
-                "branch {} from the branch point at {param} = {:.10} ({} = {:.8} first): {} points to {param} = {}, {stability}{}{}",
+                "branch {} from the branch point at {param} = {:.10}{pu} ({} = {:.8}{} first): {} points to {param} = {}{pu}, {stability}{}{}",
                 k + 1,
                 branch.branch_points[s.branch_point].value,
                 sys.coordinates[idx],
                 p0.q[idx],
+                super::unit_and_degrees(&sys, &sys.coordinates[idx], p0.q[idx]),
                 s.points.len(),
                 p1.value,
                 if s.folds.is_empty() {
@@ -200,11 +218,23 @@ pub fn run(a: ContinueArgs) -> Result<()> {
     Ok(())
 }
 
+/// A value of the parameter as the user gave it (`3.2`, `"-10 deg"`), with the unit
+/// `pu` after a plain number.
+fn given(text: &str, pu: &str) -> String {
+    if text.trim().parse::<f64>().is_ok() {
+        format!("{}{pu}", text.trim())
+    } else {
+        text.trim().to_string()
+    }
+}
+
+/// Each coordinate with its unit (an angle in degrees too: the system says which
+/// coordinates are angles).
 fn pose(sys: &System, q: &[f64]) -> String {
     sys.coordinates
         .iter()
         .zip(q)
-        .map(|(c, v)| format!("{c} = {v:.8}"))
+        .map(|(c, v)| format!("{c} = {v:.8}{}", super::unit_and_degrees(sys, c, *v)))
         .collect::<Vec<_>>()
         .join(", ")
 }

@@ -7,6 +7,7 @@ use clap::Args;
 use detune::diag::Result;
 use detune::output::Provenance;
 use detune::output::json::{EquilibriaReport, EquilibriumJson, EquilibriumReport};
+use detune::output::units::{Units, WithUnits};
 use detune::statics::Statics;
 
 #[derive(Args)]
@@ -37,34 +38,46 @@ pub fn run(a: EquilibriumArgs) -> Result<()> {
         format!("off: {p} is given with --set, so the held pose need not be an equilibrium")
     });
     if a.json {
-        let solved = solved.map(|v| v.into_iter().collect());
+        let solved: Option<std::collections::BTreeMap<String, f64>> =
+            solved.map(|v| v.into_iter().collect());
         let provenance = Provenance::of(&model);
         let json = |e| EquilibriumJson::new(&sys.coordinates, e);
+        let mut units = Units::new().coordinates(&sys).with_all([
+            (
+                "residual",
+                "SI (the largest equation's residual: N, N·m, m or rad)",
+            ),
+            ("undamped_omega2", "rad^2/s^2"),
+        ]);
+        for name in solved.iter().flat_map(|s| s.keys()) {
+            units.add(name.clone(), model.param_unit(name));
+        }
         if a.all {
-            print_json(&EquilibriaReport {
-                equilibria: list.iter().map(json).collect(),
-                solved,
-                trim: trim_off,
-                provenance: &provenance,
+            print_json(&WithUnits {
+                doc: EquilibriaReport {
+                    equilibria: list.iter().map(json).collect(),
+                    solved,
+                    trim: trim_off,
+                    provenance: &provenance,
+                },
+                units: &units,
             });
         } else {
-            print_json(&EquilibriumReport {
-                equilibrium: json(&list[0]),
-                solved,
-                trim: trim_off,
-                provenance: &provenance,
+            print_json(&WithUnits {
+                doc: EquilibriumReport {
+                    equilibrium: json(&list[0]),
+                    solved,
+                    trim: trim_off,
+                    provenance: &provenance,
+                },
+                units: &units,
             });
         }
         return Ok(());
     }
     if let Some(v) = &solved {
         for (name, value) in v {
-            let unit = model
-                .parameters
-                .index(name)
-                .and_then(|i| model.parameters.dims[i])
-                .map(|d| d.to_string())
-                .unwrap_or_default();
+            let unit = model.param_unit(name);
             println!("solved by [trim]: {name} = {value:.12} {unit}");
         }
     }
@@ -85,13 +98,13 @@ pub fn run(a: EquilibriumArgs) -> Result<()> {
         if e.omega2.is_empty() {
             // nothing can move: the constraints (perhaps driven in time) fix the pose
             println!(
-                "  no degrees of freedom: the constraints fix the pose; residual {:.2e} after {} iterations",
+                "  no degrees of freedom: the constraints fix the pose; residual {:.2e} (SI: N, N·m, m, rad) after {} iterations",
                 e.residual, e.iterations
             );
             continue;
         }
         println!(
-            "  {} (ω² = {} rad²/s²), residual {:.2e} after {} iterations",
+            "  {} (ω² = {} rad²/s²), residual {:.2e} (SI: N, N·m, m, rad) after {} iterations",
             if e.stable { "stable" } else { "UNSTABLE" },
             w2.join(", "),
             e.residual,

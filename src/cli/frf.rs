@@ -8,6 +8,7 @@ use detune::diag::Result;
 use detune::linear::frequency_response;
 use detune::output::json::FrfReport;
 use detune::output::results::write_frf_csv;
+use detune::output::units::{Units, WithUnits};
 use detune::output::{Provenance, check_outputs};
 
 #[derive(Args)]
@@ -35,10 +36,14 @@ pub struct FrfArgs {
     /// quantity): `--mark "UH-60 main rotor 1P=258 rpm"`. Repeatable.
     #[arg(long, value_name = "LABEL=VALUE")]
     pub mark: Vec<String>,
+    #[command(flatten)]
+    pub freq: super::args::FreqUnitArg,
 }
 
 pub fn run(a: FrfArgs) -> Result<()> {
     let (model, sys) = a.model.load()?;
+    // with --per-unit, the amplitudes are per unit of the forcing amplitude (`/N`)
+    let mut per = String::new();
     let sys = if a.per_unit {
         let Some(i) = sys.forcing_amplitude_param() else {
             return Err(detune::diag::Error::request(
@@ -51,6 +56,9 @@ pub fn run(a: FrfArgs) -> Result<()> {
         eprintln!(
             "note: per unit of the forcing amplitude {name} (1 {unit}): amplitudes are per {unit}"
         );
+        if !unit.is_empty() {
+            per = format!("/{unit}");
+        }
         sys.with_param(i, 1.0)?
     } else {
         sys
@@ -62,6 +70,13 @@ pub fn run(a: FrfArgs) -> Result<()> {
     let (values, responses) = a.grid.resolve(&model)?;
     let marks = super::args::frequency_marks(&a.mark, &values, a.plot.is_some())?;
     let fr = frequency_response(&sys, &a.grid.param, &values, &responses)?;
+    let fu = a.freq.freq_unit;
+    let sym = fu.symbol();
+    // each response's amplitude unit (rad, m, N; per unit of the forcing with --per-unit)
+    let amplitude_unit = |r: &str| -> String {
+        let u = sys.output(r).map(|o| o.unit(&sys)).unwrap_or("");
+        format!("{u}{per}")
+    };
     if let Some(o) = &a.output {
         write_frf_csv(o, &fr)?;
     }
@@ -82,37 +97,71 @@ pub fn run(a: FrfArgs) -> Result<()> {
                     .collect()
             })
             .unwrap_or_default();
-        detune::output::plot::write_panels(
-            p,
-            &detune::output::figures::frf_figures(&fr, &units, &natural, &marks),
-        )?;
+        let per_units: Vec<String> = units.iter().map(|u| format!("{u}{per}")).collect();
+        let units: Vec<&str> = per_units.iter().map(String::as_str).collect();
+        let figures: Vec<_> = detune::output::figures::frf_figures(&fr, &units, &natural, &marks)
+            .into_iter()
+            .map(|f| f.in_frequency_unit(fu))
+            .collect();
+        detune::output::plot::write_panels(p, &figures)?;
     }
     outputs.commit()?;
     for f in [&a.output, &a.plot].into_iter().flatten() {
         eprintln!("wrote {f}");
     }
     if a.json {
-        print_json(&FrfReport::new(&fr, &Provenance::of(&model)));
+        let mut units = Units::new().with(fr.param.clone(), "rad/s");
+        for r in &fr.responses {
+            units.add(format!("{r}_amplitude"), amplitude_unit(r));
+            units.add(format!("{r}_phase_deg"), "deg");
+        }
+        let units = units.coordinates(&sys).with_all([
+            ("omega", "rad/s"),
+            ("uncertainty", "rad/s"),
+            (
+                "amplitude",
+                "the response's amplitude unit (its `<response>_amplitude`)",
+            ),
+        ]);
+        print_json(&WithUnits {
+            doc: FrfReport::new(&fr, &Provenance::of(&model)),
+            units: &units,
+        });
     } else if a.output.is_none() {
         let head: Vec<String> = fr
             .responses
             .iter()
-            .map(|r| format!("{:>12} {:>9}", format!("{r} amp"), "phase"))
+            .map(|r| {
+                format!(
+                    "{:>12} {:>9}",
+                    format!("{r} amp [{}]", amplitude_unit(r)),
+                    "phase"
+                )
+            })
             .collect();
-        println!("{:>10}  {}", fr.param, head.join("  "));
+        println!(
+            "{:>10}  {}",
+            format!("{} [{sym}]", fr.param),
+            head.join("  ")
+        );
         for (k, w) in fr.omega.iter().enumerate() {
             let cols: Vec<String> = fr.values[k]
                 .iter()
                 .map(|(amp, ph)| format!("{amp:.6e} {ph:8.3}°"))
                 .collect();
-            println!("{w:10.5}  {}", cols.join("  "));
+            println!("{:10.5}  {}", fu.of(*w), cols.join("  "));
         }
     }
     if !a.json {
         for p in &fr.peaks {
             eprintln!(
-                "peak {}: {} = {:.6} ± {:.1e} rad/s, amplitude {:.6e}",
-                p.response, fr.param, p.omega, p.uncertainty, p.amplitude
+                "peak {}: {} = {:.6} ± {:.1e} {sym}, amplitude {:.6e} {}",
+                p.response,
+                fr.param,
+                fu.of(p.omega),
+                fu.of(p.uncertainty),
+                p.amplitude,
+                amplitude_unit(&p.response)
             );
         }
     }

@@ -10,7 +10,30 @@ use detune::linear::modal_analysis;
 use detune::margins::{MarginCheck, MarginRow, ModeInterval, Requirement, Side, check_margins};
 use detune::output::Provenance;
 use detune::output::margins::{MarginsReport, write_margins_csv};
+use detune::output::units::FreqUnit;
 use std::f64::consts::TAU;
+
+/// The units of `margins --json` (its rows' keys, the CSV's columns).
+pub const MARGIN_UNITS: [(&str, &str); 18] = [
+    ("margin_pct", "%"),
+    ("omega_n_rad_s", "rad/s"),
+    ("min_rad_s", "rad/s"),
+    ("max_rad_s", "rad/s"),
+    ("damping_ratio", "1"),
+    ("line_rad_s", "rad/s"),
+    ("band_lo_rad_s", "rad/s"),
+    ("band_hi_rad_s", "rad/s"),
+    ("separation_pct", "%"),
+    ("required_pct", "%"),
+    ("omega_rad_s", "rad/s"),
+    ("from_rad_s", "rad/s"),
+    ("to_rad_s", "rad/s"),
+    ("freq_hz", "Hz"),
+    ("rpm", "rpm"),
+    ("blades", "1"),
+    ("multiple", "1"),
+    ("eigenvalue", "1/s"),
+];
 
 #[derive(Args)]
 pub struct MarginsArgs {
@@ -43,6 +66,8 @@ pub struct MarginsArgs {
     /// CSV: one row per mode × line, the JSON rows' keys as columns.
     #[arg(short = 'o', long = "output", value_name = "OUT.csv")]
     pub output: Option<String>,
+    #[command(flatten)]
+    pub freq: super::args::FreqUnitArg,
 }
 
 pub fn run(a: MarginsArgs) -> Result<Outcome> {
@@ -66,6 +91,7 @@ pub fn run(a: MarginsArgs) -> Result<Outcome> {
     };
     let lines = env.forcing_lines();
     let check = check_margins(&modes, &lines, margin, rule)?;
+    let fu = a.freq.freq_unit;
     if let Some(o) = &a.output {
         write_margins_csv(o, &check)?;
         outputs.commit()?;
@@ -73,8 +99,12 @@ pub fn run(a: MarginsArgs) -> Result<Outcome> {
     }
     if a.json {
         let provenance = Provenance::of(&model);
-        print_json(&MarginsReport::new(&check, &env, &skipped, &provenance));
-        for s in summary(&check, &env) {
+        let units = detune::output::units::Units::new().with_all(MARGIN_UNITS);
+        print_json(&detune::output::units::WithUnits {
+            doc: MarginsReport::new(&check, &env, &skipped, &provenance),
+            units: &units,
+        });
+        for s in summary(&check, &env, fu) {
             eprintln!("{s}");
         }
     } else {
@@ -91,9 +121,9 @@ pub fn run(a: MarginsArgs) -> Result<Outcome> {
             };
             println!("note: λ = {lam} 1/s left out: {}", s.reason);
         }
-        print_table(&check);
+        print_table(&check, fu);
         println!();
-        for s in summary(&check, &env) {
+        for s in summary(&check, &env, fu) {
             println!("{s}");
         }
     }
@@ -221,7 +251,8 @@ fn print_environment(env: &Environment, lines: &[ForcingLine]) {
     }
 }
 
-fn print_table(check: &MarginCheck) {
+fn print_table(check: &MarginCheck, fu: FreqUnit) {
+    let sym = fu.symbol();
     println!(
         "\nrequired separation: {} % (your choice, not a standard){}",
         check.margin_pct,
@@ -241,16 +272,16 @@ fn print_table(check: &MarginCheck) {
     println!(
         "{:<mw$} {:>12} {:>9} {:>8} {}{:<8} {:>12} {:>9} {:>12} {:>8} {:>11} {:>5}",
         "mode",
-        "ω_n [rad/s]",
+        format!("ω_n [{sym}]"),
         "f [Hz]",
         "ζ",
         if varied {
-            format!("{:>25} ", "interval [rad/s]")
+            format!("{:>25} ", format!("interval [{sym}]"))
         } else {
             String::new()
         },
         "line",
-        "ω [rad/s]",
+        format!("ω [{sym}]"),
         "f [Hz]",
         "separation",
         "side",
@@ -259,26 +290,33 @@ fn print_table(check: &MarginCheck) {
     );
     for r in &check.rows {
         let interval = if varied {
-            format!("{:>25} ", format!("{:.4}–{:.4}", r.min_rad_s, r.max_rad_s))
+            format!(
+                "{:>25} ",
+                format!("{:.4}–{:.4}", fu.of(r.min_rad_s), fu.of(r.max_rad_s))
+            )
         } else {
             String::new()
         };
         // a band in both columns (rad/s and Hz), a line as one value in each
         let (line_w, line_f) = if r.band_lo_rad_s < r.band_hi_rad_s {
             (
-                format!("{:.2}–{:.2}", r.band_lo_rad_s, r.band_hi_rad_s),
+                format!(
+                    "{:.2}–{:.2}",
+                    fu.of(r.band_lo_rad_s),
+                    fu.of(r.band_hi_rad_s)
+                ),
                 format!("{:.3}–{:.3}", r.band_lo_rad_s / TAU, r.band_hi_rad_s / TAU),
             )
         } else {
             (
-                format!("{:.4}", r.line_rad_s),
+                format!("{:.4}", fu.of(r.line_rad_s)),
                 format!("{:.4}", r.line_rad_s / TAU),
             )
         };
         println!(
             "{:<mw$} {:>12.4} {:>9.4} {:>8.4} {interval}{:<8} {:>12} {:>9} {:>10.2} % {:>8} {:>9.2} % {:>5}",
             r.mode,
-            r.omega_n_rad_s,
+            fu.of(r.omega_n_rad_s),
             r.omega_n_rad_s / TAU,
             r.damping_ratio,
             r.line,
@@ -293,28 +331,40 @@ fn print_table(check: &MarginCheck) {
 }
 
 /// A mode as a summary names it: `mode 2 (26.53 rad/s)`, or its interval.
-fn mode_words(r: &MarginRow) -> String {
+fn mode_words(r: &MarginRow, fu: FreqUnit) -> String {
+    let sym = fu.symbol();
     if r.min_rad_s < r.max_rad_s {
-        format!("{} ({:.2}–{:.2} rad/s)", r.mode, r.min_rad_s, r.max_rad_s)
+        format!(
+            "{} ({:.2}–{:.2} {sym})",
+            r.mode,
+            fu.of(r.min_rad_s),
+            fu.of(r.max_rad_s)
+        )
     } else {
-        format!("{} ({:.2} rad/s)", r.mode, r.omega_n_rad_s)
+        format!("{} ({})", r.mode, fu.show(r.omega_n_rad_s, 2))
     }
 }
 
 /// A line as a summary names it: `UH-60 1P (27.02 rad/s)`, or its band.
-fn line_words(r: &MarginRow, env: &Environment) -> String {
+fn line_words(r: &MarginRow, env: &Environment, fu: FreqUnit) -> String {
     if r.band_lo_rad_s < r.band_hi_rad_s {
         format!(
-            "{} {} ({:.2}–{:.2} rad/s)",
-            env.id, r.line, r.band_lo_rad_s, r.band_hi_rad_s
+            "{} {} ({:.2}–{:.2} {})",
+            env.id,
+            r.line,
+            fu.of(r.band_lo_rad_s),
+            fu.of(r.band_hi_rad_s),
+            fu.symbol()
         )
     } else {
-        format!("{} {} ({:.2} rad/s)", env.id, r.line, r.line_rad_s)
+        format!("{} {} ({})", env.id, r.line, fu.show(r.line_rad_s, 2))
     }
 }
 
 /// One sentence per failing row, worst first, then the verdict.
-fn summary(check: &MarginCheck, env: &Environment) -> Vec<String> {
+fn summary(check: &MarginCheck, env: &Environment, fu: FreqUnit) -> Vec<String> {
+    let mode_words = |r: &MarginRow| mode_words(r, fu);
+    let line_words = |r: &MarginRow, env: &Environment| line_words(r, env, fu);
     let mut out = Vec::new();
     let failures = check.failures();
     for r in &failures {

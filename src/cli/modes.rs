@@ -11,6 +11,22 @@ use detune::linear::tracking::{ModeTracking, TrackOptions, describe_modes, track
 use detune::output::Provenance;
 use detune::output::check_outputs;
 use detune::output::json::{ModesReport, TrackingReport};
+use detune::output::units::{FreqUnit, Units, WithUnits};
+
+/// The units of `modes --json` besides the coordinates'.
+const MODE_UNITS: [(&str, &str); 8] = [
+    ("omega_n_rad_s", "rad/s"),
+    ("omega_d_rad_s", "rad/s"),
+    ("freq_hz", "Hz"),
+    ("damping_ratio", "1"),
+    ("eigenvalue", "1/s"),
+    ("undamped_omega2", "rad^2/s^2"),
+    (
+        "shape",
+        "the coordinate's unit per unit of the normalized_to coordinate",
+    ),
+    ("kinetic_energy_share", "1"),
+];
 
 #[derive(Args)]
 pub struct ModesArgs {
@@ -50,6 +66,8 @@ pub struct ModesArgs {
     /// SVG of the tracking: ω_n against the parameter, one curve per named mode.
     #[arg(long, value_name = "OUT.svg", requires = "param")]
     pub plot: Option<String>,
+    #[command(flatten)]
+    pub freq: super::args::FreqUnitArg,
 }
 
 pub fn run(a: ModesArgs) -> Result<()> {
@@ -60,9 +78,15 @@ pub fn run(a: ModesArgs) -> Result<()> {
     let m = modal_analysis(&sys, a.normalize.as_deref())?;
     let named = describe_modes(&sys, &m)?;
     if a.json {
-        print_json(&ModesReport::named(&m, &named, &Provenance::of(&model)));
+        let units = Units::new().coordinates(&sys).with_all(MODE_UNITS);
+        print_json(&WithUnits {
+            doc: ModesReport::named(&m, &named, &Provenance::of(&model)),
+            units: &units,
+        });
         return Ok(());
     }
+    let fu = a.freq.freq_unit;
+    let sym = fu.symbol();
     println!(
         "equilibrium ({}):",
         if m.equilibrium.stable {
@@ -85,7 +109,13 @@ pub fn run(a: ModesArgs) -> Result<()> {
     }
     println!("\nundamped: ω² = {:?} rad²/s²", m.undamped_omega2);
     for w2 in &m.undamped_omega2 {
-        if *w2 > 0.0 {
+        if *w2 > 0.0 && fu != FreqUnit::RadPerSecond {
+            println!(
+                "  ω = {:.10} {sym} = {:.10} rad/s",
+                fu.of(w2.sqrt()),
+                w2.sqrt()
+            );
+        } else if *w2 > 0.0 {
             println!(
                 "  ω = {:.10} rad/s = {:.6} Hz",
                 w2.sqrt(),
@@ -97,7 +127,12 @@ pub fn run(a: ModesArgs) -> Result<()> {
     }
     println!(
         "\n{:>4} {:>14} {:>14} {:>12} {:>10} {:>28}",
-        "mode", "ω_n [rad/s]", "ω_d [rad/s]", "f [Hz]", "ζ", "eigenvalue"
+        "mode",
+        format!("ω_n [{sym}]"),
+        format!("ω_d [{sym}]"),
+        "f [Hz]",
+        "ζ",
+        "eigenvalue [1/s]"
     );
     for (k, md) in m.modes.iter().enumerate() {
         if md.omega_d_rad_s == 0.0 {
@@ -120,8 +155,8 @@ pub fn run(a: ModesArgs) -> Result<()> {
         println!(
             "{:>4} {:>14.8} {:>14.8} {:>12.6} {:>10.6} {:>13.8} {:+13.8}i",
             k + 1,
-            md.omega_n_rad_s,
-            md.omega_d_rad_s,
+            fu.of(md.omega_n_rad_s),
+            fu.of(md.omega_d_rad_s),
             md.freq_hz,
             md.damping_ratio,
             md.eigenvalue.re,
@@ -129,16 +164,21 @@ pub fn run(a: ModesArgs) -> Result<()> {
         );
     }
     println!(
-        "\nshapes (normalized to {} = 1):",
-        m.coordinates[m.reference]
+        "\nshapes (normalized to {} = 1; each entry in its coordinate's unit per unit of {}):",
+        m.coordinates[m.reference], m.coordinates[m.reference]
     );
+    let reference_unit = detune::output::units::coordinate_unit(&sys, m.reference);
     for (i, c) in m.coordinates.iter().enumerate() {
         let row: Vec<String> = m
             .modes
             .iter()
             .map(|md| format!("{:>10.6}{:+10.6}i", md.shape[i].re, md.shape[i].im))
             .collect();
-        println!("  {c:<16} {}", row.join("  "));
+        println!(
+            "  {c:<16} {}  [{}/{reference_unit}]",
+            row.join("  "),
+            detune::output::units::coordinate_unit(&sys, i)
+        );
     }
     for (k, md) in m.modes.iter().enumerate() {
         if md.normalized_to != m.reference {
@@ -228,10 +268,16 @@ fn track(a: ModesArgs, param: &str) -> Result<()> {
         detune::output::results::write_tracking_csv(o, &t)?;
     }
     if let Some(p) = &a.plot {
-        detune::output::plot::write_line_plot(
-            p,
-            &detune::output::figures::tracking_figure(&t, unit),
-        )?;
+        // ω_n is the y axis here: drawn in the --freq-unit
+        let fu = a.freq.freq_unit;
+        let mut figure = detune::output::figures::tracking_figure(&t, unit);
+        if fu != FreqUnit::RadPerSecond {
+            for s in &mut figure.series {
+                s.y.iter_mut().for_each(|y| *y = fu.of(*y));
+            }
+            figure.y_label = figure.y_label.replace("[rad/s]", &format!("[{fu}]"));
+        }
+        detune::output::plot::write_line_plot(p, &figure)?;
     }
     outputs.commit()?;
     for f in [&a.output, &a.plot].into_iter().flatten() {
@@ -241,26 +287,45 @@ fn track(a: ModesArgs, param: &str) -> Result<()> {
         eprintln!("warning: {w}");
     }
     if a.json {
-        print_json(&TrackingReport {
-            tracking: &t,
-            param_unit: unit,
-            provenance: &Provenance::of(&model),
+        let mut units = Units::new().with(param, unit);
+        for l in &t.labels {
+            units.add(format!("{l}.omega_n_rad_s"), "rad/s");
+            units.add(format!("{l}.damping_ratio"), "1");
+            units.add(format!("{l}.mac"), "1");
+        }
+        let units = units.with("value", unit).with_all([
+            ("omega_n_rad_s", "rad/s"),
+            ("damping_ratio", "1"),
+            ("mac", "1"),
+            ("min_mac", "1"),
+            ("relative_gap", "1"),
+            ("window", unit),
+            ("baseline", unit),
+        ]);
+        print_json(&WithUnits {
+            doc: TrackingReport {
+                tracking: &t,
+                param_unit: unit,
+                provenance: &Provenance::of(&model),
+            },
+            units: &units,
         });
         return Ok(());
     }
-    print_tracking(&t, unit);
+    print_tracking(&t, unit, a.freq.freq_unit);
     Ok(())
 }
 
 /// The tracking as a table, then its crossings, veerings and least MACs.
-fn print_tracking(t: &ModeTracking, unit: &str) {
+fn print_tracking(t: &ModeTracking, unit: &str, fu: FreqUnit) {
     let u = if unit.is_empty() {
         String::new()
     } else {
         format!(" [{unit}]")
     };
+    let sym = fu.symbol();
     println!(
-        "modes against {}{u} (named at {} = {}{u}); ω_n in rad/s, ζ the damping ratio:",
+        "modes against {}{u} (named at {} = {}{u}); ω_n in {sym}, ζ the damping ratio:",
         t.param, t.param, t.baseline
     );
     let at_baseline: Vec<String> = t
@@ -287,7 +352,7 @@ fn print_tracking(t: &ModeTracking, unit: &str) {
                 // (a ζ of rounding size printed as 0, not -0.000000)
                 Some(m) => format!(
                     "{:>16.6} {:>9.6}",
-                    m.omega_n_rad_s,
+                    fu.of(m.omega_n_rad_s),
                     if m.damping_ratio.abs() < 5e-7 {
                         0.0
                     } else {
@@ -309,8 +374,12 @@ fn print_tracking(t: &ModeTracking, unit: &str) {
         println!("\ncrossings (two modes' ω_n swap order):");
         for c in &t.crossings {
             println!(
-                "  {} and {} at {} = {:.6}{u}, ω_n = {:.6} rad/s",
-                c.labels[0], c.labels[1], t.param, c.value, c.omega_n_rad_s
+                "  {} and {} at {} = {:.6}{u}, ω_n = {:.6} {sym}",
+                c.labels[0],
+                c.labels[1],
+                t.param,
+                c.value,
+                fu.of(c.omega_n_rad_s)
             );
         }
     }
@@ -320,13 +389,13 @@ fn print_tracking(t: &ModeTracking, unit: &str) {
         println!("veerings (two modes approach without crossing and exchange shapes):");
         for v in &t.veerings {
             println!(
-                "  {} and {} at {} = {:.6}{u}: ω_n = {:.6} and {:.6} rad/s, least relative gap {:.2} %, shapes exchanged over {:.6} to {:.6}{u}",
+                "  {} and {} at {} = {:.6}{u}: ω_n = {:.6} and {:.6} {sym}, least relative gap {:.2} %, shapes exchanged over {:.6} to {:.6}{u}",
                 v.labels[0],
                 v.labels[1],
                 t.param,
                 v.value,
-                v.omega_n_rad_s[0],
-                v.omega_n_rad_s[1],
+                fu.of(v.omega_n_rad_s[0]),
+                fu.of(v.omega_n_rad_s[1]),
                 100.0 * v.relative_gap,
                 v.window[0],
                 v.window[1]

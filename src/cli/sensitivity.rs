@@ -10,6 +10,7 @@ use detune::linear::sensitivity::{Sensitivity, sensitivity};
 use detune::output::sensitivity::{
     ParameterJson, SensitivityReport, write_sensitivity_csv, write_tornado,
 };
+use detune::output::units::FreqUnit;
 use detune::output::{Provenance, check_outputs};
 
 #[derive(Clone, Copy, PartialEq, Eq, ValueEnum)]
@@ -51,6 +52,8 @@ pub struct SensitivityArgs {
     /// SVG: a tornado chart of the change of each mode's ω_n per parameter.
     #[arg(long, value_name = "OUT.svg")]
     pub plot: Option<String>,
+    #[command(flatten)]
+    pub freq: super::args::FreqUnitArg,
 }
 
 pub fn run(a: SensitivityArgs) -> Result<()> {
@@ -155,48 +158,63 @@ pub fn run(a: SensitivityArgs) -> Result<()> {
         ));
         return Ok(());
     }
-    print_tables(&study, &|n| unit(n), &|n| {
-        sys.param_index(n).map(|i| sys.param(i)).unwrap_or(f64::NAN)
-    });
+    print_tables(&study, &|n| unit(n), a.freq.freq_unit);
     Ok(())
 }
 
-fn print_tables(s: &Sensitivity, unit: &dyn Fn(&str) -> String, value: &dyn Fn(&str) -> f64) {
+fn print_tables(s: &Sensitivity, unit: &dyn Fn(&str) -> String, fu: FreqUnit) {
     let hz = |w: f64| w / (2.0 * std::f64::consts::PI);
+    // frequencies in the --freq-unit (rad/s by default, then with Hz beside)
+    let f = |w: f64| fu.of(w);
+    let sym = fu.symbol();
+    let beside = |w: f64, d: usize| {
+        if fu == FreqUnit::RadPerSecond {
+            format!(" ({:.d$} Hz)", hz(w))
+        } else {
+            String::new()
+        }
+    };
     for m in &s.modes {
         println!(
-            "{}: ω_n = {:.6} rad/s ({:.5} Hz), ζ = {:.5}{}",
+            "{}: ω_n = {:.6} {sym}{}, ζ = {:.5}{}",
             m.name,
-            m.omega_n_rad_s,
-            hz(m.omega_n_rad_s),
+            f(m.omega_n_rad_s),
+            beside(m.omega_n_rad_s, 5),
             m.damping_ratio,
             m.undamped_omega_rad_s
-                .map(|u| format!(", undamped ω = {u:.6} rad/s"))
+                .map(|u| format!(", undamped ω = {:.6} {sym}", f(u)))
                 .unwrap_or_default()
         );
         if let Some(p) = m.peak_omega_rad_s {
-            println!("  stepped-sine peak (baseline): {p:.6} rad/s");
+            println!("  stepped-sine peak (baseline): {:.6} {sym}", f(p));
         }
         println!(
             "  {:<22} {:>16} {:>14} {:>9} {:>14} {:>9} {:>9} {:>14}",
-            "case", "value", "ω_n [rad/s]", "change", "undamped ω", "change", "ζ", "peak [rad/s]"
+            "case",
+            "value",
+            format!("ω_n [{sym}]"),
+            "change",
+            format!("undamped ω [{sym}]"),
+            "change",
+            "ζ",
+            format!("peak [{sym}]")
         );
         for c in &m.cases {
             println!(
                 "  {:<22} {:>16} {:>14.6} {:>+8.3}% {:>14} {:>9} {:>9.5} {:>14}",
                 c.label,
                 format!("{:.6e} {}", c.value, unit(&c.param)),
-                c.omega_n_rad_s,
+                f(c.omega_n_rad_s),
                 c.change_pct_omega_n,
                 c.undamped_omega_rad_s
-                    .map(|u| format!("{u:.6}"))
+                    .map(|u| format!("{:.6}", f(u)))
                     .unwrap_or_else(|| "-".into()),
                 c.change_pct_undamped
                     .map(|u| format!("{u:+.3}%"))
                     .unwrap_or_else(|| "-".into()),
                 c.damping_ratio,
                 c.peak_omega_rad_s
-                    .map(|p| format!("{p:.6}"))
+                    .map(|p| format!("{:.6}", f(p)))
                     .unwrap_or_else(|| "-".into())
             );
         }
@@ -217,15 +235,14 @@ fn print_tables(s: &Sensitivity, unit: &dyn Fn(&str) -> String, value: &dyn Fn(&
                 format!(" per {u}")
             };
             println!(
-                "  {:<16} {:>22} {:>22} {:>11.5} {:>16.6e} {:>16.6e}",
+                "  {:<16} {:>22} {:>22} {:>11.5} {:>16.6e} {:>16.6e}  ({sym}{per}; 1{per})",
                 d.param,
-                format!("{:.8e}", d.domega_n_dp),
-                format!("{:.8e}", d.fd),
+                format!("{:.8e}", f(d.domega_n_dp)),
+                format!("{:.8e}", f(d.fd)),
                 d.elasticity,
                 d.dzeta_dp,
                 d.fd_dzeta_dp
             );
-            let _ = (per, value(&d.param));
             if !d.agrees {
                 println!(
                     "  WARNING: the analytic derivatives with respect to {} disagree with their finite differences: do not trust them (please report this model)",
@@ -234,19 +251,22 @@ fn print_tables(s: &Sensitivity, unit: &dyn Fn(&str) -> String, value: &dyn Fn(&
             }
         }
         println!(
-            "  (derivatives in rad/s and 1 per SI unit of the parameter; elasticity = (p/ω_n)·dω_n/dp)"
+            "  (derivatives in {sym} and 1 per SI unit of the parameter; elasticity = (p/ω_n)·dω_n/dp, dimensionless)"
         );
         let w = &m.worst_case;
         println!(
-            "  worst case over the tolerance box: {:.6} to {:.6} rad/s ({:.5} to {:.5} Hz), from {} corner{} evaluated; first-order estimate {:.6} to {:.6} rad/s\n",
-            w.min_rad_s,
-            w.max_rad_s,
-            hz(w.min_rad_s),
-            hz(w.max_rad_s),
+            "  worst case over the tolerance box: {:.6} to {:.6} {sym}{}, from {} corner{} evaluated; first-order estimate {:.6} to {:.6} {sym}\n",
+            f(w.min_rad_s),
+            f(w.max_rad_s),
+            if fu == FreqUnit::RadPerSecond {
+                format!(" ({:.5} to {:.5} Hz)", hz(w.min_rad_s), hz(w.max_rad_s))
+            } else {
+                String::new()
+            },
             w.corners_evaluated,
             if w.corners_evaluated == 1 { "" } else { "s" },
-            w.first_order_min_rad_s,
-            w.first_order_max_rad_s
+            f(w.first_order_min_rad_s),
+            f(w.first_order_max_rad_s)
         );
         // the first-order estimate off by more than a tenth of the interval: the ranges
         // are too wide for the derivatives alone
@@ -255,7 +275,8 @@ fn print_tables(s: &Sensitivity, unit: &dyn Fn(&str) -> String, value: &dyn Fn(&
             .max((w.first_order_max_rad_s - w.max_rad_s).abs());
         if miss > 0.1 * (w.max_rad_s - w.min_rad_s) {
             println!(
-                "  note: the first-order estimate misses the evaluated interval by up to {miss:.4} rad/s: ω_n is far from linear in the parameters over these ranges; the evaluated interval is the one to use\n"
+                "  note: the first-order estimate misses the evaluated interval by up to {:.4} {sym}: ω_n is far from linear in the parameters over these ranges; the evaluated interval is the one to use\n",
+                f(miss)
             );
         }
         if !w.non_monotone.is_empty() {

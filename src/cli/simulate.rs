@@ -10,6 +10,7 @@ use detune::dynamics::simulate::{SimOptions, Trajectory, simulate_with};
 use detune::output::figures::trajectory_figure;
 use detune::output::json::SimulationSummary;
 use detune::output::plot::write_line_plot;
+use detune::output::units::{Units, WithUnits};
 use detune::output::{
     Provenance, check_outputs, trajectory_header, trajectory_row, write_atomic, write_json,
 };
@@ -63,7 +64,8 @@ pub fn run(a: SimulateArgs) -> Result<()> {
         &model.source.path,
         &[Some(&a.output), a.plot.as_deref(), a.json.as_deref()],
     )?;
-    // a signal stops the run at the next output step (nothing is written then)
+    // a signal stops the run at the next output sample: the samples computed are kept,
+    // marked incomplete (the CSV's last line, the JSON's `complete`)
     super::interrupt_on_ctrl_c();
     let mut probe = Probe::new(&sys, sys.outputs(&a.response)?);
     let mut values = vec![0.0; a.response.len()];
@@ -93,6 +95,11 @@ pub fn run(a: SimulateArgs) -> Result<()> {
         .filter(|w| *w > 0.0)
         .map_or(0.0, |w| std::f64::consts::TAU / w);
     let mut tail: std::collections::VecDeque<(f64, Vec<f64>)> = Default::default();
+    // a sample time as written in a message (12.34, not 12.340000000000002)
+    let shown = |t: f64| detune::diag::num((t * 1e9).round() / 1e9);
+    let interrupted = || super::INTERRUPTED.load(std::sync::atomic::Ordering::SeqCst);
+    // the model time of the last sample written when a signal stopped the run
+    let mut stopped_at: Option<f64> = None;
     let written = write_atomic(&a.output, |w| {
         let columns = a.velocities.then(|| sys.velocity_columns());
         trajectory_header(w, &sys.coordinates, columns.as_deref(), &a.response)?;
@@ -119,13 +126,21 @@ pub fn run(a: SimulateArgs) -> Result<()> {
                 traj.t.push(t);
                 traj.q.push(q.to_vec());
                 traj.v.push(v.to_vec());
+                // a signal ends the run here, after this sample (the integrator returns
+                // what it computed, cleanly)
+                if interrupted() {
+                    stopped_at = Some(t);
+                    return false;
+                }
                 true
             },
+            // the progress never cancels: a cancelled step would lose the run's
+            // statistics; the sink stops at the next sample instead
             &mut |f| {
                 if began.elapsed().as_millis() > 300 {
                     bar.set_position((f * 1000.0) as u64);
                 }
-                !super::INTERRUPTED.load(std::sync::atomic::Ordering::SeqCst)
+                true
             },
         );
         let failed = run.is_err();
@@ -134,7 +149,14 @@ pub fn run(a: SimulateArgs) -> Result<()> {
             Some(e) => Err(e),
             // no file is kept for a failed run
             None if failed => Err(std::io::Error::other("the simulation failed")),
-            None => Ok(()),
+            None => match stopped_at {
+                Some(t) => writeln!(
+                    w,
+                    "# incomplete: interrupted at t = {} s; the rows above are the samples computed",
+                    detune::output::num(t)
+                ),
+                None => Ok(()),
+            },
         }
     });
     bar.finish_and_clear();
@@ -145,22 +167,56 @@ pub fn run(a: SimulateArgs) -> Result<()> {
     }
     written?;
     if let Some(p) = &a.plot {
-        write_line_plot(p, &trajectory_figure(&model.name, &traj))?;
+        let mut figure = trajectory_figure(&model.name, &traj);
+        if let Some(t) = stopped_at {
+            figure
+                .title
+                .push_str(&format!(" (incomplete: interrupted at t = {} s)", shown(t)));
+        }
+        write_line_plot(p, &figure)?;
     }
     let tail: Vec<(f64, Vec<f64>)> = tail.into_iter().collect();
     let end = detune::frequency::wells::end_well(&sys, &start.q, &tail);
     if let Some(j) = &a.json {
         let provenance = Provenance::of(&model);
         let mut summary = SimulationSummary::new(&provenance, &opts, &traj, &a.output);
+        summary.complete = stopped_at.is_none();
         if let Some((wells, well)) = &end {
             summary = summary.with_wells(wells, *well);
         }
-        write_json(j, &summary)?;
+        let units = Units::new()
+            .with("t", "s")
+            .coordinates(&sys)
+            .velocities(&sys)
+            .responses(&sys, &a.response)
+            .with_all([
+                ("t_end", "s"),
+                ("dt_out", "s"),
+                ("atol", "SI unit of each coordinate and velocity"),
+                ("rtol", "1"),
+                ("max_constraint_residual", "m or rad"),
+                ("max_drift", "m or rad"),
+                ("omega2", "rad^2/s^2"),
+            ]);
+        write_json(
+            j,
+            &WithUnits {
+                doc: summary,
+                units: &units,
+            },
+        )?;
     }
     outputs.commit()?;
     let st = &traj.stats;
+    if let Some(t) = stopped_at {
+        // the message (and the exit code 128 + the signal) come from main
+        for f in std::iter::once(&a.output).chain(&a.plot).chain(&a.json) {
+            eprintln!("wrote {f} (incomplete: up to t = {} s)", shown(t));
+        }
+        return Err(detune::failure::Failure::SimulationInterrupted { t }.into());
+    }
     println!(
-        "simulated {} s in {:.3} s: {} steps ({} rejected), {} right-hand sides, {} projections; largest constraint residual {:.2e} (drift before projection {:.2e})",
+        "simulated {} s in {:.3} s: {} steps ({} rejected), {} right-hand sides, {} projections; largest constraint residual {:.2e} m or rad (drift before projection {:.2e} m or rad)",
         opts.t_end,
         began.elapsed().as_secs_f64(),
         st.accepted_steps,

@@ -11,7 +11,41 @@ use detune::output::figures::sweep_figures;
 use detune::output::json::SweepReport;
 use detune::output::plot::write_panels;
 use detune::output::results::write_sweep_csv;
+use detune::output::units::{Units, WithUnits};
 use detune::output::{Provenance, check_outputs};
+
+/// The units of `sweep --json`: the CSV's columns (the frequency in rad/s, each response's
+/// measures in its unit, the phase in degrees; the `--values` parameter in its unit), the
+/// coordinates, and the peaks', jumps' and hysteresis' keys.
+fn sweep_units(runs: &[detune::frequency::study::SweepRun], sys: &detune::System) -> Units {
+    let first = &runs[0].sweep;
+    let mut u = Units::new().with(first.param.clone(), "rad/s");
+    if let Some((name, _)) = runs[0].tag() {
+        u.add(name, runs[0].unit.clone());
+    }
+    for (r, unit) in first.responses.iter().zip(&first.units) {
+        for m in ["amplitude", "max", "min", "mean", "h1", "h2"] {
+            u.add(format!("{r}_{m}"), *unit);
+        }
+        u.add(format!("{r}_phase_deg"), "deg");
+        u.add(format!("{r}_thd"), "1");
+    }
+    u.with_all([("periods", "1"), ("period_multiple", "1"), ("well", "1")])
+        .coordinates(sys)
+        .with_all([
+            ("omega", "rad/s"),
+            ("uncertainty", "rad/s"),
+            ("from", "rad/s"),
+            ("to", "rad/s"),
+            (
+                "amplitude",
+                "the response's unit (its `<response>_amplitude`)",
+            ),
+            ("amplitude_before", "the response's unit"),
+            ("amplitude_after", "the response's unit"),
+            ("omega2", "rad^2/s^2"),
+        ])
+}
 
 #[derive(Clone, Copy, clap::ValueEnum)]
 pub enum ModeArg {
@@ -67,6 +101,8 @@ pub struct SweepArgs {
     /// quantity): `--mark "UH-60 main rotor 1P=258 rpm"`. Repeatable.
     #[arg(long, value_name = "LABEL=VALUE")]
     pub mark: Vec<String>,
+    #[command(flatten)]
+    pub freq: super::args::FreqUnitArg,
 }
 
 pub fn run(a: SweepArgs) -> Result<()> {
@@ -122,12 +158,18 @@ pub fn run(a: SweepArgs) -> Result<()> {
     bar.finish_and_clear();
     let runs = runs?;
     let complete = runs.iter().all(|r| r.sweep.complete);
+    let fu = a.freq.freq_unit;
+    let sym = fu.symbol();
     if let Some(o) = &a.output {
         write_sweep_csv(o, &runs)?;
     }
     if let Some(p) = &a.plot {
         let natural = study.natural_frequencies(runs.len())?;
-        write_panels(p, &sweep_figures(&runs, &natural, &marks))?;
+        let figures: Vec<_> = sweep_figures(&runs, &natural, &marks)
+            .into_iter()
+            .map(|f| f.in_frequency_unit(fu))
+            .collect();
+        write_panels(p, &figures)?;
     }
     // an interrupted sweep keeps the frequencies completed, marked incomplete
     outputs.commit()?;
@@ -138,7 +180,11 @@ pub fn run(a: SweepArgs) -> Result<()> {
         eprintln!("wrote {p}");
     }
     if a.json {
-        print_json(&SweepReport::new(&runs, &Provenance::of(&model)));
+        let units = sweep_units(&runs, &_compiled);
+        print_json(&WithUnits {
+            doc: SweepReport::new(&runs, &Provenance::of(&model)),
+            units: &units,
+        });
     } else {
         let points: usize = runs.iter().map(|r| r.sweep.points.len()).sum();
         let periods: usize = runs
@@ -161,6 +207,14 @@ pub fn run(a: SweepArgs) -> Result<()> {
                 String::new()
             }
         );
+        // a grid frequency as the user reads it: as computed in rad/s, else in the unit
+        let shown = |w: f64| -> String {
+            if fu == detune::output::units::FreqUnit::RadPerSecond {
+                w.to_string()
+            } else {
+                format!("{:.6}", fu.of(w))
+            }
+        };
         for run in &runs {
             let tag = run
                 .tag()
@@ -178,30 +232,38 @@ pub fn run(a: SweepArgs) -> Result<()> {
                     .map(|i| run.sweep.units[i])
                     .unwrap_or("");
                 println!(
-                    "jump {} between {} and {} rad/s{tag}: {} amplitude {:.4} → {:.4} {unit}",
+                    "jump {} between {} and {} {sym}{tag}: {} amplitude {:.4} → {:.4} {unit}",
                     j.direction.name(),
-                    j.from,
-                    j.to,
+                    shown(j.from),
+                    shown(j.to),
                     j.response,
                     j.amplitude_before,
                     j.amplitude_after
                 );
             }
             for pk in &run.sweep.peaks {
+                let unit = run
+                    .sweep
+                    .responses
+                    .iter()
+                    .position(|r| *r == pk.response)
+                    .map(|i| run.sweep.units[i])
+                    .unwrap_or("");
                 println!(
-                    "peak{tag} {} ({}): {} = {:.6} ± {:.1e} rad/s, amplitude {:.6e}",
+                    "peak{tag} {} ({}): {} = {:.6} ± {:.1e} {sym}, amplitude {:.6e} {unit}",
                     pk.response,
                     pk.direction.name(),
                     a.grid.param,
-                    pk.omega,
-                    pk.uncertainty,
+                    fu.of(pk.omega),
+                    fu.of(pk.uncertainty),
                     pk.amplitude
                 );
             }
             for h in &run.sweep.hysteresis {
                 println!(
-                    "hysteresis{tag}: up and down differ from {} to {} rad/s",
-                    h.from, h.to
+                    "hysteresis{tag}: up and down differ from {} to {} {sym}",
+                    shown(h.from),
+                    shown(h.to)
                 );
             }
         }

@@ -59,6 +59,8 @@ pub struct TuneArgs {
     /// JSON file of the result (as --json prints it).
     #[arg(short = 'o', long = "output", value_name = "OUT.json")]
     pub output: Option<String>,
+    #[command(flatten)]
+    pub freq: super::args::FreqUnitArg,
 }
 
 #[derive(serde::Serialize)]
@@ -68,6 +70,9 @@ struct TuneReport<'a> {
     margin_pct: f64,
     #[serde(flatten)]
     tuning: &'a Tuning,
+    /// Key → unit: the varied parameters (their SI units), the modes (rad/s), the
+    /// margins' keys.
+    units: detune::output::units::Units,
 }
 
 pub fn run(a: TuneArgs) -> Result<super::Outcome> {
@@ -155,7 +160,28 @@ pub fn run(a: TuneArgs) -> Result<super::Outcome> {
         environment: &env.name,
         margin_pct: margin * 100.0,
         tuning: &t,
+        units: {
+            let mut u = detune::output::units::Units::new().with("cost", "1");
+            for v in &vs {
+                u.add(v.name.clone(), model.param_unit(&v.name));
+            }
+            for d in &t.designs {
+                for n in d.modes.keys() {
+                    u.add(n.clone(), "rad/s");
+                }
+            }
+            u.with_all([
+                ("closest_pct", "%"),
+                ("frf_peaks_rad_s", "rad/s"),
+                ("sweep_peaks_rad_s", "rad/s"),
+                ("tolerance_intervals", "rad/s"),
+                ("value", "SI unit of the parameter `param`"),
+            ])
+            .with_all(super::margins::MARGIN_UNITS)
+        },
     };
+    let fu = a.freq.freq_unit;
+    let sym = fu.symbol();
     if let Some(o) = &a.output {
         let text = serde_json::to_string_pretty(&report).unwrap_or_default();
         detune::output::write_atomic(o, |w| w.write_all(text.as_bytes()))?;
@@ -187,13 +213,15 @@ pub fn run(a: TuneArgs) -> Result<super::Outcome> {
                         .map(|x| sys.param(x.param))
                         .unwrap_or(f64::NAN);
                     let v = v.as_f64().unwrap_or(f64::NAN);
-                    format!("{n} = {v} ({:+.3} %)", (v - p0) / p0 * 100.0)
+                    let u = model.param_unit(n);
+                    let u = if u.is_empty() { u } else { format!(" {u}") };
+                    format!("{n} = {v}{u} ({:+.3} %)", (v - p0) / p0 * 100.0)
                 })
                 .collect();
             let modes: Vec<String> = d
                 .modes
                 .iter()
-                .map(|(n, w)| format!("{n} {:.4} rad/s", w.as_f64().unwrap_or(f64::NAN)))
+                .map(|(n, w)| format!("{n} {}", fu.show(w.as_f64().unwrap_or(f64::NAN), 4)))
                 .collect();
             println!(
                 "\ndesign {}: cost {:.6e}; {}\n  modes: {}; closest separation {:.3} %{}",
@@ -213,7 +241,7 @@ pub fn run(a: TuneArgs) -> Result<super::Outcome> {
                     .iter()
                     .map(|(n, v)| {
                         let at = |k: usize| v.get(k).and_then(|x| x.as_f64()).unwrap_or(f64::NAN);
-                        format!("{n} {:.4}–{:.4} rad/s", at(0), at(1))
+                        format!("{n} {:.4}–{:.4} {sym}", fu.of(at(0)), fu.of(at(1)))
                     })
                     .collect();
                 println!("  over the tolerance box: {}", spans.join(", "));
@@ -228,10 +256,10 @@ pub fn run(a: TuneArgs) -> Result<super::Outcome> {
             }
             if !d.frf_peaks_rad_s.is_empty() {
                 println!(
-                    "  linear response peaks: {} rad/s{}",
+                    "  linear response peaks: {} {sym}{}",
                     d.frf_peaks_rad_s
                         .iter()
-                        .map(|w| format!("{w:.4}"))
+                        .map(|w| format!("{:.4}", fu.of(*w)))
                         .collect::<Vec<_>>()
                         .join(", "),
                     match d.frf_peaks_clear {
@@ -244,9 +272,9 @@ pub fn run(a: TuneArgs) -> Result<super::Outcome> {
             }
             if let (Some(p), Some(clear)) = (&d.sweep_peaks_rad_s, d.sweep_peaks_clear) {
                 println!(
-                    "  stepped-sine peaks: {} rad/s ({})",
+                    "  stepped-sine peaks: {} {sym} ({})",
                     p.iter()
-                        .map(|w| format!("{w:.4}"))
+                        .map(|w| format!("{:.4}", fu.of(*w)))
                         .collect::<Vec<_>>()
                         .join(", "),
                     if clear {

@@ -95,6 +95,9 @@ pub struct SimulationSummary<'a> {
     pub final_state: FinalState<'a>,
     /// The CSV file written.
     pub output: &'a str,
+    /// Whether the run reached its end time; false when a signal stopped it (the CSV then
+    /// holds the samples up to the last one and ends with a `# incomplete: ...` line).
+    pub complete: bool,
     /// The equilibrium the end state oscillates about (see [`SimulationSummary::with_wells`]):
     /// an index into `equilibria`, −1 across two wells.
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -125,6 +128,7 @@ impl<'a> SimulationSummary<'a> {
                 coordinates: Named::new(&traj.coordinates, &traj.q[last]),
             },
             output,
+            complete: true,
             well: None,
             equilibria: Vec::new(),
         }

@@ -12,6 +12,7 @@ pub mod margins;
 pub mod plot;
 pub mod results;
 pub mod sensitivity;
+pub mod units;
 
 use crate::diag::Result;
 use crate::model::Model;

@@ -37,6 +37,57 @@ pub struct LinePlot {
     pub marks: Vec<(f64, String)>,
 }
 
+impl LinePlot {
+    /// The plot of a frequency axis in rad/s redrawn in `unit` (`--freq-unit`): the
+    /// series' x, the vertical lines and the marks rescaled, `[rad/s]` in the x label and
+    /// every `<number> rad/s` in the labels rewritten in the unit. Only the picture
+    /// changes: the data written to CSV/JSON stay in rad/s.
+    pub fn in_frequency_unit(mut self, unit: super::units::FreqUnit) -> Self {
+        if unit == super::units::FreqUnit::RadPerSecond {
+            return self;
+        }
+        let relabel = |text: &str| -> String {
+            // each `<number> rad/s` becomes `<number in unit> <unit>`, with as many
+            // decimals as it had
+            let mut out = String::new();
+            let mut rest = text;
+            while let Some(at) = rest.find(" rad/s") {
+                let (before, after) = rest.split_at(at);
+                let start = before
+                    .rfind(|c: char| !(c.is_ascii_digit() || c == '.' || c == '-' || c == 'e'))
+                    .map_or(0, |i| i + 1);
+                match before[start..].parse::<f64>() {
+                    Ok(w) if start < before.len() => {
+                        let decimals = before[start..].split_once('.').map_or(0, |(_, d)| d.len());
+                        out.push_str(&before[..start]);
+                        out.push_str(&unit.show(w, decimals));
+                    }
+                    _ => {
+                        out.push_str(before);
+                        out.push_str(" rad/s");
+                    }
+                }
+                rest = &after[" rad/s".len()..];
+            }
+            out.push_str(rest);
+            out
+        };
+        for s in &mut self.series {
+            s.x.iter_mut().for_each(|x| *x = unit.of(*x));
+            s.label = relabel(&s.label);
+        }
+        for (x, label) in self.vertical.iter_mut().chain(self.marks.iter_mut()) {
+            *x = unit.of(*x);
+            *label = relabel(label);
+        }
+        self.x_label = self
+            .x_label
+            .replace("[rad/s]", &format!("[{}]", unit.symbol()));
+        self.title = relabel(&self.title);
+        self
+    }
+}
+
 const COLORS: [RGBColor; 6] = [
     RGBColor(31, 119, 180),
     RGBColor(214, 39, 40),

@@ -1,0 +1,223 @@
+//! Units of what the commands show: the unit in which printed frequencies are given
+//! ([`FreqUnit`], `--freq-unit`), and the `units` map of every `--json` document
+//! ([`Units`]: key or CSV column → unit, docs/units.md).
+//!
+//! CSV files and JSON values stay in SI (rad/s for frequencies, rad for angles): scripts
+//! read them. Only printed tables and plot axes follow `--freq-unit`.
+
+use crate::System;
+use serde::Serialize;
+use serde::ser::{SerializeMap, Serializer};
+
+/// The unit in which a command prints and plots frequencies (`--freq-unit`); the values
+/// computed and written to CSV/JSON are in rad/s whatever it is.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum FreqUnit {
+    #[default]
+    RadPerSecond,
+    Hertz,
+    Rpm,
+}
+
+impl FreqUnit {
+    /// `rad/s`, `Hz` or `rpm` (as `--freq-unit` takes them; `hz`, `rad_s` also).
+    pub fn parse(text: &str) -> Option<FreqUnit> {
+        match text.trim() {
+            "rad/s" | "rad_s" | "rad s^-1" => Some(FreqUnit::RadPerSecond),
+            "Hz" | "hz" | "HZ" => Some(FreqUnit::Hertz),
+            "rpm" | "RPM" | "rev/min" => Some(FreqUnit::Rpm),
+            _ => None,
+        }
+    }
+
+    /// The unit's symbol: `rad/s`, `Hz`, `rpm`.
+    pub fn symbol(self) -> &'static str {
+        match self {
+            FreqUnit::RadPerSecond => "rad/s",
+            FreqUnit::Hertz => "Hz",
+            FreqUnit::Rpm => "rpm",
+        }
+    }
+
+    /// A frequency in rad/s expressed in this unit (ω, ω/2π, 60 ω/2π).
+    pub fn of(self, rad_s: f64) -> f64 {
+        match self {
+            FreqUnit::RadPerSecond => rad_s,
+            FreqUnit::Hertz => rad_s / std::f64::consts::TAU,
+            FreqUnit::Rpm => rad_s * 60.0 / std::f64::consts::TAU,
+        }
+    }
+
+    /// `rad_s` in this unit with `decimals` decimals and the symbol: `4.1234 Hz`.
+    pub fn show(self, rad_s: f64, decimals: usize) -> String {
+        format!("{:.decimals$} {}", self.of(rad_s), self.symbol())
+    }
+}
+
+impl std::str::FromStr for FreqUnit {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        FreqUnit::parse(s)
+            .ok_or_else(|| format!("`{s}` is not a frequency unit: give rad/s, Hz or rpm"))
+    }
+}
+
+impl std::fmt::Display for FreqUnit {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.symbol())
+    }
+}
+
+/// A JSON document's `units`: each key (a JSON key holding numbers, or a CSV column the
+/// document repeats, such as a coordinate's name) → the unit of its values, in the order
+/// added; a key added twice keeps its first unit. `"1"` marks a dimensionless number.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Units(Vec<(String, String)>);
+
+impl Units {
+    pub fn new() -> Self {
+        Units::default()
+    }
+
+    /// With `key` → `unit` (unless `key` is there already).
+    pub fn with(mut self, key: impl Into<String>, unit: impl Into<String>) -> Self {
+        self.add(key, unit);
+        self
+    }
+
+    /// Add `key` → `unit` (unless `key` is there already).
+    pub fn add(&mut self, key: impl Into<String>, unit: impl Into<String>) {
+        let key = key.into();
+        if !self.0.iter().any(|(k, _)| *k == key) {
+            self.0.push((key, unit.into()));
+        }
+    }
+
+    /// With every pair of `pairs`.
+    pub fn with_all<'a>(mut self, pairs: impl IntoIterator<Item = (&'a str, &'a str)>) -> Self {
+        for (k, u) in pairs {
+            self.add(k, u);
+        }
+        self
+    }
+
+    /// With each coordinate of `sys` → its unit ([`coordinate_unit`]).
+    pub fn coordinates(mut self, sys: &System) -> Self {
+        for (i, c) in sys.coordinates.iter().enumerate() {
+            self.add(c.clone(), coordinate_unit(sys, i));
+        }
+        self
+    }
+
+    /// With each velocity column of `sys` (`<coordinate>_dot`, a free body's `b.vx`,
+    /// `b.wx`) → its unit.
+    pub fn velocities(mut self, sys: &System) -> Self {
+        for c in sys.velocity_columns() {
+            let unit = velocity_unit(sys, &c);
+            self.add(c, unit);
+        }
+        self
+    }
+
+    /// With each response of `names` → its unit (a coordinate, a force element's tension,
+    /// a point's position, a reaction: [`crate::system::outputs::Output::unit`]); a name
+    /// the model does not know is left out.
+    pub fn responses(mut self, sys: &System, names: &[String]) -> Self {
+        for n in names {
+            if let Ok(o) = sys.output(n) {
+                self.add(n.clone(), o.unit(sys));
+            }
+        }
+        self
+    }
+
+    /// The unit of `key`, if it has one here.
+    pub fn get(&self, key: &str) -> Option<&str> {
+        self.0
+            .iter()
+            .find(|(k, _)| k == key)
+            .map(|(_, u)| u.as_str())
+    }
+
+    /// The keys and units, in order.
+    pub fn pairs(&self) -> &[(String, String)] {
+        &self.0
+    }
+}
+
+impl Serialize for Units {
+    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        let mut map = s.serialize_map(Some(self.0.len()))?;
+        for (k, u) in &self.0 {
+            map.serialize_entry(k, u)?;
+        }
+        map.end()
+    }
+}
+
+/// A coordinate's unit: `rad` for an angle, `m` for a length, `1` for a quaternion
+/// component.
+pub fn coordinate_unit(sys: &System, i: usize) -> &'static str {
+    if sys.is_angle(i) {
+        "rad"
+    } else if sys.coordinate_dims[i] == crate::model::units::Dim::LENGTH {
+        "m"
+    } else {
+        "1"
+    }
+}
+
+/// A velocity column's unit: its coordinate's unit per second (`<coordinate>_dot`), or a
+/// free body's `m/s` (`b.vx`) and `rad/s` (`b.wx`).
+pub fn velocity_unit(sys: &System, column: &str) -> &'static str {
+    if let Some(i) = column
+        .strip_suffix("_dot")
+        .and_then(|c| sys.coordinate_index(c))
+    {
+        return match coordinate_unit(sys, i) {
+            "rad" => "rad/s",
+            "m" => "m/s",
+            _ => "1/s",
+        };
+    }
+    match column.rsplit('.').next().and_then(|l| l.chars().next()) {
+        Some('w') => "rad/s",
+        _ => "m/s",
+    }
+}
+
+/// A document with a `units` map after its own keys: `--json` output of every command
+/// (`{...the document's keys..., "units": {key: unit}}`).
+#[derive(Debug, Clone, Serialize)]
+pub struct WithUnits<'a, T> {
+    #[serde(flatten)]
+    pub doc: T,
+    pub units: &'a Units,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn frequency_units_convert_from_rad_s() {
+        let w = 2.0 * std::f64::consts::PI * 3.0;
+        assert_eq!(FreqUnit::parse("Hz"), Some(FreqUnit::Hertz));
+        assert!((FreqUnit::Hertz.of(w) - 3.0).abs() < 1e-12);
+        assert!((FreqUnit::Rpm.of(w) - 180.0).abs() < 1e-12);
+        assert_eq!(FreqUnit::RadPerSecond.of(w), w);
+        assert_eq!(FreqUnit::Hertz.show(w, 2), "3.00 Hz");
+        assert!("kHz".parse::<FreqUnit>().is_err());
+    }
+
+    #[test]
+    fn a_key_keeps_its_first_unit_and_the_order_is_kept() {
+        let u = Units::new()
+            .with("omega", "rad/s")
+            .with("bar1.theta", "rad")
+            .with("omega", "Hz");
+        assert_eq!(u.get("omega"), Some("rad/s"));
+        let text = serde_json::to_string(&u).unwrap();
+        assert_eq!(text, r#"{"omega":"rad/s","bar1.theta":"rad"}"#);
+    }
+}

@@ -1,0 +1,439 @@
+//! Units wherever a value is shown (issue 10, points 4 and 6): `--freq-unit` rescales
+//! printed tables and plot axes only (CSV and JSON stay in rad/s), angles are printed in
+//! degrees beside radians, every `--json` document carries a `units` map naming the unit
+//! of its keys and CSV columns, and `frf --per-unit` is the receptance per unit of the
+//! forcing amplitude (a single-degree-of-freedom closed form).
+
+use serde_json::Value;
+use std::f64::consts::TAU;
+use std::process::Command;
+
+/// Run the binary from the crate root: (exit code, stdout, stderr).
+fn detune(args: &[&str]) -> (i32, String, String) {
+    let o = Command::new(env!("CARGO_BIN_EXE_detune"))
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .args(args)
+        .output()
+        .unwrap();
+    (
+        o.status.code().unwrap_or(-1),
+        String::from_utf8_lossy(&o.stdout).into_owned(),
+        String::from_utf8_lossy(&o.stderr).into_owned(),
+    )
+}
+
+/// The run's stdout; it must succeed.
+fn ok(args: &[&str]) -> String {
+    let (code, out, err) = detune(args);
+    assert_eq!(code, 0, "{args:?}: {err}");
+    out
+}
+
+/// The run's stdout as JSON; it must succeed.
+fn json(args: &[&str]) -> Value {
+    let out = ok(args);
+    serde_json::from_str(&out).unwrap_or_else(|e| panic!("{args:?}: {e}\n{out}"))
+}
+
+/// The numbers of a printed line, in order (`2.97316410`, `-0.6`, `1e-3`; a `°` or `%`
+/// after a number is fine).
+fn numbers(line: &str) -> Vec<f64> {
+    line.split(|c: char| c.is_whitespace() || c == '(' || c == ')' || c == ',')
+        .filter_map(|w| {
+            w.trim_end_matches(['°', '%', 'i'])
+                .trim_start_matches('+')
+                .parse::<f64>()
+                .ok()
+        })
+        .collect()
+}
+
+/// The first line of `text` that starts (after spaces) with `prefix`.
+fn line<'a>(text: &'a str, prefix: &str) -> &'a str {
+    text.lines()
+        .find(|l| l.trim_start().starts_with(prefix))
+        .unwrap_or_else(|| panic!("no line starting with {prefix:?} in\n{text}"))
+}
+
+#[test]
+fn freq_unit_prints_the_modes_table_in_hz_and_rpm() {
+    let rad = ok(&["modes", "models/overcentre.toml"]);
+    let hz = ok(&["modes", "models/overcentre.toml", "--freq-unit", "Hz"]);
+    let rpm = ok(&["modes", "models/overcentre.toml", "--freq-unit", "rpm"]);
+    assert!(line(&rad, "mode").contains("ω_n [rad/s]"), "{rad}");
+    assert!(line(&hz, "mode").contains("ω_n [Hz]"), "{hz}");
+    assert!(line(&rpm, "mode").contains("ω_d [rpm]"), "{rpm}");
+    // mode 1: ω_n, ω_d (8 decimals), f [Hz], ζ, λ
+    let r = numbers(line(&rad, "1 "));
+    let h = numbers(line(&hz, "1 "));
+    let p = numbers(line(&rpm, "1 "));
+    for k in [1, 2] {
+        // each printed to 8 decimals: the rad/s value's rounding scaled, plus the unit's
+        assert!(
+            (h[k] - r[k] / TAU).abs() < 1e-8,
+            "{} Hz vs {} rad/s",
+            h[k],
+            r[k]
+        );
+        assert!(
+            (p[k] - r[k] * 60.0 / TAU).abs() < 6e-8,
+            "{} rpm vs {} rad/s",
+            p[k],
+            r[k]
+        );
+    }
+    // the Hz column, ζ and the eigenvalue (1/s) do not change
+    assert_eq!(h[3..], r[3..]);
+    assert_eq!(p[3..], r[3..]);
+    // the JSON stays in rad/s
+    let j = json(&[
+        "modes",
+        "models/overcentre.toml",
+        "--freq-unit",
+        "Hz",
+        "--json",
+    ]);
+    let w = j["modes"][0]["omega_n_rad_s"].as_f64().unwrap();
+    assert!((w - r[1]).abs() < 1e-8, "{w}");
+    // an unknown unit is a usage error naming the choices
+    let (code, _, err) = detune(&["modes", "models/overcentre.toml", "--freq-unit", "kHz"]);
+    assert_eq!(code, 2);
+    assert!(err.contains("rad/s, Hz or rpm"), "{err}");
+}
+
+#[test]
+fn freq_unit_rescales_the_frf_table_and_plot_but_not_the_csv() {
+    let dir = tempfile::tempdir().unwrap();
+    let (csv_rad, csv_hz) = (dir.path().join("rad.csv"), dir.path().join("hz.csv"));
+    let svg = dir.path().join("hz.svg");
+    let grid = [
+        "frf",
+        "models/overcentre.toml",
+        "--set",
+        "F0=0.1",
+        "--param",
+        "omega",
+        "--from",
+        "1",
+        "--to",
+        "4",
+        "--step",
+        "1",
+        "--response",
+        "bar1.theta",
+    ];
+    let table = ok(&[&grid[..], &["--freq-unit", "Hz"]].concat());
+    assert!(table.contains("omega [Hz]"), "{table}");
+    let rows: Vec<Vec<f64>> = table.lines().skip(1).map(numbers).collect();
+    for (k, r) in rows.iter().enumerate() {
+        let w = (k + 1) as f64;
+        assert!((r[0] - w / TAU).abs() < 5e-6, "{} Hz for {w} rad/s", r[0]);
+    }
+    ok(&[&grid[..], &["-o", csv_rad.to_str().unwrap()]].concat());
+    ok(&[
+        &grid[..],
+        &[
+            "--freq-unit",
+            "Hz",
+            "-o",
+            csv_hz.to_str().unwrap(),
+            "--plot",
+            svg.to_str().unwrap(),
+        ],
+    ]
+    .concat());
+    assert_eq!(
+        std::fs::read_to_string(&csv_rad).unwrap(),
+        std::fs::read_to_string(&csv_hz).unwrap()
+    );
+    // the plot's axis and lines in Hz: the undamped ω_n (2.9732 rad/s) at 0.4732 Hz
+    let text = std::fs::read_to_string(&svg).unwrap();
+    let doc = roxmltree::Document::parse(&text).unwrap();
+    let texts: Vec<&str> = doc
+        .descendants()
+        .filter(|n| n.has_tag_name("text"))
+        .filter_map(|n| n.text())
+        .map(str::trim)
+        .collect();
+    assert!(texts.contains(&"omega [Hz]"), "{texts:?}");
+    assert!(!texts.iter().any(|t| t.contains("rad/s")), "{texts:?}");
+    assert!(texts.contains(&"undamped ω_n = 0.4732 Hz"), "{texts:?}");
+}
+
+/// The plot method on its own: x, vertical lines and marks rescaled, numbers in rad/s
+/// in the labels rewritten with their decimals.
+#[test]
+fn a_line_plot_is_redrawn_in_another_frequency_unit() {
+    use detune::output::plot::{LinePlot, Series, Style};
+    use detune::output::units::FreqUnit;
+    let plot = LinePlot {
+        title: "x: response".into(),
+        x_label: "omega [rad/s]".into(),
+        y_label: "x amplitude [m]".into(),
+        series: vec![Series {
+            label: "peak 6.2832 rad/s".into(),
+            x: vec![TAU, 2.0 * TAU],
+            y: vec![1.0, 2.0],
+            style: Style::Markers,
+        }],
+        vertical: vec![(TAU, "undamped ω_n = 6.2832 rad/s".into())],
+        marks: vec![(3.0 * TAU, "1P (18.85 rad/s)".into())],
+    }
+    .in_frequency_unit(FreqUnit::Rpm);
+    assert_eq!(plot.x_label, "omega [rpm]");
+    assert!((plot.series[0].x[1] - 120.0).abs() < 1e-12);
+    assert_eq!(plot.series[0].y, vec![1.0, 2.0]);
+    // (the label's rounded 6.2832 rad/s converted: 60.0001 rpm)
+    assert_eq!(plot.series[0].label, "peak 60.0001 rpm");
+    assert!((plot.vertical[0].0 - 60.0).abs() < 1e-12);
+    assert_eq!(plot.vertical[0].1, "undamped ω_n = 60.0001 rpm");
+    assert!((plot.marks[0].0 - 180.0).abs() < 1e-12);
+    assert_eq!(plot.marks[0].1, "1P (180.00 rpm)");
+}
+
+/// `<value> rad (<degrees>°)` on every angle line of `text`: the degrees are the
+/// radians converted (to the printed decimals); returns how many were checked.
+fn degrees_agree(text: &str) -> usize {
+    let mut n = 0;
+    for l in text.lines() {
+        let mut rest = l;
+        while let Some(at) = rest.find(" rad (") {
+            let before = &rest[..at];
+            let rad: f64 = before
+                .trim_end()
+                .rsplit(|c: char| c.is_whitespace() || c == '=')
+                .next()
+                .unwrap()
+                .parse()
+                .unwrap_or_else(|_| panic!("{l}"));
+            let after = &rest[at + " rad (".len()..];
+            let deg: f64 = after.split('°').next().unwrap().parse().unwrap();
+            assert!(
+                (deg - rad.to_degrees()).abs() < 1e-5,
+                "{deg}° for {rad} rad in {l}"
+            );
+            n += 1;
+            rest = &after[1..];
+        }
+    }
+    n
+}
+
+#[test]
+fn angles_are_printed_in_degrees_beside_radians() {
+    // overcentre: two angles per pose; the sliding block of the sdof model has one
+    // (its locked θ) and lengths, which get none
+    let m = "models/overcentre.toml";
+    // check: the parameter theta1_0 (declared in rad) and the two angle coordinates
+    assert_eq!(degrees_agree(&ok(&["check", m])), 3);
+    assert_eq!(degrees_agree(&ok(&["equilibrium", m])), 2);
+    assert!(degrees_agree(&ok(&["equilibrium", m, "--all"])) >= 4);
+    assert_eq!(degrees_agree(&ok(&["modes", m])), 2);
+    let cont = ok(&[
+        "continue", m, "--param", "Fs", "--from", "-10", "--to", "30",
+    ]);
+    assert_eq!(degrees_agree(&cont), 4, "{cont}");
+    assert!(cont.contains("fold at Fs = "), "{cont}");
+    assert!(line(&cont, "fold").contains(" N: bar1.x = "), "{cont}");
+    let sdof = ok(&["equilibrium", "tests/data/sdof.toml"]);
+    assert!(line(&sdof, "block.x").trim_end().ends_with(" m"), "{sdof}");
+    assert_eq!(degrees_agree(&sdof), 1);
+}
+
+/// Every key of `object` that holds a number has a unit in `units`.
+fn every_number_has_a_unit(object: &Value, units: &Value, what: &str) {
+    for (k, v) in object.as_object().unwrap() {
+        if v.is_number() {
+            assert!(units[k].is_string(), "{what}: no unit for `{k}` in {units}");
+        }
+    }
+}
+
+#[test]
+fn every_json_document_has_a_units_map() {
+    let m = "models/overcentre.toml";
+    // equilibrium (one and all): the coordinates and the numbers
+    for extra in [&[][..], &["--all"][..]] {
+        let j = json(&[&["equilibrium", m, "--json"], extra].concat());
+        let u = &j["units"];
+        assert_eq!(u["bar1.theta"], "rad");
+        assert_eq!(u["bar2.x"], "m");
+        assert_eq!(u["undamped_omega2"], "rad^2/s^2");
+        assert!(u["residual"].is_string());
+    }
+    // continue: the parameter in its unit
+    let j = json(&[
+        "continue", m, "--param", "Fs", "--from", "-10", "--to", "30", "--json",
+    ]);
+    assert_eq!(j["units"]["Fs"], "N");
+    assert_eq!(j["units"]["value"], "N");
+    assert_eq!(j["units"]["bar1.theta"], "rad");
+    // modes: the mode keys
+    let j = json(&["modes", m, "--json"]);
+    every_number_has_a_unit(&j["modes"][0], &j["units"], "modes");
+    assert_eq!(j["units"]["omega_n_rad_s"], "rad/s");
+    assert_eq!(j["units"]["freq_hz"], "Hz");
+    assert_eq!(j["units"]["eigenvalue"], "1/s");
+    // modes --param: the parameter and the CSV's columns
+    let j = json(&[
+        "modes",
+        "models/inceptor.toml",
+        "--param",
+        "k_t",
+        "--from",
+        "200",
+        "--to",
+        "3000",
+        "--points",
+        "3",
+        "--json",
+    ]);
+    assert_eq!(j["units"]["k_t"], "N*m/rad");
+    assert_eq!(j["units"]["in-phase.omega_n_rad_s"], "rad/s");
+    assert_eq!(j["units"]["in-phase.mac"], "1");
+    // frf: every column of the CSV (a point's keys)
+    let j = json(&[
+        "frf",
+        m,
+        "--set",
+        "F0=0.1",
+        "--param",
+        "omega",
+        "--from",
+        "1",
+        "--to",
+        "3",
+        "--step",
+        "1",
+        "--response",
+        "bar1.theta",
+        "--response",
+        "bar2.x",
+        "--json",
+    ]);
+    every_number_has_a_unit(&j["points"][0], &j["units"], "frf");
+    assert_eq!(j["units"]["omega"], "rad/s");
+    assert_eq!(j["units"]["bar1.theta_amplitude"], "rad");
+    assert_eq!(j["units"]["bar2.x_amplitude"], "m");
+    assert_eq!(j["units"]["bar1.theta_phase_deg"], "deg");
+    // sweep: every column of the CSV, and the peaks' keys
+    let j = json(&[
+        "sweep",
+        m,
+        "--set",
+        "F0=0.1",
+        "--param",
+        "omega",
+        "--from",
+        "2",
+        "--to",
+        "3",
+        "--step",
+        "1",
+        "--response",
+        "bar1.theta",
+        "--json",
+    ]);
+    every_number_has_a_unit(&j["points"][0], &j["units"], "sweep");
+    assert_eq!(j["units"]["bar1.theta_mean"], "rad");
+    assert_eq!(j["units"]["bar1.theta_thd"], "1");
+    assert_eq!(j["units"]["uncertainty"], "rad/s");
+    // simulate: every column of the CSV
+    let dir = tempfile::tempdir().unwrap();
+    let (csv, sum) = (dir.path().join("s.csv"), dir.path().join("s.json"));
+    ok(&[
+        "simulate",
+        m,
+        "--t-end",
+        "0.1",
+        "--velocities",
+        "--response",
+        "spring.tension",
+        "-o",
+        csv.to_str().unwrap(),
+        "--json",
+        sum.to_str().unwrap(),
+    ]);
+    let j: Value = serde_json::from_str(&std::fs::read_to_string(&sum).unwrap()).unwrap();
+    assert_eq!(j["complete"], true);
+    let header = std::fs::read_to_string(&csv).unwrap();
+    for col in header.lines().next().unwrap().split(',') {
+        assert!(j["units"][col].is_string(), "simulate: no unit for {col}");
+    }
+    assert_eq!(j["units"]["bar1.theta_dot"], "rad/s");
+    assert_eq!(j["units"]["bar2.x_dot"], "m/s");
+    assert_eq!(j["units"]["spring.tension"], "N");
+    // margins and tune: the rows' keys
+    let inc = "models/inceptor.toml";
+    let (_, out, err) = detune(&["margins", inc, "--environment", "UH-60", "--json"]);
+    let j: Value = serde_json::from_str(&out).unwrap_or_else(|e| panic!("{e}: {err}"));
+    every_number_has_a_unit(&j["rows"][0], &j["units"], "margins");
+    let j = json(&[
+        "tune",
+        inc,
+        "--environment",
+        "UH-60",
+        "--vary",
+        "k_fs=50%..200%",
+        "--json",
+    ]);
+    assert_eq!(j["units"]["k_fs"], "N/m");
+    every_number_has_a_unit(&j["designs"][0], &j["units"], "tune");
+    every_number_has_a_unit(&j["designs"][0]["modes"], &j["units"], "tune modes");
+    // sensitivity (its map predates this issue)
+    let j = json(&["sensitivity", inc, "--vary", "k_fs=±10%", "--json"]);
+    assert_eq!(j["units"]["omega_n_rad_s"], "rad/s");
+}
+
+/// `frf --per-unit` on a linear single-degree-of-freedom oscillator (m = 2 kg, k = 800
+/// N/m, c = 6 N·s/m): the receptance |H| = 1/sqrt((k − m ω²)² + (c ω)²) m/N, lagging by
+/// atan2(c ω, k − m ω²); the CSV columns unchanged; the amplitude at F0 = 3 N is 3 |H|.
+#[test]
+fn frf_per_unit_is_the_closed_form_receptance() {
+    let (m, k, c) = (2.0, 800.0, 6.0);
+    let grid = [
+        "frf",
+        "tests/data/sdof.toml",
+        "--param",
+        "omega",
+        "--from",
+        "2",
+        "--to",
+        "40",
+        "--step",
+        "2",
+        "--response",
+        "block.x",
+        "--json",
+    ];
+    let per_unit = json(&[&grid[..], &["--per-unit"]].concat());
+    let at_3n = json(&[&grid[..], &["--set", "F0=3"]].concat());
+    let points = per_unit["points"].as_array().unwrap();
+    assert_eq!(points.len(), 20);
+    for (p, q) in points.iter().zip(at_3n["points"].as_array().unwrap()) {
+        let w = p["omega"].as_f64().unwrap();
+        let (re, im) = (k - m * w * w, c * w);
+        let h = 1.0 / re.hypot(im);
+        let amp = p["block.x_amplitude"].as_f64().unwrap();
+        assert!(
+            (amp - h).abs() < 1e-10 * h,
+            "ω = {w}: {amp} m/N, closed form {h}"
+        );
+        let lag = im.atan2(re).to_degrees();
+        let phase = p["block.x_phase_deg"].as_f64().unwrap();
+        assert!(
+            (phase + lag).abs() < 1e-8,
+            "ω = {w}: {phase}°, closed form −{lag}°"
+        );
+        let amp3 = q["block.x_amplitude"].as_f64().unwrap();
+        assert!(
+            (amp3 - 3.0 * h).abs() < 1e-10 * h,
+            "ω = {w}: {amp3} m at 3 N"
+        );
+    }
+    // the keys are the CSV's, the amplitude's unit is per newton
+    assert_eq!(per_unit["units"]["block.x_amplitude"], "m/N");
+    assert_eq!(at_3n["units"]["block.x_amplitude"], "m");
+    let table = ok(&[&grid[..grid.len() - 1], &["--per-unit"]].concat());
+    assert!(table.contains("block.x amp [m/N]"), "{table}");
+}
