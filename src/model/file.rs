@@ -415,6 +415,23 @@ pub struct RawForce {
     /// torque: one value about the plane's normal (planar) or world-frame components
     /// `[Tx, Ty, Tz]` (spatial), N·m (expressions).
     pub torque: Option<Spanned<RawValueOrVector>>,
+    /// spring, torsion_spring: the force (torque) as an expression of `x` and `x_dot`.
+    pub law: Option<SValue>,
+    /// breakout: the preload torque T0, N·m.
+    pub preload: Option<SValue>,
+    /// breakout: the stiffness beyond the breakout, N·m/rad.
+    pub stiffness2: Option<SValue>,
+    /// breakout, backlash, end stops: the smoothing (relative ε, or a width).
+    pub smoothing: Option<SValue>,
+    /// backlash: the half-width b of the dead band, m or rad.
+    pub gap: Option<SValue>,
+    /// end stops: the limits, m or rad.
+    pub lower: Option<SValue>,
+    pub upper: Option<SValue>,
+    /// friction: the friction force (torque), N (N·m).
+    pub level: Option<SValue>,
+    /// friction: the regularization rate v0, m/s (rad/s).
+    pub slip_rate: Option<SValue>,
 }
 
 impl RawElement for RawForce {
@@ -435,6 +452,15 @@ impl RawElement for RawForce {
         "axis",
         "free_angle",
         "torque",
+        "law",
+        "preload",
+        "stiffness2",
+        "smoothing",
+        "gap",
+        "lower",
+        "upper",
+        "level",
+        "slip_rate",
     ];
     type_name_and_ends!();
     fn own_field(&self, key: &str) -> Option<Option<RawField<'_>>> {
@@ -446,6 +472,15 @@ impl RawElement for RawForce {
             "force" => self.force.as_ref().map(RawField::Vector),
             "axis" => self.axis.as_ref().map(RawField::Vector),
             "free_angle" => self.free_angle.as_ref().map(RawField::Value),
+            "law" => self.law.as_ref().map(RawField::Value),
+            "preload" => self.preload.as_ref().map(RawField::Value),
+            "stiffness2" => self.stiffness2.as_ref().map(RawField::Value),
+            "smoothing" => self.smoothing.as_ref().map(RawField::Value),
+            "gap" => self.gap.as_ref().map(RawField::Value),
+            "lower" => self.lower.as_ref().map(RawField::Value),
+            "upper" => self.upper.as_ref().map(RawField::Value),
+            "level" => self.level.as_ref().map(RawField::Value),
+            "slip_rate" => self.slip_rate.as_ref().map(RawField::Value),
             "torque" => self.torque.as_ref().map(|t| match t.get_ref() {
                 RawValueOrVector::Value(v) => RawField::Value(v),
                 RawValueOrVector::Vector(v) => RawField::Vector(v),

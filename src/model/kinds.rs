@@ -10,7 +10,9 @@
 //! new field, the field in [`super::file`]).
 
 use super::file::{RawElement, RawField};
-use super::{BodyRef, Builder, Field, ForceKind, JointKind, PointRef, SpatialJoint, suggest};
+use super::{
+    BodyRef, Builder, Field, ForceKind, JointKind, LawDef, PointRef, SpatialJoint, suggest,
+};
 use crate::diag::Diagnostic;
 use std::ops::Range;
 
@@ -45,6 +47,8 @@ pub(super) enum Omitted {
     Origin,
     /// Nothing: the constructor decides.
     Absent,
+    /// This number (SI).
+    Number(f64),
 }
 
 impl FieldSpec {
@@ -249,6 +253,37 @@ pub(super) const FORCES3: Family<ForceKind> = Family {
             },
         },
         SPRING_DAMPER,
+        SPRING,
+        BACKLASH,
+        END_STOP,
+        FRICTION,
+        Kind {
+            name: "torsion_spring",
+            fields: &[BODY1, BODY2, AXIS3, FREE_ANGLE, LAW],
+            build: |_, v| nonlinear_torsion(v, true, law_expr),
+        },
+        Kind {
+            name: "breakout",
+            fields: &[
+                BODY1, BODY2, AXIS3, K1, PRELOAD, K2, DAMPING_T, FREE_ANGLE, EPS,
+            ],
+            build: |_, v| nonlinear_torsion(v, true, law_breakout),
+        },
+        Kind {
+            name: "torsion_backlash",
+            fields: &[BODY1, BODY2, AXIS3, K1, DAMPING_T, FREE_ANGLE, GAP, EPS],
+            build: |_, v| nonlinear_torsion(v, true, law_backlash),
+        },
+        Kind {
+            name: "torsion_end_stop",
+            fields: &[BODY1, BODY2, AXIS3, K1, DAMPING_T, LOWER, UPPER, WIDTH],
+            build: |b, v| end_stop_torsion(b, v, true),
+        },
+        Kind {
+            name: "torsion_friction",
+            fields: &[BODY1, BODY2, AXIS3, LEVEL, SLIP_RATE],
+            build: |_, v| nonlinear_torsion(v, true, law_friction),
+        },
         Kind {
             name: "point_force",
             fields: &[
@@ -297,6 +332,7 @@ fn torsion(v: &mut Values, spatial: bool) -> Option<ForceKind> {
         stiffness: v.scalar("stiffness")?,
         damping: v.scalar("damping")?,
         free_angle: v.scalar("free_angle")?,
+        law: LawDef::Linear,
     })
 }
 
@@ -362,8 +398,194 @@ const SPRING_DAMPER: Kind<ForceKind> = Kind {
             stiffness: v.scalar("stiffness")?,
             damping: v.scalar("damping")?,
             free_length: v.scalar("free_length")?,
+            law: LawDef::Linear,
         })
     },
+};
+
+// The nonlinear elements (docs/model-format.md, "Nonlinear elements"): a spring or a
+// torsion whose law is not linear. Units: m or rad (N or N·m) by the element's motion.
+const LAW: FieldSpec = FieldSpec::required(
+    "law",
+    Some(
+        "add `law = \"-k*x - c*x_dot\"`: the force (torque) as an expression of the stretch `x` and its rate `x_dot`",
+    ),
+);
+const K1: FieldSpec = FieldSpec::required("stiffness", None); // N/m or N·m/rad
+const K2: FieldSpec = FieldSpec::required(
+    "stiffness2",
+    Some("add `stiffness2 = ...` (N·m/rad): the stiffness once the preload is passed"),
+);
+const PRELOAD: FieldSpec = FieldSpec::required(
+    "preload",
+    Some("add `preload = ...` (N·m): the torque at which the stiffness changes"),
+);
+/// Relative corner width ε of the smoothed clip.
+const EPS: FieldSpec = FieldSpec::optional("smoothing", Omitted::Number(0.02));
+/// Absolute smoothing width of an end stop, m or rad.
+const WIDTH: FieldSpec = FieldSpec::optional("smoothing", Omitted::Number(1e-4));
+const GAP: FieldSpec = FieldSpec::required(
+    "gap",
+    Some("add `gap = ...` (m or rad): the half-width b of the dead band ±b"),
+);
+const LOWER: FieldSpec = FieldSpec::optional("lower", Omitted::Absent);
+const UPPER: FieldSpec = FieldSpec::optional("upper", Omitted::Absent);
+const LEVEL: FieldSpec = FieldSpec::required(
+    "level",
+    Some("add `level = ...` (N, or N·m for a torsion): the friction force while sliding"),
+);
+/// The regularization rate v0 of tanh(v/v0), m/s or rad/s.
+const SLIP_RATE: FieldSpec = FieldSpec::optional("slip_rate", Omitted::Number(1e-3));
+const FREE_LENGTH: FieldSpec = FieldSpec::required("free_length", None);
+const DAMPING: FieldSpec = FieldSpec::optional("damping", Omitted::Zero);
+
+fn law_expr(v: &mut Values) -> Option<LawDef> {
+    Some(LawDef::Expr(v.scalar("law")?))
+}
+fn law_breakout(v: &mut Values) -> Option<LawDef> {
+    Some(LawDef::Breakout {
+        preload: v.scalar("preload")?,
+        stiffness2: v.scalar("stiffness2")?,
+        smoothing: v.scalar("smoothing")?,
+    })
+}
+fn law_backlash(v: &mut Values) -> Option<LawDef> {
+    Some(LawDef::Backlash {
+        gap: v.scalar("gap")?,
+        smoothing: v.scalar("smoothing")?,
+    })
+}
+fn law_friction(v: &mut Values) -> Option<LawDef> {
+    Some(LawDef::Friction {
+        level: v.scalar("level")?,
+        slip_rate: v.scalar("slip_rate")?,
+    })
+}
+/// End stops: at least one limit.
+fn law_end_stop(b: &mut Builder<'_>, v: &mut Values) -> Option<LawDef> {
+    let lower = v.optional_scalar("lower")?;
+    let upper = v.optional_scalar("upper")?;
+    if lower.is_none() && upper.is_none() {
+        b.diags.push(
+            Diagnostic::new(format!("{} has no limit", v.owner))
+                .at(v.span.clone())
+                .help("add `lower = ...` and/or `upper = ...` (m or rad): where the stop begins"),
+        );
+        return None;
+    }
+    Some(LawDef::EndStop {
+        lower,
+        upper,
+        smoothing: v.scalar("smoothing")?,
+    })
+}
+
+/// A field the law does not use: 0 (the damping of a `spring`, say).
+fn zero_or(v: &mut Values, name: &str, has: bool) -> Option<Field> {
+    if has {
+        v.scalar(name)
+    } else {
+        Some(Field::default_value(0.0, v.span.clone()))
+    }
+}
+
+/// A torsion-like element with a nonlinear law.
+fn nonlinear_torsion(
+    v: &mut Values,
+    spatial: bool,
+    law: fn(&mut Values) -> Option<LawDef>,
+) -> Option<ForceKind> {
+    let has = |n: &str| v.read.iter().any(|(f, _)| *f == n);
+    let (k, c, free) = (has("stiffness"), has("damping"), has("free_angle"));
+    let body1 = v.body("body1");
+    let body2 = v.body("body2");
+    let axis = if spatial {
+        v.vector("axis")
+    } else {
+        Some(Vec::new())
+    };
+    let stiffness = zero_or(v, "stiffness", k);
+    let damping = zero_or(v, "damping", c);
+    let free_angle = zero_or(v, "free_angle", free);
+    let law = law(v);
+    Some(ForceKind::Torsion {
+        body1: body1?,
+        body2: body2?,
+        axis: axis?,
+        stiffness: stiffness?,
+        damping: damping?,
+        free_angle: free_angle?,
+        law: law?,
+    })
+}
+
+fn end_stop_torsion(b: &mut Builder<'_>, v: &mut Values, spatial: bool) -> Option<ForceKind> {
+    let law = law_end_stop(b, v);
+    let mut kind = nonlinear_torsion(v, spatial, |_| Some(LawDef::Linear))?;
+    if let ForceKind::Torsion { law: l, .. } = &mut kind {
+        *l = law?;
+    }
+    Some(kind)
+}
+
+/// A spring-like element (between two points, along their line) with a nonlinear law.
+fn nonlinear_spring(
+    v: &mut Values,
+    law: impl FnOnce(&mut Values) -> Option<LawDef>,
+) -> Option<ForceKind> {
+    let has = |n: &str| v.read.iter().any(|(f, _)| *f == n);
+    let (k, c, l0) = (has("stiffness"), has("damping"), has("free_length"));
+    let ends = v.ends();
+    let stiffness = zero_or(v, "stiffness", k);
+    let damping = zero_or(v, "damping", c);
+    let free_length = zero_or(v, "free_length", l0);
+    let law = law(v);
+    let [p1, p2] = ends?;
+    Some(ForceKind::SpringDamper {
+        p1,
+        p2,
+        stiffness: stiffness?,
+        damping: damping?,
+        free_length: free_length?,
+        law: law?,
+    })
+}
+
+const SPRING: Kind<ForceKind> = Kind {
+    name: "spring",
+    fields: &[BODY1, POINT1, BODY2, POINT2, FREE_LENGTH, LAW],
+    build: |_, v| nonlinear_spring(v, law_expr),
+};
+const BACKLASH: Kind<ForceKind> = Kind {
+    name: "backlash",
+    fields: &[
+        BODY1,
+        POINT1,
+        BODY2,
+        POINT2,
+        K1,
+        DAMPING,
+        FREE_LENGTH,
+        GAP,
+        EPS,
+    ],
+    build: |_, v| nonlinear_spring(v, law_backlash),
+};
+/// The stretch of an end stop between two points is their distance (free length 0).
+const END_STOP: Kind<ForceKind> = Kind {
+    name: "end_stop",
+    fields: &[
+        BODY1, POINT1, BODY2, POINT2, K1, DAMPING, LOWER, UPPER, WIDTH,
+    ],
+    build: |b, v| {
+        let law = law_end_stop(b, v);
+        nonlinear_spring(v, |_| law)
+    },
+};
+const FRICTION: Kind<ForceKind> = Kind {
+    name: "friction",
+    fields: &[BODY1, POINT1, BODY2, POINT2, LEVEL, SLIP_RATE],
+    build: |_, v| nonlinear_spring(v, law_friction),
 };
 
 /// `[[forces]]`.
@@ -385,6 +607,35 @@ pub(super) const FORCES: Family<ForceKind> = Family {
             },
         },
         SPRING_DAMPER,
+        SPRING,
+        BACKLASH,
+        END_STOP,
+        FRICTION,
+        Kind {
+            name: "torsion_spring",
+            fields: &[BODY1, BODY2, FREE_ANGLE, LAW],
+            build: |_, v| nonlinear_torsion(v, false, law_expr),
+        },
+        Kind {
+            name: "breakout",
+            fields: &[BODY1, BODY2, K1, PRELOAD, K2, DAMPING_T, FREE_ANGLE, EPS],
+            build: |_, v| nonlinear_torsion(v, false, law_breakout),
+        },
+        Kind {
+            name: "torsion_backlash",
+            fields: &[BODY1, BODY2, K1, DAMPING_T, FREE_ANGLE, GAP, EPS],
+            build: |_, v| nonlinear_torsion(v, false, law_backlash),
+        },
+        Kind {
+            name: "torsion_end_stop",
+            fields: &[BODY1, BODY2, K1, DAMPING_T, LOWER, UPPER, WIDTH],
+            build: |b, v| end_stop_torsion(b, v, false),
+        },
+        Kind {
+            name: "torsion_friction",
+            fields: &[BODY1, BODY2, LEVEL, SLIP_RATE],
+            build: |_, v| nonlinear_torsion(v, false, law_friction),
+        },
         Kind {
             name: "point_force",
             fields: &[
@@ -475,6 +726,14 @@ impl Values {
         match self.take(name)? {
             Value::Vector(v) => Some(v),
             other => panic!("`{name}` is not a vector: {other:?}"),
+        }
+    }
+    /// An optional number: `Some(None)` if absent, `None` if not readable.
+    pub fn optional_scalar(&mut self, name: &str) -> Option<Option<Field>> {
+        match self.take(name)? {
+            Value::Scalar(f) => Some(Some(f)),
+            Value::Absent => Some(None),
+            other => panic!("`{name}` is not a number: {other:?}"),
         }
     }
     /// An optional vector: `None` if absent (or not readable).
@@ -612,6 +871,7 @@ impl Builder<'_> {
                     ])
                 }
                 Omitted::Absent => Value::Absent,
+                Omitted::Number(x) => Value::Scalar(Field::default_value(x, values.span.clone())),
             }),
             (None, Rule::Required { help }) => {
                 let (owner, called) = (&values.owner, spec.called);

@@ -294,6 +294,7 @@ pub enum ForceKind {
         stiffness: Field,
         damping: Field,
         free_length: Field,
+        law: LawDef,
     },
     /// A force (N, world frame) at a body point; components may depend on `t`,
     /// parameters and coordinates.
@@ -308,9 +309,41 @@ pub enum ForceKind {
         stiffness: Field,
         damping: Field,
         free_angle: Field,
+        law: LawDef,
     },
     /// A torque (N·m, world frame) on a body (spatial models).
     Torque { body: BodyRef, torque: Vec<Field> },
+}
+
+/// The law of a `spring_damper`- or `torsion`-like element (docs/model-format.md,
+/// "Nonlinear elements"): the linear spring–dashpot, or one of the nonlinear kinds.
+#[derive(Debug, Clone)]
+pub enum LawDef {
+    Linear,
+    /// `law`: an expression of `x` (stretch) and `x_dot` (its rate).
+    Expr(Field),
+    /// `preload` T0, `stiffness2` k2, `smoothing` ε (k1 is `stiffness`).
+    Breakout {
+        preload: Field,
+        stiffness2: Field,
+        smoothing: Field,
+    },
+    /// `gap` b, `smoothing` ε (relative to b).
+    Backlash {
+        gap: Field,
+        smoothing: Field,
+    },
+    /// `lower`, `upper` limits of the stretch, `smoothing` width (m or rad).
+    EndStop {
+        lower: Option<Field>,
+        upper: Option<Field>,
+        smoothing: Field,
+    },
+    /// `level` (N or N·m), `slip_rate` v0.
+    Friction {
+        level: Field,
+        slip_rate: Field,
+    },
 }
 
 #[derive(Debug, Clone)]

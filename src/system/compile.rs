@@ -6,13 +6,16 @@ use super::frame::{GroundMotion, SysPoint};
 use super::joints::{Constraint, Joint};
 use super::live::{Check, CheckKind, Live};
 use super::spatial::{Force3, Geom3, Joint3, SysPoint3, UnitCoefs};
-use super::{InitialGuess, SysBody, System, forces::Force};
+use super::{
+    InitialGuess, SysBody, System,
+    forces::{Force, Law},
+};
 use crate::diag::{Diagnostic, Error, Result};
 use crate::model::expr::{Compiled, ExprError, Slot, Span};
 use crate::model::units::Dim;
 use crate::model::{
-    BodyKind, BodyRef, Field, ForceKind, JointKind, Model, PointRef, SpatialJoint, expr_diag,
-    suggest,
+    BodyKind, BodyRef, Field, ForceKind, JointKind, LawDef, Model, PointRef, SpatialJoint,
+    expr_diag, suggest,
 };
 use nalgebra::DMatrix;
 
@@ -317,6 +320,154 @@ impl Compiler<'_> {
             span: f.span.clone(),
         });
         Some(coef)
+    }
+
+    /// The law of a spring (`angular`: a torsion) named `name` whose stiffness is
+    /// coefficient `k` (written at `stiffness`): its own fields compiled and checked.
+    fn law(
+        &mut self,
+        law: &LawDef,
+        angular: bool,
+        name: &str,
+        stiffness: &Field,
+        k: Option<usize>,
+    ) -> Option<Law> {
+        let (stretch, rate, load) = if angular {
+            (Dim::NONE, Dim::FREQUENCY, Dim::TORQUE)
+        } else {
+            (Dim::LENGTH, Dim::VELOCITY, Dim::FORCE)
+        };
+        let of = |what: &str| format!("the {what} of `{name}`");
+        Some(match law {
+            LawDef::Linear => Law::Linear,
+            LawDef::Expr(f) => Law::Expr(self.law_expr(f, stretch, rate, load, name)?),
+            LawDef::Breakout {
+                preload,
+                stiffness2,
+                smoothing,
+            } => {
+                // tb = T0/k1: k1 must be positive
+                if let Some(k) = k {
+                    self.live.checks.push(Check {
+                        coef: k,
+                        kind: CheckKind::Positive,
+                        what: of("stiffness"),
+                        dim: Dim::ANGULAR_STIFFNESS,
+                        span: stiffness.span.clone(),
+                    });
+                }
+                let t0 = self.checked(preload, Dim::TORQUE, &of("preload"), CheckKind::Positive);
+                let k2 = self.constant(stiffness2, Dim::ANGULAR_STIFFNESS, &of("stiffness2"));
+                let eps = self.checked(smoothing, Dim::NONE, &of("smoothing"), CheckKind::Positive);
+                Law::Breakout {
+                    k2: k2?,
+                    t0: t0?,
+                    eps: eps?,
+                }
+            }
+            LawDef::Backlash { gap, smoothing } => {
+                let gap = self.checked(gap, stretch, &of("gap"), CheckKind::Positive);
+                let eps = self.checked(smoothing, Dim::NONE, &of("smoothing"), CheckKind::Positive);
+                Law::Backlash {
+                    gap: gap?,
+                    eps: eps?,
+                }
+            }
+            LawDef::EndStop {
+                lower,
+                upper,
+                smoothing,
+            } => {
+                let lo = lower
+                    .as_ref()
+                    .map(|l| self.constant(l, stretch, &of("lower limit")));
+                let up = upper
+                    .as_ref()
+                    .map(|u| self.constant(u, stretch, &of("upper limit")));
+                let width = self.checked(smoothing, stretch, &of("smoothing"), CheckKind::Positive);
+                Law::EndStop {
+                    lower: lo.map(|l| l.ok_or(())).transpose().ok()?,
+                    upper: up.map(|u| u.ok_or(())).transpose().ok()?,
+                    width: width?,
+                }
+            }
+            LawDef::Friction { level, slip_rate } => {
+                let level =
+                    self.checked(level, load, &of("friction level"), CheckKind::NonNegative);
+                let v0 = self.checked(slip_rate, rate, &of("slip rate"), CheckKind::Positive);
+                Law::Friction {
+                    level: level?,
+                    v0: v0?,
+                }
+            }
+        })
+    }
+
+    /// A user's law: an expression of `x` (the stretch), `x_dot` (its rate) and the
+    /// parameters, of dimension `load`, compiled with `x` as slot 0 and `x_dot` as 1.
+    fn law_expr(
+        &mut self,
+        f: &Field,
+        stretch: Dim,
+        rate: Dim,
+        load: Dim,
+        name: &str,
+    ) -> Option<Compiled> {
+        let params = &self.model.parameters;
+        let var_dim = |n: &str| match n {
+            "x" => Some(stretch),
+            "x_dot" => Some(rate),
+            _ => params.index(n).and_then(|i| params.dims[i]),
+        };
+        let what = format!("the law of `{name}`");
+        match f.expr.dim(&var_dim) {
+            Some(d) if d != load => {
+                self.diags.push(
+                    Diagnostic::new(format!("{what} is a quantity in {load}; this value is in {d}"))
+                        .at(f.span.clone())
+                        .label(format!("in {d}"))
+                        .help(format!(
+                            "give {what} in {load}: `x` is in {stretch}, `x_dot` in {rate} (plain numbers are SI)"
+                        )),
+                );
+                return None;
+            }
+            _ => {}
+        }
+        let mut uses: Vec<(usize, Span)> = Vec::new();
+        let r = f.expr.check_dims(&var_dim).and_then(|_| {
+            f.expr.compile(&mut |n, span| match n {
+                "x" => Ok(Slot::Coord(0)),
+                "x_dot" => Ok(Slot::Coord(1)),
+                _ => {
+                    let s = self.lookup(n, span, false, false).map_err(|e| {
+                        e.with_help("a law may use `x` (the stretch), `x_dot` (its rate) and the parameters")
+                    })?;
+                    if let Slot::Param(i) = s {
+                        uses.push((i, span.clone()));
+                    }
+                    Ok(s)
+                }
+            })
+        });
+        match r {
+            Ok(c) => {
+                for (i, s) in uses {
+                    self.live
+                        .used
+                        .push((i, f.offset + s.start..f.offset + s.end));
+                }
+                Some(c)
+            }
+            Err(e) => {
+                let mut d = expr_diag(&e, f.offset);
+                if f.number {
+                    d.span = Some(f.span.clone());
+                }
+                self.diags.push(d);
+                None
+            }
+        }
     }
 
     /// A finite coefficient.
@@ -661,6 +812,7 @@ impl Compiler<'_> {
                         stiffness,
                         damping,
                         free_length,
+                        law,
                     } => {
                         let w1 = format!("point1 of `{}`", f.name);
                         let w2 = format!("point2 of `{}`", f.name);
@@ -677,16 +829,29 @@ impl Compiler<'_> {
                             "the free length",
                             CheckKind::NonNegative,
                         );
-                        let (Some(k), Some(c), Some(l0)) = (k, c, l0) else {
+                        let law = self.law(law, false, &f.name, stiffness, k);
+                        let (Some(k), Some(c), Some(l0), Some(law)) = (k, c, l0, law) else {
                             break 'element;
                         };
                         match (ends3, ends2) {
                             (Some((Some(a), Some(b))), _) => {
-                                forces.push(Force::Spatial(Force3::Spring { a, b, k, c, l0 }))
+                                forces.push(Force::Spatial(Force3::Spring {
+                                    a,
+                                    b,
+                                    k,
+                                    c,
+                                    l0,
+                                    law,
+                                }))
                             }
-                            (_, Some((Some(a), Some(b)))) => {
-                                forces.push(Force::Spring { a, b, k, c, l0 })
-                            }
+                            (_, Some((Some(a), Some(b)))) => forces.push(Force::Spring {
+                                a,
+                                b,
+                                k,
+                                c,
+                                l0,
+                                law,
+                            }),
                             _ => {}
                         }
                     }
@@ -724,6 +889,7 @@ impl Compiler<'_> {
                         stiffness,
                         damping,
                         free_angle,
+                        law,
                     } => {
                         let b1 = self.body_of(&PointRef {
                             body: *body1,
@@ -761,7 +927,8 @@ impl Compiler<'_> {
                         let c =
                             self.constant(damping, Dim::ANGULAR_DAMPING, "the torsional damping");
                         let free = self.constant(free_angle, Dim::NONE, "the free angle");
-                        let (Some(k), Some(c), Some(free)) = (k, c, free) else {
+                        let law = self.law(law, true, &f.name, stiffness, k);
+                        let (Some(k), Some(c), Some(free), Some(law)) = (k, c, free, law) else {
                             break 'element;
                         };
                         forces.push(match ax {
@@ -772,8 +939,16 @@ impl Compiler<'_> {
                                 k,
                                 c,
                                 free,
+                                law,
                             }),
-                            None => Force::Torsion { b1, b2, k, c, free },
+                            None => Force::Torsion {
+                                b1,
+                                b2,
+                                k,
+                                c,
+                                free,
+                                law,
+                            },
                         });
                     }
                     ForceKind::Torque { body, torque } => {

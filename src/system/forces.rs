@@ -14,6 +14,7 @@ pub enum Force {
         k: usize,
         c: usize,
         l0: usize,
+        law: Law,
     },
     /// World-frame force at a point.
     Point { at: SysPoint, f: [Compiled; 2] },
@@ -31,6 +32,7 @@ pub enum Force {
         k: usize,
         c: usize,
         free: usize,
+        law: Law,
     },
 }
 
@@ -76,7 +78,15 @@ impl Force {
         fr: &Frames<'_, D, E>,
         v: &[D],
     ) -> Option<(D, D, D, [D; 2])> {
-        let Force::Spring { a, b, k, c, l0 } = self else {
+        let Force::Spring {
+            a,
+            b,
+            k,
+            c,
+            l0,
+            law,
+        } = self
+        else {
             return None;
         };
         let pa = fr.position(a);
@@ -90,7 +100,7 @@ impl Force {
         let va = fr.velocity(v, a);
         let vb = fr.velocity(v, b);
         let rate = u[0] * (vb[0] - va[0]) + u[1] * (vb[1] - va[1]);
-        let tension = (len - fr.env.coef(*l0)) * fr.env.coef(*k) + rate * fr.env.coef(*c);
+        let tension = law.load(len - fr.env.coef(*l0), rate, *k, *c, fr.env);
         Some((len, rate, tension, u))
     }
 
@@ -101,7 +111,15 @@ impl Force {
         fr: &Frames<'_, D, E>,
         v: &[D],
     ) -> Option<(D, D, D)> {
-        let Force::Torsion { b1, b2, k, c, free } = self else {
+        let Force::Torsion {
+            b1,
+            b2,
+            k,
+            c,
+            free,
+            law,
+        } = self
+        else {
             return None;
         };
         let rate_of = |b: &Option<usize>| match b {
@@ -111,7 +129,7 @@ impl Force {
         let twist = fr.angle(*b1) - fr.angle(*b2);
         let rate = rate_of(b1) - rate_of(b2);
         let e = fr.env;
-        let torque = (twist - e.coef(*free)) * e.coef(*k) + rate * e.coef(*c);
+        let torque = law.load(twist - e.coef(*free), rate, *k, *c, e);
         Some((twist, rate, torque))
     }
 
@@ -129,19 +147,178 @@ impl Force {
     /// Potential energy, J (springs; 0 for the rest).
     pub fn potential<E: Env<f64>>(&self, fr: &Frames<'_, f64, E>) -> f64 {
         match self {
-            Force::Spring { a, b, k, l0, .. } => {
+            Force::Spring {
+                a, b, k, l0, law, ..
+            } => {
                 let pa = fr.position(a);
                 let pb = fr.position(b);
                 let len = (pb[0] - pa[0]).hypot(pb[1] - pa[1]);
-                0.5 * fr.env.coef(*k) * (len - fr.env.coef(*l0)).powi(2)
+                law.potential(len - fr.env.coef(*l0), fr.env.coef(*k), |i| fr.env.coef(i))
             }
             Force::Point { .. } | Force::Torque { .. } => 0.0,
             Force::Spatial(f) => f.potential(fr),
             Force::Torsion {
-                b1, b2, k, free, ..
+                b1,
+                b2,
+                k,
+                free,
+                law,
+                ..
             } => {
                 let twist = fr.angle(*b1) - fr.angle(*b2);
-                0.5 * fr.env.coef(*k) * (twist - fr.env.coef(*free)).powi(2)
+                law.potential(twist - fr.env.coef(*free), fr.env.coef(*k), |i| {
+                    fr.env.coef(i)
+                })
+            }
+        }
+    }
+}
+
+/// The law of a two-ended element (a spring between two points, a torsion between two
+/// bodies): its load (tension, or torque resisting the twist) from the stretch
+/// `s` (elongation d − L0, or twist − free angle, m or rad) and its rate `r`, with the
+/// element's stiffness `k` and damping `c` (coefficient indices).
+///
+/// The non-smooth laws are regularized so that the integrator and Newton's method see a
+/// smooth (C∞) force: the smoothed clip `sclip(x) = ½(√((x+1)² + ε²) − √((x−1)² + ε²))`
+/// (breakout, backlash), the smoothed ramp `ramp(p) = ½(p + √(p² + w²))` (end stops) and
+/// `tanh` (friction). Hand-written: these few closed forms are the whole of it.
+#[derive(Debug, Clone)]
+pub enum Law {
+    /// k·s + c·r (`spring_damper`, `torsion`).
+    Linear,
+    /// The user's law, `law` = f(x, x_dot) the force pushing the ends apart (the torque
+    /// on body 1 in the twist's direction): load −f(s, r). Compiled with `x` as slot 0
+    /// and `x_dot` as slot 1.
+    Expr(Compiled),
+    /// Preloaded breakout, k = k1: k2·s + (k1 − k2)·tb·sclip(s/tb), tb = T0/k1, plus c·r.
+    Breakout { k2: usize, t0: usize, eps: usize },
+    /// Backlash ±b: k·(s − b·sclip(s/b)) + c·r·(1 − sclip′(s/b)) (the dashpot acts in
+    /// contact only).
+    Backlash { gap: usize, eps: usize },
+    /// End stops: k·(ramp(s − upper) − ramp(lower − s)) + c·r·(ramp′(s − upper) +
+    /// ramp′(lower − s)).
+    EndStop {
+        lower: Option<usize>,
+        upper: Option<usize>,
+        width: usize,
+    },
+    /// Regularized Coulomb friction: level·tanh(r/v0).
+    Friction { level: usize, v0: usize },
+}
+
+/// The smoothed clip of x to [−1, 1], corner width ε.
+#[inline]
+pub fn sclip<D: Scalar>(x: D, eps: D) -> D {
+    let e2 = eps * eps;
+    let a = x + 1.0;
+    let b = x - 1.0;
+    ((a * a + e2).sqrt() - (b * b + e2).sqrt()) * 0.5
+}
+
+/// d sclip / dx.
+#[inline]
+pub fn sclip_slope<D: Scalar>(x: D, eps: D) -> D {
+    let e2 = eps * eps;
+    let a = x + 1.0;
+    let b = x - 1.0;
+    (a / (a * a + e2).sqrt() - b / (b * b + e2).sqrt()) * 0.5
+}
+
+/// ∫₀ˣ sclip: ½(G(x+1) − G(x−1)) − G(1), G(u) = ½(u√(u² + ε²) + ε² asinh(u/ε)).
+pub fn sclip_integral(x: f64, eps: f64) -> f64 {
+    let g = |u: f64| 0.5 * (u * (u * u + eps * eps).sqrt() + eps * eps * (u / eps).asinh());
+    0.5 * (g(x + 1.0) - g(x - 1.0)) - g(1.0)
+}
+
+/// The smoothed ramp max(p, 0), width w.
+#[inline]
+pub fn ramp<D: Scalar>(p: D, w: D) -> D {
+    (p + (p * p + w * w).sqrt()) * 0.5
+}
+
+/// d ramp / dp, in (0, 1).
+#[inline]
+pub fn ramp_slope<D: Scalar>(p: D, w: D) -> D {
+    (p / (p * p + w * w).sqrt() + 1.0) * 0.5
+}
+
+/// ∫₀ᵖ ramp = ¼(p² + p√(p² + w²) + w² asinh(p/w)). (Its limit as p → −∞ is not finite:
+/// the smoothed ramp's tail w²/(4|p|) integrates to a logarithm; the energy is referred to
+/// the limit, p = 0.)
+pub fn ramp_integral(p: f64, w: f64) -> f64 {
+    0.25 * (p * p + p * (p * p + w * w).sqrt() + w * w * (p / w).asinh())
+}
+
+impl Law {
+    /// The load from the stretch `s` and rate `r` (see the variants).
+    #[inline]
+    pub fn load<D: Scalar, E: Env<D>>(&self, s: D, r: D, k: usize, c: usize, e: E) -> D {
+        match self {
+            Law::Linear => s * e.coef(k) + r * e.coef(c),
+            Law::Expr(f) => -f.eval_in(&[s, r], D::from(0.0), e),
+            Law::Breakout { k2, t0, eps } => {
+                let (k1, k2) = (e.coef(k), e.coef(*k2));
+                let tb = e.coef(*t0) / k1;
+                s * k2 + r * e.coef(c) + (k1 - k2) * tb * sclip(s / tb, e.coef(*eps))
+            }
+            Law::Backlash { gap, eps } => {
+                let (b, eps) = (e.coef(*gap), e.coef(*eps));
+                let x = s / b;
+                (s - b * sclip(x, eps)) * e.coef(k) + r * e.coef(c) * (-sclip_slope(x, eps) + 1.0)
+            }
+            Law::EndStop {
+                lower,
+                upper,
+                width,
+            } => {
+                let w = e.coef(*width);
+                let (mut f, mut g) = (D::from(0.0), D::from(0.0));
+                if let Some(u) = upper {
+                    let p = s - e.coef(*u);
+                    f += ramp(p, w);
+                    g += ramp_slope(p, w);
+                }
+                if let Some(l) = lower {
+                    let p = e.coef(*l) - s;
+                    f -= ramp(p, w);
+                    g += ramp_slope(p, w);
+                }
+                f * e.coef(k) + r * e.coef(c) * g
+            }
+            Law::Friction { level, v0 } => e.coef(*level) * (r / e.coef(*v0)).tanh(),
+        }
+    }
+
+    /// The potential energy of the elastic part at stretch `s`, J (0 at s = 0 for the
+    /// spring laws; 0 for friction and for a user's law, which has no known potential).
+    pub fn potential(&self, s: f64, k: f64, coef: impl Fn(usize) -> f64) -> f64 {
+        match self {
+            Law::Linear => 0.5 * k * s * s,
+            Law::Expr(_) | Law::Friction { .. } => 0.0,
+            Law::Breakout { k2, t0, eps } => {
+                let k2 = coef(*k2);
+                let tb = coef(*t0) / k;
+                0.5 * k2 * s * s + (k - k2) * tb * tb * sclip_integral(s / tb, coef(*eps))
+            }
+            Law::Backlash { gap, eps } => {
+                let b = coef(*gap);
+                k * (0.5 * s * s - b * b * sclip_integral(s / b, coef(*eps)))
+            }
+            Law::EndStop {
+                lower,
+                upper,
+                width,
+            } => {
+                let w = coef(*width);
+                let mut u = 0.0;
+                if let Some(up) = upper {
+                    u += ramp_integral(s - coef(*up), w);
+                }
+                if let Some(l) = lower {
+                    u += ramp_integral(coef(*l) - s, w);
+                }
+                k * u
             }
         }
     }

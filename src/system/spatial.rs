@@ -618,6 +618,7 @@ pub enum Force3 {
         k: usize,
         c: usize,
         l0: usize,
+        law: super::forces::Law,
     },
     /// Torsional spring–damper about axis frame (a, u, w) of body 1: torque on body 1
     /// −(k (twist − free) + c rate) a, the opposite on body 2.
@@ -628,6 +629,7 @@ pub enum Force3 {
         k: usize,
         c: usize,
         free: usize,
+        law: super::forces::Law,
     },
     /// A world torque on a body.
     Torque {
@@ -663,7 +665,14 @@ impl Force3 {
     ) -> Option<ForceState<D>> {
         let e = fr.env;
         match self {
-            Force3::Spring { a, b, k, c, l0 } => {
+            Force3::Spring {
+                a,
+                b,
+                k,
+                c,
+                l0,
+                law,
+            } => {
                 let d = sub(fr.position3(b), fr.position3(a));
                 let len = dot(d, d).sqrt();
                 if len.re() == 0.0 {
@@ -671,7 +680,7 @@ impl Force3 {
                 }
                 let u = d.map(|x| x / len);
                 let rate = dot(u, sub(fr.velocity3(v, b), fr.velocity3(v, a)));
-                let tension = (len - e.coef(*l0)) * e.coef(*k) + rate * e.coef(*c);
+                let tension = law.load(len - e.coef(*l0), rate, *k, *c, e);
                 Some(ForceState {
                     stretch: len,
                     rate,
@@ -686,10 +695,11 @@ impl Force3 {
                 k,
                 c,
                 free,
+                law,
             } => {
                 let (twist, axis) = twist(fr, *b1, *b2, frame);
                 let rate = dot(sub(fr.omega3(v, *b1), fr.omega3(v, *b2)), axis);
-                let torque = (twist - e.coef(*free)) * e.coef(*k) + rate * e.coef(*c);
+                let torque = law.load(twist - e.coef(*free), rate, *k, *c, e);
                 Some(ForceState {
                     stretch: twist,
                     rate,
@@ -740,9 +750,11 @@ impl Force3 {
     pub fn potential<E: Env<f64>>(&self, fr: &Frames<'_, f64, E>) -> f64 {
         let e = fr.env;
         match self {
-            Force3::Spring { a, b, k, l0, .. } => {
+            Force3::Spring {
+                a, b, k, l0, law, ..
+            } => {
                 let d = sub(fr.position3(b), fr.position3(a));
-                0.5 * e.coef(*k) * (dot(d, d).sqrt() - e.coef(*l0)).powi(2)
+                law.potential(dot(d, d).sqrt() - e.coef(*l0), e.coef(*k), |i| e.coef(i))
             }
             Force3::Torsion {
                 b1,
@@ -750,10 +762,11 @@ impl Force3 {
                 frame,
                 k,
                 free,
+                law,
                 ..
             } => {
                 let (tw, _) = twist(fr, *b1, *b2, frame);
-                0.5 * e.coef(*k) * (tw - e.coef(*free)).powi(2)
+                law.potential(tw - e.coef(*free), e.coef(*k), |i| e.coef(i))
             }
             _ => 0.0,
         }
