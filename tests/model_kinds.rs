@@ -454,7 +454,9 @@ fn forces_read_what_is_given() {
             stiffness,
             damping,
             free_length,
+            law,
         } => {
+            assert_eq!(format!("{law:?}"), "Linear");
             assert_eq!((p1.body, p2.body), (BodyRef::Body(0), BodyRef::Body(1)));
             assert_written(&p1.point[0], 1.5, &text, "1.5");
             assert_written(&p1.point[1], 2.5, &text, "2.5");

@@ -647,7 +647,16 @@ mod tests {
                force = ["force", 0]
                axis = ["axis", 0]
                free_angle = "free_angle"
-               torque = "torque""#,
+               torque = "torque"
+               law = "law"
+               preload = "preload"
+               stiffness2 = "stiffness2"
+               smoothing = "smoothing"
+               gap = "gap"
+               lower = "lower"
+               upper = "upper"
+               level = "level"
+               slip_rate = "slip_rate""#,
         );
     }
 }

@@ -299,7 +299,7 @@ impl Law {
             Law::Breakout { k2, t0, eps } => {
                 let k2 = coef(*k2);
                 let tb = coef(*t0) / k;
-                0.5 * k2 * s * s + (k - k2) * tb * tb * sclip_integral(s / tb, coef(*eps))
+                0.5 * k2 * s.powi(2) + (k - k2) * tb * tb * sclip_integral(s / tb, coef(*eps))
             }
             Law::Backlash { gap, eps } => {
                 let b = coef(*gap);
