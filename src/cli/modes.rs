@@ -130,7 +130,11 @@ pub fn run(a: ModesArgs) -> Result<()> {
         "mode",
         format!("ω_n [{sym}]"),
         format!("ω_d [{sym}]"),
-        "f [Hz]",
+        // ω_n in the companion unit: Hz, or rad/s when the table is in Hz
+        match fu.companion() {
+            FreqUnit::Hertz => "f [Hz]",
+            _ => "ω_n [rad/s]",
+        },
         "ζ",
         "eigenvalue [1/s]"
     );
@@ -157,7 +161,7 @@ pub fn run(a: ModesArgs) -> Result<()> {
             k + 1,
             fu.of(md.omega_n_rad_s),
             fu.of(md.omega_d_rad_s),
-            md.freq_hz,
+            fu.companion().of(md.omega_n_rad_s),
             md.damping_ratio,
             md.eigenvalue.re,
             md.eigenvalue.im
