@@ -224,19 +224,25 @@ pub fn stiffness_warning(
     s: &detune::dynamics::integrator::Stiffness,
     elapsed: std::time::Duration,
 ) -> String {
-    let held = if s.stability_limited {
-        format!(
-            "DOP853's stability holds its steps to about {:.2e} s (h·|λ| ≈ {:.1})",
-            s.step, s.h_lambda
+    let (held, help) = if s.stability_limited {
+        (
+            format!(
+                "DOP853's stability holds its steps to about {:.2e} s (h·|λ| ≈ {:.1})",
+                s.step, s.h_lambda
+            ),
+            "use --integrator radau (implicit Radau IIA: stable at any step, its steps follow the slow motion)",
         )
     } else {
-        format!(
-            "DOP853's steps of about {:.2e} s (h·|λ| ≈ {:.2}) follow it at these tolerances",
-            s.step, s.h_lambda
+        (
+            format!(
+                "DOP853's steps of about {:.2e} s (h·|λ| ≈ {:.2}) follow it at these tolerances",
+                s.step, s.h_lambda
+            ),
+            "if that fast motion (a stiff spring or damper on a light body) does not matter at the scale of the run, loosen --rtol/--atol and use --integrator radau (implicit Radau IIA: it damps what its steps do not resolve); a lightly damped fast vibration larger than --atol must be followed by either method",
         )
     };
     format!(
-        "warning: the model is stiff: its fastest motion has |λ| ≈ {:.3e} 1/s (a time constant of {:.2e} s; the run spans {:.2e} of them), and {held}: the run will take about {:.2e} steps ({} so far, at t = {:.3e} s, after {:.3} s)\nhelp: if that fast motion (a stiff spring or damper on a light body) does not matter at the scale of the run, use --integrator radau (implicit Radau IIA: its steps follow the slow motion and damp what they do not resolve)",
+        "warning: the model is stiff: its fastest motion has |λ| ≈ {:.3e} 1/s (a time constant of {:.2e} s; the run spans {:.2e} of them), and {held}: the run will take about {:.2e} steps ({} so far, at t = {:.3e} s, after {:.3} s)\nhelp: {help}",
         s.lambda,
         1.0 / s.lambda,
         s.stiffness_ratio,
