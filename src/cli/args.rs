@@ -73,7 +73,7 @@ fn parse_sets(sets: &[String]) -> Result<Vec<(String, String)>> {
         .collect()
 }
 
-/// The integrator's error tolerances (`simulate`, `sweep`).
+/// The integrator and its error tolerances (`simulate`, `sweep`).
 #[derive(Args)]
 pub struct Tolerances {
     /// Relative error tolerance per step.
@@ -92,6 +92,29 @@ pub struct Tolerances {
         allow_hyphen_values = true
     )]
     pub atol: f64,
+    /// The integrator: `dop853` (explicit, the fastest for most models) or `radau`
+    /// (Radau IIA, implicit: for stiff models, a very stiff spring or damper on a light
+    /// body, which hold DOP853 to tiny steps; detune warns when it finds one).
+    #[arg(long, value_enum, default_value_t = IntegratorChoice::Dop853, value_name = "METHOD")]
+    pub integrator: IntegratorChoice,
+}
+
+/// `--integrator`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum IntegratorChoice {
+    Dop853,
+    Radau,
+}
+
+impl Tolerances {
+    /// The library's integration method.
+    pub fn integrator(&self) -> detune::dynamics::integrator::Integrator {
+        use detune::dynamics::integrator::Integrator;
+        match self.integrator {
+            IntegratorChoice::Dop853 => Integrator::Dop853,
+            IntegratorChoice::Radau => Integrator::Radau,
+        }
+    }
 }
 
 /// The frequencies of `frf` and `sweep`, and what they report.

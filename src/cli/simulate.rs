@@ -6,7 +6,7 @@ use super::progress_bar;
 use clap::Args;
 use detune::diag::Result;
 use detune::dynamics::assemble;
-use detune::dynamics::simulate::{SimOptions, Trajectory, simulate_with};
+use detune::dynamics::simulate::{SimOptions, Trajectory, simulate_watched};
 use detune::output::figures::trajectory_figure;
 use detune::output::json::SimulationSummary;
 use detune::output::plot::write_line_plot;
@@ -75,6 +75,7 @@ pub fn run(a: SimulateArgs) -> Result<()> {
         dt_out: super::args::time_value("--dt-out", &a.dt_out)?,
         rtol: a.tol.rtol,
         atol: a.tol.atol,
+        integrator: a.tol.integrator(),
         ..SimOptions::default()
     };
     let bar = progress_bar(
@@ -104,7 +105,7 @@ pub fn run(a: SimulateArgs) -> Result<()> {
         let columns = a.velocities.then(|| sys.velocity_columns());
         trajectory_header(w, &sys.coordinates, columns.as_deref(), &a.response)?;
         let mut io_error = None;
-        let run = simulate_with(
+        let run = simulate_watched(
             &sys,
             &start,
             &opts,
@@ -142,6 +143,7 @@ pub fn run(a: SimulateArgs) -> Result<()> {
                 }
                 true
             },
+            &mut |s| bar.suspend(|| eprintln!("{}", stiffness_warning(s, began.elapsed()))),
         );
         let failed = run.is_err();
         outcome = Some(run);
@@ -271,4 +273,38 @@ pub fn run(a: SimulateArgs) -> Result<()> {
         println!("wrote {j}");
     }
     Ok(())
+}
+
+/// The warning for a run DOP853 found stiff, with its numbers and what to do.
+pub fn stiffness_warning(
+    s: &detune::dynamics::integrator::Stiffness,
+    elapsed: std::time::Duration,
+) -> String {
+    let (held, help) = if s.stability_limited {
+        (
+            format!(
+                "DOP853's stability holds its steps to about {:.2e} s (h·|λ| ≈ {:.1})",
+                s.step, s.h_lambda
+            ),
+            "use --integrator radau (implicit Radau IIA: stable at any step, its steps follow the slow motion)",
+        )
+    } else {
+        (
+            format!(
+                "DOP853's steps of about {:.2e} s (h·|λ| ≈ {:.2}) follow it at these tolerances",
+                s.step, s.h_lambda
+            ),
+            "if that fast motion (a stiff spring or damper on a light body) does not matter at the scale of the run, loosen --rtol/--atol and use --integrator radau (implicit Radau IIA: it damps what its steps do not resolve); a lightly damped fast vibration larger than --atol must be followed by either method",
+        )
+    };
+    format!(
+        "warning: the model is stiff: its fastest motion has |λ| ≈ {:.3e} 1/s (a time constant of {:.2e} s; the run spans {:.2e} of them), and {held}: the run will take about {:.2e} steps ({} so far, at t = {:.3e} s, after {:.3} s)\nhelp: {help}",
+        s.lambda,
+        1.0 / s.lambda,
+        s.stiffness_ratio,
+        s.projected_steps,
+        s.steps,
+        s.t,
+        elapsed.as_secs_f64(),
+    )
 }

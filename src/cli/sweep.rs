@@ -132,6 +132,7 @@ pub fn run(a: SweepArgs) -> Result<()> {
         steady: SteadyOptions {
             rtol: a.tol.rtol,
             atol: a.tol.atol,
+            integrator: a.tol.integrator(),
             settle_tol: a.settle_tol,
             max_periods: a.max_periods,
             ..SteadyOptions::default()

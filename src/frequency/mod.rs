@@ -50,6 +50,8 @@ pub struct SteadyOptions {
     /// The classical protocol instead of detection: integrate exactly this many periods
     /// and measure the last one (`settled` is then false: nothing was checked).
     pub fixed_periods: Option<usize>,
+    /// The integration method (Radau IIA for stiff models).
+    pub integrator: crate::dynamics::integrator::Integrator,
 }
 
 impl Default for SteadyOptions {
@@ -62,6 +64,7 @@ impl Default for SteadyOptions {
             samples: 128,
             extrapolate: true,
             fixed_periods: None,
+            integrator: Default::default(),
         }
     }
 }
@@ -136,6 +139,7 @@ pub fn steady_state(
             dt_out: period / per as f64,
             rtol: opts.rtol,
             atol: opts.atol,
+            integrator: opts.integrator,
             ..SimOptions::default()
         };
         // this period's samples (q, v), the first one being the previous period's end

@@ -75,6 +75,9 @@ pub struct SimSettings {
     pub dt_out: f64,
     pub rtol: f64,
     pub atol: f64,
+    /// Written when not the default (DOP853).
+    #[serde(skip_serializing_if = "crate::dynamics::integrator::Integrator::is_default")]
+    pub integrator: crate::dynamics::integrator::Integrator,
 }
 
 /// The last sample of a simulation.
@@ -121,6 +124,7 @@ impl<'a> SimulationSummary<'a> {
                 dt_out: opts.dt_out,
                 rtol: opts.rtol,
                 atol: opts.atol,
+                integrator: opts.integrator,
             },
             stats: &traj.stats,
             final_state: FinalState {
