@@ -44,6 +44,22 @@ struct Stored {
 }
 
 pub fn run(m: MergeArgs) -> Result<()> {
+    // an output over a shard's checkpoint would destroy it
+    let same = |a: &str, b: &str| {
+        a == b
+            || matches!(
+                (std::fs::canonicalize(a), std::fs::canonicalize(b)),
+                (Ok(x), Ok(y)) if x == y
+            )
+    };
+    for out in [&m.output, &m.plot, &m.checkpoint].into_iter().flatten() {
+        if let Some(s) = m.shards.iter().find(|s| same(out, s)) {
+            return Err(Error::request(
+                format!("{out} is the shard checkpoint {s}: merging would overwrite it"),
+                "give the merged outputs their own file names",
+            ));
+        }
+    }
     let merged = Checkpoint::merge(&m.shards)?;
     let command = merged.header.command.clone();
     let mut a = Stored::try_parse_from(&command)

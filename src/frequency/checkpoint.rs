@@ -346,15 +346,27 @@ impl Checkpoint {
             let file = std::fs::OpenOptions::new()
                 .write(true)
                 .open(path)
-                .and_then(|f| {
-                    // cut a torn last line before appending
-                    f.set_len(end)?;
-                    Ok(f)
-                })
                 .map_err(|e| io(path, e))?;
+            lock(path, &file)?;
+            // cut a torn last line before appending
+            file.set_len(end).map_err(|e| io(path, e))?;
             (cases, file)
         } else {
-            let mut f = std::fs::File::create(path).map_err(|e| io(path, e))?;
+            // created without truncating: locked first, so a run that just created it
+            // is not cut short
+            let mut f = std::fs::OpenOptions::new()
+                .write(true)
+                .create(true)
+                .truncate(false)
+                .open(path)
+                .map_err(|e| io(path, e))?;
+            lock(path, &f)?;
+            if f.metadata().map(|m| m.len() > 0).unwrap_or(false) {
+                return Err(Error::request(
+                    format!("the checkpoint {path} was just created by another detune run"),
+                    "give each shard or run its own --checkpoint FILE",
+                ));
+            }
             let line = serde_json::to_string(&header).expect("a header serializes");
             f.write_all(format!("{line}\n").as_bytes())
                 .and_then(|_| f.sync_data())
@@ -482,6 +494,27 @@ impl Checkpoint {
     fn shard(&self) -> Shard {
         self.header.shard
     }
+}
+
+/// One run writes a checkpoint at a time: an exclusive advisory lock (`flock`), held
+/// until the file is closed (the process ends), so two runs given one file name do not
+/// interleave their lines.
+fn lock(path: &str, file: &std::fs::File) -> Result<()> {
+    #[cfg(unix)]
+    {
+        use std::os::fd::AsRawFd;
+        // SAFETY: flock on the descriptor of a file this function borrows (open).
+        let r = unsafe { libc::flock(file.as_raw_fd(), libc::LOCK_EX | libc::LOCK_NB) };
+        if r != 0 {
+            return Err(Error::request(
+                format!("the checkpoint {path} is in use by another detune run"),
+                "give each shard or run its own --checkpoint FILE",
+            ));
+        }
+    }
+    #[cfg(not(unix))]
+    let _ = (path, file);
+    Ok(())
 }
 
 fn short(hash: &str) -> &str {
