@@ -188,6 +188,9 @@ fn three_shards_merged_equal_one_run_byte_for_byte() {
     refined(&[&p("refined.csv")]);
     refined(&[&p("refined-from.csv"), "--checkpoint", &p("all.ckpt")]);
     assert_eq!(read(&p("refined.csv")), read(&p("refined-from.csv")));
+    // and from the merged CSV
+    refined(&[&p("refined-csv.csv"), "--refine-from", &p("all.csv")]);
+    assert_eq!(read(&p("refined.csv")), read(&p("refined-csv.csv")));
     assert!(read(&p("refined.csv")).lines().count() > 17);
 
     // a shard missing, given twice, or of another study: refused

@@ -84,6 +84,11 @@ pub struct SweepArgs {
     /// frequency × --values case, up/down/both by --values case only.
     #[arg(long, value_name = "K/N")]
     pub shard: Option<String>,
+    /// Refine the peaks of a coarse independent sweep already computed (the CSV of a run
+    /// or of `detune merge` with the same options): its frequencies are read, not
+    /// recomputed; only the refinement is simulated. Needs --refine.
+    #[arg(long, value_name = "ALL.csv")]
+    pub refine_from: Option<String>,
 }
 
 /// Where a sweep's cases come from: the command line (with its arguments after
@@ -192,6 +197,10 @@ pub fn execute(a: SweepArgs, source: Source) -> Result<()> {
             c.set_grid(&study.options.values);
             c.run_labels = labels;
             Box::new(c)
+        }
+        Source::Command(_) if a.refine_from.is_some() => {
+            let csv = a.refine_from.as_deref().unwrap_or_default();
+            Box::new(refine_from(csv, &a, &study)?)
         }
         Source::Command(command) => match &a.checkpoint {
             None => Box::new(NoLog),
@@ -381,7 +390,7 @@ fn refuse_with_shard(a: &SweepArgs, s: Shard) -> Result<()> {
                 "--refine cannot be used with --shard {}/{}: refining a peak needs the whole coarse curve, which a shard does not have",
                 s.k, s.n
             ),
-            "sweep the coarse grid in shards, join them into one checkpoint (`detune merge SHARD.ckpt... --checkpoint all.ckpt -o all.csv`), then refine in one unsharded run that reuses every coarse frequency: the same sweep command without --shard, with --refine R --checkpoint all.ckpt",
+            "sweep the coarse grid in shards, merge them (`detune merge SHARD.ckpt... -o all.csv --checkpoint all.ckpt`), then refine in one unsharded run that reuses every coarse frequency: the same sweep command without --shard, with --refine R --refine-from all.csv (independent sweeps) or --refine R --checkpoint all.ckpt (any mode)",
         ));
     }
     if a.checkpoint.is_none() {
@@ -403,4 +412,162 @@ fn refuse_with_shard(a: &SweepArgs, s: Shard) -> Result<()> {
         ));
     }
     Ok(())
+}
+
+/// `--refine-from ALL.csv`: the coarse cases of an independent sweep read from its CSV
+/// (every number in it reads back to the same bits), the refinement computed. A coarse
+/// frequency the CSV lacks is refused, never computed: the CSV must be of this sweep.
+struct CsvCases {
+    path: String,
+    known: std::collections::HashMap<checkpoint::CaseKey, (detune::frequency::SteadyState, isize)>,
+}
+
+impl CaseLog for CsvCases {
+    fn lookup(
+        &self,
+        key: &checkpoint::CaseKey,
+    ) -> Result<Option<(detune::frequency::SteadyState, isize)>> {
+        match self.known.get(key) {
+            Some(c) => Ok(Some(c.clone())),
+            None if key.kind == checkpoint::CaseKind::Refine => Ok(None),
+            None => Err(Error::request(
+                format!(
+                    "{} lacks the frequency {} rad/s of this sweep (run {})",
+                    self.path,
+                    f64::from_bits(key.omega),
+                    key.run + 1
+                ),
+                "--refine-from reads the CSV of the same sweep (the same model, --set, --values, grid and options, without --refine)",
+            )),
+        }
+    }
+    fn record(
+        &self,
+        _: &checkpoint::CaseKey,
+        _: &detune::frequency::SteadyState,
+        _: isize,
+    ) -> Result<()> {
+        Ok(())
+    }
+}
+
+fn refine_from(path: &str, a: &SweepArgs, study: &SweepStudy) -> Result<CsvCases> {
+    use detune::frequency::checkpoint::{CaseKey, CaseKind};
+    use detune::frequency::measure::Measures;
+    if a.refine.is_none() || study.sequential() || a.checkpoint.is_some() || a.shard.is_some() {
+        return Err(Error::request(
+            "--refine-from needs --refine R, an independent sweep (--mode independent), and neither --checkpoint nor --shard",
+            "for up/down/both the refinement starts from stored end states, which a CSV lacks: merge the shards with --checkpoint all.ckpt and refine with --refine R --checkpoint all.ckpt",
+        ));
+    }
+    let bad = |why: String| {
+        Error::request(
+            format!("--refine-from {path}: {why}"),
+            "give the CSV written by the same sweep (or by `detune merge`), without --refine",
+        )
+    };
+    let text = std::fs::read_to_string(path).map_err(|e| bad(e.to_string()))?;
+    let mut lines = text.lines();
+    let opts = &study.options;
+    let names: Vec<&str> = study.runs[0]
+        .values
+        .iter()
+        .map(|(n, _)| n.as_str())
+        .collect();
+    let mut want = vec![opts.param.clone(), "direction".to_string()];
+    want.extend(names.iter().map(|n| n.to_string()));
+    for r in &opts.responses {
+        want.extend(
+            detune::output::results::MEASURES
+                .iter()
+                .map(|m| format!("{r}_{m}")),
+        );
+    }
+    want.extend(["settled", "periods", "period_multiple", "refined", "well"].map(String::from));
+    if lines.next() != Some(want.join(",").as_str()) {
+        return Err(bad(format!(
+            "its header is not this sweep's: expected {}",
+            want.join(",")
+        )));
+    }
+    let nv = names.len();
+    let mut known = std::collections::HashMap::new();
+    for (i, line) in lines.enumerate() {
+        if line.starts_with('#') {
+            return Err(bad(format!("it is incomplete ({line})")));
+        }
+        let f: Vec<&str> = line.split(',').collect();
+        let num = |s: &str| -> Result<f64> {
+            s.parse::<f64>()
+                .map_err(|_| bad(format!("line {}: {s:?} is not a number", i + 2)))
+        };
+        let int = |s: &str| -> Result<i64> {
+            s.parse::<i64>()
+                .map_err(|_| bad(format!("line {}: {s:?} is not an integer", i + 2)))
+        };
+        if f.len() != want.len() || f[1] != "independent" {
+            return Err(bad(format!(
+                "line {} is not a row of an independent sweep",
+                i + 2
+            )));
+        }
+        let omega = num(f[0])?;
+        let values: Vec<f64> = f[2..2 + nv].iter().map(|s| num(s)).collect::<Result<_>>()?;
+        let run = study
+            .runs
+            .iter()
+            .position(|r| {
+                r.values
+                    .iter()
+                    .zip(&values)
+                    .all(|((_, x), y)| x.to_bits() == y.to_bits())
+            })
+            .ok_or_else(|| bad(format!("line {}: no --values case has these values", i + 2)))?;
+        let mut k = 2 + nv;
+        let mut measures = Vec::new();
+        for _ in &opts.responses {
+            let x: Vec<f64> = f[k..k + 8].iter().map(|s| num(s)).collect::<Result<_>>()?;
+            k += 8;
+            measures.push(Measures {
+                amplitude: x[0],
+                max: x[1],
+                min: x[2],
+                mean: x[3],
+                h1: x[4],
+                phase_deg: x[5],
+                h2: x[6],
+                thd: x[7],
+            });
+        }
+        let refined = int(f[k + 3])? != 0;
+        let key = CaseKey {
+            run,
+            kind: if refined {
+                CaseKind::Refine
+            } else {
+                CaseKind::Coarse
+            },
+            direction: detune::frequency::Direction::Independent,
+            omega: omega.to_bits(),
+        };
+        let s = detune::frequency::SteadyState {
+            omega,
+            settled: int(f[k])? != 0,
+            periods: int(f[k + 1])? as usize,
+            period_multiple: int(f[k + 2])? as usize,
+            measures,
+            // an independent sweep starts every frequency from rest: no end state is read
+            end: detune::dynamics::State {
+                t: 0.0,
+                q: Vec::new(),
+                v: Vec::new(),
+            },
+            orbit: Vec::new(),
+        };
+        known.insert(key, (s, int(f[k + 4])? as isize));
+    }
+    Ok(CsvCases {
+        path: path.to_string(),
+        known,
+    })
 }

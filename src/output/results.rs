@@ -110,7 +110,8 @@ pub fn write_frf_csv(path: &str, fr: &FrequencyResponse) -> Result<()> {
     write_rows(path, &frf_header(fr), &frf_rows(fr), &[])
 }
 
-const MEASURES: [&str; 8] = [
+/// The measures of each response, in their CSV order (`<response>_<measure>`).
+pub const MEASURES: [&str; 8] = [
     "amplitude",
     "max",
     "min",
