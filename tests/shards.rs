@@ -93,7 +93,7 @@ fn a_sweep_killed_with_sigkill_resumes_to_the_same_bytes() {
         err.contains(&format!("{done} steady states done before")),
         "{err}"
     );
-    assert!(done >= 2 && done < 11, "{done} of 11 frequencies done");
+    assert!((2..11).contains(&done), "{done} of 11 frequencies done");
     assert_eq!(read(&one), read(&resumed));
     // the jump up (between 3.9 and 4 rad/s) found again by the resumed chain
     assert!(read(&resumed).lines().count() == 12);

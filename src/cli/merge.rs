@@ -89,5 +89,5 @@ pub fn run(m: MergeArgs) -> Result<()> {
         }
         eprintln!("wrote {path} ({} steady states)", merged.reused);
     }
-    execute(a, Source::Merge(merged))
+    execute(a, Source::Merge(Box::new(merged)))
 }

@@ -95,7 +95,7 @@ pub struct SweepArgs {
 /// `sweep`, stored in a checkpoint's header), or the shards' checkpoints of a merge.
 pub enum Source {
     Command(Vec<String>),
-    Merge(Checkpoint),
+    Merge(Box<Checkpoint>),
 }
 
 pub fn run(a: SweepArgs) -> Result<()> {
@@ -196,7 +196,7 @@ pub fn execute(a: SweepArgs, source: Source) -> Result<()> {
             }
             c.set_grid(&study.options.values);
             c.run_labels = labels;
-            Box::new(c)
+            c
         }
         Source::Command(_) if a.refine_from.is_some() => {
             let csv = a.refine_from.as_deref().unwrap_or_default();

@@ -1004,9 +1004,12 @@ fn collect(
 /// maximum by up to √(δA/c), with c from the parabola of the first round. (Asking for a
 /// finer --refine than that floor refines the noise; --settle-tol lowers the floor.)
 /// Deterministic: the same frequencies for any number of threads.
+/// A steady state at a frequency from a start state, with the well it is in.
+type Evaluate<'a> = dyn Fn(f64, &State) -> Result<(SteadyState, isize)> + Sync + 'a;
+
 #[allow(clippy::too_many_arguments)]
 fn refine_peak(
-    eval: &(dyn Fn(f64, &State) -> Result<(SteadyState, isize)> + Sync),
+    eval: &Evaluate,
     from: &State,
     dir: Direction,
     r: usize,

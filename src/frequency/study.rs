@@ -131,15 +131,14 @@ pub fn family(model: &Model, spec: &str, swept: &str) -> Result<Vec<(String, f64
     Ok(out)
 }
 
+/// A case of a study: the varied parameters with their SI values, and the model.
+pub type Case = (Vec<(String, f64)>, Model);
+
 /// The models of a grid of families: every combination of the entries of `specs` (each
 /// `PARAM=v1,v2,...`, see [`family`]), the first spec varying slowest. Each spec is
 /// checked on its own first (a bad entry is named as with one `--values`); a parameter
 /// may be varied by one spec only.
-pub fn grid(
-    model: &Model,
-    specs: &[String],
-    swept: &str,
-) -> Result<Vec<(Vec<(String, f64)>, Model)>> {
+pub fn grid(model: &Model, specs: &[String], swept: &str) -> Result<Vec<Case>> {
     if let [one] = specs {
         return Ok(family(model, one, swept)?
             .into_iter()
