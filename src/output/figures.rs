@@ -173,7 +173,7 @@ pub fn sweep_figures(
             let tag = n
                 .run
                 .as_ref()
-                .map(|(p, v)| format!(" ({p} = {v}{start_tag})"))
+                .map(|label| format!(" ({label}{start_tag})"))
                 .unwrap_or_else(|| {
                     if several {
                         format!(" (well {})", first.wells.start)
@@ -219,10 +219,7 @@ pub fn sweep_figures(
                     (true, Some(_)) => continue, // nothing to normalize by
                     _ => 1.0,
                 };
-                let mut label = run
-                    .tag()
-                    .map(|(n, v)| format!("{n} = {v} {}", run.unit).trim_end().to_string())
-                    .unwrap_or_else(|| name.clone());
+                let mut label = run.label().unwrap_or_else(|| name.clone());
                 if dir != Direction::Independent {
                     label.push_str(&format!(" ({})", dir.name()));
                 }

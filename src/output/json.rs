@@ -40,19 +40,21 @@ impl<T: Serialize> Serialize for Named<'_, T> {
     }
 }
 
-/// `item`'s object with one more key: the `--values` parameter and its value in this run
+/// `item`'s object with more keys: each `--values` parameter and its value in this run
 /// (none without `--values`).
 #[derive(Debug, Clone)]
 pub struct Tagged<'a, T> {
     pub item: T,
-    pub tag: Option<(&'a str, f64)>,
+    pub tag: Vec<(&'a str, f64)>,
 }
 
 impl<T: Serialize> Serialize for Tagged<'_, T> {
     fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
         let mut v = serde_json::to_value(&self.item).map_err(S::Error::custom)?;
-        if let (Some((name, x)), Value::Object(m)) = (self.tag, &mut v) {
-            m.insert(name.to_string(), Value::from(x));
+        if let Value::Object(m) = &mut v {
+            for (name, x) in &self.tag {
+                m.insert(name.to_string(), Value::from(*x));
+            }
         }
         v.serialize(s)
     }
@@ -444,7 +446,7 @@ impl<'a> SweepReport<'a> {
                 .flat_map(|r| {
                     r.sweep.peaks.iter().map(move |p| Tagged {
                         item: p,
-                        tag: r.tag(),
+                        tag: r.tags(),
                     })
                 })
                 .collect(),
@@ -453,7 +455,7 @@ impl<'a> SweepReport<'a> {
                 .flat_map(|r| {
                     r.sweep.jumps.iter().map(move |j| Tagged {
                         item: j,
-                        tag: r.tag(),
+                        tag: r.tags(),
                     })
                 })
                 .collect(),
@@ -462,7 +464,7 @@ impl<'a> SweepReport<'a> {
                 .flat_map(|r| {
                     r.sweep.hysteresis.iter().map(move |h| Tagged {
                         item: h,
-                        tag: r.tag(),
+                        tag: r.tags(),
                     })
                 })
                 .collect(),
@@ -480,7 +482,7 @@ impl<'a> SweepReport<'a> {
                             omega2: &e.omega2,
                             start: k == w.start,
                         },
-                        tag: r.tag(),
+                        tag: r.tags(),
                     })
                 })
                 .collect(),
