@@ -27,18 +27,32 @@ pub struct FrfArgs {
     /// CSV: `<param>,<name>_amplitude,<name>_phase_deg,...`.
     #[arg(short = 'o', long = "output", value_name = "OUT.csv")]
     pub output: Option<String>,
-    /// SVG: each response's amplitude against frequency, the undamped natural
-    /// frequencies and the refined peaks marked.
+    /// Figure (.svg or .png): each response's amplitude and phase against frequency, the
+    /// undamped natural frequencies drawn and the refined peaks marked.
     #[arg(long, value_name = "OUT.svg")]
     pub plot: Option<String>,
     /// A labelled frequency drawn on the plot, LABEL=VALUE (VALUE in rad/s or a
     /// quantity): `--mark "UH-60 main rotor 1P=258 rpm"`. Repeatable.
     #[arg(long, value_name = "LABEL=VALUE")]
     pub mark: Vec<String>,
+    /// Amplitude axis of --plot: linear, log (logarithmic axis) or db (20 log10 of the
+    /// amplitude in SI: dB re 1 rad, re 1 m).
+    #[arg(long, value_enum, default_value = "linear", value_name = "SCALE")]
+    pub plot_scale: PlotScale,
+    #[command(flatten)]
+    pub plot_size: super::args::PlotSize,
+}
+
+#[derive(Clone, Copy, clap::ValueEnum)]
+pub enum PlotScale {
+    Linear,
+    Log,
+    Db,
 }
 
 pub fn run(a: FrfArgs) -> Result<()> {
     let (model, sys) = a.model.load()?;
+    let size = a.plot_size.check(a.plot.as_deref(), a.output.as_deref())?;
     let sys = if a.per_unit {
         let Some(i) = sys.forcing_amplitude_param() else {
             return Err(detune::diag::Error::request(
@@ -82,9 +96,20 @@ pub fn run(a: FrfArgs) -> Result<()> {
                     .collect()
             })
             .unwrap_or_default();
-        detune::output::plot::write_panels(
+        use detune::output::figures::AmplitudeScale;
+        let scale = match a.plot_scale {
+            PlotScale::Linear => AmplitudeScale::Linear,
+            PlotScale::Log => AmplitudeScale::Log,
+            PlotScale::Db => AmplitudeScale::Db,
+        };
+        let mut case = detune::output::figures::Case::of(&model);
+        if a.per_unit {
+            case.overrides.push("per unit of the forcing amplitude".into());
+        }
+        detune::output::plot::write_panels_sized(
             p,
-            &detune::output::figures::frf_figures(&fr, &units, &natural, &marks),
+            &detune::output::figures::frf_figures(&case, &fr, &units, &natural, &marks, scale),
+            size,
         )?;
     }
     outputs.commit()?;

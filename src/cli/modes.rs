@@ -50,6 +50,8 @@ pub struct ModesArgs {
     /// SVG of the tracking: ω_n against the parameter, one curve per named mode.
     #[arg(long, value_name = "OUT.svg", requires = "param")]
     pub plot: Option<String>,
+    #[command(flatten)]
+    pub plot_size: super::args::PlotSize,
 }
 
 pub fn run(a: ModesArgs) -> Result<()> {
@@ -192,6 +194,7 @@ fn print_names(named: &[detune::linear::tracking::NamedMode]) {
 /// `detune modes --param`: the modes tracked over the parameter's values.
 fn track(a: ModesArgs, param: &str) -> Result<()> {
     let (model, sys) = a.model.load()?;
+    let size = a.plot_size.check(a.plot.as_deref(), a.output.as_deref())?;
     let outputs = check_outputs(
         &model.source.path,
         &[a.output.as_deref(), a.plot.as_deref()],
@@ -228,9 +231,14 @@ fn track(a: ModesArgs, param: &str) -> Result<()> {
         detune::output::results::write_tracking_csv(o, &t)?;
     }
     if let Some(p) = &a.plot {
-        detune::output::plot::write_line_plot(
+        detune::output::plot::write_panels_sized(
             p,
-            &detune::output::figures::tracking_figure(&t, unit),
+            &[detune::output::figures::tracking_figure(
+                &detune::output::figures::Case::of(&model),
+                &t,
+                unit,
+            )],
+            size,
         )?;
     }
     outputs.commit()?;

@@ -51,10 +51,13 @@ pub struct SensitivityArgs {
     /// SVG: a tornado chart of the change of each mode's ω_n per parameter.
     #[arg(long, value_name = "OUT.svg")]
     pub plot: Option<String>,
+    #[command(flatten)]
+    pub plot_size: super::args::PlotSize,
 }
 
 pub fn run(a: SensitivityArgs) -> Result<()> {
     let (model, sys) = a.model.load()?;
+    let size = a.plot_size.check(a.plot.as_deref(), a.output.as_deref())?;
     let outputs = check_outputs(
         &model.source.path,
         &[a.output.as_deref(), a.plot.as_deref()],
@@ -126,7 +129,7 @@ pub fn run(a: SensitivityArgs) -> Result<()> {
                 )
             }
         );
-        write_tornado(p, &study, &title)?;
+        write_tornado(p, &study, &title, size)?;
     }
     outputs.commit()?;
     for f in [&a.output, &a.plot].into_iter().flatten() {

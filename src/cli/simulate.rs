@@ -7,9 +7,9 @@ use clap::Args;
 use detune::diag::Result;
 use detune::dynamics::assemble;
 use detune::dynamics::simulate::{SimOptions, Trajectory, simulate_with};
-use detune::output::figures::trajectory_figure;
+use detune::output::figures::{Case, trajectory_figures};
 use detune::output::json::SimulationSummary;
-use detune::output::plot::write_line_plot;
+use detune::output::plot::write_panels_sized;
 use detune::output::{
     Provenance, check_outputs, trajectory_header, trajectory_row, write_atomic, write_json,
 };
@@ -48,10 +48,17 @@ pub struct SimulateArgs {
     pub response: Vec<String>,
     /// Output CSV: `t,<body>.<coordinate>,...` in SI.
     #[arg(short = 'o', long = "output", value_name = "OUT.csv")]
-    pub output: String,
-    /// Also draw the angle coordinates (or all coordinates) against time as SVG.
+    pub output: Option<String>,
+    /// Figure (.svg or .png): the coordinates against time (angles and lengths in their
+    /// own panels).
     #[arg(long, value_name = "OUT.svg")]
     pub plot: Option<String>,
+    /// Coordinate drawn on --plot (repeatable) [default: the angles, or every
+    /// coordinate if there are none].
+    #[arg(long, value_name = "NAME")]
+    pub plot_coordinate: Vec<String>,
+    #[command(flatten)]
+    pub plot_size: super::args::PlotSize,
     /// Also write a JSON summary (provenance, statistics, final state).
     #[arg(long, value_name = "OUT.json")]
     pub json: Option<String>,
@@ -59,9 +66,27 @@ pub struct SimulateArgs {
 
 pub fn run(a: SimulateArgs) -> Result<()> {
     let (model, sys) = a.model.load()?;
+    if a.output.is_none() && a.plot.is_none() && a.json.is_none() {
+        return Err(detune::diag::Error::request(
+            "simulate: nothing to write",
+            "give -o OUT.csv (the samples), --plot OUT.svg (a figure) or --json OUT.json (a summary)",
+        ));
+    }
+    let size = a.plot_size.check(a.plot.as_deref(), a.output.as_deref())?;
+    if !a.plot_coordinate.is_empty() && a.plot.is_none() {
+        return Err(detune::diag::Error::request(
+            "--plot-coordinate without --plot: there is no figure to draw it on",
+            "add --plot OUT.svg (or .png)",
+        ));
+    }
+    let picks: Vec<usize> = a
+        .plot_coordinate
+        .iter()
+        .map(|n| detune::linear::coordinate(&sys, n, detune::request::Argument::PlotCoordinate))
+        .collect::<Result<_>>()?;
     let outputs = check_outputs(
         &model.source.path,
-        &[Some(&a.output), a.plot.as_deref(), a.json.as_deref()],
+        &[a.output.as_deref(), a.plot.as_deref(), a.json.as_deref()],
     )?;
     // a signal stops the run at the next output step (nothing is written then)
     super::interrupt_on_ctrl_c();
@@ -93,7 +118,7 @@ pub fn run(a: SimulateArgs) -> Result<()> {
         .filter(|w| *w > 0.0)
         .map_or(0.0, |w| std::f64::consts::TAU / w);
     let mut tail: std::collections::VecDeque<(f64, Vec<f64>)> = Default::default();
-    let written = write_atomic(&a.output, |w| {
+    let mut fill = |w: &mut dyn std::io::Write| {
         let columns = a.velocities.then(|| sys.velocity_columns());
         trajectory_header(w, &sys.coordinates, columns.as_deref(), &a.response)?;
         let mut io_error = None;
@@ -136,7 +161,11 @@ pub fn run(a: SimulateArgs) -> Result<()> {
             None if failed => Err(std::io::Error::other("the simulation failed")),
             None => Ok(()),
         }
-    });
+    };
+    let written = match &a.output {
+        Some(o) => write_atomic(o, fill),
+        None => fill(&mut std::io::sink()).map_err(|e| detune::diag::Error::io("(no -o)", e)),
+    };
     bar.finish_and_clear();
     match outcome {
         Some(Err(e)) => return Err(e),
@@ -145,13 +174,19 @@ pub fn run(a: SimulateArgs) -> Result<()> {
     }
     written?;
     if let Some(p) = &a.plot {
-        write_line_plot(p, &trajectory_figure(&model.name, &traj))?;
+        let figures = trajectory_figures(&Case::of(&model), &traj, &picks);
+        write_panels_sized(p, &figures, size)?;
     }
     let tail: Vec<(f64, Vec<f64>)> = tail.into_iter().collect();
     let end = detune::frequency::wells::end_well(&sys, &start.q, &tail);
     if let Some(j) = &a.json {
         let provenance = Provenance::of(&model);
-        let mut summary = SimulationSummary::new(&provenance, &opts, &traj, &a.output);
+        let mut summary = SimulationSummary::new(
+            &provenance,
+            &opts,
+            &traj,
+            a.output.as_deref().unwrap_or(""),
+        );
         if let Some((wells, well)) = &end {
             summary = summary.with_wells(wells, *well);
         }
@@ -207,7 +242,9 @@ pub fn run(a: SimulateArgs) -> Result<()> {
             ),
         }
     }
-    println!("wrote {}", a.output);
+    if let Some(o) = &a.output {
+        println!("wrote {o}");
+    }
     if let Some(p) = &a.plot {
         println!("wrote {p}");
     }

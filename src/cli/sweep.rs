@@ -7,9 +7,9 @@ use clap::Args;
 use detune::diag::Result;
 use detune::frequency::study::SweepStudy;
 use detune::frequency::{SteadyOptions, SweepMode, SweepOptions};
-use detune::output::figures::sweep_figures;
+use detune::output::figures::{Case, sweep_figures};
 use detune::output::json::SweepReport;
-use detune::output::plot::write_panels;
+use detune::output::plot::write_panels_sized;
 use detune::output::results::write_sweep_csv;
 use detune::output::{Provenance, check_outputs};
 
@@ -59,18 +59,22 @@ pub struct SweepArgs {
     /// Print the JSON result.
     #[arg(long)]
     pub json: bool,
-    /// SVG: amplitude of the first response against frequency (with --values, also
-    /// normalized by the value), the linear natural frequencies marked.
+    /// Figure (.svg or .png): each response's amplitude against frequency (with
+    /// --values over the forcing amplitude, also divided by it), the linear natural
+    /// frequencies drawn, refined peaks and jumps marked.
     #[arg(long, value_name = "OUT.svg")]
     pub plot: Option<String>,
     /// A labelled frequency drawn on the plot, LABEL=VALUE (VALUE in rad/s or a
     /// quantity): `--mark "UH-60 main rotor 1P=258 rpm"`. Repeatable.
     #[arg(long, value_name = "LABEL=VALUE")]
     pub mark: Vec<String>,
+    #[command(flatten)]
+    pub plot_size: super::args::PlotSize,
 }
 
 pub fn run(a: SweepArgs) -> Result<()> {
-    let (model, _compiled) = a.model.load()?;
+    let (model, compiled) = a.model.load()?;
+    let size = a.plot_size.check(a.plot.as_deref(), a.output.as_deref())?;
     let outputs = check_outputs(
         &model.source.path,
         &[a.output.as_deref(), a.plot.as_deref()],
@@ -127,7 +131,17 @@ pub fn run(a: SweepArgs) -> Result<()> {
     }
     if let Some(p) = &a.plot {
         let natural = study.natural_frequencies(runs.len())?;
-        write_panels(p, &sweep_figures(&runs, &natural, &marks))?;
+        let forcing = compiled
+            .forcing_amplitude_param()
+            .map(|i| compiled.param_names()[i].clone());
+        let figures = sweep_figures(
+            &Case::of(&model),
+            &runs,
+            &natural,
+            &marks,
+            forcing.as_deref(),
+        );
+        write_panels_sized(p, &figures, size)?;
     }
     // an interrupted sweep keeps the frequencies completed, marked incomplete
     outputs.commit()?;

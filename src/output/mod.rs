@@ -10,6 +10,7 @@ pub mod figures;
 pub mod json;
 pub mod margins;
 pub mod plot;
+pub mod style;
 pub mod results;
 pub mod sensitivity;
 
