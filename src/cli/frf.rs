@@ -104,7 +104,8 @@ pub fn run(a: FrfArgs) -> Result<()> {
         };
         let mut case = detune::output::figures::Case::of(&model);
         if a.per_unit {
-            case.overrides.push("per unit of the forcing amplitude".into());
+            case.overrides
+                .push("per unit of the forcing amplitude".into());
         }
         detune::output::plot::write_panels_sized(
             p,

@@ -181,12 +181,8 @@ pub fn run(a: SimulateArgs) -> Result<()> {
     let end = detune::frequency::wells::end_well(&sys, &start.q, &tail);
     if let Some(j) = &a.json {
         let provenance = Provenance::of(&model);
-        let mut summary = SimulationSummary::new(
-            &provenance,
-            &opts,
-            &traj,
-            a.output.as_deref().unwrap_or(""),
-        );
+        let mut summary =
+            SimulationSummary::new(&provenance, &opts, &traj, a.output.as_deref().unwrap_or(""));
         if let Some((wells, well)) = &end {
             summary = summary.with_wells(wells, *well);
         }

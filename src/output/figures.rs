@@ -133,7 +133,13 @@ pub fn trajectory_figure(name: &str, traj: &Trajectory) -> LinePlot {
 /// unstable dashed, folds and branch points marked and labelled, with the branches
 /// switched to at the branch points; `angle` whether the coordinate is an angle,
 /// `param_unit` the parameter's unit.
-pub fn branch_figure(case: &Case, b: &Branch, idx: usize, angle: bool, param_unit: &str) -> LinePlot {
+pub fn branch_figure(
+    case: &Case,
+    b: &Branch,
+    idx: usize,
+    angle: bool,
+    param_unit: &str,
+) -> LinePlot {
     let mut series = Vec::new();
     let mut seg: Vec<&BranchPoint> = Vec::new();
     let flush = |seg: &mut Vec<&BranchPoint>, series: &mut Vec<Series>| {
@@ -169,7 +175,11 @@ pub fn branch_figure(case: &Case, b: &Branch, idx: usize, angle: bool, param_uni
         flush(&mut seg, &mut series);
     }
     let u = unit(angle);
-    let pu = if param_unit.is_empty() { "" } else { param_unit };
+    let pu = if param_unit.is_empty() {
+        ""
+    } else {
+        param_unit
+    };
     let mut notes = Vec::new();
     for (label, marked) in [("folds", &b.folds), ("branch points", &b.branch_points)] {
         if !marked.is_empty() {
@@ -185,7 +195,11 @@ pub fn branch_figure(case: &Case, b: &Branch, idx: usize, angle: bool, param_uni
                     y: p.q[idx],
                     text: format!(
                         "{} {} = {} {pu}",
-                        if label == "folds" { "fold" } else { "branch point" },
+                        if label == "folds" {
+                            "fold"
+                        } else {
+                            "branch point"
+                        },
                         b.param,
                         short(p.value)
                     )
@@ -331,7 +345,10 @@ pub fn sweep_figures(
     let normalize = family.is_some() && family.as_deref() == forcing;
     let mut extra = Vec::new();
     if several {
-        extra.push(format!("starting in {}", well_name(&runs[0], first.wells.start as isize)));
+        extra.push(format!(
+            "starting in {}",
+            well_name(&runs[0], first.wells.start as isize)
+        ));
     }
     let caption = case.caption(&extra);
     let curves = |r: usize, normalized: bool| -> (Vec<Series>, Vec<Note>) {
@@ -411,12 +428,18 @@ pub fn sweep_figures(
                 notes.push(Note {
                     x: pk.omega,
                     y: pk.amplitude * scale,
-                    text: format!("peak {} rad/s, {} {unit}{tag}", short(pk.omega), short(pk.amplitude * scale)),
+                    text: format!(
+                        "peak {} rad/s, {} {unit}{tag}",
+                        short(pk.omega),
+                        short(pk.amplitude * scale)
+                    ),
                 });
             }
             for j in run.sweep.jumps.iter().filter(|j| &j.response == name) {
                 jumps.0.extend([j.from, j.to]);
-                jumps.1.extend([j.amplitude_before * scale, j.amplitude_after * scale]);
+                jumps
+                    .1
+                    .extend([j.amplitude_before * scale, j.amplitude_after * scale]);
                 notes.push(Note {
                     x: j.to,
                     y: j.amplitude_after * scale,
@@ -430,10 +453,20 @@ pub fn sweep_figures(
             }
         }
         if !peaks.0.is_empty() {
-            out.push(Series::new("refined peaks", peaks.0, peaks.1, Style::Markers));
+            out.push(Series::new(
+                "refined peaks",
+                peaks.0,
+                peaks.1,
+                Style::Markers,
+            ));
         }
         if !jumps.0.is_empty() {
-            out.push(Series::new("jumps (both edges)", jumps.0, jumps.1, Style::Markers));
+            out.push(Series::new(
+                "jumps (both edges)",
+                jumps.0,
+                jumps.1,
+                Style::Markers,
+            ));
         }
         (out, notes)
     };
@@ -445,7 +478,11 @@ pub fn sweep_figures(
         let (series, notes) = curves(r, false);
         plots.push(LinePlot {
             title: format!("{name}: stepped-sine amplitude{incomplete}"),
-            caption: if r == 0 { caption.clone() } else { String::new() },
+            caption: if r == 0 {
+                caption.clone()
+            } else {
+                String::new()
+            },
             x_label: x_label.clone(),
             y_label: format!("{name} amplitude [{}]", first.units[r]),
             series,
@@ -515,10 +552,19 @@ pub fn frf_figures(
     for (r, name) in fr.responses.iter().enumerate().take(6) {
         let unit = units.get(r).copied().unwrap_or("");
         let u = if unit.is_empty() { "-" } else { unit };
-        let amp = |a: f64| if scale == AmplitudeScale::Db { db(a) } else { a };
+        let amp = |a: f64| {
+            if scale == AmplitudeScale::Db {
+                db(a)
+            } else {
+                a
+            }
+        };
         let peaks: Vec<_> = fr.peaks.iter().filter(|p| &p.response == name).collect();
         let (y_label, amp_unit) = match scale {
-            AmplitudeScale::Db => (format!("{name} amplitude [dB re 1 {u}]"), format!("dB re 1 {u}")),
+            AmplitudeScale::Db => (
+                format!("{name} amplitude [dB re 1 {u}]"),
+                format!("dB re 1 {u}"),
+            ),
             _ => (format!("{name} amplitude [{u}]"), u.to_string()),
         };
         let mut series = vec![
@@ -552,7 +598,11 @@ pub fn frf_figures(
         }
         plots.push(LinePlot {
             title: format!("{name}: linear frequency response, amplitude"),
-            caption: if r == 0 { case.caption(&[]) } else { String::new() },
+            caption: if r == 0 {
+                case.caption(&[])
+            } else {
+                String::new()
+            },
             x_label: format!("{} [rad/s]", fr.param),
             y_label,
             y_scale: if scale == AmplitudeScale::Log {

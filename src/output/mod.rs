@@ -10,9 +10,9 @@ pub mod figures;
 pub mod json;
 pub mod margins;
 pub mod plot;
-pub mod style;
 pub mod results;
 pub mod sensitivity;
+pub mod style;
 
 use crate::diag::Result;
 use crate::model::Model;

@@ -139,7 +139,9 @@ impl Format {
                     ext.map(|e| format!("`.{e}`"))
                         .unwrap_or_else(|| "a name without extension".into())
                 ),
-                format!("name the figure `.svg` (vector) or `.png` (bitmap), e.g. {flag} figure.svg"),
+                format!(
+                    "name the figure `.svg` (vector) or `.png` (bitmap), e.g. {flag} figure.svg"
+                ),
             )),
         }
     }
@@ -164,10 +166,12 @@ pub fn parse_size(text: &str) -> Result<(u32, u32)> {
         return Err(bad("expected WIDTHxHEIGHT".into()));
     };
     let side = |s: &str, what: &str| -> Result<u32> {
-        let v: u32 = s
-            .trim()
-            .parse()
-            .map_err(|_| bad(format!("the {what} `{}` is not a whole number of pixels", s.trim())))?;
+        let v: u32 = s.trim().parse().map_err(|_| {
+            bad(format!(
+                "the {what} `{}` is not a whole number of pixels",
+                s.trim()
+            ))
+        })?;
         if !(MIN_SIDE..=MAX_SIDE).contains(&v) {
             return Err(bad(format!(
                 "the {what} {v} px is outside {MIN_SIDE}–{MAX_SIDE} px"
@@ -410,10 +414,8 @@ impl<DB: DrawingBackend> Painter<'_, DB> {
                             .join(" ")
                     )
                 };
-                let points: Vec<String> = pts
-                    .iter()
-                    .map(|(x, y)| format!("{x:.2},{y:.2}"))
-                    .collect();
+                let points: Vec<String> =
+                    pts.iter().map(|(x, y)| format!("{x:.2},{y:.2}")).collect();
                 out.push_str(&format!(
                     "<polyline class=\"{class}\" data-key=\"{key}\" fill=\"none\" stroke=\"{}\" stroke-width=\"{:.2}\"{dash} stroke-linejoin=\"round\" points=\"{}\"/>\n",
                     style::hex(pen.color),
@@ -475,8 +477,12 @@ impl<DB: DrawingBackend> Painter<'_, DB> {
                 Marker::Circle => {
                     area.draw(&Circle::new(ipt(at), r.round() as i32, fill.filled()))
                         .map_err(err)?;
-                    area.draw(&Circle::new(ipt(at), r.round() as i32, edge.stroke_width(1)))
-                        .map_err(err)?;
+                    area.draw(&Circle::new(
+                        ipt(at),
+                        r.round() as i32,
+                        edge.stroke_width(1),
+                    ))
+                    .map_err(err)?;
                 }
                 Marker::Cross => {
                     for (a, b) in [
@@ -516,7 +522,19 @@ impl<DB: DrawingBackend> Painter<'_, DB> {
         self.line(pts, pen, class, key)?;
         if pen.marker.is_some() {
             let at = if pen.width > 0.0 && pen.marker_spacing > 0.0 {
-                along(pts, pen.marker_spacing, offset)
+                let mut at = along(pts, pen.marker_spacing, offset);
+                if at.is_empty() && !pts.is_empty() {
+                    // a short curve still shows its marker, as its legend entry does
+                    let len: f64 = pts
+                        .windows(2)
+                        .map(|w| ((w[1].0 - w[0].0).powi(2) + (w[1].1 - w[0].1).powi(2)).sqrt())
+                        .sum();
+                    at = along(pts, f64::INFINITY, len / 2.0);
+                    if at.is_empty() {
+                        at.push(pts[0]);
+                    }
+                }
+                at
             } else if pen.width > 0.0 {
                 Vec::new()
             } else {
@@ -688,6 +706,7 @@ fn range(values: impl Iterator<Item = f64>, log: bool) -> (f64, f64) {
 }
 
 /// A legend entry: its text and pen.
+#[derive(Debug, Clone)]
 pub struct Entry {
     pub label: String,
     pub pen: Pen,
@@ -744,7 +763,11 @@ fn pens(plot: &LinePlot, f: &Fonts) -> (Vec<(Pen, usize)>, Vec<Entry>) {
                 color: style::PALETTE[k],
                 width: style::CURVE_WIDTH * s,
                 dash: dash.iter().map(|d| d * s).collect(),
-                marker: Some((style::MARKERS[k], style::CURVE_MARKER * s, style::PALETTE[k])),
+                marker: Some((
+                    style::MARKERS[k],
+                    style::CURVE_MARKER * s,
+                    style::PALETTE[k],
+                )),
                 marker_spacing: style::MARKER_SPACING * s,
             }
         };
@@ -806,7 +829,7 @@ fn font(em: f64) -> FontDesc<'static> {
 
 /// Lay legend entries out in rows across `width` px: each entry's (x, row) and the
 /// number of rows. Empty labels are left out.
-fn legend_layout<DB: DrawingBackend>(
+pub(crate) fn legend_layout<DB: DrawingBackend>(
     area: &DrawingArea<DB, Shift>,
     entries: &[Entry],
     width: f64,
@@ -873,10 +896,7 @@ pub fn draw_legend<DB: DrawingBackend>(
         root_area
             .draw(&Text::new(
                 e.label.clone(),
-                (
-                    (sx1 + gap - ax).round() as i32,
-                    (cy - ay).round() as i32,
-                ),
+                ((sx1 + gap - ax).round() as i32, (cy - ay).round() as i32),
                 TextStyle::from(font(f.legend)).pos(Pos::new(HPos::Left, VPos::Center)),
             ))
             .map_err(err)?;
@@ -885,7 +905,7 @@ pub fn draw_legend<DB: DrawingBackend>(
 }
 
 /// Height a legend of `rows` rows takes, px.
-fn legend_height(rows: usize, f: &Fonts) -> f64 {
+pub(crate) fn legend_height(rows: usize, f: &Fonts) -> f64 {
     if rows == 0 {
         0.0
     } else {
@@ -923,7 +943,7 @@ fn lin_tick(v: &f64) -> String {
 /// The frame (axes, ticks, grid, axis descriptions) of a panel, drawn by plotters; the
 /// plot area's pixel range.
 #[allow(clippy::too_many_arguments)]
-fn axes<DB: DrawingBackend>(
+pub(crate) fn axes<DB: DrawingBackend>(
     area: &DrawingArea<DB, Shift>,
     x_label: &str,
     y_label: &str,

@@ -1,10 +1,10 @@
 //! A sensitivity study's files: the CSV table, the JSON document and the tornado chart.
 
+use super::plot::{Figure, Format, Painter, render, write_figure};
+use super::style::{self, Fonts};
 use super::{Provenance, num, write_atomic};
 use crate::diag::Result;
 use crate::linear::sensitivity::Sensitivity;
-use super::plot::{Figure, Format, Painter, render, write_figure};
-use super::style::{self, Fonts};
 use plotters::coord::Shift;
 use plotters::prelude::*;
 
@@ -140,7 +140,8 @@ impl Figure for Tornado<'_> {
         let f = Fonts::for_width(self.size.0);
         let sc = f.scale;
         let rows: usize = s.modes.len().max(1);
-        let (top, body) = root.split_vertically((f.title * 1.6 + f.caption * 1.7 + 10.0 * sc) as i32);
+        let (top, body) =
+            root.split_vertically((f.title * 1.6 + f.caption * 1.7 + 10.0 * sc) as i32);
         top.draw(&Text::new(
             title.to_string(),
             ((12.0 * sc) as i32, (8.0 * sc) as i32),
@@ -265,7 +266,12 @@ impl Figure for Tornado<'_> {
 
 /// Write the tornado chart (SVG or PNG by the extension; atomically) at a size (px;
 /// None: [`tornado_size`]).
-pub fn write_tornado(path: &str, s: &Sensitivity, title: &str, size: Option<(u32, u32)>) -> Result<()> {
+pub fn write_tornado(
+    path: &str,
+    s: &Sensitivity,
+    title: &str,
+    size: Option<(u32, u32)>,
+) -> Result<()> {
     write_figure(
         path,
         &Tornado {
