@@ -39,7 +39,7 @@ fn read(svg: &str) -> Svg {
     let mut out = Svg::default();
     for n in doc.descendants() {
         let class = n.attribute("class").unwrap_or("");
-        let key = n.attribute("data-key").unwrap_or("").to_string();
+        let key = n.attribute("data-series").unwrap_or("").to_string();
         match n.tag_name().name() {
             "text" => {
                 let size: f64 = n.attribute("font-size").unwrap().parse().unwrap();

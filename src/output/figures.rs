@@ -417,6 +417,13 @@ pub fn sweep_figures(
                     );
                 }
             }
+            // the unit of the values drawn: per unit of the family's parameter when
+            // normalized
+            let unit = if normalized && !run.unit.is_empty() {
+                format!("{unit}/{}", run.unit)
+            } else {
+                unit.to_string()
+            };
             let tag = run
                 .tag()
                 .filter(|_| runs.len() > 1)

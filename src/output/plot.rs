@@ -7,7 +7,7 @@
 //! markers and legend samples are drawn here, by [`Painter`], in float pixel
 //! coordinates: plotters' backends take integer pixels, which makes a smooth curve a
 //! staircase in SVG. In SVG they are `<polyline>`/`<path>` elements with two decimals
-//! (class `curve`, `legend`, `marker`, linked by `data-key`); in PNG they are rasterized
+//! (class `curve`, `legend`, `marker`, linked by `data-series`); in PNG they are rasterized
 //! through plotters at the nearest pixel. Hand-written for that reason, and because
 //! plotters' own legend is drawn inside the plot area (over the data) with a plain line
 //! whatever the series' style: the legend here sits below the plot area and draws each
@@ -417,7 +417,7 @@ impl<DB: DrawingBackend> Painter<'_, DB> {
                 let points: Vec<String> =
                     pts.iter().map(|(x, y)| format!("{x:.2},{y:.2}")).collect();
                 out.push_str(&format!(
-                    "<polyline class=\"{class}\" data-key=\"{key}\" fill=\"none\" stroke=\"{}\" stroke-width=\"{:.2}\"{dash} stroke-linejoin=\"round\" points=\"{}\"/>\n",
+                    "<polyline class=\"{class}\" data-series=\"{key}\" fill=\"none\" stroke=\"{}\" stroke-width=\"{:.2}\"{dash} stroke-linejoin=\"round\" points=\"{}\"/>\n",
                     style::hex(pen.color),
                     pen.width,
                     points.join(" ")
@@ -466,7 +466,7 @@ impl<DB: DrawingBackend> Painter<'_, DB> {
                     style::hex(fill)
                 };
                 out.push_str(&format!(
-                    "<path class=\"{class}\" data-key=\"{key}\" data-marker=\"{}\" d=\"{}\" fill=\"{fill_attr}\" stroke=\"{}\" stroke-width=\"{:.2}\"/>\n",
+                    "<path class=\"{class}\" data-series=\"{key}\" data-marker=\"{}\" d=\"{}\" fill=\"{fill_attr}\" stroke=\"{}\" stroke-width=\"{:.2}\"/>\n",
                     shape.name(),
                     marker_path(shape, at, r),
                     style::hex(edge),
@@ -928,7 +928,8 @@ fn log_tick(v: &f64) -> String {
 
 /// Tick label of a linear axis: as short as the tick spacing allows.
 fn lin_tick(v: &f64) -> String {
-    if *v == 0.0 {
+    // a tick at zero computed as −5.55e-17
+    if v.abs() < 1e-10 {
         return "0".into();
     }
     let a = v.abs();
