@@ -427,7 +427,7 @@ pub fn sweep_figures(
             let tag = run
                 .tag()
                 .filter(|_| runs.len() > 1)
-                .map(|(n, v)| format!(" ({n} = {v})"))
+                .map(|(n, v)| format!(" ({n} = {v} {})", run.unit).replace(" )", ")"))
                 .unwrap_or_default();
             for pk in run.sweep.peaks.iter().filter(|p| &p.response == name) {
                 peaks.0.push(pk.omega);
