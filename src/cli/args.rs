@@ -487,6 +487,52 @@ pub fn time_value(flag: &str, text: &str) -> Result<f64> {
     }
 }
 
+/// `--plot-size WxH`: shared by every command with `--plot`.
+#[derive(Args, Clone, Default)]
+pub struct PlotSize {
+    /// Figure size in pixels, WxH (e.g. 1600x1000; each side 300–8000). Text and lines
+    /// scale with the width [default: 900 wide, 520 per panel].
+    #[arg(long = "plot-size", value_name = "WxH")]
+    pub plot_size: Option<String>,
+}
+
+impl PlotSize {
+    /// Check the figure request before any work: `--plot` named `.svg` or `.png`, a valid
+    /// `--plot-size` (which needs `--plot`), and `-o` not named like a figure (it is CSV).
+    /// Returns the size asked for.
+    pub fn check(&self, plot: Option<&str>, csv: Option<&str>) -> Result<Option<(u32, u32)>> {
+        if let Some(o) = csv {
+            csv_output(o)?;
+        }
+        if let Some(p) = plot {
+            detune::output::plot::Format::of("--plot", p)?;
+        }
+        match (&self.plot_size, plot) {
+            (None, _) => Ok(None),
+            (Some(s), Some(_)) => detune::output::plot::parse_size(s).map(Some),
+            (Some(s), None) => Err(Error::request(
+                format!("--plot-size {s} without --plot: there is no figure to size"),
+                "add --plot FIGURE.svg (or .png), or leave out --plot-size",
+            )),
+        }
+    }
+}
+
+/// `-o`: a CSV is never written into a file named like a figure.
+pub fn csv_output(path: &str) -> Result<()> {
+    let ext = std::path::Path::new(path)
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(|e| e.to_ascii_lowercase());
+    if let Some(e @ ("svg" | "png")) = ext.as_deref() {
+        return Err(Error::request(
+            format!("-o {path}: -o writes the CSV table, not a `.{e}` figure"),
+            format!("name the table .csv; the figure is --plot {path}"),
+        ));
+    }
+    Ok(())
+}
+
 /// `--freq-unit`: the unit of the frequencies a command prints and plots.
 #[derive(Args, Clone, Copy)]
 pub struct FreqUnitArg {

@@ -11,9 +11,9 @@ use detune::diag::{Error, Result};
 use detune::frequency::checkpoint::{self, CaseLog, Checkpoint, Header, NoLog, Shard};
 use detune::frequency::study::SweepStudy;
 use detune::frequency::{Progress, SteadyOptions, SweepMode, SweepOptions};
-use detune::output::figures::sweep_figures;
+use detune::output::figures::{Case, sweep_figures};
 use detune::output::json::SweepReport;
-use detune::output::plot::write_panels;
+use detune::output::plot::write_panels_sized;
 use detune::output::results::write_sweep_csv;
 use detune::output::units::{Units, WithUnits};
 use detune::output::{Provenance, check_outputs};
@@ -99,8 +99,9 @@ pub struct SweepArgs {
     /// Print the JSON result.
     #[arg(long)]
     pub json: bool,
-    /// SVG: amplitude of the first response against frequency (with --values, also
-    /// normalized by the value), the linear natural frequencies marked.
+    /// Figure (.svg or .png): each response's amplitude against frequency (with
+    /// --values over the forcing amplitude, also divided by it), the linear natural
+    /// frequencies drawn, refined peaks and jumps marked.
     #[arg(long, value_name = "OUT.svg")]
     pub plot: Option<String>,
     /// A labelled frequency drawn on the plot, LABEL=VALUE (VALUE in rad/s or a
@@ -109,6 +110,8 @@ pub struct SweepArgs {
     pub mark: Vec<String>,
     #[command(flatten)]
     pub freq: super::args::FreqUnitArg,
+    #[command(flatten)]
+    pub plot_size: super::args::PlotSize,
     /// Append each finished frequency (of each --values case) to FILE as it completes;
     /// the same command with the same FILE resumes, skipping what is done (the outputs are
     /// identical to an uninterrupted run's). A FILE of another model, options or detune
@@ -150,7 +153,8 @@ pub fn execute(a: SweepArgs, source: Source) -> Result<()> {
     if let Some(s) = shard {
         refuse_with_shard(&a, s)?;
     }
-    let (model, _compiled) = a.model.load()?;
+    let (model, compiled) = a.model.load()?;
+    let size = a.plot_size.check(a.plot.as_deref(), a.output.as_deref())?;
     let outputs = check_outputs(
         &model.source.path,
         &[a.output.as_deref(), a.plot.as_deref()],
@@ -336,11 +340,20 @@ pub fn execute(a: SweepArgs, source: Source) -> Result<()> {
     }
     if let Some(p) = &a.plot {
         let natural = study.natural_frequencies(runs.len())?;
-        let figures: Vec<_> = sweep_figures(&runs, &natural, &marks)
-            .into_iter()
-            .map(|f| f.in_frequency_unit(fu))
-            .collect();
-        write_panels(p, &figures)?;
+        let forcing = compiled
+            .forcing_amplitude_param()
+            .map(|i| compiled.param_names()[i].clone());
+        let figures: Vec<_> = sweep_figures(
+            &Case::of(&model),
+            &runs,
+            &natural,
+            &marks,
+            forcing.as_deref(),
+        )
+        .into_iter()
+        .map(|f| f.in_frequency_unit(fu))
+        .collect();
+        write_panels_sized(p, &figures, size)?;
     }
     // an interrupted sweep keeps the frequencies completed, marked incomplete
     outputs.commit()?;
@@ -351,7 +364,7 @@ pub fn execute(a: SweepArgs, source: Source) -> Result<()> {
         eprintln!("wrote {p}");
     }
     if a.json {
-        let units = sweep_units(&runs, &_compiled);
+        let units = sweep_units(&runs, &compiled);
         print_json(&WithUnits {
             doc: SweepReport::new(&runs, &Provenance::of(&model)),
             units: &units,
