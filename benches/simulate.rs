@@ -90,6 +90,7 @@ fn minimal_free_case(bencher: divan::Bencher) {
         rtol: TOL,
         atol: TOL,
         max_steps: 10_000_000,
+        method: Default::default(),
     };
     bencher.bench_local(|| {
         let mut out = Vec::with_capacity(2001);

@@ -15,16 +15,19 @@ pub enum Failure {
     /// A simulation stopped by a signal at model time `t` (s), its samples up to `t` kept.
     #[error("the simulation was interrupted at model time t = {t:.6} s")]
     SimulationInterrupted { t: f64 },
+    /// The right-hand side stays non-finite however small the step: at the accepted state
+    /// at `t`, or just after it (the step size fell to `h`, s, trying to avoid it).
     #[error(
-        "the equations of motion produced a non-finite value (NaN or infinity) at t = {t:.6} s"
+        "the equations of motion produced a non-finite value (NaN or infinity) at t = {t:.6} s (steps down to {h:.3e} s could not avoid it)"
     )]
-    NonFinite { t: f64 },
+    NonFinite { t: f64, h: f64 },
     #[error(
         "the mass matrix of `{body}`'s angles became singular at t = {t:.6} s (reciprocal condition number {rcond:.3e}): its rotation sequence is at a singular pose (gimbal lock)"
     )]
     SingularMass { t: f64, body: String, rcond: f64 },
-    #[error("the step size fell to zero at t = {t:.6} s")]
-    StepSizeUnderflow { t: f64 },
+    /// The step size fell below the integrator's floor (`h`, s; 0 when unknown).
+    #[error("the step size fell to zero at t = {t:.6} s{}", step_size(*.h))]
+    StepSizeUnderflow { t: f64, h: f64 },
     #[error("too many steps at t = {t:.6} s")]
     TooManySteps { t: f64 },
     #[error("the problem became stiff at t = {t:.6} s")]
@@ -180,6 +183,15 @@ pub enum Failure {
     },
 }
 
+/// The step size a step size failure reached, when known.
+fn step_size(h: f64) -> String {
+    if h > 0.0 {
+        format!(" (h = {h:.3e} s)")
+    } else {
+        String::new()
+    }
+}
+
 /// MACs as `1: 0.981, 2: 0.120`.
 fn list_macs(macs: &[f64]) -> String {
     macs.iter()
@@ -212,7 +224,7 @@ impl Failure {
             NonFinite { .. } => "an expression in a force or constraint is undefined there (sqrt or ln of a negative number, division by zero), or the mechanism reached a singular pose".into(),
             SingularMass { .. } => "two axes of the body's rotation sequence line up there, so its angles cannot follow the motion: use another rotation sequence whose singular pose the motion does not reach, or `rotation = \"free\"` (a unit quaternion, which has none)".into(),
             StepSizeUnderflow { .. } => "the mechanism may be at a singular pose (a rank loss of the constraints) or the forces change abruptly; check the model, or loosen the integration tolerances".into(),
-            Stiff { .. } => "a very stiff spring or damper makes an explicit integrator crawl; soften it or shorten the run".into(),
+            Stiff { .. } => "a very stiff spring or damper makes an explicit integrator crawl; integrate with the implicit Radau IIA (`Integrator::Radau`), soften it, or shorten the run".into(),
             Integrator { bad_input: true, .. } => "check the run's length and tolerances".into(),
             Integrator { .. } => "check the model".into(),
             UndefinedGuess { .. } => "the mechanism probably cannot close in this configuration (a link too short to reach); check the parameters and the fixed coordinates, or give a guess that stays defined".into(),
@@ -263,8 +275,8 @@ mod tests {
             Failure::Interrupted { t: 1.0 },
             Failure::SweepInterrupted,
             Failure::SimulationInterrupted { t: 1.0 },
-            Failure::NonFinite { t: 1.0 },
-            Failure::StepSizeUnderflow { t: 1.0 },
+            Failure::NonFinite { t: 1.0, h: 1e-12 },
+            Failure::StepSizeUnderflow { t: 1.0, h: 1e-15 },
             Failure::SingularMass {
                 t: 1.0,
                 body: "rod".into(),

@@ -569,14 +569,14 @@ impl KinematicPath {
                     .iter()
                     .enumerate()
                     .map(|(r, n)| Series {
-                        label: format!("d{}/d{n}", self.drive),
+                        label: format!("d{}/d{n} [{}]", self.drive, units[r]),
                         x: x.clone(),
                         y: self.ratios.iter().map(|row| row[r]).collect(),
                         style: Style::Solid,
+                        color: None,
                     })
                     .collect(),
-                vertical: Vec::new(),
-                marks: Vec::new(),
+                ..LinePlot::default()
             }];
         }
         let mut plots = Vec::new();
@@ -584,10 +584,15 @@ impl KinematicPath {
             let series: Vec<Series> = (0..self.coordinates.len())
                 .filter(|&i| i != d && self.angles[i] == angle)
                 .map(|i| Series {
-                    label: self.coordinates[i].clone(),
+                    label: format!(
+                        "{} [{}]",
+                        self.coordinates[i],
+                        if angle { "deg" } else { "m" }
+                    ),
                     x: x.clone(),
                     y: self.q.iter().map(|q| self.shown(i, q[i])).collect(),
                     style: Style::Solid,
+                    color: None,
                 })
                 .collect();
             if !series.is_empty() {
@@ -596,8 +601,7 @@ impl KinematicPath {
                     x_label: x_label.clone(),
                     y_label: y_label.into(),
                     series,
-                    vertical: Vec::new(),
-                    marks: Vec::new(),
+                    ..LinePlot::default()
                 });
             }
         }

@@ -11,6 +11,7 @@ use cli::equilibrium::EquilibriumArgs;
 use cli::frf::FrfArgs;
 use cli::kinematics::KinematicsArgs;
 use cli::margins::MarginsArgs;
+use cli::merge::MergeArgs;
 use cli::modes::ModesArgs;
 use cli::report::ReportArgs;
 use cli::sensitivity::SensitivityArgs;
@@ -57,6 +58,9 @@ enum Command {
     /// simulation, resonances located by refinement.
     #[command(allow_negative_numbers = true)]
     Sweep(SweepArgs),
+    /// Join the checkpoints of a sharded sweep (`sweep --shard K/N --checkpoint FILE`)
+    /// into the CSV, JSON and plot one unsharded run writes, byte for byte.
+    Merge(MergeArgs),
     /// The closure solved along a driven coordinate on the branch through the assembled
     /// pose, with transmission ratios d<drive>/d<NAME> from its tangent.
     #[command(allow_negative_numbers = true)]
@@ -105,6 +109,7 @@ fn main() {
         Command::Sensitivity(a) => cli::sensitivity::run(a),
         Command::Frf(a) => cli::frf::run(a),
         Command::Sweep(a) => cli::sweep::run(a),
+        Command::Merge(a) => cli::merge::run(a),
         Command::Kinematics(a) => cli::kinematics::run(a),
         Command::Draw(a) => cli::draw::run(a),
         Command::Margins(a) => cli::margins::run(a).map(|o| exit_code = o.exit_code()),

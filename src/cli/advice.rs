@@ -32,7 +32,8 @@ pub fn advice(f: &Failure) -> Option<String> {
             "loosen --rtol/--atol or shorten the run; a very small step points to a singular pose".into()
         }
         StepSizeUnderflow { .. } => "the mechanism may be at a singular pose (a rank loss of the constraints) or the forces change abruptly; check the model, or loosen --rtol/--atol".into(),
-        TooManySteps { .. } => "loosen --rtol/--atol or shorten the run".into(),
+        TooManySteps { .. } => "loosen --rtol/--atol or shorten the run; for a stiff model (a very stiff spring or damper on a light body) use --integrator radau".into(),
+        Stiff { .. } => "a very stiff spring or damper makes the explicit DOP853 crawl: use --integrator radau (implicit, stable at any step), or soften it".into(),
         Integrator { bad_input: true, .. } => "check --t-end, --rtol and --atol".into(),
         ConstraintsNotKept { .. } => "tighten --rtol/--atol (the defaults are 1e-10 and 1e-12); if that does not help, the mechanism may pass a singular pose".into(),
         ContinuationStalled { .. } => "the branch may end here (a singular pose or no equilibrium), or --step is far too large for this model (the default is the range / 50): try a smaller --step".into(),

@@ -73,7 +73,7 @@ fn parse_sets(sets: &[String]) -> Result<Vec<(String, String)>> {
         .collect()
 }
 
-/// The integrator's error tolerances (`simulate`, `sweep`).
+/// The integrator and its error tolerances (`simulate`, `sweep`).
 #[derive(Args)]
 pub struct Tolerances {
     /// Relative error tolerance per step.
@@ -92,6 +92,29 @@ pub struct Tolerances {
         allow_hyphen_values = true
     )]
     pub atol: f64,
+    /// The integrator: `dop853` (explicit, the fastest for most models) or `radau`
+    /// (Radau IIA, implicit: for stiff models, a very stiff spring or damper on a light
+    /// body, which hold DOP853 to tiny steps; detune warns when it finds one).
+    #[arg(long, value_enum, default_value_t = IntegratorChoice::Dop853, value_name = "METHOD")]
+    pub integrator: IntegratorChoice,
+}
+
+/// `--integrator`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum IntegratorChoice {
+    Dop853,
+    Radau,
+}
+
+impl Tolerances {
+    /// The library's integration method.
+    pub fn integrator(&self) -> detune::dynamics::integrator::Integrator {
+        use detune::dynamics::integrator::Integrator;
+        match self.integrator {
+            IntegratorChoice::Dop853 => Integrator::Dop853,
+            IntegratorChoice::Radau => Integrator::Radau,
+        }
+    }
 }
 
 /// The frequencies of `frf` and `sweep`, and what they report.
@@ -462,6 +485,52 @@ pub fn time_value(flag: &str, text: &str) -> Result<f64> {
         Ok(x) => Ok(x),
         Err(_) => quantity(flag, text.trim(), "a time", Dim::TIME),
     }
+}
+
+/// `--plot-size WxH`: shared by every command with `--plot`.
+#[derive(Args, Clone, Default)]
+pub struct PlotSize {
+    /// Figure size in pixels, WxH (e.g. 1600x1000; each side 300–8000). Text and lines
+    /// scale with the width [default: 900 wide, 520 per panel].
+    #[arg(long = "plot-size", value_name = "WxH")]
+    pub plot_size: Option<String>,
+}
+
+impl PlotSize {
+    /// Check the figure request before any work: `--plot` named `.svg` or `.png`, a valid
+    /// `--plot-size` (which needs `--plot`), and `-o` not named like a figure (it is CSV).
+    /// Returns the size asked for.
+    pub fn check(&self, plot: Option<&str>, csv: Option<&str>) -> Result<Option<(u32, u32)>> {
+        if let Some(o) = csv {
+            csv_output(o)?;
+        }
+        if let Some(p) = plot {
+            detune::output::plot::Format::of("--plot", p)?;
+        }
+        match (&self.plot_size, plot) {
+            (None, _) => Ok(None),
+            (Some(s), Some(_)) => detune::output::plot::parse_size(s).map(Some),
+            (Some(s), None) => Err(Error::request(
+                format!("--plot-size {s} without --plot: there is no figure to size"),
+                "add --plot FIGURE.svg (or .png), or leave out --plot-size",
+            )),
+        }
+    }
+}
+
+/// `-o`: a CSV is never written into a file named like a figure.
+pub fn csv_output(path: &str) -> Result<()> {
+    let ext = std::path::Path::new(path)
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(|e| e.to_ascii_lowercase());
+    if let Some(e @ ("svg" | "png")) = ext.as_deref() {
+        return Err(Error::request(
+            format!("-o {path}: -o writes the CSV table, not a `.{e}` figure"),
+            format!("name the table .csv; the figure is --plot {path}"),
+        ));
+    }
+    Ok(())
 }
 
 /// `--freq-unit`: the unit of the frequencies a command prints and plots.

@@ -7,9 +7,9 @@ use super::print_json;
 use clap::Args;
 use detune::System;
 use detune::diag::Result;
-use detune::output::figures::branch_figure;
+use detune::output::figures::{Case, branch_figure};
 use detune::output::json::BranchReport;
-use detune::output::plot::write_line_plot;
+use detune::output::plot::write_panels_sized;
 use detune::output::results::write_branch_csv;
 use detune::output::units::{Units, WithUnits};
 use detune::output::{Provenance, check_outputs};
@@ -49,10 +49,13 @@ pub struct ContinueArgs {
     /// Coordinate drawn against the parameter [default: the first angle].
     #[arg(long, value_name = "NAME")]
     pub plot_coordinate: Option<String>,
+    #[command(flatten)]
+    pub plot_size: super::args::PlotSize,
 }
 
 pub fn run(a: ContinueArgs) -> Result<()> {
     let (model, sys) = a.model.load()?;
+    let size = a.plot_size.check(a.plot.as_deref(), a.output.as_deref())?;
     let outputs = check_outputs(
         &model.source.path,
         &[a.output.as_deref(), a.plot.as_deref()],
@@ -80,10 +83,15 @@ pub fn run(a: ContinueArgs) -> Result<()> {
         write_branch_csv(o, &branch)?;
     }
     if let Some(p) = &a.plot {
-        write_line_plot(
-            p,
-            &branch_figure(&model.name, &branch, idx, sys.is_angle(idx)),
-        )?;
+        let case = Case::of(&model);
+        let figure = branch_figure(
+            &case,
+            &branch,
+            idx,
+            sys.is_angle(idx),
+            &model.param_unit(&a.param),
+        );
+        write_panels_sized(p, &[figure], size)?;
     }
     outputs.commit()?;
     if a.json {

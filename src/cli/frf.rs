@@ -28,8 +28,8 @@ pub struct FrfArgs {
     /// CSV: `<param>,<name>_amplitude,<name>_phase_deg,...`.
     #[arg(short = 'o', long = "output", value_name = "OUT.csv")]
     pub output: Option<String>,
-    /// SVG: each response's amplitude against frequency, the undamped natural
-    /// frequencies and the refined peaks marked.
+    /// Figure (.svg or .png): each response's amplitude and phase against frequency, the
+    /// undamped natural frequencies drawn and the refined peaks marked.
     #[arg(long, value_name = "OUT.svg")]
     pub plot: Option<String>,
     /// A labelled frequency drawn on the plot, LABEL=VALUE (VALUE in rad/s or a
@@ -38,10 +38,24 @@ pub struct FrfArgs {
     pub mark: Vec<String>,
     #[command(flatten)]
     pub freq: super::args::FreqUnitArg,
+    /// Amplitude axis of --plot: linear, log (logarithmic axis) or db (20 log10 of the
+    /// amplitude in SI: dB re 1 rad, re 1 m).
+    #[arg(long, value_enum, default_value = "linear", value_name = "SCALE")]
+    pub plot_scale: PlotScale,
+    #[command(flatten)]
+    pub plot_size: super::args::PlotSize,
+}
+
+#[derive(Clone, Copy, clap::ValueEnum)]
+pub enum PlotScale {
+    Linear,
+    Log,
+    Db,
 }
 
 pub fn run(a: FrfArgs) -> Result<()> {
     let (model, sys) = a.model.load()?;
+    let size = a.plot_size.check(a.plot.as_deref(), a.output.as_deref())?;
     // with --per-unit, the amplitudes are per unit of the forcing amplitude (`/N`)
     let mut per = String::new();
     let sys = if a.per_unit {
@@ -97,13 +111,25 @@ pub fn run(a: FrfArgs) -> Result<()> {
                     .collect()
             })
             .unwrap_or_default();
+        use detune::output::figures::AmplitudeScale;
+        let scale = match a.plot_scale {
+            PlotScale::Linear => AmplitudeScale::Linear,
+            PlotScale::Log => AmplitudeScale::Log,
+            PlotScale::Db => AmplitudeScale::Db,
+        };
+        let mut case = detune::output::figures::Case::of(&model);
+        if a.per_unit {
+            case.overrides
+                .push("per unit of the forcing amplitude".into());
+        }
         let per_units: Vec<String> = units.iter().map(|u| format!("{u}{per}")).collect();
         let units: Vec<&str> = per_units.iter().map(String::as_str).collect();
-        let figures: Vec<_> = detune::output::figures::frf_figures(&fr, &units, &natural, &marks)
-            .into_iter()
-            .map(|f| f.in_frequency_unit(fu))
-            .collect();
-        detune::output::plot::write_panels(p, &figures)?;
+        let figures: Vec<_> =
+            detune::output::figures::frf_figures(&case, &fr, &units, &natural, &marks, scale)
+                .into_iter()
+                .map(|f| f.in_frequency_unit(fu))
+                .collect();
+        detune::output::plot::write_panels_sized(p, &figures, size)?;
     }
     outputs.commit()?;
     for f in [&a.output, &a.plot].into_iter().flatten() {

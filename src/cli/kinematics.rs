@@ -6,7 +6,7 @@ use clap::Args;
 use detune::diag::Result;
 use detune::kinematics::{KinematicPath, KinematicsOptions, drive_index, kinematics};
 use detune::output::check_outputs;
-use detune::output::plot::write_panels;
+use detune::output::plot::write_panels_sized;
 
 #[derive(Args)]
 pub struct KinematicsArgs {
@@ -34,10 +34,13 @@ pub struct KinematicsArgs {
     /// in degrees.
     #[arg(long, value_name = "OUT.svg")]
     pub plot: Option<String>,
+    #[command(flatten)]
+    pub plot_size: super::args::PlotSize,
 }
 
 pub fn run(a: KinematicsArgs) -> Result<()> {
     let (model, sys) = a.model.load_untrimmed()?;
+    let size = a.plot_size.check(a.plot.as_deref(), a.output.as_deref())?;
     let outputs = check_outputs(
         &model.source.path,
         &[a.output.as_deref(), a.plot.as_deref()],
@@ -56,7 +59,12 @@ pub fn run(a: KinematicsArgs) -> Result<()> {
         path.write_csv(o)?;
     }
     if let Some(p) = &a.plot {
-        write_panels(p, &path.figures(&model.name))?;
+        let caption = detune::output::figures::Case::of(&model).caption(&[]);
+        let mut figures = path.figures(&model.name);
+        if let Some(f) = figures.first_mut() {
+            f.caption = caption;
+        }
+        write_panels_sized(p, &figures, size)?;
     }
     outputs.commit()?;
     if a.output.is_none() {

@@ -253,6 +253,12 @@ fn print_environment(env: &Environment, lines: &[ForcingLine]) {
 
 fn print_table(check: &MarginCheck, fu: FreqUnit) {
     let sym = fu.symbol();
+    // the companion column: Hz, or rad/s when the table is in Hz
+    let cu = fu.companion();
+    let ctitle = match cu {
+        FreqUnit::Hertz => "f [Hz]",
+        _ => "ω [rad/s]",
+    };
     println!(
         "\nrequired separation: {} % (your choice, not a standard){}",
         check.margin_pct,
@@ -273,7 +279,11 @@ fn print_table(check: &MarginCheck, fu: FreqUnit) {
         "{:<mw$} {:>12} {:>9} {:>8} {}{:<8} {:>12} {:>9} {:>12} {:>8} {:>11} {:>5}",
         "mode",
         format!("ω_n [{sym}]"),
-        "f [Hz]",
+        if cu == FreqUnit::Hertz {
+            "f [Hz]"
+        } else {
+            "ω_n [rad/s]"
+        },
         "ζ",
         if varied {
             format!("{:>25} ", format!("interval [{sym}]"))
@@ -282,7 +292,7 @@ fn print_table(check: &MarginCheck, fu: FreqUnit) {
         },
         "line",
         format!("ω [{sym}]"),
-        "f [Hz]",
+        ctitle,
         "separation",
         "side",
         "required",
@@ -305,19 +315,23 @@ fn print_table(check: &MarginCheck, fu: FreqUnit) {
                     fu.of(r.band_lo_rad_s),
                     fu.of(r.band_hi_rad_s)
                 ),
-                format!("{:.3}–{:.3}", r.band_lo_rad_s / TAU, r.band_hi_rad_s / TAU),
+                format!(
+                    "{:.3}–{:.3}",
+                    cu.of(r.band_lo_rad_s),
+                    cu.of(r.band_hi_rad_s)
+                ),
             )
         } else {
             (
                 format!("{:.4}", fu.of(r.line_rad_s)),
-                format!("{:.4}", r.line_rad_s / TAU),
+                format!("{:.4}", cu.of(r.line_rad_s)),
             )
         };
         println!(
             "{:<mw$} {:>12.4} {:>9.4} {:>8.4} {interval}{:<8} {:>12} {:>9} {:>10.2} % {:>8} {:>9.2} % {:>5}",
             r.mode,
             fu.of(r.omega_n_rad_s),
-            r.omega_n_rad_s / TAU,
+            cu.of(r.omega_n_rad_s),
             r.damping_ratio,
             r.line,
             line_w,

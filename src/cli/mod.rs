@@ -13,6 +13,7 @@ pub mod equilibrium;
 pub mod frf;
 pub mod kinematics;
 pub mod margins;
+pub mod merge;
 pub mod modes;
 pub mod report;
 pub mod sensitivity;

@@ -68,6 +68,8 @@ pub struct ModesArgs {
     pub plot: Option<String>,
     #[command(flatten)]
     pub freq: super::args::FreqUnitArg,
+    #[command(flatten)]
+    pub plot_size: super::args::PlotSize,
 }
 
 pub fn run(a: ModesArgs) -> Result<()> {
@@ -130,7 +132,11 @@ pub fn run(a: ModesArgs) -> Result<()> {
         "mode",
         format!("ω_n [{sym}]"),
         format!("ω_d [{sym}]"),
-        "f [Hz]",
+        // ω_n in the companion unit: Hz, or rad/s when the table is in Hz
+        match fu.companion() {
+            FreqUnit::Hertz => "f [Hz]",
+            _ => "ω_n [rad/s]",
+        },
         "ζ",
         "eigenvalue [1/s]"
     );
@@ -157,7 +163,7 @@ pub fn run(a: ModesArgs) -> Result<()> {
             k + 1,
             fu.of(md.omega_n_rad_s),
             fu.of(md.omega_d_rad_s),
-            md.freq_hz,
+            fu.companion().of(md.omega_n_rad_s),
             md.damping_ratio,
             md.eigenvalue.re,
             md.eigenvalue.im
@@ -232,6 +238,7 @@ fn print_names(named: &[detune::linear::tracking::NamedMode]) {
 /// `detune modes --param`: the modes tracked over the parameter's values.
 fn track(a: ModesArgs, param: &str) -> Result<()> {
     let (model, sys) = a.model.load()?;
+    let size = a.plot_size.check(a.plot.as_deref(), a.output.as_deref())?;
     let outputs = check_outputs(
         &model.source.path,
         &[a.output.as_deref(), a.plot.as_deref()],
@@ -270,14 +277,18 @@ fn track(a: ModesArgs, param: &str) -> Result<()> {
     if let Some(p) = &a.plot {
         // ω_n is the y axis here: drawn in the --freq-unit
         let fu = a.freq.freq_unit;
-        let mut figure = detune::output::figures::tracking_figure(&t, unit);
+        let mut figure = detune::output::figures::tracking_figure(
+            &detune::output::figures::Case::of(&model),
+            &t,
+            unit,
+        );
         if fu != FreqUnit::RadPerSecond {
             for s in &mut figure.series {
                 s.y.iter_mut().for_each(|y| *y = fu.of(*y));
             }
             figure.y_label = figure.y_label.replace("[rad/s]", &format!("[{fu}]"));
         }
-        detune::output::plot::write_line_plot(p, &figure)?;
+        detune::output::plot::write_panels_sized(p, &[figure], size)?;
     }
     outputs.commit()?;
     for f in [&a.output, &a.plot].into_iter().flatten() {

@@ -54,10 +54,13 @@ pub struct SensitivityArgs {
     pub plot: Option<String>,
     #[command(flatten)]
     pub freq: super::args::FreqUnitArg,
+    #[command(flatten)]
+    pub plot_size: super::args::PlotSize,
 }
 
 pub fn run(a: SensitivityArgs) -> Result<()> {
     let (model, sys) = a.model.load()?;
+    let size = a.plot_size.check(a.plot.as_deref(), a.output.as_deref())?;
     let outputs = check_outputs(
         &model.source.path,
         &[a.output.as_deref(), a.plot.as_deref()],
@@ -134,7 +137,7 @@ pub fn run(a: SensitivityArgs) -> Result<()> {
                 )
             }
         );
-        write_tornado(p, &study, &title)?;
+        write_tornado(p, &study, &title, size)?;
     }
     outputs.commit()?;
     for f in [&a.output, &a.plot].into_iter().flatten() {

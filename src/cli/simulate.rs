@@ -6,10 +6,10 @@ use super::progress_bar;
 use clap::Args;
 use detune::diag::Result;
 use detune::dynamics::assemble;
-use detune::dynamics::simulate::{SimOptions, Trajectory, simulate_with};
-use detune::output::figures::trajectory_figure;
+use detune::dynamics::simulate::{SimOptions, Trajectory, simulate_watched};
+use detune::output::figures::{Case, trajectory_figures};
 use detune::output::json::SimulationSummary;
-use detune::output::plot::write_line_plot;
+use detune::output::plot::write_panels_sized;
 use detune::output::units::{Units, WithUnits};
 use detune::output::{
     Provenance, check_outputs, trajectory_header, trajectory_row, write_atomic, write_json,
@@ -49,10 +49,17 @@ pub struct SimulateArgs {
     pub response: Vec<String>,
     /// Output CSV: `t,<body>.<coordinate>,...` in SI.
     #[arg(short = 'o', long = "output", value_name = "OUT.csv")]
-    pub output: String,
-    /// Also draw the angle coordinates (or all coordinates) against time as SVG.
+    pub output: Option<String>,
+    /// Figure (.svg or .png): the coordinates against time (angles and lengths in their
+    /// own panels).
     #[arg(long, value_name = "OUT.svg")]
     pub plot: Option<String>,
+    /// Coordinate drawn on --plot (repeatable) [default: the angles, or every
+    /// coordinate if there are none].
+    #[arg(long, value_name = "NAME")]
+    pub plot_coordinate: Vec<String>,
+    #[command(flatten)]
+    pub plot_size: super::args::PlotSize,
     /// Also write a JSON summary (provenance, statistics, final state).
     #[arg(long, value_name = "OUT.json")]
     pub json: Option<String>,
@@ -60,9 +67,27 @@ pub struct SimulateArgs {
 
 pub fn run(a: SimulateArgs) -> Result<()> {
     let (model, sys) = a.model.load()?;
+    if a.output.is_none() && a.plot.is_none() && a.json.is_none() {
+        return Err(detune::diag::Error::request(
+            "simulate: nothing to write",
+            "give -o OUT.csv (the samples), --plot OUT.svg (a figure) or --json OUT.json (a summary)",
+        ));
+    }
+    let size = a.plot_size.check(a.plot.as_deref(), a.output.as_deref())?;
+    if !a.plot_coordinate.is_empty() && a.plot.is_none() {
+        return Err(detune::diag::Error::request(
+            "--plot-coordinate without --plot: there is no figure to draw it on",
+            "add --plot OUT.svg (or .png)",
+        ));
+    }
+    let picks: Vec<usize> = a
+        .plot_coordinate
+        .iter()
+        .map(|n| detune::linear::coordinate(&sys, n, detune::request::Argument::PlotCoordinate))
+        .collect::<Result<_>>()?;
     let outputs = check_outputs(
         &model.source.path,
-        &[Some(&a.output), a.plot.as_deref(), a.json.as_deref()],
+        &[a.output.as_deref(), a.plot.as_deref(), a.json.as_deref()],
     )?;
     // a signal stops the run at the next output sample: the samples computed are kept,
     // marked incomplete (the CSV's last line, the JSON's `complete`)
@@ -75,6 +100,7 @@ pub fn run(a: SimulateArgs) -> Result<()> {
         dt_out: super::args::time_value("--dt-out", &a.dt_out)?,
         rtol: a.tol.rtol,
         atol: a.tol.atol,
+        integrator: a.tol.integrator(),
         ..SimOptions::default()
     };
     let bar = progress_bar(
@@ -100,11 +126,11 @@ pub fn run(a: SimulateArgs) -> Result<()> {
     let interrupted = || super::INTERRUPTED.load(std::sync::atomic::Ordering::SeqCst);
     // the model time of the last sample written when a signal stopped the run
     let mut stopped_at: Option<f64> = None;
-    let written = write_atomic(&a.output, |w| {
+    let mut fill = |w: &mut dyn std::io::Write| {
         let columns = a.velocities.then(|| sys.velocity_columns());
         trajectory_header(w, &sys.coordinates, columns.as_deref(), &a.response)?;
         let mut io_error = None;
-        let run = simulate_with(
+        let run = simulate_watched(
             &sys,
             &start,
             &opts,
@@ -142,6 +168,7 @@ pub fn run(a: SimulateArgs) -> Result<()> {
                 }
                 true
             },
+            &mut |s| bar.suspend(|| eprintln!("{}", stiffness_warning(s, began.elapsed()))),
         );
         let failed = run.is_err();
         outcome = Some(run);
@@ -158,7 +185,11 @@ pub fn run(a: SimulateArgs) -> Result<()> {
                 None => Ok(()),
             },
         }
-    });
+    };
+    let written = match &a.output {
+        Some(o) => write_atomic(o, fill),
+        None => fill(&mut std::io::sink()).map_err(|e| detune::diag::Error::io("(no -o)", e)),
+    };
     bar.finish_and_clear();
     match outcome {
         Some(Err(e)) => return Err(e),
@@ -167,19 +198,22 @@ pub fn run(a: SimulateArgs) -> Result<()> {
     }
     written?;
     if let Some(p) = &a.plot {
-        let mut figure = trajectory_figure(&model.name, &traj);
+        let mut figures = trajectory_figures(&Case::of(&model), &traj, &picks);
         if let Some(t) = stopped_at {
-            figure
-                .title
-                .push_str(&format!(" (incomplete: interrupted at t = {} s)", shown(t)));
+            for figure in &mut figures {
+                figure
+                    .title
+                    .push_str(&format!(" (incomplete: interrupted at t = {} s)", shown(t)));
+            }
         }
-        write_line_plot(p, &figure)?;
+        write_panels_sized(p, &figures, size)?;
     }
     let tail: Vec<(f64, Vec<f64>)> = tail.into_iter().collect();
     let end = detune::frequency::wells::end_well(&sys, &start.q, &tail);
     if let Some(j) = &a.json {
         let provenance = Provenance::of(&model);
-        let mut summary = SimulationSummary::new(&provenance, &opts, &traj, &a.output);
+        let mut summary =
+            SimulationSummary::new(&provenance, &opts, &traj, a.output.as_deref().unwrap_or(""));
         summary.complete = stopped_at.is_none();
         if let Some((wells, well)) = &end {
             summary = summary.with_wells(wells, *well);
@@ -210,7 +244,7 @@ pub fn run(a: SimulateArgs) -> Result<()> {
     let st = &traj.stats;
     if let Some(t) = stopped_at {
         // the message (and the exit code 128 + the signal) come from main
-        for f in std::iter::once(&a.output).chain(&a.plot).chain(&a.json) {
+        for f in a.output.iter().chain(&a.plot).chain(&a.json) {
             eprintln!("wrote {f} (incomplete: up to t = {} s)", shown(t));
         }
         return Err(detune::failure::Failure::SimulationInterrupted { t }.into());
@@ -263,7 +297,9 @@ pub fn run(a: SimulateArgs) -> Result<()> {
             ),
         }
     }
-    println!("wrote {}", a.output);
+    if let Some(o) = &a.output {
+        println!("wrote {o}");
+    }
     if let Some(p) = &a.plot {
         println!("wrote {p}");
     }
@@ -271,4 +307,38 @@ pub fn run(a: SimulateArgs) -> Result<()> {
         println!("wrote {j}");
     }
     Ok(())
+}
+
+/// The warning for a run DOP853 found stiff, with its numbers and what to do.
+pub fn stiffness_warning(
+    s: &detune::dynamics::integrator::Stiffness,
+    elapsed: std::time::Duration,
+) -> String {
+    let (held, help) = if s.stability_limited {
+        (
+            format!(
+                "DOP853's stability holds its steps to about {:.2e} s (h·|λ| ≈ {:.1})",
+                s.step, s.h_lambda
+            ),
+            "use --integrator radau (implicit Radau IIA: stable at any step, its steps follow the slow motion)",
+        )
+    } else {
+        (
+            format!(
+                "DOP853's steps of about {:.2e} s (h·|λ| ≈ {:.2}) follow it at these tolerances",
+                s.step, s.h_lambda
+            ),
+            "if that fast motion (a stiff spring or damper on a light body) does not matter at the scale of the run, loosen --rtol/--atol and use --integrator radau (implicit Radau IIA: it damps what its steps do not resolve); a lightly damped fast vibration larger than --atol must be followed by either method",
+        )
+    };
+    format!(
+        "warning: the model is stiff: its fastest motion has |λ| ≈ {:.3e} 1/s (a time constant of {:.2e} s; the run spans {:.2e} of them), and {held}: the run will take about {:.2e} steps ({} so far, at t = {:.3e} s, after {:.3} s)\nhelp: {help}",
+        s.lambda,
+        1.0 / s.lambda,
+        s.stiffness_ratio,
+        s.projected_steps,
+        s.steps,
+        s.t,
+        elapsed.as_secs_f64(),
+    )
 }

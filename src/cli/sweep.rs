@@ -1,18 +1,23 @@
 //! `detune sweep`: the stepped-sine frequency response of the nonlinear model, for one
-//! model or a family over the values of a parameter (`--values`).
+//! model or a family over the values of a parameter (`--values`, repeatable for a grid),
+//! resumable from a checkpoint (`--checkpoint`) and split over processes (`--shard`,
+//! joined by `detune merge`, which runs the same code with every case from the shards:
+//! see [`execute`]).
 
 use super::args::{FrequencyGrid, ModelArgs, Tolerances};
 use super::{INTERRUPTED, interrupt_on_ctrl_c, print_json, progress_bar};
 use clap::Args;
-use detune::diag::Result;
+use detune::diag::{Error, Result};
+use detune::frequency::checkpoint::{self, CaseLog, Checkpoint, Header, NoLog, Shard};
 use detune::frequency::study::SweepStudy;
-use detune::frequency::{SteadyOptions, SweepMode, SweepOptions};
-use detune::output::figures::sweep_figures;
+use detune::frequency::{Progress, SteadyOptions, SweepMode, SweepOptions};
+use detune::output::figures::{Case, sweep_figures};
 use detune::output::json::SweepReport;
-use detune::output::plot::write_panels;
+use detune::output::plot::write_panels_sized;
 use detune::output::results::write_sweep_csv;
 use detune::output::units::{Units, WithUnits};
 use detune::output::{Provenance, check_outputs};
+use std::sync::atomic::{AtomicBool, Ordering};
 
 /// The units of `sweep --json`: the CSV's columns (the frequency in rad/s, each response's
 /// measures in its unit, the phase in degrees; the `--values` parameter in its unit), the
@@ -20,8 +25,8 @@ use detune::output::{Provenance, check_outputs};
 fn sweep_units(runs: &[detune::frequency::study::SweepRun], sys: &detune::System) -> Units {
     let first = &runs[0].sweep;
     let mut u = Units::new().with(first.param.clone(), "rad/s");
-    if let Some((name, _)) = runs[0].tag() {
-        u.add(name, runs[0].unit.clone());
+    for ((name, _), unit) in runs[0].tags().into_iter().zip(&runs[0].units) {
+        u.add(name, unit.clone());
     }
     for (r, unit) in first.responses.iter().zip(&first.units) {
         for m in ["amplitude", "max", "min", "mean", "h1", "h2"] {
@@ -47,7 +52,7 @@ fn sweep_units(runs: &[detune::frequency::study::SweepRun], sys: &detune::System
         ])
 }
 
-#[derive(Clone, Copy, clap::ValueEnum)]
+#[derive(Clone, Copy, Debug, clap::ValueEnum)]
 pub enum ModeArg {
     /// every frequency from the equilibrium at rest, in parallel
     Independent,
@@ -72,8 +77,9 @@ pub struct SweepArgs {
     #[arg(long, value_enum, default_value = "independent")]
     pub mode: ModeArg,
     /// Repeat the sweep for each value of a parameter: PARAM=v1,v2,... (e.g. F0=0.1,1,2).
+    /// Repeatable: every combination (a grid), the first --values varying slowest.
     #[arg(long, value_name = "PARAM=V1,V2,...", allow_hyphen_values = true)]
-    pub values: Option<String>,
+    pub values: Vec<String>,
     /// Settling tolerance: Poincaré points agree to this fraction of the amplitude.
     #[arg(
         long,
@@ -93,8 +99,9 @@ pub struct SweepArgs {
     /// Print the JSON result.
     #[arg(long)]
     pub json: bool,
-    /// SVG: amplitude of the first response against frequency (with --values, also
-    /// normalized by the value), the linear natural frequencies marked.
+    /// Figure (.svg or .png): each response's amplitude against frequency (with
+    /// --values over the forcing amplitude, also divided by it), the linear natural
+    /// frequencies drawn, refined peaks and jumps marked.
     #[arg(long, value_name = "OUT.svg")]
     pub plot: Option<String>,
     /// A labelled frequency drawn on the plot, LABEL=VALUE (VALUE in rad/s or a
@@ -103,14 +110,63 @@ pub struct SweepArgs {
     pub mark: Vec<String>,
     #[command(flatten)]
     pub freq: super::args::FreqUnitArg,
+    #[command(flatten)]
+    pub plot_size: super::args::PlotSize,
+    /// Append each finished frequency (of each --values case) to FILE as it completes;
+    /// the same command with the same FILE resumes, skipping what is done (the outputs are
+    /// identical to an uninterrupted run's). A FILE of another model, options or detune
+    /// version is refused.
+    #[arg(long, value_name = "FILE")]
+    pub checkpoint: Option<String>,
+    /// Compute shard K of N (1 ≤ K ≤ N) of the study's cases into --checkpoint FILE;
+    /// join the N checkpoints with `detune merge`. Independent sweeps are split by
+    /// frequency × --values case, up/down/both by --values case only.
+    #[arg(long, value_name = "K/N")]
+    pub shard: Option<String>,
+    /// Refine the peaks of a coarse independent sweep already computed (the CSV of a run
+    /// or of `detune merge` with the same options): its frequencies are read, not
+    /// recomputed; only the refinement is simulated. Needs --refine.
+    #[arg(long, value_name = "ALL.csv")]
+    pub refine_from: Option<String>,
+}
+
+/// Where a sweep's cases come from: the command line (with its arguments after
+/// `sweep`, stored in a checkpoint's header), or the shards' checkpoints of a merge.
+pub enum Source {
+    Command(Vec<String>),
+    Merge(Box<Checkpoint>),
 }
 
 pub fn run(a: SweepArgs) -> Result<()> {
-    let (model, _compiled) = a.model.load()?;
+    let command = std::env::args_os()
+        .skip(2)
+        .map(|s| s.to_string_lossy().into_owned())
+        .collect();
+    execute(a, Source::Command(command))
+}
+
+/// The sweep of `a`, its cases from `source`: computed (looked up in and recorded to
+/// `--checkpoint FILE`, a shard's share only with `--shard`), or all taken from the
+/// shards' checkpoints of a merge, which then writes exactly what one run writes.
+pub fn execute(a: SweepArgs, source: Source) -> Result<()> {
+    let shard = a.shard.as_deref().map(Shard::parse).transpose()?;
+    if let Some(s) = shard {
+        refuse_with_shard(&a, s)?;
+    }
+    let (model, compiled) = a.model.load()?;
+    let size = a.plot_size.check(a.plot.as_deref(), a.output.as_deref())?;
     let outputs = check_outputs(
         &model.source.path,
         &[a.output.as_deref(), a.plot.as_deref()],
     )?;
+    if let Some(c) = &a.checkpoint
+        && [a.output.as_deref(), a.plot.as_deref()].contains(&Some(c.as_str()))
+    {
+        return Err(Error::request(
+            format!("--checkpoint {c} is also an output"),
+            "give the checkpoint its own file (e.g. sweep.ckpt)",
+        ));
+    }
     let (values, responses) = a.grid.resolve(&model)?;
     // checked before any simulation: a bad mark must not cost a sweep
     let marks = super::args::frequency_marks(&a.mark, &values, a.plot.is_some())?;
@@ -132,32 +188,151 @@ pub fn run(a: SweepArgs) -> Result<()> {
         steady: SteadyOptions {
             rtol: a.tol.rtol,
             atol: a.tol.atol,
+            integrator: a.tol.integrator(),
             settle_tol: a.settle_tol,
             max_periods: a.max_periods,
             ..SteadyOptions::default()
         },
     };
     // Every run is checked before any is simulated: a bad --values entry fails at once.
-    let study = SweepStudy::new(&model, a.values.as_deref(), opts)?;
-    interrupt_on_ctrl_c();
-    let bar = progress_bar(
-        study.frequencies() as u64,
-        "sweeping {bar:40} {pos}/{len} frequencies {elapsed} (eta {eta})",
-    );
+    let study = SweepStudy::new(&model, &a.values, opts)?;
+    let labels: Vec<String> = study
+        .runs
+        .iter()
+        .map(|r| detune::frequency::study::values_label(&r.values))
+        .collect();
+    if let Some(s) = shard {
+        let cases = study.shardable_cases();
+        if s.n > cases {
+            return Err(Error::request(
+                format!(
+                    "--shard {}/{}: the study has {cases} independent case{} to share, fewer than {} shards{}",
+                    s.k,
+                    s.n,
+                    if cases == 1 { "" } else { "s" },
+                    s.n,
+                    if study.sequential() {
+                        " (up, down and both sweep each --values case in one sequence: they are sharded by --values case only, never by frequency)"
+                    } else {
+                        " (frequencies × --values cases)"
+                    }
+                ),
+                format!("use at most {cases} shards"),
+            ));
+        }
+    }
+    let merging = matches!(source, Source::Merge(_));
+    let log: Box<dyn CaseLog> = match source {
+        Source::Merge(mut c) => {
+            if c.header.fingerprint != study.fingerprint() {
+                return Err(Error::request(
+                    format!(
+                        "the shards are not of this model: the model file {} (or a file it reads) changed since they ran (sha256 {} in the shards, {} now)",
+                        model.source.path,
+                        &c.header.model_sha256[..12.min(c.header.model_sha256.len())],
+                        &model.hash[..12.min(model.hash.len())]
+                    ),
+                    "merge with the model the shards ran on, or run them again",
+                ));
+            }
+            c.set_grid(&study.options.values);
+            c.run_labels = labels;
+            c
+        }
+        Source::Command(_) if a.refine_from.is_some() => {
+            let csv = a.refine_from.as_deref().unwrap_or_default();
+            Box::new(refine_from(csv, &a, &study)?)
+        }
+        Source::Command(command) => match &a.checkpoint {
+            None => Box::new(NoLog),
+            Some(path) => {
+                let header = Header {
+                    format: checkpoint::FORMAT.into(),
+                    format_version: checkpoint::FORMAT_VERSION,
+                    detune_version: env!("CARGO_PKG_VERSION").into(),
+                    model_file: model.source.path.clone(),
+                    model_sha256: model.hash.clone(),
+                    overrides: Provenance::of(&model).overrides,
+                    fingerprint: study.fingerprint(),
+                    command,
+                    shard: shard.unwrap_or(Shard::ALL),
+                    sequential: study.sequential(),
+                    grid: study.options.values.len(),
+                    runs: study.runs.len(),
+                };
+                let mut c = Checkpoint::open(path, header, &study.options.values)?;
+                c.run_labels = labels;
+                if c.reused > 0 {
+                    eprintln!(
+                        "resuming from the checkpoint {path}: {} steady states done before",
+                        c.reused
+                    );
+                }
+                Box::new(c)
+            }
+        },
+    };
+    if !merging {
+        interrupt_on_ctrl_c();
+    }
+    const GRID: &str = "sweeping {bar:40} {pos}/{len} frequencies {elapsed} (eta {eta})";
+    const REFINE: &str = "refining peaks {bar:40} {pos}/{len} steady states {elapsed} (eta {eta})";
+    let grid_len = study.frequencies_of(log.as_ref()) as u64;
+    let bar = progress_bar(grid_len, GRID);
+    // the coarse grid and the peak refinement are separate stages, each with its own bar
+    let refining = AtomicBool::new(false);
+    let style = |t: &str| {
+        indicatif::ProgressStyle::with_template(t)
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar())
+    };
     let began = std::time::Instant::now();
     let runs = study.run(
-        &|done| {
-            let pos = done as u64;
-            if pos > bar.length().unwrap_or(0) {
+        &|p: Progress| {
+            let refine = p.refine_expected > 0;
+            if refine != refining.swap(refine, Ordering::SeqCst) {
+                bar.set_style(style(if refine { REFINE } else { GRID }));
+                bar.set_length(if refine {
+                    p.refine_expected as u64
+                } else {
+                    grid_len
+                });
+                bar.reset_eta();
+            }
+            let (pos, len) = if refine {
+                (p.refined as u64, p.refine_expected as u64)
+            } else {
+                (p.grid as u64, grid_len)
+            };
+            if pos > bar.length().unwrap_or(len) {
                 bar.set_length(pos);
             }
             bar.set_position(pos);
         },
         &INTERRUPTED,
+        log.as_ref(),
     );
     bar.finish_and_clear();
     let runs = runs?;
     let complete = runs.iter().all(|r| r.sweep.complete);
+    if let (Some(s), Some(path)) = (shard, &a.checkpoint) {
+        let points: usize = runs.iter().map(|r| r.sweep.points.len()).sum();
+        println!(
+            "shard {}/{}: {points} frequencies in {:.2} s{}, in the checkpoint {path}; join all {} with `detune merge CHECKPOINT... -o all.csv`",
+            s.k,
+            s.n,
+            began.elapsed().as_secs_f64(),
+            if complete {
+                ""
+            } else {
+                " (incomplete: run the same command again to resume)"
+            },
+            s.n
+        );
+        if !complete {
+            return Err(detune::failure::Failure::SweepInterrupted.into());
+        }
+        return Ok(());
+    }
     let fu = a.freq.freq_unit;
     let sym = fu.symbol();
     if let Some(o) = &a.output {
@@ -165,11 +340,20 @@ pub fn run(a: SweepArgs) -> Result<()> {
     }
     if let Some(p) = &a.plot {
         let natural = study.natural_frequencies(runs.len())?;
-        let figures: Vec<_> = sweep_figures(&runs, &natural, &marks)
-            .into_iter()
-            .map(|f| f.in_frequency_unit(fu))
-            .collect();
-        write_panels(p, &figures)?;
+        let forcing = compiled
+            .forcing_amplitude_param()
+            .map(|i| compiled.param_names()[i].clone());
+        let figures: Vec<_> = sweep_figures(
+            &Case::of(&model),
+            &runs,
+            &natural,
+            &marks,
+            forcing.as_deref(),
+        )
+        .into_iter()
+        .map(|f| f.in_frequency_unit(fu))
+        .collect();
+        write_panels_sized(p, &figures, size)?;
     }
     // an interrupted sweep keeps the frequencies completed, marked incomplete
     outputs.commit()?;
@@ -180,7 +364,7 @@ pub fn run(a: SweepArgs) -> Result<()> {
         eprintln!("wrote {p}");
     }
     if a.json {
-        let units = sweep_units(&runs, &_compiled);
+        let units = sweep_units(&runs, &compiled);
         print_json(&WithUnits {
             doc: SweepReport::new(&runs, &Provenance::of(&model)),
             units: &units,
@@ -216,10 +400,10 @@ pub fn run(a: SweepArgs) -> Result<()> {
             }
         };
         for run in &runs {
-            let tag = run
-                .tag()
-                .map(|(n, v)| format!(" [{n} = {v}]"))
-                .unwrap_or_default();
+            let tag = match detune::frequency::study::values_label(&run.values) {
+                l if l.is_empty() => String::new(),
+                l => format!(" [{l}]"),
+            };
             for line in detune::output::figures::well_summary(run) {
                 println!("{line}{tag}");
             }
@@ -272,4 +456,194 @@ pub fn run(a: SweepArgs) -> Result<()> {
         return Err(detune::failure::Failure::SweepInterrupted.into());
     }
     Ok(())
+}
+
+/// What `--shard` cannot be combined with, refused before any work.
+fn refuse_with_shard(a: &SweepArgs, s: Shard) -> Result<()> {
+    if a.refine.is_some() {
+        return Err(Error::request(
+            format!(
+                "--refine cannot be used with --shard {}/{}: refining a peak needs the whole coarse curve, which a shard does not have",
+                s.k, s.n
+            ),
+            "sweep the coarse grid in shards, merge them (`detune merge SHARD.ckpt... -o all.csv --checkpoint all.ckpt`), then refine in one unsharded run that reuses every coarse frequency: the same sweep command without --shard, with --refine R --refine-from all.csv (independent sweeps) or --refine R --checkpoint all.ckpt (any mode)",
+        ));
+    }
+    if a.checkpoint.is_none() {
+        return Err(Error::request(
+            format!(
+                "--shard {}/{} needs --checkpoint FILE: a shard's results go there",
+                s.k, s.n
+            ),
+            "e.g. --shard 2/8 --checkpoint part-2.ckpt; then `detune merge part-*.ckpt -o all.csv`",
+        ));
+    }
+    if a.output.is_some() || a.plot.is_some() || a.json {
+        return Err(Error::request(
+            format!(
+                "--shard {}/{} writes its cases to --checkpoint only: -o, --plot and --json are of the whole study",
+                s.k, s.n
+            ),
+            "give -o, --plot and --json to `detune merge`, which joins the shards' checkpoints",
+        ));
+    }
+    Ok(())
+}
+
+/// `--refine-from ALL.csv`: the coarse cases of an independent sweep read from its CSV
+/// (every number in it reads back to the same bits), the refinement computed. A coarse
+/// frequency the CSV lacks is refused, never computed: the CSV must be of this sweep.
+struct CsvCases {
+    path: String,
+    known: std::collections::HashMap<checkpoint::CaseKey, (detune::frequency::SteadyState, isize)>,
+}
+
+impl CaseLog for CsvCases {
+    fn lookup(
+        &self,
+        key: &checkpoint::CaseKey,
+    ) -> Result<Option<(detune::frequency::SteadyState, isize)>> {
+        match self.known.get(key) {
+            Some(c) => Ok(Some(c.clone())),
+            None if key.kind == checkpoint::CaseKind::Refine => Ok(None),
+            None => Err(Error::request(
+                format!(
+                    "{} lacks the frequency {} rad/s of this sweep (run {})",
+                    self.path,
+                    f64::from_bits(key.omega),
+                    key.run + 1
+                ),
+                "--refine-from reads the CSV of the same sweep (the same model, --set, --values, grid and options, without --refine)",
+            )),
+        }
+    }
+    fn record(
+        &self,
+        _: &checkpoint::CaseKey,
+        _: &detune::frequency::SteadyState,
+        _: isize,
+    ) -> Result<()> {
+        Ok(())
+    }
+}
+
+fn refine_from(path: &str, a: &SweepArgs, study: &SweepStudy) -> Result<CsvCases> {
+    use detune::frequency::checkpoint::{CaseKey, CaseKind};
+    use detune::frequency::measure::Measures;
+    if a.refine.is_none() || study.sequential() || a.checkpoint.is_some() || a.shard.is_some() {
+        return Err(Error::request(
+            "--refine-from needs --refine R, an independent sweep (--mode independent), and neither --checkpoint nor --shard",
+            "for up/down/both the refinement starts from stored end states, which a CSV lacks: merge the shards with --checkpoint all.ckpt and refine with --refine R --checkpoint all.ckpt",
+        ));
+    }
+    let bad = |why: String| {
+        Error::request(
+            format!("--refine-from {path}: {why}"),
+            "give the CSV written by the same sweep (or by `detune merge`), without --refine",
+        )
+    };
+    let text = std::fs::read_to_string(path).map_err(|e| bad(e.to_string()))?;
+    let mut lines = text.lines();
+    let opts = &study.options;
+    let names: Vec<&str> = study.runs[0]
+        .values
+        .iter()
+        .map(|(n, _)| n.as_str())
+        .collect();
+    let mut want = vec![opts.param.clone(), "direction".to_string()];
+    want.extend(names.iter().map(|n| n.to_string()));
+    for r in &opts.responses {
+        want.extend(
+            detune::output::results::MEASURES
+                .iter()
+                .map(|m| format!("{r}_{m}")),
+        );
+    }
+    want.extend(["settled", "periods", "period_multiple", "refined", "well"].map(String::from));
+    if lines.next() != Some(want.join(",").as_str()) {
+        return Err(bad(format!(
+            "its header is not this sweep's: expected {}",
+            want.join(",")
+        )));
+    }
+    let nv = names.len();
+    let mut known = std::collections::HashMap::new();
+    for (i, line) in lines.enumerate() {
+        if line.starts_with('#') {
+            return Err(bad(format!("it is incomplete ({line})")));
+        }
+        let f: Vec<&str> = line.split(',').collect();
+        let num = |s: &str| -> Result<f64> {
+            s.parse::<f64>()
+                .map_err(|_| bad(format!("line {}: {s:?} is not a number", i + 2)))
+        };
+        let int = |s: &str| -> Result<i64> {
+            s.parse::<i64>()
+                .map_err(|_| bad(format!("line {}: {s:?} is not an integer", i + 2)))
+        };
+        if f.len() != want.len() || f[1] != "independent" {
+            return Err(bad(format!(
+                "line {} is not a row of an independent sweep",
+                i + 2
+            )));
+        }
+        let omega = num(f[0])?;
+        let values: Vec<f64> = f[2..2 + nv].iter().map(|s| num(s)).collect::<Result<_>>()?;
+        let run = study
+            .runs
+            .iter()
+            .position(|r| {
+                r.values
+                    .iter()
+                    .zip(&values)
+                    .all(|((_, x), y)| x.to_bits() == y.to_bits())
+            })
+            .ok_or_else(|| bad(format!("line {}: no --values case has these values", i + 2)))?;
+        let mut k = 2 + nv;
+        let mut measures = Vec::new();
+        for _ in &opts.responses {
+            let x: Vec<f64> = f[k..k + 8].iter().map(|s| num(s)).collect::<Result<_>>()?;
+            k += 8;
+            measures.push(Measures {
+                amplitude: x[0],
+                max: x[1],
+                min: x[2],
+                mean: x[3],
+                h1: x[4],
+                phase_deg: x[5],
+                h2: x[6],
+                thd: x[7],
+            });
+        }
+        let refined = int(f[k + 3])? != 0;
+        let key = CaseKey {
+            run,
+            kind: if refined {
+                CaseKind::Refine
+            } else {
+                CaseKind::Coarse
+            },
+            direction: detune::frequency::Direction::Independent,
+            omega: omega.to_bits(),
+        };
+        let s = detune::frequency::SteadyState {
+            omega,
+            settled: int(f[k])? != 0,
+            periods: int(f[k + 1])? as usize,
+            period_multiple: int(f[k + 2])? as usize,
+            measures,
+            // an independent sweep starts every frequency from rest: no end state is read
+            end: detune::dynamics::State {
+                t: 0.0,
+                q: Vec::new(),
+                v: Vec::new(),
+            },
+            orbit: Vec::new(),
+        };
+        known.insert(key, (s, int(f[k + 4])? as isize));
+    }
+    Ok(CsvCases {
+        path: path.to_string(),
+        known,
+    })
 }

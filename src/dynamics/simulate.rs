@@ -1,9 +1,10 @@
-//! Time simulation: the fundamental equation integrated by DOP853 ([`super::integrator`]),
+//! Time simulation: the fundamental equation integrated by DOP853 or, for stiff models,
+//! Radau IIA ([`super::integrator`]),
 //! with drift removed by projecting positions and velocities back onto the constraint
 //! manifold after accepted steps whose residual exceeds the projection tolerance (the
 //! integrator then restarts from the projected state with its current step size).
 
-use super::integrator::{IntegratorOptions, integrate};
+use super::integrator::{Integrator, IntegratorOptions, Stiffness, integrate_with};
 use super::{
     DynWorkspace, MIN_RCOND, State, accelerations, project_position, project_velocity,
     residual_norm, velocity_residual_blocks,
@@ -32,6 +33,8 @@ pub struct SimOptions {
     pub projection_tol: f64,
     /// Give up after this many steps.
     pub max_steps: usize,
+    /// The method: DOP853 (default) or, for stiff models, Radau IIA.
+    pub integrator: Integrator,
 }
 
 impl Default for SimOptions {
@@ -43,6 +46,7 @@ impl Default for SimOptions {
             atol: 1e-12,
             projection_tol: 1e-12,
             max_steps: 10_000_000,
+            integrator: Integrator::Dop853,
         }
     }
 }
@@ -62,6 +66,9 @@ pub struct SimStats {
     /// Largest |Φ|∞ of the integrated solution before projection (step ends and samples):
     /// the drift that projection removes.
     pub max_drift: f64,
+    /// Set when DOP853 found the run stiff: its steps held by stability, not accuracy.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub stiffness: Option<Stiffness>,
 }
 
 /// Sampled solution.
@@ -111,8 +118,9 @@ impl Trajectory {
 pub struct ConstrainedOde<'a> {
     sys: &'a System,
     ws: RefCell<DynWorkspace>,
-    /// The first right-hand side whose angles' mass matrix was singular: (t, body,
-    /// reciprocal condition number). Its derivative is NaN, which stops the integration.
+    /// The latest right-hand side whose angles' mass matrix was singular: (t, body,
+    /// reciprocal condition number). Its derivative is NaN: the step is rejected, and the
+    /// integration stops when the steps cannot avoid it.
     singular: Cell<Option<(f64, usize, f64)>>,
 }
 
@@ -149,9 +157,9 @@ impl ODE<f64, Vec<f64>> for ConstrainedOde<'_> {
         if let Some((k, rcond)) = ws.worst_mass()
             && rcond < MIN_RCOND
         {
-            if self.singular.get().is_none() {
-                self.singular.set(Some((t, k, rcond)));
-            }
+            // the latest: trial stages past the singular pose are rejected, and the
+            // run fails only when the steps cannot avoid it any more
+            self.singular.set(Some((t, k, rcond)));
             dydt.fill(f64::NAN);
         }
     }
@@ -196,6 +204,20 @@ pub fn simulate_with(
     sink: &mut dyn FnMut(f64, &[f64], &[f64]) -> bool,
     progress: &mut dyn FnMut(f64) -> bool,
 ) -> Result<SimStats> {
+    simulate_watched(sys, start, opts, sink, progress, &mut |_| {})
+}
+
+/// [`simulate_with`], and `stiff` hears as soon as DOP853 finds the run stiff (its steps
+/// held by its stability bound: see [`super::integrator`]); the run goes on, and the
+/// stats keep the same numbers. A front end tells the user early, with the numbers.
+pub fn simulate_watched(
+    sys: &System,
+    start: &State,
+    opts: &SimOptions,
+    sink: &mut dyn FnMut(f64, &[f64], &[f64]) -> bool,
+    progress: &mut dyn FnMut(f64) -> bool,
+    stiff: &mut dyn FnMut(&Stiffness),
+) -> Result<SimStats> {
     check_options(opts)?;
     let n = sys.nq();
     let ode = ConstrainedOde::new(sys);
@@ -211,9 +233,10 @@ pub fn simulate_with(
         rtol: opts.rtol,
         atol: opts.atol,
         max_steps: opts.max_steps,
+        method: opts.integrator,
     };
     let (mut q, mut v) = (vec![0.0; n], vec![0.0; y0.len() - n]);
-    let istats = integrate(
+    let istats = integrate_with(
         &ode,
         &y0,
         &iopts,
@@ -260,8 +283,18 @@ pub fn simulate_with(
             }
         },
         progress,
+        stiff,
     )
-    .map_err(|e| ode.singular_mass().map_or(e, |f| f.into()))?;
+    .map_err(|e| match (&e, ode.singular_mass()) {
+        (
+            crate::diag::Error::Failed {
+                failure: Failure::NonFinite { .. },
+                ..
+            },
+            Some(f),
+        ) => f.into(),
+        _ => e,
+    })?;
     // The projection keeps written states on the constraints to `projection_tol`; a
     // residual far above it means it failed (a run far too loose, or a singular pose),
     // and the trajectory is not a motion of the mechanism: refuse it rather than write it.
@@ -280,6 +313,7 @@ pub fn simulate_with(
         svd_solves: ode.ws.borrow().svd_solves,
         max_constraint_residual: max_residual.get(),
         max_drift: drift.get(),
+        stiffness: istats.stiffness,
     })
 }
 

@@ -14,6 +14,7 @@
 //!
 //! Written by hand: no crate does stepped-sine analysis of constrained mechanisms.
 
+pub mod checkpoint;
 pub mod measure;
 pub mod study;
 pub mod wells;
@@ -50,6 +51,8 @@ pub struct SteadyOptions {
     /// The classical protocol instead of detection: integrate exactly this many periods
     /// and measure the last one (`settled` is then false: nothing was checked).
     pub fixed_periods: Option<usize>,
+    /// The integration method (Radau IIA for stiff models).
+    pub integrator: crate::dynamics::integrator::Integrator,
 }
 
 impl Default for SteadyOptions {
@@ -62,6 +65,7 @@ impl Default for SteadyOptions {
             samples: 128,
             extrapolate: true,
             fixed_periods: None,
+            integrator: Default::default(),
         }
     }
 }
@@ -136,6 +140,7 @@ pub fn steady_state(
             dt_out: period / per as f64,
             rtol: opts.rtol,
             atol: opts.atol,
+            integrator: opts.integrator,
             ..SimOptions::default()
         };
         // this period's samples (q, v), the first one being the previous period's end
@@ -425,7 +430,7 @@ fn mpe(x: &[DVector<f64>]) -> Option<DVector<f64>> {
 }
 
 /// How a sweep moves through its frequencies.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Direction {
     /// Every frequency from the equilibrium at rest.
@@ -604,15 +609,38 @@ pub fn sweep(
     progress: &(dyn Fn(usize) + Sync),
     cancel: &AtomicBool,
 ) -> Result<Sweep> {
+    let report = |p: Progress| progress(p.grid + p.refined);
+    sweep_logged(sys, opts, &report, cancel, &checkpoint::NoLog, 0)
+}
+
+/// How far a sweep is: steady states of the coarse grid done (with the jump checks of
+/// the sequential modes), and of the peak refinement (done, and the number expected: two
+/// per bisection round of each peak's bracket).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct Progress {
+    pub grid: usize,
+    pub refined: usize,
+    pub refine_expected: usize,
+}
+
+/// [`sweep`] as run `run` of a study, its steady states looked up in and recorded to
+/// `log` (a checkpoint: see [`checkpoint`]): a case the log knows is not computed again,
+/// each case computed is recorded as soon as it is done, and an independent sweep
+/// computes only the coarse-grid frequencies the log selects (a shard; the sweep is then
+/// partial: no peaks, jumps or hysteresis, which need the whole curve).
+pub fn sweep_logged(
+    sys: &System,
+    opts: &SweepOptions,
+    progress: &(dyn Fn(Progress) + Sync),
+    cancel: &AtomicBool,
+    log: &dyn checkpoint::CaseLog,
+    run: usize,
+) -> Result<Sweep> {
+    use checkpoint::{CaseKey, CaseKind};
     let (sys0, responses, eq) = prepare(sys, opts)?;
     let index = sys0.forcing_param().expect("checked by prepare");
     // the wells: the statics under the loads' mean, the same at every ω of the sweep
     let wells = wells::Wells::find(&sys0, &eq);
-    let classify = |pts: &mut [SweepPoint]| {
-        for p in pts {
-            p.well = wells.classify(&sys0, &p.steady.orbit);
-        }
-    };
     // Start states are kept relative to the ground (which may move with the forcing):
     // each frequency starts from one with the ground's velocity at that frequency.
     let rest = State {
@@ -620,23 +648,59 @@ pub fn sweep(
         q: eq.q.clone(),
         v: vec![0.0; sys0.nv()],
     };
-    let done = AtomicUsize::new(0);
-    let tick = || progress(done.fetch_add(1, Ordering::Relaxed) + 1);
+    let grid_done = AtomicUsize::new(0);
+    let refine_done = AtomicUsize::new(0);
+    let refine_expected = AtomicUsize::new(0);
+    let report = || {
+        progress(Progress {
+            grid: grid_done.load(Ordering::SeqCst),
+            refined: refine_done.load(Ordering::SeqCst),
+            refine_expected: refine_expected.load(Ordering::SeqCst),
+        })
+    };
     let at = |omega: f64| sys0.with_param(index, omega);
     // one compiled system; each frequency sets its parameter on a copy (no recompiling),
     // and the integration reads ω from it: one source of truth
     let eval = |omega: f64, from: &State| -> Result<SteadyState> {
         let s = at(omega)?;
         let start = absolute(&s, from);
-        let r = steady_state(&s, &start, &responses, &opts.steady, cancel)
-            .map_err(|e| e.context(&format!("{} = {omega}", opts.param)));
-        tick();
-        r
+        steady_state(&s, &start, &responses, &opts.steady, cancel)
+            .map_err(|e| e.context(&format!("{} = {omega}", opts.param)))
+    };
+    // one case: from the log if it has it, else computed, classified by well and recorded
+    let case = |kind: CaseKind,
+                dir: Direction,
+                omega: f64,
+                from: &State|
+     -> Result<(SteadyState, isize)> {
+        let key = CaseKey {
+            run,
+            kind,
+            direction: dir,
+            omega: omega.to_bits(),
+        };
+        let out = match log.lookup(&key)? {
+            Some(known) => known,
+            None => {
+                let s = eval(omega, from)?;
+                let well = wells.classify(&sys0, &s.orbit);
+                log.record(&key, &s, well)?;
+                (s, well)
+            }
+        };
+        match kind {
+            CaseKind::Refine => refine_done.fetch_add(1, Ordering::SeqCst),
+            _ => grid_done.fetch_add(1, Ordering::SeqCst),
+        };
+        report();
+        Ok(out)
     };
     // the end of a steady state at ω, relative to the ground
     let relative_end = |s: &SteadyState| -> Result<State> { Ok(relative(&at(s.omega)?, &s.end)) };
     let mut points: Vec<SweepPoint> = Vec::new();
     let mut complete = true;
+    // a shard's share of an independent sweep: the curve is not whole
+    let mut partial = false;
     let directions: Vec<Direction> = match opts.mode {
         SweepMode::Independent => vec![Direction::Independent],
         SweepMode::Up => vec![Direction::Up],
@@ -646,8 +710,14 @@ pub fn sweep(
     for &dir in &directions {
         let (pts, ok) = match dir {
             Direction::Independent => {
-                let results: Vec<Result<SteadyState>> =
-                    opts.values.par_iter().map(|&w| eval(w, &rest)).collect();
+                let mine: Vec<usize> = (0..opts.values.len())
+                    .filter(|&i| log.selected(run, i))
+                    .collect();
+                partial |= mine.len() < opts.values.len();
+                let results: Vec<Result<(SteadyState, isize)>> = mine
+                    .par_iter()
+                    .map(|&i| case(CaseKind::Coarse, dir, opts.values[i], &rest))
+                    .collect();
                 collect(results, dir)
             }
             Direction::Up | Direction::Down => {
@@ -658,8 +728,8 @@ pub fn sweep(
                 let mut from = rest.clone();
                 let mut results = Vec::new();
                 for w in order {
-                    let r = eval(w, &from);
-                    if let Ok(s) = &r {
+                    let r = case(CaseKind::Coarse, dir, w, &from);
+                    if let Ok((s, _)) = &r {
                         from = relative_end(s)?;
                     }
                     let stop = r.is_err();
@@ -677,8 +747,6 @@ pub fn sweep(
             }
             complete = false;
         }
-        let mut pts = pts;
-        classify(&mut pts);
         points.extend(pts);
         if !complete {
             break;
@@ -690,7 +758,7 @@ pub fn sweep(
     // curve (one response at ω_k, however steep the flank) it is the same response; past a
     // fold it is another (the branch the sweep jumped to still exists at ω_k): a jump.
     let mut jumps = Vec::new();
-    if complete {
+    if complete && !partial {
         for &dir in directions.iter().filter(|d| **d != Direction::Independent) {
             let mut line: Vec<&SweepPoint> = points
                 .iter()
@@ -704,8 +772,8 @@ pub fn sweep(
                 for (k, well) in jump_candidates(&line, r) {
                     let (p0, p1) = (&line[k].steady, &line[k + 1].steady);
                     let jump = well || {
-                        let back = match eval(p0.omega, &relative_end(p1)?) {
-                            Ok(b) => b,
+                        let back = match case(CaseKind::Back, dir, p0.omega, &relative_end(p1)?) {
+                            Ok((b, _)) => b,
                             Err(e) if cancel.load(Ordering::Relaxed) => {
                                 complete = false;
                                 let _ = e;
@@ -739,7 +807,7 @@ pub fn sweep(
     };
     // Refinement around every local maximum within one well, per response and direction.
     let mut peaks = Vec::new();
-    if complete {
+    if complete && !partial {
         let mut jobs = Vec::new();
         for &dir in &directions {
             let mut line: Vec<&SweepPoint> = points.iter().filter(|p| p.direction == dir).collect();
@@ -775,11 +843,19 @@ pub fn sweep(
                 }
             }
         }
+        if let Some(res) = opts.refine {
+            let expected: usize = jobs
+                .iter()
+                .map(|(_, _, lo, _, hi, ..)| 2 * bisections(hi - lo, res))
+                .sum();
+            refine_expected.store(expected, Ordering::SeqCst);
+            report();
+        }
         let refined: Vec<Result<(Peak, Vec<SweepPoint>)>> = jobs
             .into_par_iter()
             .map(|(dir, r, lo, mid, hi, amp, from)| {
                 refine_peak(
-                    &eval,
+                    &|w: f64, from: &State| case(CaseKind::Refine, dir, w, from),
                     &from,
                     dir,
                     r,
@@ -793,9 +869,8 @@ pub fn sweep(
             .collect();
         for res in refined {
             match res {
-                Ok((peak, mut extra)) => {
+                Ok((peak, extra)) => {
                     peaks.push(peak);
-                    classify(&mut extra);
                     points.extend(extra);
                 }
                 Err(e) => {
@@ -814,7 +889,7 @@ pub fn sweep(
     });
     points.dedup_by(|a, b| a.direction == b.direction && a.steady.omega == b.steady.omega);
     peaks.sort_by(|a, b| a.omega.total_cmp(&b.omega));
-    let hysteresis = if opts.mode == SweepMode::Both && complete {
+    let hysteresis = if opts.mode == SweepMode::Both && complete && !partial {
         hysteresis(&points, &opts.values)
     } else {
         Vec::new()
@@ -887,16 +962,30 @@ fn relative(sys: &System, s: &State) -> State {
     }
 }
 
-fn collect(results: Vec<Result<SteadyState>>, dir: Direction) -> (Vec<SweepPoint>, Result<()>) {
+/// The rounds of bisection that bring a peak's bracket of `width` to `resolution`
+/// (the refinement's expected work: two steady states a round).
+fn bisections(mut width: f64, resolution: f64) -> usize {
+    let mut n = 0;
+    while width > resolution && n < 64 {
+        width *= 0.5;
+        n += 1;
+    }
+    n
+}
+
+fn collect(
+    results: Vec<Result<(SteadyState, isize)>>,
+    dir: Direction,
+) -> (Vec<SweepPoint>, Result<()>) {
     let mut pts = Vec::new();
     let mut status = Ok(());
     for r in results {
         match r {
-            Ok(s) => pts.push(SweepPoint {
+            Ok((s, well)) => pts.push(SweepPoint {
                 direction: dir,
                 steady: s,
                 refined: false,
-                well: 0,
+                well,
             }),
             Err(e) => {
                 if status.is_ok() {
@@ -919,9 +1008,12 @@ fn collect(results: Vec<Result<SteadyState>>, dir: Direction) -> (Vec<SweepPoint
 /// maximum by up to √(δA/c), with c from the parabola of the first round. (Asking for a
 /// finer --refine than that floor refines the noise; --settle-tol lowers the floor.)
 /// Deterministic: the same frequencies for any number of threads.
+/// A steady state at a frequency from a start state, with the well it is in.
+type Evaluate<'a> = dyn Fn(f64, &State) -> Result<(SteadyState, isize)> + Sync + 'a;
+
 #[allow(clippy::too_many_arguments)]
 fn refine_peak(
-    eval: &(dyn Fn(f64, &State) -> Result<SteadyState> + Sync),
+    eval: &Evaluate,
     from: &State,
     dir: Direction,
     r: usize,
@@ -956,17 +1048,17 @@ fn refine_peak(
             crate::linear::round_to_step(0.5 * (xb + b), res),
         );
         let (left, right) = rayon::join(|| eval(xl, from), || eval(xr, from));
-        let (left, right) = (left?, right?);
+        let ((left, wl), (right, wr)) = (left?, right?);
         let (fl, fr) = (left.measures[r].amplitude, right.measures[r].amplitude);
         if curvature.is_none() {
             curvature = parabola(&[(xl, fl), (xb, fb), (xr, fr)]).map(|(c, _)| -c);
         }
-        for s in [left, right] {
+        for (s, well) in [(left, wl), (right, wr)] {
             extra.push(SweepPoint {
                 direction: dir,
                 steady: s,
                 refined: true,
-                well: 0,
+                well,
             });
         }
         if fl > fb && fl >= fr {

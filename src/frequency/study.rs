@@ -1,9 +1,12 @@
-//! A family of sweeps over the values of one parameter (`--values F0=0.1,1,2`): one
-//! model and one compiled system per value, every run checked before any is simulated,
-//! the sweeps run in sequence, and the linear natural frequencies of the runs for the
-//! response plot.
+//! A family of sweeps over the values of one parameter (`--values F0=0.1,1,2`), or over
+//! the grid of several (`--values` repeated: every combination, the first parameter
+//! varying slowest): one model and one compiled system per case, every run checked
+//! before any is simulated, the sweeps run in sequence (each case looked up in and
+//! recorded to a checkpoint, see [`super::checkpoint`]), and the linear natural
+//! frequencies of the runs for the response plot.
 
-use super::{Sweep, SweepMode, SweepOptions, prepare, sweep};
+use super::checkpoint::CaseLog;
+use super::{Progress, Sweep, SweepMode, SweepOptions, prepare, sweep_logged};
 use crate::diag::{Error, Result};
 use crate::linear::{at_frequency, modal_analysis};
 use crate::model::Model;
@@ -11,11 +14,12 @@ use crate::request::{Argument, Invalid, parameter};
 use crate::system::System;
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 
-/// One run of a study: the model with the varied parameter at one of its values.
+/// One run of a study: the model with the varied parameters at one of their values.
 #[derive(Debug, Clone)]
 pub struct StudyRun {
-    /// The varied parameter and its SI value (None: the model as given).
-    pub value: Option<(String, f64)>,
+    /// The varied parameters and their SI values, in the order of the `--values` flags
+    /// (empty: the model as given).
+    pub values: Vec<(String, f64)>,
     pub model: Model,
     pub system: System,
 }
@@ -30,20 +34,50 @@ pub struct SweepStudy {
 /// One completed sweep of a study.
 #[derive(Debug, Clone)]
 pub struct SweepRun {
-    /// The varied parameter and its SI value for this sweep (None: no family).
-    pub value: Option<(String, f64)>,
-    /// The SI unit of the varied parameter (`m`; empty if dimensionless or unknown).
+    /// The varied parameters and their SI values for this sweep, in the order of the
+    /// `--values` flags (empty: no family).
+    pub values: Vec<(String, f64)>,
+    /// The SI unit of the first varied parameter (`m`; empty if dimensionless or
+    /// unknown).
     pub unit: String,
+    /// The SI unit of each varied parameter.
+    pub units: Vec<String>,
     pub sweep: Sweep,
     /// Whether each of the sweep's coordinates is an angle (rad).
     pub angles: Vec<bool>,
 }
 
 impl SweepRun {
-    /// The varied parameter and its value, borrowed.
+    /// The first varied parameter and its value, borrowed.
     pub fn tag(&self) -> Option<(&str, f64)> {
-        self.value.as_ref().map(|(n, v)| (n.as_str(), *v))
+        self.values.first().map(|(n, v)| (n.as_str(), *v))
     }
+
+    /// Every varied parameter and its value, borrowed.
+    pub fn tags(&self) -> Vec<(&str, f64)> {
+        self.values.iter().map(|(n, v)| (n.as_str(), *v)).collect()
+    }
+
+    /// `F0 = 2 N, c = 0.5 N s/m` (None: no family).
+    pub fn label(&self) -> Option<String> {
+        (!self.values.is_empty()).then(|| {
+            self.values
+                .iter()
+                .zip(&self.units)
+                .map(|((n, v), u)| format!("{n} = {v} {u}").trim_end().to_string())
+                .collect::<Vec<_>>()
+                .join(", ")
+        })
+    }
+}
+
+/// `F0 = 2, c = 0.5`: a run's varied parameters without units (empty: none).
+pub fn values_label(values: &[(String, f64)]) -> String {
+    values
+        .iter()
+        .map(|(n, v)| format!("{n} = {v}"))
+        .collect::<Vec<_>>()
+        .join(", ")
 }
 
 /// A linear natural frequency to mark on a response plot.
@@ -51,8 +85,9 @@ impl SweepRun {
 pub struct NaturalFrequency {
     /// rad/s.
     pub omega: f64,
-    /// The run it belongs to, when the runs' natural frequencies differ.
-    pub run: Option<(String, f64)>,
+    /// The run it belongs to (`F0 = 2`, see [`values_label`]), when the runs' natural
+    /// frequencies differ.
+    pub run: Option<String>,
 }
 
 /// The models of a family: `spec` is `PARAM=v1,v2,...` (the `--values` flag), each value
@@ -96,17 +131,80 @@ pub fn family(model: &Model, spec: &str, swept: &str) -> Result<Vec<(String, f64
     Ok(out)
 }
 
+/// A case of a study: the varied parameters with their SI values, and the model.
+pub type Case = (Vec<(String, f64)>, Model);
+
+/// The models of a grid of families: every combination of the entries of `specs` (each
+/// `PARAM=v1,v2,...`, see [`family`]), the first spec varying slowest. Each spec is
+/// checked on its own first (a bad entry is named as with one `--values`); a parameter
+/// may be varied by one spec only.
+pub fn grid(model: &Model, specs: &[String], swept: &str) -> Result<Vec<Case>> {
+    if let [one] = specs {
+        return Ok(family(model, one, swept)?
+            .into_iter()
+            .map(|(name, value, m)| (vec![(name, value)], m))
+            .collect());
+    }
+    let mut axes: Vec<(String, Vec<String>)> = Vec::new();
+    for spec in specs {
+        family(model, spec, swept)?;
+        let (name, list) = spec.split_once('=').expect("checked by family");
+        let name = name.trim().to_string();
+        if axes.iter().any(|(n, _)| *n == name) {
+            return Err(Error::request(
+                format!("--values {spec}: {name} is varied by another --values too"),
+                "give each parameter's values in one --values NAME=v1,v2,...",
+            ));
+        }
+        axes.push((
+            name,
+            list.split(',').map(|v| v.trim().to_string()).collect(),
+        ));
+    }
+    let mut combos: Vec<Vec<(String, String)>> = vec![Vec::new()];
+    for (name, list) in &axes {
+        combos = combos
+            .into_iter()
+            .flat_map(|c| {
+                list.iter().map(move |v| {
+                    let mut c = c.clone();
+                    c.push((name.clone(), v.clone()));
+                    c
+                })
+            })
+            .collect();
+    }
+    combos
+        .into_iter()
+        .map(|c| {
+            let label = c
+                .iter()
+                .map(|(n, v)| format!("{n}={v}"))
+                .collect::<Vec<_>>()
+                .join(", ");
+            let m = model
+                .with_overrides(&c)
+                .and_then(|m| System::check(&m).map(|_| m))
+                .map_err(|e| e.in_run("--values", &label))?;
+            let values = c
+                .iter()
+                .map(|(n, _)| (n.clone(), m.parameters.value(n).unwrap_or(f64::NAN)))
+                .collect();
+            Ok((values, m))
+        })
+        .collect()
+}
+
 impl SweepStudy {
-    /// The sweep of `model`, or with `values` (`PARAM=v1,v2,...`, see [`family`]) one
-    /// sweep per value. Every run is compiled and checked here ([`prepare`]), before any
-    /// is simulated: a bad entry fails at once, named.
-    pub fn new(model: &Model, values: Option<&str>, options: SweepOptions) -> Result<SweepStudy> {
-        let models: Vec<(Option<(String, f64)>, Model)> = match values {
-            None => vec![(None, model.clone())],
-            Some(spec) => family(model, spec, &options.param)?
-                .into_iter()
-                .map(|(name, value, m)| (Some((name, value)), m))
-                .collect(),
+    /// The sweep of `model`, or with `values` (each `PARAM=v1,v2,...`, see [`family`] and
+    /// [`grid`]) one sweep per value, or per combination of values. Every run is compiled
+    /// and checked here ([`prepare`]), before any is simulated: a bad entry fails at
+    /// once, named.
+    pub fn new(model: &Model, values: &[String], options: SweepOptions) -> Result<SweepStudy> {
+        let models: Vec<(Vec<(String, f64)>, Model)> = if values.is_empty() {
+            vec![(Vec::new(), model.clone())]
+        } else {
+            grid(model, values, &options.param)?
         };
         let settle = options.steady.settle_tol;
         if !(settle > 0.0 && settle < 1.0) {
@@ -124,16 +222,17 @@ impl SweepStudy {
         let runs: Vec<StudyRun> = models
             .into_iter()
             .zip(systems)
-            .map(|((value, model), system)| StudyRun {
-                value,
+            .map(|((values, model), system)| StudyRun {
+                values,
                 model,
                 system,
             })
             .collect();
         for run in &runs {
-            prepare(&run.system, &options).map_err(|e| match &run.value {
-                Some((name, v)) => e.in_run(name, v),
-                None => e,
+            prepare(&run.system, &options).map_err(|e| match run.values.as_slice() {
+                [] => e,
+                [(name, v)] => e.in_run(name, v),
+                more => e.in_run("--values", values_label(more)),
             })?;
         }
         Ok(SweepStudy { options, runs })
@@ -141,47 +240,117 @@ impl SweepStudy {
 
     /// The frequencies the runs compute on the coarse grid (refinement adds more).
     pub fn frequencies(&self) -> usize {
+        self.frequencies_of(&super::checkpoint::NoLog)
+    }
+
+    /// Whether the sweeps are sequential (`up`, `down`, `both`).
+    pub fn sequential(&self) -> bool {
+        self.options.mode != SweepMode::Independent
+    }
+
+    /// The coarse-grid frequencies this process computes with `log` (a shard's share).
+    pub fn frequencies_of(&self, log: &dyn CaseLog) -> usize {
         let directions = if self.options.mode == SweepMode::Both {
             2
         } else {
             1
         };
-        self.options.values.len() * directions * self.runs.len()
+        (0..self.runs.len())
+            .filter(|&r| log.takes_run(r))
+            .map(|r| {
+                (0..self.options.values.len())
+                    .filter(|&i| self.sequential() || log.selected(r, i))
+                    .count()
+                    * directions
+            })
+            .sum()
     }
 
-    /// Run the sweeps in sequence. `progress` is called with the number of frequencies
-    /// done in all runs so far; `cancel` stops the run in progress, which is returned
-    /// incomplete and is the last.
+    /// The independent cases a study can be sharded into: runs × coarse frequencies, or
+    /// runs for sequential sweeps.
+    pub fn shardable_cases(&self) -> usize {
+        if self.sequential() {
+            self.runs.len()
+        } else {
+            self.runs.len() * self.options.values.len()
+        }
+    }
+
+    /// SHA-256 (hex) of everything that changes a case's result: the detune version, the
+    /// model file's hash, every parameter value of every run (`--set`, `--values`), and
+    /// the options (their `Debug` text, so an option added later is covered without
+    /// listing it here) except the refinement resolution, which changes which cases are
+    /// computed but not any case's result (a coarse sweep's checkpoint can be refined).
+    pub fn fingerprint(&self) -> String {
+        use sha2::{Digest, Sha256};
+        let mut text = format!("detune {}\n", env!("CARGO_PKG_VERSION"));
+        for run in &self.runs {
+            text.push_str(&format!(
+                "model {} parameters {:?} values {:?}\n",
+                run.model.hash, run.model.parameters.values, run.values
+            ));
+        }
+        let options = SweepOptions {
+            refine: None,
+            ..self.options.clone()
+        };
+        text.push_str(&format!("options {options:?}\n"));
+        Sha256::digest(text.as_bytes())
+            .iter()
+            .map(|b| format!("{b:02x}"))
+            .collect()
+    }
+
+    /// Run the sweeps in sequence. `progress` is called with the coarse-grid frequencies
+    /// done in all runs so far and the refinement of the run in progress; `cancel` stops
+    /// the run in progress, which is returned incomplete and is the last. Each case is
+    /// looked up in and recorded to `log`; the runs it does not take are left out (a
+    /// shard of a sequential study).
     pub fn run(
         &self,
-        progress: &(dyn Fn(usize) + Sync),
+        progress: &(dyn Fn(Progress) + Sync),
         cancel: &AtomicBool,
+        log: &dyn CaseLog,
     ) -> Result<Vec<SweepRun>> {
         let done = AtomicUsize::new(0);
         let mut out = Vec::new();
-        for run in &self.runs {
+        for (index, run) in self.runs.iter().enumerate() {
+            if !log.takes_run(index) {
+                continue;
+            }
             let base = done.load(Ordering::SeqCst);
-            let s = sweep(
+            let s = sweep_logged(
                 &run.system,
                 &self.options,
-                &|k| {
-                    done.store(base + k, Ordering::SeqCst);
-                    progress(base + k);
+                &|p| {
+                    done.store(base + p.grid, Ordering::SeqCst);
+                    progress(Progress {
+                        grid: base + p.grid,
+                        ..p
+                    });
                 },
                 cancel,
+                log,
+                index,
             )?;
             let complete = s.complete;
-            let unit = run
-                .value
-                .as_ref()
-                .and_then(|(n, _)| run.model.parameters.index(n))
-                .and_then(|i| run.model.parameters.dims[i])
-                .filter(|d| !d.is_dimensionless())
-                .map(|d| d.to_string())
-                .unwrap_or_default();
+            let units: Vec<String> = run
+                .values
+                .iter()
+                .map(|(n, _)| {
+                    run.model
+                        .parameters
+                        .index(n)
+                        .and_then(|i| run.model.parameters.dims[i])
+                        .filter(|d| !d.is_dimensionless())
+                        .map(|d| d.to_string())
+                        .unwrap_or_default()
+                })
+                .collect();
             out.push(SweepRun {
-                value: run.value.clone(),
-                unit,
+                values: run.values.clone(),
+                unit: units.first().cloned().unwrap_or_default(),
+                units,
                 sweep: s,
                 angles: run.system.angles(),
             });
@@ -238,7 +407,7 @@ impl SweepStudy {
                     if !out.iter().any(|y| close(*x, y.omega)) {
                         out.push(NaturalFrequency {
                             omega: *x,
-                            run: run.value.clone(),
+                            run: (!run.values.is_empty()).then(|| values_label(&run.values)),
                         });
                     }
                 }

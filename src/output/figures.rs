@@ -1,8 +1,15 @@
 //! The figures of the analyses, built from their results (drawn by [`super::plot`]):
-//! a simulation's angles against time, an equilibrium branch against its parameter, a
-//! sweep's amplitude against frequency with the linear natural frequencies marked.
+//! a simulation's coordinates against time, an equilibrium branch against its parameter,
+//! a sweep's amplitudes against frequency with the linear natural frequencies marked, the
+//! linear frequency response (amplitude and phase), a mode tracking.
+//!
+//! Every figure says which case it shows (a caption: model, file, `--set` overrides, the
+//! well), carries units on its axes and legend entries, and draws with the fixed meanings
+//! of [`super::style`]: stable solid, unstable dashed, a sweep down dotted, linear
+//! references thin dash-dot, forcing lines orange, events (peaks, folds, branch points,
+//! jumps) black-edged markers with their values written beside them.
 
-use super::plot::{LinePlot, Series, Style};
+use super::plot::{LinePlot, Note, Scale, Series, Style};
 use crate::dynamics::simulate::Trajectory;
 use crate::frequency::Direction;
 use crate::frequency::study::{NaturalFrequency, SweepRun};
@@ -13,59 +20,140 @@ pub fn unit(angle: bool) -> &'static str {
     if angle { "rad" } else { "m" }
 }
 
-/// Angle coordinates against time (all coordinates if the model has no angles); `name`
-/// is the model's.
-pub fn trajectory_figure(name: &str, traj: &Trajectory) -> LinePlot {
-    let angles: Vec<usize> = (0..traj.coordinates.len())
-        .filter(|&i| traj.angles[i])
-        .collect();
-    let pick = if angles.is_empty() {
-        (0..traj.coordinates.len()).collect()
-    } else {
-        angles.clone()
-    };
-    LinePlot {
-        title: format!("{name}: simulation"),
-        x_label: "t [s]".into(),
-        y_label: if angles.is_empty() {
-            "coordinate [SI]".into()
+/// `name [unit]`, or `name [-]` for a dimensionless quantity.
+fn with_unit(name: &str, unit: &str) -> String {
+    format!("{name} [{}]", if unit.is_empty() { "-" } else { unit })
+}
+
+/// The case a figure shows: model name and file, `--set` overrides.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Case {
+    pub model: String,
+    pub file: String,
+    /// `NAME=VALUE` as given.
+    pub overrides: Vec<String>,
+}
+
+impl Case {
+    pub fn of(model: &crate::model::Model) -> Case {
+        Case {
+            model: model.name.clone(),
+            file: model.source.path.clone(),
+            overrides: model
+                .overrides
+                .iter()
+                .map(|(n, v)| format!("{n}={v}"))
+                .collect(),
+        }
+    }
+    /// A case of a model name only (tests, library callers).
+    pub fn named(name: &str) -> Case {
+        Case {
+            model: name.to_string(),
+            ..Case::default()
+        }
+    }
+    /// `model overcentre (models/overcentre.toml), --set F0=10` and `extra` parts.
+    pub fn caption(&self, extra: &[String]) -> String {
+        let mut parts = vec![if self.file.is_empty() {
+            format!("model {}", self.model)
         } else {
-            "angle [rad]".into()
-        },
-        series: pick
-            .iter()
-            .map(|&i| Series {
-                label: traj.coordinates[i].clone(),
-                x: traj.t.clone(),
-                y: traj.q.iter().map(|q| q[i]).collect(),
-                style: Style::Solid,
-            })
-            .collect(),
-        vertical: Vec::new(),
-        marks: Vec::new(),
+            let file = std::path::Path::new(&self.file)
+                .file_name()
+                .and_then(|f| f.to_str())
+                .unwrap_or(&self.file);
+            format!("model {} ({file})", self.model)
+        }];
+        if !self.overrides.is_empty() {
+            parts.push(format!("--set {}", self.overrides.join(" ")));
+        }
+        parts.extend(extra.iter().filter(|e| !e.is_empty()).cloned());
+        parts.join(", ")
     }
 }
 
+/// The coordinates `pick` (default: the angles, or all if the model has none) against
+/// time: one panel for the angles [rad], one for the lengths [m].
+pub fn trajectory_figures(case: &Case, traj: &Trajectory, pick: &[usize]) -> Vec<LinePlot> {
+    let n = traj.coordinates.len();
+    let pick: Vec<usize> = if !pick.is_empty() {
+        pick.to_vec()
+    } else if (0..n).any(|i| traj.angles[i]) {
+        (0..n).filter(|&i| traj.angles[i]).collect()
+    } else {
+        (0..n).collect()
+    };
+    let mut plots = Vec::new();
+    for angle in [true, false] {
+        let mine: Vec<usize> = pick
+            .iter()
+            .copied()
+            .filter(|&i| traj.angles[i] == angle)
+            .collect();
+        if mine.is_empty() {
+            continue;
+        }
+        let u = unit(angle);
+        let mut p = LinePlot::new(
+            format!(
+                "simulation: {} against time",
+                if angle { "angles" } else { "lengths" }
+            ),
+            "t [s]",
+            if angle { "angle [rad]" } else { "length [m]" },
+        );
+        if plots.is_empty() {
+            p.caption = case.caption(&[]);
+        }
+        p.series = mine
+            .iter()
+            .map(|&i| {
+                Series::new(
+                    format!("{} [{u}]", traj.coordinates[i]),
+                    traj.t.clone(),
+                    traj.q.iter().map(|q| q[i]).collect(),
+                    Style::Solid,
+                )
+            })
+            .collect();
+        plots.push(p);
+    }
+    plots
+}
+
+/// The simulation's first panel ([`trajectory_figures`] with the default coordinates).
+pub fn trajectory_figure(name: &str, traj: &Trajectory) -> LinePlot {
+    trajectory_figures(&Case::named(name), traj, &[])
+        .into_iter()
+        .next()
+        .unwrap_or_default()
+}
+
 /// The paper's Figure 6: the branch in (parameter, coordinate `idx`), stable solid,
-/// unstable dashed, folds and branch points marked, with the branches switched to at the
-/// branch points; `name` is the model's, `angle` whether the coordinate
-/// is an angle.
-pub fn branch_figure(name: &str, b: &Branch, idx: usize, angle: bool) -> LinePlot {
+/// unstable dashed, folds and branch points marked and labelled, with the branches
+/// switched to at the branch points; `angle` whether the coordinate is an angle,
+/// `param_unit` the parameter's unit.
+pub fn branch_figure(
+    case: &Case,
+    b: &Branch,
+    idx: usize,
+    angle: bool,
+    param_unit: &str,
+) -> LinePlot {
     let mut series = Vec::new();
     let mut seg: Vec<&BranchPoint> = Vec::new();
     let flush = |seg: &mut Vec<&BranchPoint>, series: &mut Vec<Series>| {
         if seg.len() > 1 {
             let stable = seg[1].stable;
-            series.push(Series {
-                label: if stable {
-                    "stable".into()
-                } else {
-                    "unstable".into()
-                },
-                x: seg.iter().map(|p| p.value).collect(),
-                y: seg.iter().map(|p| p.q[idx]).collect(),
-                style: if stable { Style::Solid } else { Style::Dashed },
-            });
+            series.push(
+                Series::new(
+                    if stable { "stable" } else { "unstable" },
+                    seg.iter().map(|p| p.value).collect(),
+                    seg.iter().map(|p| p.q[idx]).collect(),
+                    if stable { Style::Solid } else { Style::Dashed },
+                )
+                .color(0),
+            );
         }
         seg.clear();
     };
@@ -86,24 +174,66 @@ pub fn branch_figure(name: &str, b: &Branch, idx: usize, angle: bool) -> LinePlo
         }
         flush(&mut seg, &mut series);
     }
+    let u = unit(angle);
+    let pu = if param_unit.is_empty() {
+        ""
+    } else {
+        param_unit
+    };
+    let mut notes = Vec::new();
     for (label, marked) in [("folds", &b.folds), ("branch points", &b.branch_points)] {
         if !marked.is_empty() {
-            series.push(Series {
-                label: label.into(),
-                x: marked.iter().map(|p| p.value).collect(),
-                y: marked.iter().map(|p| p.q[idx]).collect(),
-                style: Style::Markers,
-            });
+            series.push(Series::new(
+                label,
+                marked.iter().map(|p| p.value).collect(),
+                marked.iter().map(|p| p.q[idx]).collect(),
+                Style::Markers,
+            ));
+            for p in marked.iter() {
+                notes.push(Note {
+                    x: p.value,
+                    y: p.q[idx],
+                    text: format!(
+                        "{} {} = {} {pu}",
+                        if label == "folds" {
+                            "fold"
+                        } else {
+                            "branch point"
+                        },
+                        b.param,
+                        short(p.value)
+                    )
+                    .trim_end()
+                    .to_string(),
+                });
+            }
         }
     }
     LinePlot {
-        title: format!("{name}: equilibria against {}", b.param),
-        x_label: b.param.clone(),
-        y_label: format!("{} [{}]", b.coordinates[idx], unit(angle)),
+        title: format!("equilibria against {}", b.param),
+        caption: case.caption(&[]),
+        x_label: with_unit(&b.param, param_unit),
+        y_label: format!("{} [{u}]", b.coordinates[idx]),
         series,
-        vertical: Vec::new(),
-        marks: Vec::new(),
+        notes,
+        ..LinePlot::default()
     }
+}
+
+/// A number in at most 4 significant decimals, trailing zeros trimmed.
+fn short(x: f64) -> String {
+    let s = if x != 0.0 && (x.abs() < 1e-3 || x.abs() >= 1e5) {
+        format!("{x:.3e}")
+    } else {
+        let d = (3 - x.abs().log10().floor() as i32).clamp(0, 6) as usize;
+        let s = format!("{x:.d$}");
+        if s.contains('.') {
+            s.trim_end_matches('0').trim_end_matches('.').to_string()
+        } else {
+            s
+        }
+    };
+    if s == "-0" { "0".into() } else { s }
 }
 
 /// A well in a legend: `well 1 (bar1.theta = -0.866 rad)`, the pose given by the first
@@ -142,17 +272,20 @@ pub fn well_name(run: &SweepRun, k: isize) -> String {
     )
 }
 
-/// Amplitude of the first response against frequency, one curve per run (`--values`
-/// entry), direction and well, the natural frequencies as vertical lines; for a family, a
-/// second panel with the amplitude divided by the run's value (the paper's Figures 8–9).
+/// Amplitude against frequency, one panel per response (at most six), one curve per run
+/// (`--values` entry), direction (up and from rest solid, down dotted) and well, the
+/// natural frequencies as reference lines, refined peaks and jumps marked and labelled;
+/// when the family parameter is the forcing amplitude (`forcing`: the model's
+/// `[model] forcing_amplitude`), a panel per response with the amplitude divided by it
+/// (the paper's Figures 8–9). An interrupted sweep says so in its titles.
 pub fn sweep_figures(
+    case: &Case,
     runs: &[SweepRun],
     natural: &[NaturalFrequency],
     marks: &[(String, f64)],
+    forcing: Option<&str>,
 ) -> Vec<LinePlot> {
     let first = &runs[0].sweep;
-    let name = &first.responses[0];
-    let unit = first.units[0];
     // the wells the responses visit: with more than one, each curve is split by well and
     // each well's linear natural frequencies are marked, named by the well
     let visited = |run: &SweepRun| -> Vec<isize> {
@@ -173,7 +306,7 @@ pub fn sweep_figures(
             let tag = n
                 .run
                 .as_ref()
-                .map(|(p, v)| format!(" ({p} = {v}{start_tag})"))
+                .map(|label| format!(" ({label}{start_tag})"))
                 .unwrap_or_else(|| {
                     if several {
                         format!(" (well {})", first.wells.start)
@@ -201,9 +334,39 @@ pub fn sweep_figures(
         .iter()
         .map(|(label, w)| (*w, format!("{label} ({w:.4} rad/s)")))
         .collect();
-    let curves = |normalized: bool| -> Vec<Series> {
+    let complete = runs.iter().all(|r| r.sweep.complete);
+    let computed: usize = runs.iter().map(|r| r.sweep.points.len()).sum();
+    let incomplete = if complete {
+        String::new()
+    } else {
+        format!(" — INCOMPLETE: interrupted after {computed} frequencies")
+    };
+    let family = runs[0].tag().map(|(n, _)| n.to_string());
+    let normalize = family.is_some() && family.as_deref() == forcing;
+    let mut extra = Vec::new();
+    if several {
+        extra.push(format!(
+            "starting in {}",
+            well_name(&runs[0], first.wells.start as isize)
+        ));
+    }
+    let caption = case.caption(&extra);
+    let curves = |r: usize, normalized: bool| -> (Vec<Series>, Vec<Note>) {
+        let name = &first.responses[r];
+        let unit = first.units[r];
         let mut out = Vec::new();
+        let mut notes = Vec::new();
+        let mut slot = 0usize;
+        let mut peaks = (Vec::new(), Vec::new());
+        let mut jumps = (Vec::new(), Vec::new());
         for run in runs {
+            let scale = match (normalized, run.tag()) {
+                (true, Some((_, v))) if v != 0.0 => 1.0 / v.abs(),
+                (true, Some(_)) => continue, // nothing to normalize by
+                _ => 1.0,
+            };
+            let run_slot = slot;
+            let mut wells_seen: Vec<isize> = Vec::new();
             for dir in [Direction::Independent, Direction::Up, Direction::Down] {
                 let pts: Vec<_> = run
                     .sweep
@@ -214,15 +377,7 @@ pub fn sweep_figures(
                 if pts.is_empty() {
                     continue;
                 }
-                let scale = match (normalized, run.tag()) {
-                    (true, Some((_, v))) if v != 0.0 => 1.0 / v.abs(),
-                    (true, Some(_)) => continue, // nothing to normalize by
-                    _ => 1.0,
-                };
-                let mut label = run
-                    .tag()
-                    .map(|(n, v)| format!("{n} = {v} {}", run.unit).trim_end().to_string())
-                    .unwrap_or_else(|| name.clone());
+                let mut label = run.label().unwrap_or_else(|| format!("{name} [{unit}]"));
                 if dir != Direction::Independent {
                     label.push_str(&format!(" ({})", dir.name()));
                 }
@@ -232,62 +387,161 @@ pub fn sweep_figures(
                 // one series per well, never joined across wells
                 for &k in &wells {
                     let mine: Vec<_> = pts.iter().filter(|p| p.well == k).collect();
-                    let label = if wells.len() > 1 {
+                    let label = if wells.len() > 1 || several {
                         format!("{label}, {}", well_name(run, k))
                     } else {
                         label.clone()
                     };
-                    out.push(Series {
-                        label,
-                        x: mine.iter().map(|p| p.steady.omega).collect(),
-                        y: mine
-                            .iter()
-                            .map(|p| p.steady.measures[0].amplitude * scale)
-                            .collect(),
-                        style: if dir == Direction::Down {
-                            Style::Dashed
-                        } else {
-                            Style::Solid
-                        },
+                    let w = wells_seen.iter().position(|x| *x == k).unwrap_or_else(|| {
+                        wells_seen.push(k);
+                        wells_seen.len() - 1
                     });
+                    slot = slot.max(run_slot + w + 1);
+                    out.push(
+                        Series::new(
+                            label,
+                            mine.iter().map(|p| p.steady.omega).collect(),
+                            mine.iter()
+                                .map(|p| p.steady.measures[r].amplitude * scale)
+                                .collect(),
+                            if dir == Direction::Down {
+                                Style::Dotted
+                            } else {
+                                Style::Solid
+                            },
+                        )
+                        .color(run_slot + w),
+                    );
                 }
             }
-        }
-        out
-    };
-    let mut plots = vec![LinePlot {
-        title: format!("{name}: stepped-sine amplitude"),
-        x_label: format!("{} [rad/s]", first.param),
-        y_label: format!("{name} amplitude [{unit}]"),
-        series: curves(false),
-        vertical: vertical.clone(),
-        marks: marks.clone(),
-    }];
-    if let Some((vname, _)) = runs[0].tag() {
-        plots.push(LinePlot {
-            title: format!("{name}: amplitude / {vname}"),
-            x_label: format!("{} [rad/s]", first.param),
-            y_label: if runs[0].unit.is_empty() {
-                format!("{name} amplitude / {vname}")
+            // the unit of the values drawn: per unit of the family's parameter when
+            // normalized
+            let unit = if normalized && !run.unit.is_empty() {
+                format!("{unit}/{}", run.unit)
             } else {
-                format!("{name} amplitude / {vname} [{unit}/{}]", runs[0].unit)
+                unit.to_string()
+            };
+            let tag = run
+                .tag()
+                .filter(|_| runs.len() > 1)
+                .map(|(n, v)| format!(" ({n} = {v} {})", run.unit).replace(" )", ")"))
+                .unwrap_or_default();
+            for pk in run.sweep.peaks.iter().filter(|p| &p.response == name) {
+                peaks.0.push(pk.omega);
+                peaks.1.push(pk.amplitude * scale);
+                notes.push(Note {
+                    x: pk.omega,
+                    y: pk.amplitude * scale,
+                    text: format!(
+                        "peak {} rad/s, {} {unit}{tag}",
+                        short(pk.omega),
+                        short(pk.amplitude * scale)
+                    ),
+                });
+            }
+            for j in run.sweep.jumps.iter().filter(|j| &j.response == name) {
+                jumps.0.extend([j.from, j.to]);
+                jumps
+                    .1
+                    .extend([j.amplitude_before * scale, j.amplitude_after * scale]);
+                notes.push(Note {
+                    x: j.to,
+                    y: j.amplitude_after * scale,
+                    text: format!(
+                        "jump {} {}→{} rad/s{tag}",
+                        j.direction.name(),
+                        short(j.from),
+                        short(j.to)
+                    ),
+                });
+            }
+        }
+        if !peaks.0.is_empty() {
+            out.push(Series::new(
+                "refined peaks",
+                peaks.0,
+                peaks.1,
+                Style::Markers,
+            ));
+        }
+        if !jumps.0.is_empty() {
+            out.push(Series::new(
+                "jumps (both edges)",
+                jumps.0,
+                jumps.1,
+                Style::Markers,
+            ));
+        }
+        (out, notes)
+    };
+    let mut plots = Vec::new();
+    let x_label = format!("{} [rad/s]", first.param);
+    let n = first.responses.len().min(6);
+    for r in 0..n {
+        let name = &first.responses[r];
+        let (series, notes) = curves(r, false);
+        plots.push(LinePlot {
+            title: format!("{name}: stepped-sine amplitude{incomplete}"),
+            caption: if r == 0 {
+                caption.clone()
+            } else {
+                String::new()
             },
-            series: curves(true),
-            vertical,
-            marks,
+            x_label: x_label.clone(),
+            y_label: format!("{name} amplitude [{}]", first.units[r]),
+            series,
+            vertical: vertical.clone(),
+            marks: marks.clone(),
+            notes,
+            ..LinePlot::default()
         });
+    }
+    if normalize && let Some(vname) = &family {
+        for r in 0..n {
+            let name = &first.responses[r];
+            let unit = first.units[r];
+            let (series, notes) = curves(r, true);
+            plots.push(LinePlot {
+                title: format!("{name}: amplitude / {vname}{incomplete}"),
+                x_label: x_label.clone(),
+                y_label: if runs[0].unit.is_empty() {
+                    format!("{name} amplitude / {vname} [{unit}]")
+                } else {
+                    format!("{name} amplitude / {vname} [{unit}/{}]", runs[0].unit)
+                },
+                series,
+                vertical: vertical.clone(),
+                marks: marks.clone(),
+                notes,
+                ..LinePlot::default()
+            });
+        }
     }
     plots
 }
 
-/// The linear frequency response: one panel per response (amplitude against frequency,
-/// up to six), the undamped natural frequencies `natural` (rad/s) as dashed lines, the
-/// refined peaks marked, and `marks` (a rotor's forcing lines) in their own colour.
+/// How `frf --plot` draws amplitudes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum AmplitudeScale {
+    #[default]
+    Linear,
+    /// Logarithmic axis.
+    Log,
+    /// 20 log10(amplitude / 1 SI unit): dB re 1 rad, re 1 m, …
+    Db,
+}
+
+/// The linear frequency response: per response (at most six) an amplitude panel
+/// (`scale`) and a phase panel [deg], the undamped natural frequencies `natural` (rad/s)
+/// as reference lines, the refined peaks marked and labelled, and `marks` (a rotor's
+/// forcing lines) in the forcing colour.
 pub fn frf_figures(
+    case: &Case,
     fr: &crate::linear::FrequencyResponse,
     units: &[&str],
     natural: &[f64],
     marks: &[(String, f64)],
+    scale: AmplitudeScale,
 ) -> Vec<LinePlot> {
     let vertical: Vec<(f64, String)> = natural
         .iter()
@@ -297,46 +551,102 @@ pub fn frf_figures(
         .iter()
         .map(|(label, w)| (*w, format!("{label} ({w:.4} rad/s)")))
         .collect();
-    fr.responses
-        .iter()
-        .enumerate()
-        .take(6)
-        .map(|(r, name)| {
-            let unit = units.get(r).copied().unwrap_or("");
-            let peaks: Vec<_> = fr.peaks.iter().filter(|p| &p.response == name).collect();
-            let mut series = vec![Series {
-                label: format!("{name} (linear)"),
-                x: fr.omega.clone(),
-                y: fr.values.iter().map(|row| row[r].0).collect(),
-                style: Style::Solid,
-            }];
-            if !peaks.is_empty() {
-                series.push(Series {
-                    label: peaks
-                        .iter()
-                        .map(|p| format!("peak {:.4} rad/s", p.omega))
-                        .collect::<Vec<_>>()
-                        .join(", "),
-                    x: peaks.iter().map(|p| p.omega).collect(),
-                    y: peaks.iter().map(|p| p.amplitude).collect(),
-                    style: Style::Markers,
+    let db = |a: f64| 20.0 * a.log10();
+    let mut plots = Vec::new();
+    for (r, name) in fr.responses.iter().enumerate().take(6) {
+        let unit = units.get(r).copied().unwrap_or("");
+        let u = if unit.is_empty() { "-" } else { unit };
+        let amp = |a: f64| {
+            if scale == AmplitudeScale::Db {
+                db(a)
+            } else {
+                a
+            }
+        };
+        let peaks: Vec<_> = fr.peaks.iter().filter(|p| &p.response == name).collect();
+        let (y_label, amp_unit) = match scale {
+            AmplitudeScale::Db => (
+                format!("{name} amplitude [dB re 1 {u}]"),
+                format!("dB re 1 {u}"),
+            ),
+            _ => (format!("{name} amplitude [{u}]"), u.to_string()),
+        };
+        let mut series = vec![
+            Series::new(
+                format!("{name} (linear) [{amp_unit}]"),
+                fr.omega.clone(),
+                fr.values.iter().map(|row| amp(row[r].0)).collect(),
+                Style::Solid,
+            )
+            .color(r % 6),
+        ];
+        let mut notes = Vec::new();
+        if !peaks.is_empty() {
+            series.push(Series::new(
+                "refined peaks",
+                peaks.iter().map(|p| p.omega).collect(),
+                peaks.iter().map(|p| amp(p.amplitude)).collect(),
+                Style::Markers,
+            ));
+            for p in &peaks {
+                notes.push(Note {
+                    x: p.omega,
+                    y: amp(p.amplitude),
+                    text: format!(
+                        "peak {} rad/s, {} {amp_unit}",
+                        short(p.omega),
+                        short(amp(p.amplitude))
+                    ),
                 });
             }
-            LinePlot {
-                title: format!("{name}: linear frequency response"),
-                x_label: format!("{} [rad/s]", fr.param),
-                y_label: format!("{name} amplitude [{unit}]"),
-                series,
-                vertical: vertical.clone(),
-                marks: marks.clone(),
-            }
-        })
-        .collect()
+        }
+        plots.push(LinePlot {
+            title: format!("{name}: linear frequency response, amplitude"),
+            caption: if r == 0 {
+                case.caption(&[])
+            } else {
+                String::new()
+            },
+            x_label: format!("{} [rad/s]", fr.param),
+            y_label,
+            y_scale: if scale == AmplitudeScale::Log {
+                Scale::Log
+            } else {
+                Scale::Linear
+            },
+            series,
+            vertical: vertical.clone(),
+            marks: marks.clone(),
+            notes,
+        });
+        plots.push(LinePlot {
+            title: format!("{name}: phase"),
+            x_label: format!("{} [rad/s]", fr.param),
+            y_label: format!("{name} phase [deg]"),
+            series: vec![
+                Series::new(
+                    format!("{name} phase (linear) [deg]"),
+                    fr.omega.clone(),
+                    fr.values.iter().map(|row| row[r].1).collect(),
+                    Style::Solid,
+                )
+                .color(r % 6),
+            ],
+            vertical: vertical.clone(),
+            marks: marks.clone(),
+            ..LinePlot::default()
+        });
+    }
+    plots
 }
 
 /// A mode tracking: ω_n against the parameter, one curve per label (every value solved,
-/// inserted ones included), crossings and veerings marked; `unit` the parameter's.
-pub fn tracking_figure(t: &crate::linear::tracking::ModeTracking, unit: &str) -> LinePlot {
+/// inserted ones included), crossings marked and veerings drawn; `unit` the parameter's.
+pub fn tracking_figure(
+    case: &Case,
+    t: &crate::linear::tracking::ModeTracking,
+    unit: &str,
+) -> LinePlot {
     let mut series: Vec<Series> = t
         .labels
         .iter()
@@ -347,21 +657,25 @@ pub fn tracking_figure(t: &crate::linear::tracking::ModeTracking, unit: &str) ->
                 .iter()
                 .filter_map(|s| s.modes[l].as_ref().map(|m| (s.value, m.omega_n_rad_s)))
                 .unzip();
-            Series {
-                label: name.clone(),
-                x,
-                y,
-                style: Style::Solid,
-            }
+            Series::new(format!("{name} ω_n [rad/s]"), x, y, Style::Solid)
         })
         .collect();
+    let unit = if unit.is_empty() { "-" } else { unit };
+    let mut notes = Vec::new();
     if !t.crossings.is_empty() {
-        series.push(Series {
-            label: "crossings".into(),
-            x: t.crossings.iter().map(|c| c.value).collect(),
-            y: t.crossings.iter().map(|c| c.omega_n_rad_s).collect(),
-            style: Style::Markers,
-        });
+        series.push(Series::new(
+            "crossings",
+            t.crossings.iter().map(|c| c.value).collect(),
+            t.crossings.iter().map(|c| c.omega_n_rad_s).collect(),
+            Style::Markers,
+        ));
+        for c in &t.crossings {
+            notes.push(Note {
+                x: c.value,
+                y: c.omega_n_rad_s,
+                text: format!("crossing {} = {} {unit}", t.param, short(c.value)),
+            });
+        }
     }
     let vertical = t
         .veerings
@@ -369,18 +683,24 @@ pub fn tracking_figure(t: &crate::linear::tracking::ModeTracking, unit: &str) ->
         .map(|v| {
             (
                 v.value,
-                format!("veering {} / {}", v.labels[0], v.labels[1]),
+                format!(
+                    "veering {} / {} at {} {unit}",
+                    v.labels[0],
+                    v.labels[1],
+                    short(v.value)
+                ),
             )
         })
         .collect();
-    let unit = if unit.is_empty() { "-" } else { unit };
     LinePlot {
         title: format!("natural frequencies against {}", t.param),
+        caption: case.caption(&[]),
         x_label: format!("{} [{unit}]", t.param),
         y_label: "ω_n [rad/s]".into(),
         series,
         vertical,
-        marks: Vec::new(),
+        notes,
+        ..LinePlot::default()
     }
 }
 

@@ -40,19 +40,21 @@ impl<T: Serialize> Serialize for Named<'_, T> {
     }
 }
 
-/// `item`'s object with one more key: the `--values` parameter and its value in this run
+/// `item`'s object with more keys: each `--values` parameter and its value in this run
 /// (none without `--values`).
 #[derive(Debug, Clone)]
 pub struct Tagged<'a, T> {
     pub item: T,
-    pub tag: Option<(&'a str, f64)>,
+    pub tag: Vec<(&'a str, f64)>,
 }
 
 impl<T: Serialize> Serialize for Tagged<'_, T> {
     fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
         let mut v = serde_json::to_value(&self.item).map_err(S::Error::custom)?;
-        if let (Some((name, x)), Value::Object(m)) = (self.tag, &mut v) {
-            m.insert(name.to_string(), Value::from(x));
+        if let Value::Object(m) = &mut v {
+            for (name, x) in &self.tag {
+                m.insert(name.to_string(), Value::from(*x));
+            }
         }
         v.serialize(s)
     }
@@ -75,6 +77,9 @@ pub struct SimSettings {
     pub dt_out: f64,
     pub rtol: f64,
     pub atol: f64,
+    /// Written when not the default (DOP853).
+    #[serde(skip_serializing_if = "crate::dynamics::integrator::Integrator::is_default")]
+    pub integrator: crate::dynamics::integrator::Integrator,
 }
 
 /// The last sample of a simulation.
@@ -121,6 +126,7 @@ impl<'a> SimulationSummary<'a> {
                 dt_out: opts.dt_out,
                 rtol: opts.rtol,
                 atol: opts.atol,
+                integrator: opts.integrator,
             },
             stats: &traj.stats,
             final_state: FinalState {
@@ -440,7 +446,7 @@ impl<'a> SweepReport<'a> {
                 .flat_map(|r| {
                     r.sweep.peaks.iter().map(move |p| Tagged {
                         item: p,
-                        tag: r.tag(),
+                        tag: r.tags(),
                     })
                 })
                 .collect(),
@@ -449,7 +455,7 @@ impl<'a> SweepReport<'a> {
                 .flat_map(|r| {
                     r.sweep.jumps.iter().map(move |j| Tagged {
                         item: j,
-                        tag: r.tag(),
+                        tag: r.tags(),
                     })
                 })
                 .collect(),
@@ -458,7 +464,7 @@ impl<'a> SweepReport<'a> {
                 .flat_map(|r| {
                     r.sweep.hysteresis.iter().map(move |h| Tagged {
                         item: h,
-                        tag: r.tag(),
+                        tag: r.tags(),
                     })
                 })
                 .collect(),
@@ -476,7 +482,7 @@ impl<'a> SweepReport<'a> {
                             omega2: &e.omega2,
                             start: k == w.start,
                         },
-                        tag: r.tag(),
+                        tag: r.tags(),
                     })
                 })
                 .collect(),

@@ -12,6 +12,7 @@ pub mod margins;
 pub mod plot;
 pub mod results;
 pub mod sensitivity;
+pub mod style;
 pub mod units;
 
 use crate::diag::Result;

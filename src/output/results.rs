@@ -110,7 +110,8 @@ pub fn write_frf_csv(path: &str, fr: &FrequencyResponse) -> Result<()> {
     write_rows(path, &frf_header(fr), &frf_rows(fr), &[])
 }
 
-const MEASURES: [&str; 8] = [
+/// The measures of each response, in their CSV order (`<response>_<measure>`).
+pub const MEASURES: [&str; 8] = [
     "amplitude",
     "max",
     "min",
@@ -134,13 +135,13 @@ fn measure_values(m: &crate::frequency::measure::Measures) -> [f64; 8] {
     ]
 }
 
-/// Header of a sweep: `<param>,direction[,<values param>],<response>_<measure>...,
+/// Header of a sweep: `<param>,direction[,<values param>...],<response>_<measure>...,
 /// settled,periods,period_multiple,refined,well` (`well`: the index of the equilibrium
 /// the response oscillates about in the JSON's `equilibria`, −1 across two wells).
 pub fn sweep_header(runs: &[SweepRun]) -> Vec<String> {
     let first = &runs[0].sweep;
     let mut h = vec![first.param.clone(), "direction".to_string()];
-    if let Some((name, _)) = runs[0].tag() {
+    for (name, _) in runs[0].tags() {
         h.push(name.to_string());
     }
     for r in &first.responses {
@@ -159,7 +160,7 @@ pub fn sweep_rows(runs: &[SweepRun]) -> Vec<Vec<Cell<'_>>> {
     for run in runs {
         for p in &run.sweep.points {
             let mut row = vec![Cell::Number(p.steady.omega), Cell::Text(p.direction.name())];
-            if let Some((_, v)) = run.tag() {
+            for (_, v) in run.tags() {
                 row.push(Cell::Number(v));
             }
             for m in &p.steady.measures {

@@ -1,8 +1,11 @@
 //! A sensitivity study's files: the CSV table, the JSON document and the tornado chart.
 
+use super::plot::{Figure, Format, Painter, render, write_figure};
+use super::style::{self, Fonts};
 use super::{Provenance, num, write_atomic};
 use crate::diag::Result;
 use crate::linear::sensitivity::Sensitivity;
+use plotters::coord::Shift;
 use plotters::prelude::*;
 
 /// `sensitivity --json`: the study with its provenance.
@@ -104,23 +107,51 @@ pub fn write_sensitivity_csv(path: &str, s: &Sensitivity) -> Result<()> {
 /// The tornado chart as SVG: one panel per mode, one bar per parameter from its lowest
 /// to its highest case's change of ω_n (%), widest on top, labelled with the cases.
 pub fn tornado_svg(s: &Sensitivity, title: &str) -> std::result::Result<String, String> {
-    let mut svg = String::new();
-    let rows: usize = s.modes.len().max(1);
-    {
-        let root =
-            SVGBackend::with_string(&mut svg, (900, 130 + 260 * rows as u32)).into_drawing_area();
-        root.fill(&WHITE).map_err(|e| e.to_string())?;
-        let (top, body) = root.split_vertically(56);
+    let fig = Tornado {
+        s,
+        title,
+        size: tornado_size(s),
+    };
+    render(&fig, Format::Svg).map(|b| String::from_utf8_lossy(&b).into_owned())
+}
+
+/// The tornado chart's default size, px.
+pub fn tornado_size(s: &Sensitivity) -> (u32, u32) {
+    (900, 130 + 260 * s.modes.len().max(1) as u32)
+}
+
+/// The tornado chart as a figure (SVG or PNG).
+pub struct Tornado<'a> {
+    pub s: &'a Sensitivity,
+    pub title: &'a str,
+    pub size: (u32, u32),
+}
+
+impl Figure for Tornado<'_> {
+    fn size(&self) -> (u32, u32) {
+        self.size
+    }
+    fn draw<DB: DrawingBackend>(
+        &self,
+        root: &DrawingArea<DB, Shift>,
+        _painter: &mut Painter<'_, DB>,
+    ) -> std::result::Result<(), String> {
+        let (s, title) = (self.s, self.title);
+        let f = Fonts::for_width(self.size.0);
+        let sc = f.scale;
+        let rows: usize = s.modes.len().max(1);
+        let (top, body) =
+            root.split_vertically((f.title * 1.6 + f.caption * 1.7 + 10.0 * sc) as i32);
         top.draw(&Text::new(
             title.to_string(),
-            (20, 8),
-            ("sans-serif", 22).into_font(),
+            ((12.0 * sc) as i32, (8.0 * sc) as i32),
+            style::font(f.title).style(FontStyle::Bold),
         ))
         .map_err(|e| e.to_string())?;
         top.draw(&Text::new(
-            "each bar: the parameter's cases (labelled); blue lowers ω_n, orange raises it",
-            (20, 32),
-            ("sans-serif", 15).into_font(),
+            "each bar: the parameter's cases (labelled); blue (left) lowers ω_n, vermillion (right) raises it",
+            ((12.0 * sc) as i32, (8.0 * sc + f.title * 1.6) as i32),
+            style::font(f.caption),
         ))
         .map_err(|e| e.to_string())?;
         let areas = body.split_evenly((rows, 1));
@@ -171,11 +202,11 @@ pub fn tornado_svg(s: &Sensitivity, title: &str) -> std::result::Result<String, 
                         m.omega_n_rad_s,
                         m.omega_n_rad_s / (2.0 * std::f64::consts::PI)
                     ),
-                    ("sans-serif", 20),
+                    style::font(f.label),
                 )
-                .margin(12)
-                .x_label_area_size(45)
-                .y_label_area_size(150)
+                .margin((12.0 * sc) as u32)
+                .x_label_area_size((f.tick * 1.6 + f.label * 1.7) as u32)
+                .y_label_area_size((150.0 * sc) as u32)
                 .build_cartesian_2d(-span..span, 0.0..n as f64)
                 .map_err(|e| e.to_string())?;
             let names: Vec<String> = bars.iter().map(|b| b.0.clone()).collect();
@@ -192,12 +223,12 @@ pub fn tornado_svg(s: &Sensitivity, title: &str) -> std::result::Result<String, 
                         String::new()
                     }
                 })
-                .label_style(("sans-serif", 16))
-                .axis_desc_style(("sans-serif", 16))
+                .label_style(style::font(f.tick))
+                .axis_desc_style(style::font(f.label))
                 .draw()
                 .map_err(|e| e.to_string())?;
-            let down = RGBColor(0, 114, 178);
-            let up = RGBColor(213, 94, 0);
+            let down = style::PALETTE[0];
+            let up = style::PALETTE[1];
             for (k, b) in bars.iter().enumerate() {
                 let y = (n - 1 - k) as f64;
                 chart
@@ -216,7 +247,7 @@ pub fn tornado_svg(s: &Sensitivity, title: &str) -> std::result::Result<String, 
                                         - if anchor < 0.0 { span * 0.30 } else { 0.0 },
                                     y + 0.62,
                                 ),
-                                ("sans-serif", 15).into_font(),
+                                style::font(f.note),
                             )))
                             .map_err(|e| e.to_string())?;
                     }
@@ -229,13 +260,24 @@ pub fn tornado_svg(s: &Sensitivity, title: &str) -> std::result::Result<String, 
                 ))
                 .map_err(|e| e.to_string())?;
         }
-        root.present().map_err(|e| e.to_string())?;
+        Ok(())
     }
-    Ok(svg)
 }
 
-/// Write the tornado chart (atomically).
-pub fn write_tornado(path: &str, s: &Sensitivity, title: &str) -> Result<()> {
-    let svg = tornado_svg(s, title).map_err(|e| crate::diag::Error::io(path, e))?;
-    write_atomic(path, |w| w.write_all(svg.as_bytes()))
+/// Write the tornado chart (SVG or PNG by the extension; atomically) at a size (px;
+/// None: [`tornado_size`]).
+pub fn write_tornado(
+    path: &str,
+    s: &Sensitivity,
+    title: &str,
+    size: Option<(u32, u32)>,
+) -> Result<()> {
+    write_figure(
+        path,
+        &Tornado {
+            s,
+            title,
+            size: size.unwrap_or_else(|| tornado_size(s)),
+        },
+    )
 }

@@ -48,6 +48,15 @@ impl FreqUnit {
         }
     }
 
+    /// The unit a table shows beside this one: Hz, or rad/s when this one is Hz (a
+    /// column must not repeat its neighbour).
+    pub fn companion(self) -> FreqUnit {
+        match self {
+            FreqUnit::Hertz => FreqUnit::RadPerSecond,
+            _ => FreqUnit::Hertz,
+        }
+    }
+
     /// `rad_s` in this unit with `decimals` decimals and the symbol: `4.1234 Hz`.
     pub fn show(self, rad_s: f64, decimals: usize) -> String {
         format!("{:.decimals$} {}", self.of(rad_s), self.symbol())

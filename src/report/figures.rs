@@ -1,22 +1,21 @@
-//! The report's own figures, drawn with plotters into SVG strings (pure functions of
-//! their inputs): the linear frequency response on log–log axes with the forcing bands
-//! shaded and the resonances marked, and the interference (Campbell) diagram.
+//! The report's own figures (pure functions of their inputs), drawn through the line
+//! plots' machinery ([`crate::output::plot`]: the same fonts, palette, float-precision
+//! curves and legend below the plot): the linear frequency response on log–log axes
+//! with the forcing bands shaded and the resonances marked, and the interference
+//! (Campbell) diagram.
 //!
-//! They are drawn here rather than through `output::plot::LinePlot`, which has linear
-//! axes only and no shaded bands.
+//! They are drawn here rather than as a `LinePlot`, which has no shaded bands and no
+//! logarithmic frequency axis.
 
+use crate::output::plot::{
+    Entry, Figure, Format, Frame, Painter, Pen, axes, draw_header, draw_legend, forcing_pen,
+    legend_height, legend_layout, reference_pen, render,
+};
+use crate::output::style::{self, Fonts};
+use plotters::coord::Shift;
 use plotters::prelude::*;
 
-const COLORS: [RGBColor; 6] = [
-    RGBColor(31, 119, 180),
-    RGBColor(214, 39, 40),
-    RGBColor(44, 160, 44),
-    RGBColor(148, 103, 189),
-    RGBColor(140, 86, 75),
-    RGBColor(23, 190, 207),
-];
-const BAND: RGBColor = RGBColor(255, 170, 60);
-const MARK: RGBColor = RGBColor(200, 90, 0);
+const BAND: RGBColor = style::FORCING;
 
 /// A forcing band on a frequency axis: label, lowest, nominal and highest ω (rad/s).
 #[derive(Debug, Clone)]
@@ -37,33 +36,123 @@ pub struct FrfPlot {
     pub curves: Vec<(String, Vec<f64>)>,
     /// The amplitudes' unit.
     pub unit: String,
-    /// Resonances: label and ω (rad/s), drawn as dashed vertical lines.
+    /// Resonances: label and ω (rad/s), drawn as reference lines.
     pub resonances: Vec<(String, f64)>,
     /// Refined peaks (ω rad/s, amplitude), marked on the curves.
     pub peaks: Vec<(f64, f64)>,
     pub bands: Vec<Band>,
 }
 
-/// `12.500` → `12.5`, `10.000` → `10`.
-fn trim_zeros(s: String) -> String {
-    if s.contains('.') {
-        s.trim_end_matches('0').trim_end_matches('.').to_string()
-    } else {
-        s
-    }
-}
+/// The report figures' size, px.
+const SIZE: (u32, u32) = (900, 600);
 
 fn err(e: impl std::fmt::Display) -> String {
     e.to_string()
 }
 
-/// The frequency response on log–log axes, bands shaded (those that reach into the
-/// plotted range), resonances and peaks marked.
-pub fn frf_svg(p: &FrfPlot) -> Result<String, String> {
-    let mut svg = String::new();
-    {
-        let root = SVGBackend::with_string(&mut svg, (900, 560)).into_drawing_area();
-        root.fill(&WHITE).map_err(err)?;
+fn curve_pen(i: usize, s: f64) -> Pen {
+    let k = i % style::PALETTE.len();
+    Pen {
+        color: style::PALETTE[k],
+        width: style::CURVE_WIDTH * s,
+        dash: Vec::new(),
+        marker: Some((
+            style::MARKERS[k],
+            style::CURVE_MARKER * s,
+            style::PALETTE[k],
+        )),
+        marker_spacing: style::MARKER_SPACING * s,
+    }
+}
+
+fn event_pen(m: style::Marker, fill: RGBColor, s: f64) -> Pen {
+    Pen {
+        color: style::EVENT,
+        width: 0.0,
+        dash: Vec::new(),
+        marker: Some((m, style::EVENT_MARKER * s, fill)),
+        marker_spacing: 0.0,
+    }
+}
+
+/// Header, chart area and legend of a report figure: the frame's pixel range and where
+/// the legend goes.
+struct Layout<'a, DB: DrawingBackend> {
+    chart: DrawingArea<DB, Shift>,
+    placed: Vec<Option<(f64, usize)>>,
+    legend_y: f64,
+    root: &'a DrawingArea<DB, Shift>,
+}
+
+fn layout<'a, DB: DrawingBackend>(
+    root: &'a DrawingArea<DB, Shift>,
+    title: &str,
+    entries: &[Entry],
+    f: &Fonts,
+) -> std::result::Result<Layout<'a, DB>, String> {
+    let (w, h) = root.dim_in_pixel();
+    let head = draw_header(root, title, "", f)?;
+    let (placed, rows) = legend_layout(root, entries, w as f64 - 24.0 * f.scale, f);
+    let lh = legend_height(rows, f);
+    let chart_h = (h as f64 - head - lh).max(80.0);
+    let (_, rest) = root.split_vertically(head.round() as i32);
+    let (chart, _) = rest.split_vertically(chart_h.round() as i32);
+    Ok(Layout {
+        chart,
+        placed,
+        legend_y: head + chart_h + 4.0 * f.scale,
+        root,
+    })
+}
+
+impl<DB: DrawingBackend> Layout<'_, DB> {
+    fn legend(
+        &self,
+        painter: &mut Painter<'_, DB>,
+        entries: &[Entry],
+        f: &Fonts,
+    ) -> std::result::Result<(), String> {
+        draw_legend(
+            self.root,
+            painter,
+            entries,
+            &self.placed,
+            12.0 * f.scale,
+            self.legend_y,
+            f,
+            "r-",
+        )
+    }
+}
+
+/// A label at pixel (x, y) in `color`.
+fn label<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    text: &str,
+    (x, y): (f64, f64),
+    color: RGBColor,
+    f: &Fonts,
+) -> std::result::Result<(), String> {
+    root.draw(&Text::new(
+        text.to_string(),
+        (x.round() as i32, y.round() as i32),
+        style::font(f.note).color(&color),
+    ))
+    .map_err(err)
+}
+
+impl Figure for FrfPlot {
+    fn size(&self) -> (u32, u32) {
+        SIZE
+    }
+    fn draw<DB: DrawingBackend>(
+        &self,
+        root: &DrawingArea<DB, Shift>,
+        painter: &mut Painter<'_, DB>,
+    ) -> std::result::Result<(), String> {
+        let p = self;
+        let f = Fonts::for_width(SIZE.0);
+        let s = f.scale;
         let (x0, x1) = (
             p.omega.first().copied().unwrap_or(1.0),
             p.omega.last().copied().unwrap_or(10.0),
@@ -83,106 +172,118 @@ pub fn frf_svg(p: &FrfPlot) -> Result<String, String> {
         }
         // at most six decades below the largest amplitude
         y0 = y0.max(y1 * 1e-6) / 1.5;
-        y1 *= 2.0;
-        let mut chart = ChartBuilder::on(&root)
-            .caption(&p.title, ("sans-serif", 20))
-            .margin(15)
-            .x_label_area_size(45)
-            .y_label_area_size(75)
-            .build_cartesian_2d((x0..x1).log_scale(), (y0..y1).log_scale())
-            .map_err(err)?;
-        chart
-            .configure_mesh()
-            .x_desc("ω [rad/s]")
-            .y_desc(format!("amplitude [{}]", p.unit))
-            .x_label_formatter(&|x| trim_zeros(format!("{x:.3}")))
-            .y_label_formatter(&|y| format!("{y:.1e}"))
-            .draw()
-            .map_err(err)?;
+        y1 *= 3.0;
+        let mut entries: Vec<Entry> = p
+            .curves
+            .iter()
+            .enumerate()
+            .map(|(i, (name, _))| Entry {
+                label: format!("{name} [{}]", p.unit),
+                pen: curve_pen(i, s),
+            })
+            .collect();
+        if !p.peaks.is_empty() {
+            entries.push(Entry {
+                label: "refined peaks".into(),
+                pen: event_pen(style::Marker::TriangleDown, WHITE, s),
+            });
+        }
+        if !p.resonances.is_empty() {
+            entries.push(Entry {
+                label: "natural frequencies (labelled) [rad/s]".into(),
+                pen: reference_pen(s),
+            });
+        }
+        if !p.bands.is_empty() {
+            entries.push(Entry {
+                label: "forcing line [rad/s] and its band (shaded)".into(),
+                pen: forcing_pen(s),
+            });
+        }
+        let lay = layout(root, &p.title, &entries, &f)?;
+        let px = axes(
+            &lay.chart,
+            "ω [rad/s]",
+            &format!("amplitude [{}]", p.unit),
+            (x0, x1),
+            (y0, y1),
+            true,
+            true,
+            &f,
+        )?;
+        let fr = Frame::new(px, (x0, x1), (y0, y1), true, true);
         for b in &p.bands {
             if b.hi < x0 || b.lo > x1 {
                 continue;
             }
-            let (lo, hi) = (b.lo.max(x0), b.hi.min(x1));
-            chart
-                .draw_series(std::iter::once(Rectangle::new(
-                    [(lo, y0), (hi, y1)],
-                    BAND.mix(0.35).filled(),
-                )))
-                .map_err(err)?;
-            if b.nominal >= x0 && b.nominal <= x1 {
-                chart
-                    .draw_series(LineSeries::new(
-                        vec![(b.nominal, y0), (b.nominal, y1)],
-                        MARK.stroke_width(1),
-                    ))
-                    .map_err(err)?;
-                chart
-                    .draw_series(std::iter::once(Text::new(
-                        b.label.clone(),
-                        (b.nominal * 1.01, y1 / 1.6),
-                        ("sans-serif", 15).into_font().color(&MARK),
-                    )))
-                    .map_err(err)?;
-            }
-        }
-        for (label, w) in &p.resonances {
-            if *w < x0 || *w > x1 {
+            let (Some(l), Some(r)) = (fr.column(b.lo.max(x0)), fr.column(b.hi.min(x1))) else {
                 continue;
+            };
+            root.draw(&Rectangle::new(
+                [
+                    (l.round() as i32, fr.top as i32),
+                    (r.round() as i32, fr.bottom as i32),
+                ],
+                BAND.mix(0.3).filled(),
+            ))
+            .map_err(err)?;
+            if let Some(c) = fr.column(b.nominal) {
+                painter.line(
+                    &[(c, fr.bottom), (c, fr.top)],
+                    &forcing_pen(s),
+                    "forcing",
+                    "r-forcing",
+                )?;
+                label(
+                    root,
+                    &b.label,
+                    (c + 4.0 * s, fr.top + 4.0 * s),
+                    style::EVENT,
+                    &f,
+                )?;
             }
-            chart
-                .draw_series(DashedLineSeries::new(
-                    vec![(*w, y0), (*w, y1)],
-                    4,
-                    4,
-                    BLACK.stroke_width(1),
-                ))
-                .map_err(err)?;
-            chart
-                .draw_series(std::iter::once(Text::new(
-                    label.clone(),
-                    (*w * 1.01, y0 * 1.3),
-                    ("sans-serif", 14),
-                )))
-                .map_err(err)?;
         }
-        for (i, (name, y)) in p.curves.iter().enumerate() {
-            let color = COLORS[i % COLORS.len()];
+        for (text, w) in &p.resonances {
+            let Some(c) = fr.column(*w) else { continue };
+            painter.line(
+                &[(c, fr.bottom), (c, fr.top)],
+                &reference_pen(s),
+                "reference",
+                "r-reference",
+            )?;
+            label(
+                root,
+                text,
+                (c + 4.0 * s, fr.bottom - f.note * 1.6),
+                style::REFERENCE,
+                &f,
+            )?;
+        }
+        for (i, (_, y)) in p.curves.iter().enumerate() {
             let pts: Vec<(f64, f64)> = p
                 .omega
                 .iter()
-                .copied()
-                .zip(y.iter().map(|v| v.max(y0)))
+                .zip(y)
+                .filter_map(|(w, a)| fr.map(*w, a.max(y0)))
                 .collect();
-            chart
-                .draw_series(LineSeries::new(pts, color.stroke_width(2)))
-                .map_err(err)?
-                .label(name.clone())
-                .legend(move |(x, y)| {
-                    PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(2))
-                });
+            painter.curve(&pts, &entries[i].pen, "curve", &format!("r-{i}"), 40.0 * s)?;
         }
         if !p.peaks.is_empty() {
-            chart
-                .draw_series(
-                    p.peaks
-                        .iter()
-                        .map(|&(w, a)| TriangleMarker::new((w, a.max(y0)), 6, BLACK.filled())),
-                )
-                .map_err(err)?
-                .label("peaks")
-                .legend(|(x, y)| TriangleMarker::new((x + 10, y), 5, BLACK.filled()));
+            let k = p.curves.len();
+            for &(w, a) in &p.peaks {
+                if let Some(at) = fr.map(w, a.max(y0)) {
+                    painter.marker(at, &entries[k].pen, "curve-marker", &format!("r-{k}"))?;
+                }
+            }
         }
-        chart
-            .configure_series_labels()
-            .position(SeriesLabelPosition::UpperRight)
-            .background_style(WHITE.mix(0.85))
-            .border_style(BLACK)
-            .draw()
-            .map_err(err)?;
-        root.present().map_err(err)?;
+        lay.legend(painter, &entries, &f)
     }
-    Ok(svg)
+}
+
+/// The frequency response on log–log axes, bands shaded (those that reach into the
+/// plotted range), resonances and peaks marked.
+pub fn frf_svg(p: &FrfPlot) -> Result<String, String> {
+    render(p, Format::Svg).map(|b| String::from_utf8_lossy(&b).into_owned())
 }
 
 /// A forcing line of the Campbell diagram: ω = `slope` × the main rotor's speed Ω (rpm),
@@ -218,105 +319,125 @@ pub struct CampbellPlot {
 /// shaded when known and the nominal speed drawn, crossings marked (filled inside the
 /// operating range).
 pub fn campbell_svg(p: &CampbellPlot) -> Result<String, String> {
-    let mut svg = String::new();
-    {
-        let root = SVGBackend::with_string(&mut svg, (900, 560)).into_drawing_area();
-        root.fill(&WHITE).map_err(err)?;
+    render(p, Format::Svg).map(|b| String::from_utf8_lossy(&b).into_owned())
+}
+
+impl Figure for CampbellPlot {
+    fn size(&self) -> (u32, u32) {
+        SIZE
+    }
+    fn draw<DB: DrawingBackend>(
+        &self,
+        root: &DrawingArea<DB, Shift>,
+        painter: &mut Painter<'_, DB>,
+    ) -> std::result::Result<(), String> {
+        let p = self;
+        let f = Fonts::for_width(SIZE.0);
+        let s = f.scale;
         let (xe, ye) = (p.rpm_end, p.omega_end);
-        let mut chart = ChartBuilder::on(&root)
-            .caption(&p.title, ("sans-serif", 20))
-            .margin(15)
-            .x_label_area_size(45)
-            .y_label_area_size(70)
-            .build_cartesian_2d(0.0..xe, 0.0..ye)
-            .map_err(err)?;
-        chart
-            .configure_mesh()
-            .x_desc(format!("{} rotor speed [rpm]", p.rotor))
-            .y_desc("frequency [rad/s]")
-            .draw()
-            .map_err(err)?;
-        if let Some([lo, hi]) = p.rpm_range {
-            chart
-                .draw_series(std::iter::once(Rectangle::new(
-                    [(lo, 0.0), (hi, ye)],
-                    BAND.mix(0.35).filled(),
-                )))
-                .map_err(err)?
-                .label("operating range")
-                .legend(|(x, y)| {
-                    Rectangle::new([(x, y - 5), (x + 20, y + 5)], BAND.mix(0.35).filled())
-                });
-        }
-        chart
-            .draw_series(LineSeries::new(
-                vec![(p.rpm_nominal, 0.0), (p.rpm_nominal, ye)],
-                MARK.stroke_width(2),
-            ))
-            .map_err(err)?
-            .label(format!("nominal {:.0} rpm", p.rpm_nominal))
-            .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], MARK.stroke_width(2)));
-        for (label, w) in &p
-            .lines
+        let mut entries: Vec<Entry> = p
+            .modes
             .iter()
-            .map(|l| (&l.label, l.slope))
-            .collect::<Vec<_>>()
+            .enumerate()
+            .map(|(i, (label, w))| Entry {
+                label: format!("{label}: ω_n = {w:.2} rad/s"),
+                pen: curve_pen(i, s),
+            })
+            .collect();
+        let n_modes = entries.len();
+        let mut thin = forcing_pen(s);
+        thin.width = style::REFERENCE_WIDTH * s;
+        entries.push(Entry {
+            label: "forcing lines n/rev [rad/s] (labelled)".into(),
+            pen: thin.clone(),
+        });
+        entries.push(Entry {
+            label: format!("nominal {:.0} rpm", p.rpm_nominal),
+            pen: forcing_pen(s),
+        });
+        if !p.crossings.is_empty() {
+            entries.push(Entry {
+                label: "crossing in the operating range".into(),
+                pen: event_pen(style::Marker::Circle, style::EVENT, s),
+            });
+            entries.push(Entry {
+                label: "crossing outside it".into(),
+                pen: event_pen(style::Marker::Circle, WHITE, s),
+            });
+        }
+        let lay = layout(root, &p.title, &entries, &f)?;
+        let px = axes(
+            &lay.chart,
+            &format!("{} rotor speed [rpm]", p.rotor),
+            "frequency [rad/s]",
+            (0.0, xe),
+            (0.0, ye),
+            false,
+            false,
+            &f,
+        )?;
+        let fr = Frame::new(px, (0.0, xe), (0.0, ye), false, false);
+        if let Some([lo, hi]) = p.rpm_range
+            && let (Some(l), Some(r)) = (fr.column(lo.max(0.0)), fr.column(hi.min(xe)))
         {
+            root.draw(&Rectangle::new(
+                [
+                    (l.round() as i32, fr.top as i32),
+                    (r.round() as i32, fr.bottom as i32),
+                ],
+                BAND.mix(0.3).filled(),
+            ))
+            .map_err(err)?;
+            label(
+                root,
+                "operating range",
+                (l + 4.0 * s, fr.bottom - f.note * 1.6),
+                style::EVENT,
+                &f,
+            )?;
+        }
+        if let Some(c) = fr.column(p.rpm_nominal) {
+            painter.line(
+                &[(c, fr.bottom), (c, fr.top)],
+                &entries[n_modes + 1].pen,
+                "forcing",
+                &format!("r-{}", n_modes + 1),
+            )?;
+        }
+        for l in &p.lines {
+            let w = l.slope;
             // from the origin to where the line leaves the box
             let x_end = xe.min(ye / w);
-            chart
-                .draw_series(LineSeries::new(
-                    vec![(0.0, 0.0), (x_end, w * x_end)],
-                    MARK.stroke_width(1),
-                ))
-                .map_err(err)?;
+            let (Some(a), Some(b)) = (fr.map(0.0, 0.0), fr.map(x_end, w * x_end)) else {
+                continue;
+            };
+            painter.line(&[a, b], &thin, "forcing", &format!("r-{n_modes}"))?;
             // the label just inside the box where the line leaves it
             let (tx, ty) = if x_end < xe {
-                (x_end + 0.004 * xe, ye * 0.985)
+                (b.0 + 4.0 * s, b.1 + 2.0 * s)
             } else {
-                (xe * 0.96, w * xe * 0.97)
+                (b.0 - 60.0 * s, b.1 - f.note * 1.4)
             };
-            chart
-                .draw_series(std::iter::once(Text::new(
-                    (*label).clone(),
-                    (tx, ty),
-                    ("sans-serif", 14).into_font().color(&MARK),
-                )))
-                .map_err(err)?;
+            label(root, &l.label, (tx, ty), style::EVENT, &f)?;
         }
-        for (i, (label, w)) in p.modes.iter().enumerate() {
-            let color = COLORS[i % COLORS.len()];
-            chart
-                .draw_series(DashedLineSeries::new(
-                    vec![(0.0, *w), (xe, *w)],
-                    8,
-                    4,
-                    color.stroke_width(2),
-                ))
-                .map_err(err)?
-                .label(format!("{label}: ω_n = {w:.2} rad/s"))
-                .legend(move |(x, y)| {
-                    PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(2))
-                });
+        for (i, (_, w)) in p.modes.iter().enumerate() {
+            let (Some(a), Some(b)) = (fr.map(0.0, *w), fr.map(xe, *w)) else {
+                continue;
+            };
+            painter.curve(
+                &[a, b],
+                &entries[i].pen,
+                "curve",
+                &format!("r-{i}"),
+                30.0 * s,
+            )?;
         }
-        chart
-            .draw_series(p.crossings.iter().map(|&(x, y, inside)| {
-                let style = if inside {
-                    RED.filled()
-                } else {
-                    RED.stroke_width(2)
-                };
-                Circle::new((x, y), 6, style)
-            }))
-            .map_err(err)?;
-        chart
-            .configure_series_labels()
-            .position(SeriesLabelPosition::LowerRight)
-            .background_style(WHITE.mix(0.85))
-            .border_style(BLACK)
-            .draw()
-            .map_err(err)?;
-        root.present().map_err(err)?;
+        for &(x, y, inside) in &p.crossings {
+            let k = n_modes + if inside { 2 } else { 3 };
+            if let Some(at) = fr.map(x, y) {
+                painter.marker(at, &entries[k].pen, "curve-marker", &format!("r-{k}"))?;
+            }
+        }
+        lay.legend(painter, &entries, &f)
     }
-    Ok(svg)
 }

@@ -1,0 +1,489 @@
+//! Figures fit for a design review (issue 10, point 5): every plot type rendered through
+//! the CLI (and the report's two figures through the library) and checked structurally —
+//! each legend sample is drawn with its curve's pen (stroke, width, dash pattern, marker),
+//! axis descriptions carry units, no text is smaller than the style's minimum, curves
+//! have float coordinates, a caption names the case; PNG output is a PNG of the asked
+//! size; a bad extension is refused before any work.
+
+use std::collections::BTreeMap;
+use std::process::Command;
+
+use detune::output::style::MIN_TEXT;
+
+fn detune(args: &[&str]) -> (i32, String, String) {
+    let out = Command::new(env!("CARGO_BIN_EXE_detune"))
+        .args(args)
+        .output()
+        .unwrap();
+    (
+        out.status.code().unwrap_or(-1),
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+/// What a figure's SVG holds, read back with an XML parser.
+#[derive(Debug, Default)]
+struct Svg {
+    /// Every text with its font size.
+    texts: Vec<(String, f64)>,
+    /// Curves' pens by key: (stroke, width, dash), marker shape.
+    curves: BTreeMap<String, (Vec<String>, Option<String>)>,
+    legend: BTreeMap<String, (Vec<String>, Option<String>)>,
+    /// Every coordinate of the curves' polylines.
+    coordinates: Vec<f64>,
+}
+
+fn read(svg: &str) -> Svg {
+    let doc = roxmltree::Document::parse(svg).expect("well-formed SVG");
+    let mut out = Svg::default();
+    for n in doc.descendants() {
+        let class = n.attribute("class").unwrap_or("");
+        let key = n.attribute("data-series").unwrap_or("").to_string();
+        match n.tag_name().name() {
+            "text" => {
+                let size: f64 = n.attribute("font-size").unwrap().parse().unwrap();
+                let text: String = n.text().unwrap_or("").trim().to_string();
+                out.texts.push((text, size));
+            }
+            "polyline" if class == "curve" || class == "legend" => {
+                let pen = ["stroke", "stroke-width", "stroke-dasharray"]
+                    .iter()
+                    .map(|a| n.attribute(*a).unwrap_or("").to_string())
+                    .collect();
+                let map = if class == "curve" {
+                    for p in n.attribute("points").unwrap().split_whitespace() {
+                        for c in p.split(',') {
+                            out.coordinates.push(c.parse().unwrap());
+                        }
+                    }
+                    &mut out.curves
+                } else {
+                    &mut out.legend
+                };
+                map.entry(key).or_insert((Vec::new(), None)).0 = pen;
+            }
+            "path" if class == "curve-marker" || class == "legend-marker" => {
+                let shape = n.attribute("data-marker").map(String::from);
+                let map = if class == "curve-marker" {
+                    &mut out.curves
+                } else {
+                    &mut out.legend
+                };
+                map.entry(key).or_insert((Vec::new(), None)).1 = shape;
+            }
+            _ => {}
+        }
+    }
+    out
+}
+
+/// The structural checks every figure passes; returns what was read.
+fn check(path: &std::path::Path, min_curves: usize) -> Svg {
+    let text = std::fs::read_to_string(path).unwrap();
+    let svg = read(&text);
+    // no text smaller than the set size
+    for (t, size) in &svg.texts {
+        assert!(*size >= MIN_TEXT - 1e-9, "`{t}` at {size} px < {MIN_TEXT}");
+    }
+    // axis descriptions (the label size, 19 px at the default width) carry units
+    let labels: Vec<&String> = svg
+        .texts
+        .iter()
+        .filter(|(_, s)| (*s - 19.0).abs() < 1e-9)
+        .map(|(t, _)| t)
+        .collect();
+    assert!(!labels.is_empty(), "no axis description in {path:?}");
+    for l in &labels {
+        assert!(
+            l.contains('[') && l.ends_with(']'),
+            "axis `{l}` has no unit"
+        );
+    }
+    // every curve drawn has a legend entry drawn in its pen
+    assert!(
+        svg.curves.len() >= min_curves,
+        "{} curves in {path:?}",
+        svg.curves.len()
+    );
+    for (key, pen) in &svg.curves {
+        let Some(legend) = svg.legend.get(key) else {
+            panic!("curve {key} has no legend sample")
+        };
+        if !pen.0.is_empty() {
+            assert_eq!(
+                pen.0, legend.0,
+                "curve {key}: legend line drawn differently"
+            );
+        }
+        assert_eq!(pen.1, legend.1, "curve {key}: legend marker differs");
+    }
+    // float coordinates: not a staircase of whole pixels
+    assert!(
+        svg.coordinates.iter().any(|c| c.fract().abs() > 1e-9),
+        "all curve coordinates are whole pixels"
+    );
+    // a caption names the case
+    assert!(
+        svg.texts.iter().any(|(t, _)| t.starts_with("model ")),
+        "no caption naming the model"
+    );
+    svg
+}
+
+fn has(svg: &Svg, text: &str) -> bool {
+    svg.texts.iter().any(|(t, _)| t.contains(text))
+}
+
+#[test]
+fn simulation_figure_with_chosen_coordinates_and_without_a_csv() {
+    let dir = tempfile::tempdir().unwrap();
+    let svg = dir.path().join("sim.svg");
+    let (code, _, err) = detune(&[
+        "simulate",
+        "models/overcentre.toml",
+        "--set",
+        "F0=3",
+        "--t-end",
+        "3",
+        "--plot",
+        svg.to_str().unwrap(),
+        "--plot-coordinate",
+        "bar2.theta",
+        "--plot-coordinate",
+        "bar1.x",
+    ]);
+    assert_eq!(code, 0, "{err}");
+    let s = check(&svg, 2);
+    // an angle panel and a length panel, legend entries with units, the override named
+    assert!(has(&s, "bar2.theta [rad]") && has(&s, "bar1.x [m]"));
+    assert!(!has(&s, "bar1.theta [rad]"));
+    assert!(has(&s, "--set F0=3"));
+    // no CSV was asked for, none written
+    assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1);
+}
+
+#[test]
+fn branch_figure_stable_solid_unstable_dashed_folds_labelled() {
+    let dir = tempfile::tempdir().unwrap();
+    let svg = dir.path().join("s.svg");
+    let (code, _, err) = detune(&[
+        "continue",
+        "models/overcentre.toml",
+        "--param",
+        "Fs",
+        "--from",
+        "-10",
+        "--to",
+        "30",
+        "--step",
+        "0.5",
+        "--plot",
+        svg.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 0, "{err}");
+    let s = check(&svg, 3);
+    let pens: Vec<&(Vec<String>, Option<String>)> = s.legend.values().collect();
+    // stable: one colour, solid; unstable: the same colour, dashed; folds: diamonds
+    let solid = pens
+        .iter()
+        .filter(|p| !p.0.is_empty() && p.0[2].is_empty())
+        .count();
+    let dashed = pens
+        .iter()
+        .filter(|p| !p.0.is_empty() && !p.0[2].is_empty())
+        .count();
+    assert_eq!((solid, dashed), (1, 1), "{pens:?}");
+    assert!(pens.iter().any(|p| p.1.as_deref() == Some("diamond")));
+    // both folds labelled with their parameter value (23.0614… N)
+    assert!(has(&s, "fold Fs = 23.06 N"), "{:?}", s.texts);
+    assert!(has(&s, "Fs [N]"));
+}
+
+#[test]
+fn sweep_figure_splits_wells_and_marks_the_case() {
+    let dir = tempfile::tempdir().unwrap();
+    let svg = dir.path().join("snap.svg");
+    let (code, _, err) = detune(&[
+        "sweep",
+        "models/overcentre.toml",
+        "--set",
+        "F0=10",
+        "--param",
+        "omega",
+        "--from",
+        "0.5",
+        "--to",
+        "6",
+        "--step",
+        "0.25",
+        "--response",
+        "bar1.theta",
+        "--response",
+        "bar2.theta",
+        "--plot",
+        svg.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 0, "{err}");
+    let s = check(&svg, 4);
+    // one panel per response, each well its own curve with its own colour
+    assert!(has(&s, "bar1.theta: stepped-sine amplitude"));
+    assert!(has(&s, "bar2.theta: stepped-sine amplitude"));
+    assert!(has(&s, "well 0 (bar1.theta = -0.866 rad)"));
+    assert!(has(&s, "well 2 (bar1.theta = 0.644 rad)"));
+    let strokes: std::collections::BTreeSet<&String> = s
+        .legend
+        .values()
+        .filter(|p| !p.0.is_empty())
+        .map(|p| &p.0[0])
+        .collect();
+    assert!(
+        strokes.len() >= 3,
+        "wells and references apart: {strokes:?}"
+    );
+    assert!(has(&s, "--set F0=10") && has(&s, "starting in well 2"));
+    // no family over the forcing amplitude: no normalized panel
+    assert!(!has(&s, "amplitude / F0"));
+}
+
+#[test]
+fn frf_figure_has_amplitude_and_phase_in_db() {
+    let dir = tempfile::tempdir().unwrap();
+    let svg = dir.path().join("frf.svg");
+    let (code, _, err) = detune(&[
+        "frf",
+        "models/overcentre.toml",
+        "--set",
+        "F0=1",
+        "--param",
+        "omega",
+        "--from",
+        "0.5",
+        "--to",
+        "6",
+        "--step",
+        "0.05",
+        "--response",
+        "bar1.theta",
+        "--plot",
+        svg.to_str().unwrap(),
+        "--plot-scale",
+        "db",
+    ]);
+    assert_eq!(code, 0, "{err}");
+    let s = check(&svg, 2);
+    assert!(has(&s, "bar1.theta amplitude [dB re 1 rad]"));
+    assert!(has(&s, "bar1.theta phase [deg]"));
+    // the refined peak marked and labelled, its amplitude in dB: 20 log10(0.05398) = −25.36
+    assert!(
+        has(&s, "peak 2.828 rad/s, -25.36 dB re 1 rad"),
+        "{:?}",
+        s.texts
+    );
+    assert!(
+        s.legend
+            .values()
+            .any(|p| p.1.as_deref() == Some("triangle-down")),
+        "peaks legend"
+    );
+}
+
+#[test]
+fn tracking_kinematics_and_tornado_figures() {
+    let dir = tempfile::tempdir().unwrap();
+    let track = dir.path().join("track.svg");
+    let (code, _, err) = detune(&[
+        "modes",
+        "models/inceptor.toml",
+        "--param",
+        "k_t",
+        "--from",
+        "200",
+        "--to",
+        "3000",
+        "--points",
+        "5",
+        "--plot",
+        track.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 0, "{err}");
+    let s = check(&track, 2);
+    assert!(has(&s, "k_t [N*m/rad]") && has(&s, "in-phase ω_n [rad/s]"));
+    let kin = dir.path().join("kin.svg");
+    let (code, _, err) = detune(&[
+        "kinematics",
+        "models/inceptor.toml",
+        "--drive",
+        "stick.phi",
+        "--from",
+        "-15 deg",
+        "--to",
+        "35 deg",
+        "--step",
+        "1 deg",
+        "--ratio",
+        "crank.delta",
+        "--plot",
+        kin.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 0, "{err}");
+    let s = check(&kin, 1);
+    assert!(has(&s, "dstick.phi/dcrank.delta [rad/rad]"));
+    // the tornado (bars, no curves): text sizes and the PNG route
+    let png = dir.path().join("tornado.png");
+    let (code, _, err) = detune(&[
+        "sensitivity",
+        "models/inceptor.toml",
+        "--vary",
+        "k_fs=±10%",
+        "--plot",
+        png.to_str().unwrap(),
+        "--plot-size",
+        "1200x700",
+    ]);
+    assert_eq!(code, 0, "{err}");
+    assert_eq!(png_size(&png), (1200, 700));
+}
+
+/// Width and height from a PNG's IHDR chunk (after checking the signature).
+fn png_size(path: &std::path::Path) -> (u32, u32) {
+    let b = std::fs::read(path).unwrap();
+    assert_eq!(&b[..8], b"\x89PNG\r\n\x1a\n", "not a PNG");
+    assert_eq!(&b[12..16], b"IHDR");
+    let be = |i: usize| u32::from_be_bytes([b[i], b[i + 1], b[i + 2], b[i + 3]]);
+    (be(16), be(20))
+}
+
+#[test]
+fn png_output_is_a_png_of_the_requested_size() {
+    let dir = tempfile::tempdir().unwrap();
+    let png = dir.path().join("sim.PNG");
+    let (code, _, err) = detune(&[
+        "simulate",
+        "models/overcentre.toml",
+        "--t-end",
+        "1",
+        "--plot",
+        png.to_str().unwrap(),
+        "--plot-size",
+        "1600x1000",
+    ]);
+    assert_eq!(code, 0, "{err}");
+    assert_eq!(png_size(&png), (1600, 1000));
+    // it decodes, and is not blank: the curves' blue is in it
+    let decoder = png::Decoder::new(std::io::BufReader::new(std::fs::File::open(&png).unwrap()));
+    let mut reader = decoder.read_info().unwrap();
+    let mut buf = vec![0; reader.output_buffer_size().unwrap()];
+    let info = reader.next_frame(&mut buf).unwrap();
+    assert_eq!((info.width, info.height), (1600, 1000));
+    let blue = buf[..info.buffer_size()]
+        .chunks(3)
+        .filter(|p| p == &[0, 114, 178])
+        .count();
+    assert!(blue > 500, "{blue} pixels of the first curve's colour");
+}
+
+#[test]
+fn bad_extensions_and_sizes_are_refused_before_any_work() {
+    let dir = tempfile::tempdir().unwrap();
+    let csv = dir.path().join("x.csv");
+    let cases: [(&[&str], &str); 5] = [
+        (
+            &["--plot", "x.pdf"],
+            "--plot x.pdf: a figure is written as .svg or .png",
+        ),
+        (&["--plot", "figure"], "a name without extension"),
+        (
+            &["--plot", "x.svg", "--plot-size", "20x20"],
+            "--plot-size 20x20",
+        ),
+        (
+            &["--plot", "x.svg", "--plot-size", "big"],
+            "expected WIDTHxHEIGHT",
+        ),
+        (&["--plot-size", "900x600"], "without --plot"),
+    ];
+    for (extra, want) in cases {
+        let mut args = vec![
+            "simulate",
+            "models/overcentre.toml",
+            "--t-end",
+            "200",
+            "-o",
+            csv.to_str().unwrap(),
+        ];
+        args.extend_from_slice(extra);
+        let (code, _, err) = detune(&args);
+        assert_ne!(code, 0, "{extra:?} accepted");
+        assert!(err.contains(want), "{extra:?}: {err}");
+        assert!(!csv.exists(), "{extra:?}: a CSV was written");
+    }
+    // a CSV is never written into a file named like a figure
+    let svg = dir.path().join("fr.svg");
+    let (code, _, err) = detune(&[
+        "sweep",
+        "models/overcentre.toml",
+        "--param",
+        "omega",
+        "--from",
+        "1",
+        "--to",
+        "2",
+        "--step",
+        "0.5",
+        "-o",
+        svg.to_str().unwrap(),
+    ]);
+    assert_ne!(code, 0);
+    assert!(err.contains("-o writes the CSV table"), "{err}");
+    assert!(!svg.exists());
+}
+
+#[test]
+fn report_figures_share_the_style() {
+    use detune::report::figures::{
+        Band, CampbellLine, CampbellPlot, FrfPlot, campbell_svg, frf_svg,
+    };
+    let omega: Vec<f64> = (0..200).map(|k| 1.0 * 1.02f64.powi(k)).collect();
+    let amp: Vec<f64> = omega
+        .iter()
+        .map(|w| 1.0 / ((100.0 - w * w).powi(2) + (0.2 * w).powi(2)).sqrt())
+        .collect();
+    let frf = FrfPlot {
+        title: "model test: linear response".into(),
+        omega,
+        curves: vec![("stick.phi".into(), amp)],
+        unit: "rad".into(),
+        resonances: vec![("mode 1".into(), 10.0)],
+        peaks: vec![(10.0, 0.5)],
+        bands: vec![Band {
+            label: "1P".into(),
+            lo: 20.0,
+            nominal: 25.0,
+            hi: 30.0,
+        }],
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("frf.svg");
+    std::fs::write(&p, frf_svg(&frf).unwrap()).unwrap();
+    let s = check(&p, 1);
+    assert!(has(&s, "stick.phi [rad]"));
+    let c = CampbellPlot {
+        title: "model test: interference diagram".into(),
+        rotor: "main".into(),
+        rpm_nominal: 258.0,
+        rpm_range: Some([240.0, 270.0]),
+        modes: vec![("mode 1".into(), 13.0)],
+        lines: vec![CampbellLine {
+            label: "1P".into(),
+            slope: std::f64::consts::TAU / 60.0,
+        }],
+        crossings: vec![(124.1, 13.0, false)],
+        rpm_end: 400.0,
+        omega_end: 40.0,
+    };
+    let p = dir.path().join("campbell.svg");
+    std::fs::write(&p, campbell_svg(&c).unwrap()).unwrap();
+    let s = check(&p, 1);
+    assert!(has(&s, "mode 1: ω_n = 13.00 rad/s"));
+}

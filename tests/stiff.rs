@@ -1,0 +1,202 @@
+//! Stiff models (issue 13, defect 3): a trial step's non-finite value is not fatal, DOP853
+//! says early that a model is stiff, and Radau IIA integrates it and agrees with the
+//! reduced-order Lagrange reference on the baseline.
+
+mod common;
+
+use detune::dynamics::integrator::Integrator;
+use detune::{SimOptions, System, assemble, simulate};
+use std::io::{BufRead, BufReader};
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+fn bin() -> &'static str {
+    env!("CARGO_BIN_EXE_detune")
+}
+
+fn model() -> String {
+    format!("{}/models/overcentre.toml", env!("CARGO_MANIFEST_DIR"))
+}
+
+fn out(name: &str) -> String {
+    let dir = std::env::temp_dir().join(format!("detune-stiff-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    dir.join(name).to_string_lossy().into_owned()
+}
+
+/// `--set c=1e7` used to abort with "non-finite value" from a rejected trial step: with
+/// DOP853 it now runs (saying it is stiff), with Radau it completes in a few steps.
+#[test]
+fn huge_damper_is_not_a_non_finite_error() {
+    let o = Command::new(bin())
+        .args(["simulate", &model(), "--set", "c=1e7", "--t-end", "0.01"])
+        .args(["-o", &out("c7.csv")])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{err}");
+    assert!(!err.contains("non-finite"), "{err}");
+    assert!(err.contains("the model is stiff"), "{err}");
+    assert!(err.contains("--integrator radau"), "{err}");
+    let o = Command::new(bin())
+        .args(["simulate", &model(), "--set", "c=1e7", "--t-end", "0.5"])
+        .args(["--integrator", "radau", "-o", &out("c7r.csv")])
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let steps: usize = text
+        .split("s: ")
+        .nth(1)
+        .and_then(|r| r.split(' ').next())
+        .and_then(|n| n.parse().ok())
+        .expect("step count");
+    assert!(steps < 200, "{text}");
+}
+
+/// `--set k=1e10` took tens of seconds without a word: the warning comes within the first
+/// steps (the run is killed after it, or after 10 s), with |λ| the stiff spring's mode.
+/// Closed form at the start (θ1 = 45°, spring at its free length, m1 = m2 = m, L1 = L2 =
+/// L): the spring joins the bars' centres, its length is L cos θ1, so its stiffness on θ1
+/// is k L² sin² θ1 = k L²/2; the inertia on θ1 is m L²/3 (bar 1 about A) + m L²/12 + m L²
+/// (9/4 sin² θ1 + 1/4 cos² θ1) (bar 2) = 5/3 m L²; ω² = 0.3 k/m (gravity adds 1e-9 of it).
+#[test]
+fn stiff_spring_is_reported_early() {
+    let mut child = Command::new(bin())
+        .args(["simulate", &model(), "--set", "k=1e10", "--t-end", "0.5"])
+        .args(["-o", &out("k10.csv")])
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let stderr = child.stderr.take().unwrap();
+    let (tx, rx) = std::sync::mpsc::channel();
+    std::thread::spawn(move || {
+        for line in BufReader::new(stderr).lines().map_while(|l| l.ok()) {
+            if line.starts_with("warning: the model is stiff") {
+                let _ = tx.send(line);
+                return;
+            }
+        }
+    });
+    let began = Instant::now();
+    let line = rx.recv_timeout(Duration::from_secs(10));
+    let _ = child.kill();
+    let _ = child.wait();
+    let line = line.expect("a stiffness warning within 10 s");
+    let lambda: f64 = line
+        .split("|λ| ≈ ")
+        .nth(1)
+        .and_then(|r| r.split(' ').next())
+        .and_then(|x| x.parse().ok())
+        .expect("|λ| in the warning");
+    let omega = (0.3f64 * 1e10).sqrt();
+    assert!(
+        (lambda / omega - 1.0).abs() < 1e-3,
+        "|λ| = {lambda}, ω = {omega}: {line}"
+    );
+    assert!(line.contains("steps"), "{line}");
+    eprintln!("warned after {:?}", began.elapsed());
+}
+
+/// Radau IIA on the baseline free case matches the reduced-order Lagrange reference.
+#[test]
+fn radau_matches_the_lagrange_reference() {
+    let model = common::overcentre(&[]);
+    let sys = System::new(&model).unwrap();
+    let start = assemble(&sys).unwrap();
+    let opts = SimOptions {
+        integrator: Integrator::Radau,
+        ..SimOptions::default()
+    };
+    let traj = simulate(&sys, &start, &opts, &mut |_| true).unwrap();
+    let (_, rows) = common::read_csv(format!(
+        "{}/tests/data/lagrange_free.csv",
+        env!("CARGO_MANIFEST_DIR")
+    ));
+    let theta = traj.coordinate("bar1.theta").unwrap();
+    assert_eq!(theta.len(), rows.len());
+    let worst = rows
+        .iter()
+        .zip(&theta)
+        .map(|(r, x)| (r[1] - x).abs())
+        .fold(0.0, f64::max);
+    assert!(worst < 1e-8, "max |θ1 error| = {worst:e} rad");
+    assert!(traj.stats.max_constraint_residual < 1e-10);
+}
+
+/// A slider on a huge damper to ground (1 DoF, m ẍ + c ẋ + k x = 0, x(0) = 0.1 m at rest;
+/// c = 1e6 N·s/m, k = 100 N/m, m = 1 kg): eigenvalues r₂ = (−c − √(c² − 4mk))/2m ≈ −1e6
+/// and r₁ = k/(m r₂) ≈ −1e-4 1/s, stiffness ratio 1e10. Radau IIA follows the slow
+/// exponential in a handful of steps and agrees with the closed form
+/// x = A e^{r₁t} + B e^{r₂t}, A = x₀ r₂/(r₂ − r₁), B = x₀ − A.
+#[test]
+fn radau_follows_an_overdamped_slider_closed_form() {
+    let text = r#"
+[model]
+name = "slider"
+
+[parameters]
+k = { value = 100, unit = "N/m" }
+c = { value = 1e6, unit = "N*s/m" }
+m = { value = 1, unit = "kg" }
+
+[[bodies]]
+name = "b"
+mass = "m"
+inertia = 1
+x = 0.1
+y = 0
+theta = 0
+fix = ["x"]
+
+[[joints]]
+name = "p"
+type = "prismatic"
+body1 = "b"
+point1 = [0, 0]
+body2 = "ground"
+point2 = [0, 0]
+axis = [1, 0]
+
+[[forces]]
+name = "s"
+type = "spring_damper"
+body1 = "ground"
+point1 = [-1, 0]
+body2 = "b"
+point2 = [0, 0]
+stiffness = "k"
+damping = "c"
+free_length = 1
+"#;
+    let model = common::from_text("slider", text, &[]);
+    let sys = System::new(&model).unwrap();
+    let start = assemble(&sys).unwrap();
+    let opts = SimOptions {
+        t_end: 1.0,
+        dt_out: 0.05,
+        integrator: Integrator::Radau,
+        ..SimOptions::default()
+    };
+    let traj = simulate(&sys, &start, &opts, &mut |_| true).unwrap();
+    let (m, c, k, x0) = (1.0f64, 1e6f64, 100.0f64, 0.1f64);
+    let r2 = (-c - (c * c - 4.0 * m * k).sqrt()) / (2.0 * m);
+    let r1 = k / (m * r2);
+    let a = x0 * r2 / (r2 - r1);
+    let b = x0 - a;
+    let x = traj.coordinate("b.x").unwrap();
+    assert_eq!(traj.coordinates[0], "b.x");
+    let v: Vec<f64> = traj.v.iter().map(|v| v[0]).collect();
+    for (i, &t) in traj.t.iter().enumerate() {
+        let xe = a * (r1 * t).exp() + b * (r2 * t).exp();
+        let ve = a * r1 * (r1 * t).exp() + b * r2 * (r2 * t).exp();
+        assert!((x[i] - xe).abs() < 1e-9, "t = {t}: x = {} vs {xe}", x[i]);
+        assert!((v[i] - ve).abs() < 1e-10, "t = {t}: v = {} vs {ve}", v[i]);
+    }
+    assert!(
+        traj.stats.accepted_steps < 100,
+        "{} steps",
+        traj.stats.accepted_steps
+    );
+}
