@@ -42,7 +42,13 @@ pub struct Studies<'a> {
 /// Each parameter the report varies when none is given: every parameter with a value of
 /// its own (not defined from others), non-zero, not solved by the `[trim]`, and not the
 /// forcing frequency, at ±10 %; a parameter whose ±10 % cannot be solved (a linkage that
-/// no longer closes, an equilibrium past a fold) is left out and returned with why.
+/// no longer closes, an equilibrium past a fold) is left out and returned with why, and so
+/// is one on which no mode depends at this design (every eigenvalue unchanged to 1e-12 at
+/// both cases, e.g. a breakout law's preload while the law is switched off), with the
+/// reason [`INERT`].
+pub const INERT: &str = "no mode depends on it at this design";
+
+/// See [`INERT`].
 pub fn default_varies(
     sys: &System,
     forcing_amplitude: Option<usize>,
@@ -53,18 +59,35 @@ pub fn default_varies(
     let kept = all
         .into_iter()
         .filter(|v| {
+            let mut moves = false;
             for (label, value) in &v.cases {
-                if let Err(e) = crate::linear::sensitivity::modes_at(
+                match crate::linear::sensitivity::modes_at(
                     sys,
                     &[(v.param, *value)],
                     None,
                     base.as_ref(),
                 ) {
-                    dropped.push((v.name.clone(), format!("{label}: {e}")));
-                    return false;
+                    Err(e) => {
+                        dropped.push((v.name.clone(), format!("{label}: {e}")));
+                        return false;
+                    }
+                    Ok((_, m)) => {
+                        let same = base.as_ref().is_some_and(|b| {
+                            b.modes.len() == m.modes.len()
+                                && b.modes.iter().zip(&m.modes).all(|(x, y)| {
+                                    let (a, b) = (x.eigenvalue, y.eigenvalue);
+                                    (a.re - b.re).hypot(a.im - b.im)
+                                        <= 1e-12 * a.re.hypot(a.im).max(1e-300)
+                                })
+                        });
+                        moves |= !same;
+                    }
                 }
             }
-            true
+            if !moves {
+                dropped.push((v.name.clone(), INERT.to_string()));
+            }
+            moves
         })
         .collect();
     (kept, dropped)
@@ -391,12 +414,14 @@ fn sensitivity_section(report: &Report, study: &Sensitivity, s: &Studies) -> Res
     } else {
         format!(
             "No tolerances were given (--vary): as an illustration, each parameter with a value of its own is changed by ±10 % in turn. The worst case below spans all of them at once, so it is not a tolerance statement.{}",
-            if s.dropped.is_empty() {
-                String::new()
-            } else {
-                format!(
+            {
+                let (inert, unsolved): (Vec<_>, Vec<_>) =
+                    s.dropped.iter().partition(|(_, why)| why == INERT);
+                let mut text = String::new();
+                if !unsolved.is_empty() {
+                    text += &format!(
                     " Left out, because ±10 % of them cannot be solved: {}.",
-                    s.dropped
+                    unsolved
                         .iter()
                         .map(|(n, why)| {
                             let first = why.lines().next().unwrap_or("");
@@ -404,7 +429,16 @@ fn sensitivity_section(report: &Report, study: &Sensitivity, s: &Studies) -> Res
                         })
                         .collect::<Vec<_>>()
                         .join("; ")
-                )
+                    );
+                }
+                if !inert.is_empty() {
+                    text += &format!(
+                        " Left out, because {}: {}.",
+                        INERT.replace(" it ", " them "),
+                        inert.iter().map(|(n, _)| n.as_str()).collect::<Vec<_>>().join(", ")
+                    );
+                }
+                text
             }
         )
     });
