@@ -168,22 +168,33 @@ fn freq_unit_rescales_the_frf_table_and_plot_but_not_the_csv() {
 /// in the labels rewritten with their decimals.
 #[test]
 fn a_line_plot_is_redrawn_in_another_frequency_unit() {
-    use detune::output::plot::{LinePlot, Series, Style};
+    use detune::output::plot::{LinePlot, Note, Series, Style};
     use detune::output::units::FreqUnit;
     let plot = LinePlot {
         title: "x: response".into(),
         x_label: "omega [rad/s]".into(),
         y_label: "x amplitude [m]".into(),
-        series: vec![Series {
-            label: "peak 6.2832 rad/s".into(),
-            x: vec![TAU, 2.0 * TAU],
-            y: vec![1.0, 2.0],
-            style: Style::Markers,
-        }],
+        series: vec![Series::new(
+            "peak 6.2832 rad/s",
+            vec![TAU, 2.0 * TAU],
+            vec![1.0, 2.0],
+            Style::Markers,
+        )],
         vertical: vec![(TAU, "undamped ω_n = 6.2832 rad/s".into())],
         marks: vec![(3.0 * TAU, "1P (18.85 rad/s)".into())],
+        notes: vec![Note {
+            x: 2.0 * TAU,
+            y: 2.0,
+            text: "peak 12.5664 rad/s".into(),
+        }],
+        caption: "at 6.2832 rad/s".into(),
+        ..Default::default()
     }
     .in_frequency_unit(FreqUnit::Rpm);
+    // the notes (peaks, folds, jumps) and the caption move with the axis
+    assert!((plot.notes[0].x - 120.0).abs() < 1e-12);
+    assert_eq!(plot.notes[0].text, "peak 120.0003 rpm");
+    assert_eq!(plot.caption, "at 60.0001 rpm");
     assert_eq!(plot.x_label, "omega [rpm]");
     assert!((plot.series[0].x[1] - 120.0).abs() < 1e-12);
     assert_eq!(plot.series[0].y, vec![1.0, 2.0]);
