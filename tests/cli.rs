@@ -1,19 +1,8 @@
 //! The command-line contract: check, simulate, CSV layout, JSON provenance.
 
+mod common;
+use common::detune;
 use std::process::Command;
-
-fn detune(args: &[&str]) -> (i32, String, String) {
-    let o = Command::new(env!("CARGO_BIN_EXE_detune"))
-        .current_dir(env!("CARGO_MANIFEST_DIR"))
-        .args(args)
-        .output()
-        .unwrap();
-    (
-        o.status.code().unwrap_or(-1),
-        String::from_utf8_lossy(&o.stdout).into_owned(),
-        String::from_utf8_lossy(&o.stderr).into_owned(),
-    )
-}
 
 #[test]
 fn check_reports_rank_and_degrees_of_freedom() {

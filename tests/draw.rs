@@ -1,22 +1,10 @@
 //! `detune draw`: the assembled pose as SVG, through the binary, and the drawn points
 //! where the model's geometry puts them.
 
+mod common;
+use common::detune;
 use detune::draw::{View, scene};
 use detune::{Model, System, assemble};
-use std::process::Command;
-
-fn detune(args: &[&str]) -> (i32, String, String) {
-    let o = Command::new(env!("CARGO_BIN_EXE_detune"))
-        .current_dir(env!("CARGO_MANIFEST_DIR"))
-        .args(args)
-        .output()
-        .unwrap();
-    (
-        o.status.code().unwrap_or(-1),
-        String::from_utf8_lossy(&o.stdout).into_owned(),
-        String::from_utf8_lossy(&o.stderr).into_owned(),
-    )
-}
 
 /// Draw a model into a temporary directory and return the SVG text.
 fn draw(model: &str, extra: &[&str]) -> String {

@@ -6,21 +6,10 @@
 //! size; a bad extension is refused before any work.
 
 use std::collections::BTreeMap;
-use std::process::Command;
+mod common;
+use common::detune;
 
 use detune::output::style::MIN_TEXT;
-
-fn detune(args: &[&str]) -> (i32, String, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_detune"))
-        .args(args)
-        .output()
-        .unwrap();
-    (
-        out.status.code().unwrap_or(-1),
-        String::from_utf8_lossy(&out.stdout).into_owned(),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-    )
-}
 
 /// What a figure's SVG holds, read back with an XML parser.
 #[derive(Debug, Default)]

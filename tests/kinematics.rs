@@ -3,26 +3,13 @@
 //! independent ways), the overcentre's closed form, and its dead point.
 
 mod common;
+use common::detune;
 
 use detune::failure::Failure;
 use detune::kinematics::{KinematicPath, KinematicsOptions, kinematics};
 use detune::request::{Argument, Invalid};
 use detune::{System, assemble};
 use std::f64::consts::PI;
-use std::process::Command;
-
-fn detune(args: &[&str]) -> (i32, String, String) {
-    let o = Command::new(env!("CARGO_BIN_EXE_detune"))
-        .current_dir(env!("CARGO_MANIFEST_DIR"))
-        .args(args)
-        .output()
-        .unwrap();
-    (
-        o.status.code().unwrap_or(-1),
-        String::from_utf8_lossy(&o.stdout).into_owned(),
-        String::from_utf8_lossy(&o.stderr).into_owned(),
-    )
-}
 
 fn inceptor() -> System {
     let model = detune::Model::load(&format!(

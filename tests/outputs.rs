@@ -9,19 +9,7 @@ use std::process::{Command, Stdio};
 use std::time::Duration;
 
 mod common;
-
-fn detune(args: &[&str]) -> (i32, String, String) {
-    let o = Command::new(env!("CARGO_BIN_EXE_detune"))
-        .current_dir(env!("CARGO_MANIFEST_DIR"))
-        .args(args)
-        .output()
-        .unwrap();
-    (
-        o.status.code().unwrap_or(-1),
-        String::from_utf8_lossy(&o.stdout).into_owned(),
-        String::from_utf8_lossy(&o.stderr).into_owned(),
-    )
-}
+use common::detune;
 
 /// A short simulation of the overcentre mechanism writing its CSV to `out`, plus `extra`.
 fn simulate(out: &str, extra: &[&str]) -> (i32, String, String) {

@@ -3,25 +3,12 @@
 //! `margins`).
 
 mod common;
+use common::detune;
 
 use detune::System;
 use detune::environment::Environment;
 use detune::linear::sensitivity::Vary;
 use detune::tune::{TuneOptions, tune};
-use std::process::Command;
-
-fn detune(args: &[&str]) -> (i32, String, String) {
-    let o = Command::new(env!("CARGO_BIN_EXE_detune"))
-        .current_dir(env!("CARGO_MANIFEST_DIR"))
-        .args(args)
-        .output()
-        .unwrap();
-    (
-        o.status.code().unwrap_or(-1),
-        String::from_utf8_lossy(&o.stdout).into(),
-        String::from_utf8_lossy(&o.stderr).into(),
-    )
-}
 
 /// `tune --json` of the inceptor against the UH-60 over k_fs 50–200 % and gearbox_scale
 /// 80–120 %, with `extra` arguments; it must succeed.

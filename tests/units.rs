@@ -4,23 +4,10 @@
 //! of its keys and CSV columns, and `frf --per-unit` is the receptance per unit of the
 //! forcing amplitude (a single-degree-of-freedom closed form).
 
+mod common;
+use common::detune;
 use serde_json::Value;
 use std::f64::consts::TAU;
-use std::process::Command;
-
-/// Run the binary from the crate root: (exit code, stdout, stderr).
-fn detune(args: &[&str]) -> (i32, String, String) {
-    let o = Command::new(env!("CARGO_BIN_EXE_detune"))
-        .current_dir(env!("CARGO_MANIFEST_DIR"))
-        .args(args)
-        .output()
-        .unwrap();
-    (
-        o.status.code().unwrap_or(-1),
-        String::from_utf8_lossy(&o.stdout).into_owned(),
-        String::from_utf8_lossy(&o.stderr).into_owned(),
-    )
-}
 
 /// The run's stdout; it must succeed.
 fn ok(args: &[&str]) -> String {

@@ -5,20 +5,8 @@
 //! are reported as jumps, not peaks.
 
 use serde_json::Value;
-use std::process::Command;
-
-fn detune(args: &[&str]) -> (i32, String, String) {
-    let o = Command::new(env!("CARGO_BIN_EXE_detune"))
-        .args(args)
-        .current_dir(env!("CARGO_MANIFEST_DIR"))
-        .output()
-        .unwrap();
-    (
-        o.status.code().unwrap_or(-1),
-        String::from_utf8_lossy(&o.stdout).into_owned(),
-        String::from_utf8_lossy(&o.stderr).into_owned(),
-    )
-}
+mod common;
+use common::detune;
 
 /// The overcentre's equilibria in closed form: both bars of length L, the spring between
 /// the centres of mass (length L cos θ), both centres at height L/2 sin θ, so

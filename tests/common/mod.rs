@@ -86,3 +86,18 @@ pub fn with_sets(model: detune::Model, sets: &[(&str, &str)]) -> detune::Model {
 pub fn reference() -> serde_json::Value {
     serde_json::from_str(&std::fs::read_to_string(data("reference.json")).unwrap()).unwrap()
 }
+
+/// Run the detune binary from the crate root: (exit code, stdout, stderr); -1 for a
+/// process ended by a signal.
+pub fn detune(args: &[&str]) -> (i32, String, String) {
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_detune"))
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .args(args)
+        .output()
+        .unwrap();
+    (
+        o.status.code().unwrap_or(-1),
+        String::from_utf8_lossy(&o.stdout).into_owned(),
+        String::from_utf8_lossy(&o.stderr).into_owned(),
+    )
+}
