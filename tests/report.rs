@@ -294,6 +294,10 @@ fn crossings_are_where_the_lines_meet_the_modes() {
     assert!(
         strip(&page, "<", ">").contains("shaft-twist with 1P at 253.3 rpm (98.2 % of nominal)")
     );
+    // the UH-60 gives no operating range: the figure's legend does not call a crossing
+    // outside it
+    assert!(page.contains("not judged in or out"));
+    assert!(!page.contains("crossing outside it"));
     assert_eq!(nearest["mode_name"], "shaft-twist");
 }
 

@@ -352,6 +352,8 @@ fn bad_varies_are_refused_with_advice() {
 /// 0.1 %; an unforced model is refused with the advice to set the forcing amplitude.
 #[test]
 fn sweep_peaks_per_case_match_the_linear_response_at_small_forcing() {
+    let dir = tempfile::tempdir().unwrap();
+    let csv = dir.path().join("s.csv");
     let out = detune(&[
         "sensitivity",
         "models/overcentre.toml",
@@ -364,6 +366,8 @@ fn sweep_peaks_per_case_match_the_linear_response_at_small_forcing() {
         "--method",
         "both",
         "--json",
+        "-o",
+        csv.to_str().unwrap(),
     ]);
     assert!(
         out.status.success(),
@@ -372,6 +376,12 @@ fn sweep_peaks_per_case_match_the_linear_response_at_small_forcing() {
     );
     let j: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     let m = &j["modes"][0];
+    // the CSV's baseline row carries the baseline's peak too (its last column)
+    let text = std::fs::read_to_string(&csv).unwrap();
+    let baseline = text.lines().nth(1).unwrap();
+    assert!(baseline.contains(",baseline,baseline,"), "{baseline}");
+    let peak: f64 = baseline.rsplit(',').next().unwrap().parse().unwrap();
+    assert_eq!(peak, m["peak_omega_rad_s"].as_f64().unwrap());
     let frf_peak = |k: &str| -> f64 {
         let set_k = format!("k={k}");
         let o = detune(&[

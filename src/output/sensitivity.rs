@@ -72,7 +72,7 @@ pub fn write_sensitivity_csv(path: &str, s: &Sensitivity) -> Result<()> {
         for m in &s.modes {
             writeln!(
                 w,
-                "{},baseline,baseline,,{},{},{},0,{},",
+                "{},baseline,baseline,,{},{},{},0,{},{}",
                 m.name,
                 num(m.omega_n_rad_s),
                 num(m.damping_ratio),
@@ -81,7 +81,8 @@ pub fn write_sensitivity_csv(path: &str, s: &Sensitivity) -> Result<()> {
                     "0"
                 } else {
                     ""
-                }
+                },
+                opt(m.peak_omega_rad_s)
             )?;
             for c in &m.cases {
                 writeln!(

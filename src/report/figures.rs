@@ -355,15 +355,24 @@ impl Figure for CampbellPlot {
             label: format!("nominal {:.0} rpm", p.rpm_nominal),
             pen: forcing_pen(s),
         });
+        // with no operating range a crossing is neither in nor out of it: one grey marker
+        let judged = p.rpm_range.is_some();
         if !p.crossings.is_empty() {
-            entries.push(Entry {
-                label: "crossing in the operating range".into(),
-                pen: event_pen(style::Marker::Circle, style::EVENT, s),
-            });
-            entries.push(Entry {
-                label: "crossing outside it".into(),
-                pen: event_pen(style::Marker::Circle, WHITE, s),
-            });
+            if judged {
+                entries.push(Entry {
+                    label: "crossing in the operating range".into(),
+                    pen: event_pen(style::Marker::Circle, style::EVENT, s),
+                });
+                entries.push(Entry {
+                    label: "crossing outside it".into(),
+                    pen: event_pen(style::Marker::Circle, WHITE, s),
+                });
+            } else {
+                entries.push(Entry {
+                    label: "crossing (no operating range given: not judged in or out)".into(),
+                    pen: event_pen(style::Marker::Circle, RGBColor(150, 150, 150), s),
+                });
+            }
         }
         let lay = layout(root, &p.title, &entries, &f)?;
         let px = axes(
@@ -433,7 +442,7 @@ impl Figure for CampbellPlot {
             )?;
         }
         for &(x, y, inside) in &p.crossings {
-            let k = n_modes + if inside { 2 } else { 3 };
+            let k = n_modes + if !judged || inside { 2 } else { 3 };
             if let Some(at) = fr.map(x, y) {
                 painter.marker(at, &entries[k].pen, "curve-marker", &format!("r-{k}"))?;
             }
