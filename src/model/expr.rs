@@ -635,12 +635,17 @@ fn lex(src: &str) -> Result<Vec<Token<'_>>, ExprError> {
         } else if b"+-*/^(),".contains(&c) {
             i += 1;
             Tok::Op(c)
+        } else if let Some(dot) = ['·', '⋅'].into_iter().find(|d| src[i..].starts_with(*d)) {
+            // the middle dot detune itself writes in units (N·m/rad) multiplies, so that
+            // what it prints can be typed back
+            i += dot.len_utf8();
+            Tok::Op(b'*')
         } else {
             let ch = src[i..].chars().next().unwrap_or('\0');
             let span = i..i + ch.len_utf8();
             let err = ExprError::new(span, format!("unexpected character `{ch}`"));
             return Err(match ch {
-                '×' | '·' | '⋅' => err.with_help("use `*` to multiply"),
+                '×' => err.with_help("use `*` to multiply"),
                 '÷' => err.with_help("use `/` to divide"),
                 '−' | '–' => err.with_help("use `-` (ASCII hyphen-minus)"),
                 '[' | ']' | '{' | '}' => err.with_help("use `(` and `)` to group"),
@@ -1891,6 +1896,9 @@ mod tests {
         let e = err("2 × 3");
         assert_eq!(e.span, 2..4);
         assert!(e.help.unwrap().contains('*'));
+        // the middle dot of printed units multiplies
+        assert_eq!(val("2 · 3"), 6.0);
+        assert_eq!(val("2⋅3"), 6.0);
 
         let e = err("(1 + 2))");
         assert_eq!(e.span, 7..8);
