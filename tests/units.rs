@@ -439,3 +439,42 @@ fn frf_per_unit_is_the_closed_form_receptance() {
     let table = ok(&[&grid[..grid.len() - 1], &["--per-unit"]].concat());
     assert!(table.contains("block.x amp [m/N]"), "{table}");
 }
+
+/// `frf --per-unit` of the inceptor on its shaker table, every coordinate: the two
+/// resonances are peaks of the stick's angle; a coordinate that follows the table rigidly
+/// (|H| = 1 m/m to the last digit: crank.x, gearbox.x) or that the forcing does not move
+/// (stick.z, round-off of 1e-16 m/m) has no peak.
+#[test]
+fn frf_peaks_are_not_read_from_flat_or_round_off_curves() {
+    let j = json(&[
+        "frf",
+        "models/inceptor.toml",
+        "--param",
+        "omega",
+        "--from",
+        "5",
+        "--to",
+        "40",
+        "--step",
+        "1",
+        "--per-unit",
+        "--json",
+    ]);
+    let peaks = j["peaks"].as_array().unwrap();
+    let of = |name: &str| -> Vec<f64> {
+        peaks
+            .iter()
+            .filter(|p| p["response"] == name)
+            .map(|p| p["omega"].as_f64().unwrap())
+            .collect()
+    };
+    let phi = of("stick.phi");
+    assert_eq!(phi.len(), 2, "{phi:?}");
+    assert!(
+        (phi[0] - 13.2015).abs() < 1e-3 && (phi[1] - 26.7021).abs() < 1e-3,
+        "{phi:?}"
+    );
+    for flat in ["crank.x", "gearbox.x", "stick.z"] {
+        assert!(of(flat).is_empty(), "{flat}: {:?}", of(flat));
+    }
+}

@@ -119,8 +119,12 @@ pub fn run(a: FrfArgs) -> Result<()> {
         };
         let mut case = detune::output::figures::Case::of(&model);
         if a.per_unit {
-            case.overrides
-                .push("per unit of the forcing amplitude".into());
+            let name = sys
+                .forcing_amplitude_param()
+                .map(|i| sys.param_names()[i].clone())
+                .unwrap_or_default();
+            case.notes
+                .push(format!("per unit of the forcing amplitude {name}"));
         }
         let per_units: Vec<String> = units.iter().map(|u| format!("{u}{per}")).collect();
         let units: Vec<&str> = per_units.iter().map(String::as_str).collect();

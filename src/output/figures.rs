@@ -32,6 +32,8 @@ pub struct Case {
     pub file: String,
     /// `NAME=VALUE` as given.
     pub overrides: Vec<String>,
+    /// What else the caption says about the case (`per unit of D0`).
+    pub notes: Vec<String>,
 }
 
 impl Case {
@@ -44,6 +46,7 @@ impl Case {
                 .iter()
                 .map(|(n, v)| format!("{n}={v}"))
                 .collect(),
+            notes: Vec::new(),
         }
     }
     /// A case of a model name only (tests, library callers).
@@ -67,6 +70,7 @@ impl Case {
         if !self.overrides.is_empty() {
             parts.push(format!("--set {}", self.overrides.join(" ")));
         }
+        parts.extend(self.notes.iter().cloned());
         parts.extend(extra.iter().filter(|e| !e.is_empty()).cloned());
         parts.join(", ")
     }
