@@ -191,8 +191,10 @@ fn print_tables(s: &Sensitivity, unit: &dyn Fn(&str) -> String, fu: FreqUnit) {
         if let Some(p) = m.peak_omega_rad_s {
             println!("  stepped-sine peak (baseline): {:.6} {sym}", f(p));
         }
+        // the stepped-sine peaks' column only with --method sweep|both
+        let swept = m.cases.iter().any(|c| c.peak_omega_rad_s.is_some());
         println!(
-            "  {:<22} {:>16} {:>14} {:>9} {:>14} {:>9} {:>9} {:>14}",
+            "  {:<22} {:>16} {:>14} {:>9} {:>14} {:>9} {:>9}{}",
             "case",
             "value",
             format!("ω_n [{sym}]"),
@@ -200,11 +202,15 @@ fn print_tables(s: &Sensitivity, unit: &dyn Fn(&str) -> String, fu: FreqUnit) {
             format!("undamped ω [{sym}]"),
             "change",
             "ζ",
-            format!("peak [{sym}]")
+            if swept {
+                format!(" {:>14}", format!("peak [{sym}]"))
+            } else {
+                String::new()
+            }
         );
         for c in &m.cases {
             println!(
-                "  {:<22} {:>16} {:>14.6} {:>+8.3}% {:>14} {:>9} {:>9.5} {:>14}",
+                "  {:<22} {:>16} {:>14.6} {:>+8.3}% {:>14} {:>9} {:>9.5}{}",
                 c.label,
                 format!("{:.6e} {}", c.value, unit(&c.param)),
                 f(c.omega_n_rad_s),
@@ -216,9 +222,16 @@ fn print_tables(s: &Sensitivity, unit: &dyn Fn(&str) -> String, fu: FreqUnit) {
                     .map(|u| format!("{u:+.3}%"))
                     .unwrap_or_else(|| "-".into()),
                 c.damping_ratio,
-                c.peak_omega_rad_s
-                    .map(|p| format!("{:.6}", f(p)))
-                    .unwrap_or_else(|| "-".into())
+                if swept {
+                    format!(
+                        " {:>14}",
+                        c.peak_omega_rad_s
+                            .map(|p| format!("{:.6}", f(p)))
+                            .unwrap_or_else(|| "-".into())
+                    )
+                } else {
+                    String::new()
+                }
             );
         }
         println!(
