@@ -808,3 +808,28 @@ fn the_profile_section_states_tone_amplitudes_and_random_rms() {
         integral.sqrt()
     );
 }
+
+/// `--tune` without what it needs is a usage error (exit 2) naming the missing flag, and
+/// writes nothing.
+#[test]
+fn tune_without_its_arguments_is_a_usage_error() {
+    let dir = tempfile::tempdir().unwrap();
+    let html = dir.path().join("r.html");
+    let m = model("inceptor");
+    for (extra, missing) in [
+        (vec!["--environment", "UH-60", "--tune"], "--tune-vary"),
+        (
+            vec!["--tune", "--tune-vary", "k_fs=50%..200%"],
+            "--environment",
+        ),
+    ] {
+        let mut args = vec!["report", m.as_str()];
+        args.extend(extra);
+        args.extend(["-o", html.to_str().unwrap()]);
+        let out = run(&args);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{err}");
+        assert!(err.contains(missing), "{err}");
+    }
+    assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
+}

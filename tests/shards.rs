@@ -236,10 +236,11 @@ fn shards_are_refused_where_they_cannot_work() {
         "--refine cannot be used with --shard 1/2",
     );
     assert!(err.contains("--refine R --checkpoint all.ckpt"), "{err}");
-    refused(
-        &detune(&with(GRID, &["--shard", "1/2"])),
-        "needs --checkpoint FILE",
-    );
+    // a missing argument is a usage error (exit 2), named by clap
+    let out = detune(&with(GRID, &["--shard", "1/2"]));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(err.contains("--checkpoint"), "{err}");
     refused(
         &detune(&with(GRID, &["--shard", "3/2", "--checkpoint", &ckpt])),
         "expected K/N with 1 ≤ K ≤ N",

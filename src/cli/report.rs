@@ -28,8 +28,9 @@ pub struct ReportArgs {
     #[arg(long, default_value = "10%", value_name = "PCT")]
     pub margin: String,
     /// Add a tuning proposal: the smallest change of the --tune-vary parameters within
-    /// their ranges that clears every line by the margin.
-    #[arg(long)]
+    /// their ranges that clears every line by the margin. Needs --environment and
+    /// --tune-vary (a usage error, exit 2, without them).
+    #[arg(long, requires_all = ["environment", "tune_vary"])]
     pub tune: bool,
     /// A parameter the tuning may change, with its range (`k_fs=50%..200%`); separate
     /// from --vary (the tolerances). Repeatable; needed by --tune.

@@ -120,8 +120,9 @@ pub struct SweepArgs {
     pub checkpoint: Option<String>,
     /// Compute shard K of N (1 ≤ K ≤ N) of the study's cases into --checkpoint FILE;
     /// join the N checkpoints with `detune merge`. Independent sweeps are split by
-    /// frequency × --values case, up/down/both by --values case only.
-    #[arg(long, value_name = "K/N")]
+    /// frequency × --values case, up/down/both by --values case only. Needs
+    /// --checkpoint (a usage error, exit 2, without it).
+    #[arg(long, value_name = "K/N", requires = "checkpoint")]
     pub shard: Option<String>,
     /// Refine the peaks of a coarse independent sweep already computed (the CSV of a run
     /// or of `detune merge` with the same options): its frequencies are read, not
