@@ -228,14 +228,14 @@ pub enum Blocked {
     DoesNotVerify { error: String },
 }
 
-impl std::fmt::Display for Blocked {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+impl Blocked {
+    /// The reason in words, each number written by `num(field, value, decimals)` (the
+    /// field's JSON key under `blocked`): plain in [`Display`](std::fmt::Display), keyed
+    /// into the sidecar in the report. One wording for both.
+    pub fn words(&self, num: &dyn Fn(&str, f64, usize) -> String) -> String {
         match self {
             Blocked::NotComputed => {
-                write!(
-                    f,
-                    "the modes could not be computed at the optimizer's last point"
-                )
+                "the modes could not be computed at the optimizer's last point".into()
             }
             Blocked::Stays {
                 mode,
@@ -255,9 +255,10 @@ impl std::fmt::Display for Blocked {
                 } else {
                     ("above", "lowered below")
                 };
-                write!(
-                    f,
-                    "{mode} stays at {reached_rad_s:.4} rad/s{over}, {side} {limit_rad_s:.4} rad/s: it cannot be {verb} {line} by the margin within the bounds"
+                format!(
+                    "{mode} stays at {} rad/s{over}, {side} {} rad/s: it cannot be {verb} {line} by the margin within the bounds",
+                    num("reached_rad_s", *reached_rad_s, 4),
+                    num("limit_rad_s", *limit_rad_s, 4),
                 )
             }
             Blocked::Spans {
@@ -266,9 +267,11 @@ impl std::fmt::Display for Blocked {
                 max_rad_s,
                 margin_pct,
                 lines,
-            } => write!(
-                f,
-                "{mode} spans only {min_rad_s:.4}–{max_rad_s:.4} rad/s over the bounds, all within {margin_pct:.4} % of {lines}: it cannot be moved clear of {lines} within the bounds"
+            } => format!(
+                "{mode} spans only {}–{} rad/s over the bounds, all within {} % of {lines}: it cannot be moved clear of {lines} within the bounds",
+                num("min_rad_s", *min_rad_s, 4),
+                num("max_rad_s", *max_rad_s, 4),
+                num("margin_pct", *margin_pct, 4),
             ),
             Blocked::FailsCheck {
                 over_tolerances,
@@ -278,27 +281,28 @@ impl std::fmt::Display for Blocked {
                 separation_pct,
                 line,
                 required_pct,
-            } => {
+            } => format!(
+                "{}: {mode} spans {}–{} rad/s, {} % from {line} (needs {} %)",
                 if *over_tolerances {
-                    write!(
-                        f,
-                        "the design found fails the margins check over the tolerance box"
-                    )?;
+                    "the design found fails the margins check over the tolerance box"
                 } else {
-                    write!(
-                        f,
-                        "the design found fails the full margins check (mode tracking lost?)"
-                    )?;
-                }
-                write!(
-                    f,
-                    ": {mode} spans {min_rad_s:.4}–{max_rad_s:.4} rad/s, {separation_pct:.3} % from {line} (needs {required_pct:.3} %)"
-                )
-            }
+                    "the design found fails the full margins check (mode tracking lost?)"
+                },
+                num("min_rad_s", *min_rad_s, 4),
+                num("max_rad_s", *max_rad_s, 4),
+                num("separation_pct", *separation_pct, 3),
+                num("required_pct", *required_pct, 3),
+            ),
             Blocked::DoesNotVerify { error } => {
-                write!(f, "the design found does not verify: {error}")
+                format!("the design found does not verify: {error}")
             }
         }
+    }
+}
+
+impl std::fmt::Display for Blocked {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.words(&|_, x, decimals| format!("{x:.decimals$}")))
     }
 }
 

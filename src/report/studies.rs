@@ -694,58 +694,17 @@ fn profile_section(
     Ok(section)
 }
 
-/// Why the `i`-th infeasible placement of the tuning was not met, its numbers keyed into
-/// the sidecar (`tuning/infeasible/{i}/blocked/...`); the library's words where it gives
-/// no numbers.
+/// Why the `i`-th infeasible placement of the tuning was not met, in the library's words
+/// ([`crate::tune::Blocked::words`]) with its numbers keyed into the sidecar
+/// (`tuning/infeasible/{i}/blocked/...`).
 fn blocked_text(d: &super::Sidecar, i: usize, inf: &crate::tune::Infeasible) -> String {
-    use crate::tune::Blocked;
-    let n = |f: &str, digits| d.inline(format!("tuning/infeasible/{i}/blocked/{f}"), digits);
     match &inf.blocked {
-        Some(Blocked::Stays {
-            mode,
-            line,
-            raise,
-            over_tolerances,
-            ..
-        }) => format!(
-            "{mode} stays at {} rad/s{}, {} {} rad/s: it cannot be {} {line} by the margin within the bounds",
-            n("reached_rad_s", Digits::Fixed(4)),
-            if *over_tolerances {
-                " over its tolerances"
-            } else {
-                ""
-            },
-            if *raise { "below" } else { "above" },
-            n("limit_rad_s", Digits::Fixed(4)),
-            if *raise {
-                "raised above"
-            } else {
-                "lowered below"
-            },
-        ),
-        Some(Blocked::Spans { mode, lines, .. }) => format!(
-            "{mode} spans only {}–{} rad/s over the bounds, all within {} % of {lines}: it cannot be moved clear of {lines} within the bounds",
-            n("min_rad_s", Digits::Fixed(4)),
-            n("max_rad_s", Digits::Fixed(4)),
-            n("margin_pct", Digits::Fixed(1)),
-        ),
-        Some(Blocked::FailsCheck {
-            over_tolerances,
-            mode,
-            line,
-            ..
-        }) => format!(
-            "the design found fails the margins check{}: {mode} spans {}–{} rad/s, {} % from {line} (needs {} %)",
-            if *over_tolerances {
-                " over the tolerance box"
-            } else {
-                ""
-            },
-            n("min_rad_s", Digits::Fixed(4)),
-            n("max_rad_s", Digits::Fixed(4)),
-            n("separation_pct", Digits::Fixed(3)),
-            n("required_pct", Digits::Fixed(3)),
-        ),
-        _ => inf.reason.clone(),
+        Some(b) => b.words(&|field, _, decimals| {
+            d.inline(
+                format!("tuning/infeasible/{i}/blocked/{field}"),
+                Digits::Fixed(decimals),
+            )
+        }),
+        None => inf.reason.clone(),
     }
 }
