@@ -44,6 +44,7 @@ pub mod linear;
 pub mod margins;
 pub mod model;
 pub mod output;
+pub mod periodic;
 pub mod report;
 pub mod request;
 pub mod scalar;

@@ -1,0 +1,1062 @@
+//! The nonlinear frequency response: pseudo-arclength continuation of the periodic
+//! orbit in the forcing frequency (or any parameter), through folds, with its Floquet
+//! multipliers, and its folds, period doublings, Neimark–Sacker points and peaks located
+//! on the branch.
+//!
+//! # Continuation
+//!
+//! The unknowns are u = (ξ/σ_x, p/σ_p): the state in the tangent chart at the last point
+//! (see [`super`]) and the parameter, each scaled by the size of the curve (σ_p the
+//! parameter range, σ_x the largest state of the linear response over it), so that the
+//! step ds measures a fraction of the whole picture. The predictor steps along the unit
+//! tangent t (the null vector of the bordered Jacobian [(M − I)σ_x, ∂P/∂p σ_p], M the
+//! monodromy on the manifold); the corrector solves the fixed-point equations with the
+//! arclength condition tᵀ(u − u₀) = ds by Newton. The step grows after easy corrections
+//! and is halved after failed ones or a turn of the tangent by more than 25°.
+//!
+//! # Located points
+//!
+//! Between two points a test function changes sign:
+//! - fold (saddle-node): the parameter component t_p of the tangent;
+//! - period doubling: μ + 1 for the real multiplier nearest −1;
+//! - Neimark–Sacker: |μ| − 1 for the complex pair nearest the unit circle.
+//!
+//! Each is located by the Illinois variant of regula falsi on the arclength, every trial
+//! a corrected point of the branch (a bordered solve), to 1e-9 of the step in arclength:
+//! better than 1e-8 rad/s in ω. Peaks (interior maxima of an amplitude on a stable part)
+//! are located by successive parabolic interpolation on the arclength, every trial a
+//! corrected point, the amplitude measured on 2048 samples a period.
+//!
+//! Written by hand: no crate continues periodic orbits of a model given as a file.
+
+use super::{Flow, Shooting, ShootingOptions, multipliers};
+use crate::diag::{Error, Result};
+use crate::failure::Failure;
+use crate::frequency::measure::Measures;
+use crate::linear::Linearization;
+use crate::request::{Argument, parameter};
+use crate::statics::Statics;
+use crate::system::System;
+use nalgebra::{Complex, DMatrix, DVector};
+use std::sync::atomic::AtomicBool;
+
+/// Settings of a continuation.
+#[derive(Debug, Clone)]
+pub struct NfrOptions {
+    /// The continued parameter (the forcing frequency, or any other).
+    pub param: String,
+    pub from: f64,
+    pub to: f64,
+    /// Responses measured at every point.
+    pub responses: Vec<String>,
+    pub shooting: ShootingOptions,
+    /// Give up (an incomplete curve) after this many points.
+    pub max_points: usize,
+    /// Largest step, as a fraction of the curve's size (see the module doc).
+    pub max_step: f64,
+}
+
+impl NfrOptions {
+    pub fn new(param: &str, from: f64, to: f64, responses: Vec<String>) -> NfrOptions {
+        NfrOptions {
+            param: param.into(),
+            from,
+            to,
+            responses,
+            shooting: ShootingOptions::default(),
+            max_points: 3000,
+            max_step: 0.04,
+        }
+    }
+}
+
+/// What a located point is.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Located {
+    Fold,
+    PeriodDoubling,
+    NeimarkSacker,
+    Peak,
+}
+
+impl Located {
+    pub fn name(self) -> &'static str {
+        match self {
+            Located::Fold => "fold",
+            Located::PeriodDoubling => "period_doubling",
+            Located::NeimarkSacker => "neimark_sacker",
+            Located::Peak => "peak",
+        }
+    }
+}
+
+/// One periodic orbit of the curve.
+#[derive(Debug, Clone)]
+pub struct NfrPoint {
+    /// The continued parameter.
+    pub value: f64,
+    /// The forcing frequency, rad/s.
+    pub omega: f64,
+    /// One per response.
+    pub measures: Vec<Measures>,
+    /// Floquet multipliers on the manifold (2·DoF), largest modulus first.
+    pub multipliers: Vec<Complex<f64>>,
+    /// Every multiplier inside the unit circle.
+    pub stable: bool,
+    /// A located fold, bifurcation or peak (not a step of the continuation).
+    pub located: Option<Located>,
+    /// Scaled arclength from the start (branch 1 continues after branch 0's end).
+    pub s: f64,
+    /// The branch it is on (0 from the start of the range, 1 from its end).
+    pub branch: usize,
+    /// The state at forcing phase 0 (q, v).
+    pub x: Vec<f64>,
+}
+
+/// A located fold or bifurcation.
+#[derive(Debug, Clone)]
+pub struct Special {
+    pub kind: Located,
+    pub value: f64,
+    pub omega: f64,
+    /// One per response: half peak-to-peak.
+    pub amplitude: Vec<f64>,
+    pub multipliers: Vec<Complex<f64>>,
+    /// Stable on the side the continuation came from.
+    pub stable_before: bool,
+    /// The continued parameter's direction before it (+1 increasing, −1 decreasing).
+    pub direction_before: f64,
+}
+
+/// A located peak: an interior maximum of a response's amplitude on a stable part.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct NfrPeak {
+    pub response: String,
+    pub value: f64,
+    pub omega: f64,
+    pub amplitude: f64,
+}
+
+/// The curve.
+#[derive(Debug, Clone)]
+pub struct Nfr {
+    pub param: String,
+    /// The forcing frequency's parameter.
+    pub omega_param: String,
+    pub responses: Vec<String>,
+    pub units: Vec<&'static str>,
+    pub coordinates: Vec<String>,
+    /// The equilibrium the linear start is about.
+    pub equilibrium: Vec<f64>,
+    /// In arclength order, located points included.
+    pub points: Vec<NfrPoint>,
+    pub folds: Vec<Special>,
+    pub period_doublings: Vec<Special>,
+    pub neimark_sacker: Vec<Special>,
+    pub peaks: Vec<NfrPeak>,
+    /// False when interrupted or stopped short: `points` holds what was computed.
+    pub complete: bool,
+    /// The branches traced: from the start, and from the far end when the first does not
+    /// get there.
+    pub branches: Vec<BranchSummary>,
+    pub dof: usize,
+    pub periods: usize,
+    pub rhs_evaluations: usize,
+}
+
+/// A point with what the continuation needs of it.
+#[derive(Clone)]
+struct Node {
+    point: NfrPoint,
+    /// Tangent basis at x (2n × 2d).
+    basis: DMatrix<f64>,
+    /// Unit tangent in scaled chart coordinates (2d + 1): (ξ/σ_x, p/σ_p).
+    tangent: DVector<f64>,
+    /// Newton iterations it took.
+    iterations: usize,
+}
+
+impl Node {
+    /// The tangent in ambient scaled coordinates (2n + 1), to compare tangents of
+    /// different charts.
+    fn ambient(&self) -> DVector<f64> {
+        let d = self.basis.ncols();
+        let t = self.basis.clone() * self.tangent.rows(0, d);
+        let mut a = DVector::zeros(t.len() + 1);
+        a.rows_mut(0, t.len()).copy_from(&t);
+        a[t.len()] = self.tangent[d];
+        a
+    }
+
+    fn tp(&self) -> f64 {
+        self.tangent[self.tangent.len() - 1]
+    }
+}
+
+/// The continuation's state.
+struct Tracer<'c> {
+    sh: Shooting,
+    max_step: f64,
+    sx: f64,
+    sp: f64,
+    cancel: &'c AtomicBool,
+}
+
+/// Trace the curve. `progress(points, value)` after every point.
+pub fn nfr(
+    sys: &System,
+    opts: &NfrOptions,
+    progress: &dyn Fn(usize, f64),
+    cancel: &AtomicBool,
+) -> Result<Nfr> {
+    let param = parameter(
+        sys.param_names(),
+        &opts.param,
+        Argument::ContinuationParameter,
+    )?;
+    if !(opts.from.is_finite() && opts.to.is_finite()) || opts.from == opts.to {
+        return Err(Error::request(
+            format!(
+                "--from {} --to {}: the range of {} is empty",
+                opts.from, opts.to, opts.param
+            ),
+            "give two different finite values",
+        ));
+    }
+    let freq = sys
+        .forcing_param()
+        .ok_or(crate::request::Invalid::NoForcingFrequency)?;
+    let omega_param = sys.param_names()[freq].clone();
+    let sys0 = sys.with_param(param, opts.from)?;
+    if !(sys0.param(freq) > 0.0) {
+        return Err(Error::request(
+            format!(
+                "the forcing frequency {omega_param} is {} rad/s: a periodic orbit needs a positive one",
+                sys0.param(freq)
+            ),
+            format!("set it (--set {omega_param}=...) or continue in {omega_param}"),
+        ));
+    }
+    let responses = sys0.outputs(&opts.responses)?;
+    let units: Vec<&'static str> = responses.iter().map(|o| o.unit(&sys0)).collect();
+    // The linear response about the equilibrium at the start: the first guess.
+    let Linear {
+        eq,
+        x: x0,
+        lin,
+        forcing,
+        y,
+    } = linear_start(&sys0, freq, &omega_param)?;
+    let omega0 = sys0.param(freq);
+    let n = sys0.nq();
+    // The scales: the parameter's range, and the largest linear state over it.
+    let sp = (opts.to - opts.from).abs();
+    let state_norm = |y: &DVector<Complex<f64>>, w: f64| {
+        (0..n)
+            .map(|i| y[i].norm_sqr() * (1.0 + w * w))
+            .sum::<f64>()
+            .sqrt()
+    };
+    let mut sx = state_norm(&y, omega0);
+    if param == freq {
+        for j in 0..=200 {
+            let w = opts.from + (opts.to - opts.from) * j as f64 / 200.0;
+            if w > 0.0
+                && let Ok(yw) = lin.response(w, &forcing)
+            {
+                sx = sx.max(state_norm(&yw, w));
+            }
+        }
+    }
+    let sx = sx.max(1e-12);
+    let mut tr = Tracer {
+        sh: Shooting::new(&sys0, param, &responses, opts.shooting.clone())?,
+        max_step: opts.max_step,
+        sx,
+        sp,
+        cancel,
+    };
+    let dof = {
+        let b = tr.sh.tangent_basis(&x0);
+        b.ncols() / 2
+    };
+    let first = tr.start(x0, opts.from, opts.to, opts)?;
+    let mut specials: Vec<Special> = Vec::new();
+    let mut all: Vec<Node> = Vec::new();
+    let mut branches = Vec::new();
+    let mut budget = opts.max_points;
+    let one = tr.branch(
+        first,
+        opts.from,
+        opts.to,
+        0,
+        &[],
+        &mut specials,
+        &mut budget,
+        progress,
+    )?;
+    let mut interrupted = one.end == BranchEnd::Interrupted;
+    let mut complete = one.end != BranchEnd::PointLimit && !interrupted;
+    let reached = one.end == BranchEnd::Reached;
+    all.extend(one.nodes.iter().cloned());
+    branches.push(one.summary(0, opts));
+    // The far end, unless the first branch got there: another branch may live there,
+    // apart from the first (a resonance whose two sides meet only in a chaotic tangle).
+    if !reached && !interrupted && budget > 0 {
+        let sys1 = tr.sh.sys.with_param(param, opts.to)?;
+        let guess = linear_start(&sys1, freq, &omega_param)?;
+        let guess = (guess.eq, guess.x);
+        let mut end_tr = Tracer {
+            sh: Shooting::new(&sys1, param, &responses, opts.shooting.clone())?,
+            max_step: opts.max_step,
+            sx: tr.sx,
+            sp: tr.sp,
+            cancel,
+        };
+        if let Ok(start) = end_tr.start(guess.1, opts.to, opts.from, opts)
+            && !on_branch(&start, &all)
+        {
+            let s0 = all.iter().map(|n| n.point.s).fold(0.0, f64::max) + 1.0;
+            let mut start = start;
+            start.point.s = s0;
+            let two = end_tr.branch(
+                start,
+                opts.to,
+                opts.from,
+                1,
+                &all,
+                &mut specials,
+                &mut budget,
+                progress,
+            )?;
+            interrupted |= two.end == BranchEnd::Interrupted;
+            complete &= two.end != BranchEnd::PointLimit && !interrupted;
+            all.extend(two.nodes.iter().cloned());
+            branches.push(two.summary(1, opts));
+        }
+        tr.sh.flows += end_tr.sh.flows;
+        tr.sh.rhs_evaluations += end_tr.sh.rhs_evaluations;
+    }
+    all.sort_by(|a, b| a.point.s.total_cmp(&b.point.s));
+    // peaks on the stable parts
+    let mut peaks = Vec::new();
+    if !interrupted {
+        let mut found = Vec::new();
+        for r in 0..responses.len() {
+            for i in 1..all.len().saturating_sub(1) {
+                let a = |k: usize| all[k].point.measures[r].amplitude;
+                if all[i - 1].point.branch == all[i + 1].point.branch
+                    && all[i - 1].point.stable
+                    && all[i].point.stable
+                    && all[i + 1].point.stable
+                    && a(i) > a(i - 1)
+                    && a(i) >= a(i + 1)
+                {
+                    match tr.peak(&all, i, r) {
+                        Ok(Some(mut nd)) => {
+                            nd.point.located = Some(Located::Peak);
+                            peaks.push(NfrPeak {
+                                response: opts.responses[r].clone(),
+                                value: nd.point.value,
+                                omega: nd.point.omega,
+                                amplitude: nd.point.measures[r].amplitude,
+                            });
+                            found.push(nd);
+                        }
+                        Ok(None) => {}
+                        Err(e) if is_interrupt(&e) => break,
+                        Err(_) => {}
+                    }
+                }
+            }
+        }
+        all.extend(found);
+        all.sort_by(|a, b| a.point.s.total_cmp(&b.point.s));
+    }
+    let pick =
+        |k: Located| -> Vec<Special> { specials.iter().filter(|s| s.kind == k).cloned().collect() };
+    Ok(Nfr {
+        param: opts.param.clone(),
+        omega_param,
+        responses: opts.responses.clone(),
+        units,
+        coordinates: sys0.coordinates.clone(),
+        equilibrium: eq.q.clone(),
+        points: all.into_iter().map(|n| n.point).collect(),
+        folds: pick(Located::Fold),
+        period_doublings: pick(Located::PeriodDoubling),
+        neimark_sacker: pick(Located::NeimarkSacker),
+        peaks,
+        complete: complete && !interrupted,
+        branches,
+        dof,
+        periods: tr.sh.flows,
+        rhs_evaluations: tr.sh.rhs_evaluations,
+    })
+}
+
+/// The linear response about the equilibrium at the system's parameter values.
+struct Linear {
+    eq: crate::statics::Equilibrium,
+    /// The state at forcing phase 0, q* + Im Y, ω Re Y (not yet on the manifold).
+    x: Vec<f64>,
+    lin: Linearization,
+    forcing: crate::linear::Forcing,
+    y: DVector<Complex<f64>>,
+}
+
+fn linear_start(sys: &System, freq: usize, omega_param: &str) -> Result<Linear> {
+    let start = crate::dynamics::assemble_at_rest(sys)?;
+    let st = Statics::new(sys, &start.q)?;
+    let eq = st.nearest(&start)?;
+    let omega = sys.param(freq);
+    let forcing = crate::linear::harmonic_forcing(sys, &eq, &st.rows, omega_param, omega)?;
+    let lin = Linearization::new(&st, &eq);
+    let y = lin.response(omega, &forcing)?;
+    let n = sys.nq();
+    let mut x = vec![0.0; 2 * n];
+    for i in 0..n {
+        x[i] = eq.q[i] + y[i].im;
+        x[n + i] = omega * y[i].re;
+    }
+    Ok(Linear {
+        eq,
+        x,
+        lin,
+        forcing,
+        y,
+    })
+}
+
+/// Whether a point lies on one of `nodes`' branches already: within 1e-6 of the orbit's
+/// amplitude of a point there at the same parameter value (to 1e-9 of it), or between
+/// two neighbours.
+fn on_branch(n: &Node, nodes: &[Node]) -> bool {
+    let p = n.point.value;
+    nodes.windows(2).any(|w| {
+        let (a, b) = (&w[0].point, &w[1].point);
+        if a.branch != b.branch || (a.value - p) * (b.value - p) > 0.0 {
+            return false;
+        }
+        let f = if b.value == a.value {
+            0.0
+        } else {
+            (p - a.value) / (b.value - a.value)
+        };
+        let x: Vec<f64> = a.x.iter().zip(&b.x).map(|(u, v)| u + f * (v - u)).collect();
+        let d = x
+            .iter()
+            .zip(&n.point.x)
+            .map(|(u, v)| (u - v).abs())
+            .fold(0.0, f64::max);
+        let size = n.point.x.iter().fold(0.0f64, |m, v| m.max(v.abs())) + 1e-12;
+        d <= 1e-3 * size
+    })
+}
+
+/// How a branch ended.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum BranchEnd {
+    /// At the far end of the range.
+    Reached,
+    /// Back out through the end it started from.
+    Returned,
+    /// It meets a branch traced before.
+    Joined,
+    /// The corrector no longer converges (steps below 1e-6 of the curve).
+    Stalled,
+    /// The orbit's largest multiplier exceeds what single shooting resolves.
+    Unstable,
+    PointLimit,
+    Interrupted,
+}
+
+/// A traced branch.
+struct Branch {
+    nodes: Vec<Node>,
+    end: BranchEnd,
+}
+
+/// What a branch covered and how it ended, for the outputs.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct BranchSummary {
+    pub index: usize,
+    /// The continued parameter where it starts and ends.
+    pub from: f64,
+    pub to: f64,
+    pub points: usize,
+    /// How it ended, in words.
+    pub end: String,
+}
+
+impl Branch {
+    fn summary(&self, index: usize, opts: &NfrOptions) -> BranchSummary {
+        let first = self.nodes.first().map_or(f64::NAN, |n| n.point.value);
+        let last = self.nodes.last().map_or(f64::NAN, |n| n.point.value);
+        let mu = self.nodes.last().map_or(0.0, |n| {
+            n.point.multipliers.first().map_or(0.0, |m| m.norm())
+        });
+        let p = &opts.param;
+        let end = match self.end {
+            BranchEnd::Reached => format!("reached {p} = {last}"),
+            BranchEnd::Returned => format!("turned back and left the range at {p} = {last}"),
+            BranchEnd::Joined => format!("joins the branch traced before at {p} = {last}"),
+            BranchEnd::Stalled => format!(
+                "stopped at {p} = {last}: the corrector no longer converges (largest multiplier {mu:.3e})"
+            ),
+            BranchEnd::Unstable => format!(
+                "stopped at {p} = {last}: the orbit's largest Floquet multiplier ({mu:.3e}) is beyond what single shooting resolves"
+            ),
+            BranchEnd::PointLimit => {
+                format!("stopped at {p} = {last} after {} points", self.nodes.len())
+            }
+            BranchEnd::Interrupted => format!("interrupted at {p} = {last}"),
+        };
+        BranchSummary {
+            index,
+            from: first,
+            to: last,
+            points: self.nodes.len(),
+            end,
+        }
+    }
+}
+
+fn is_interrupt(e: &Error) -> bool {
+    matches!(
+        e,
+        Error::Failed {
+            failure: Failure::SweepInterrupted | Failure::Interrupted { .. },
+            ..
+        }
+    )
+}
+
+/// The kinds of located points whose test functions change between a and b.
+fn events(a: &Node, b: &Node) -> Vec<Located> {
+    let mut out = Vec::new();
+    if a.tp() * b.tp() < 0.0 {
+        out.push(Located::Fold);
+    }
+    let count = |n: &Node, pred: &dyn Fn(&Complex<f64>) -> bool| {
+        n.point.multipliers.iter().filter(|m| pred(m)).count()
+    };
+    let real_below = |m: &Complex<f64>| is_real(m) && m.re < -1.0;
+    if count(a, &real_below) != count(b, &real_below) {
+        out.push(Located::PeriodDoubling);
+    }
+    let complex_out = |m: &Complex<f64>| !is_real(m) && m.norm() > 1.0;
+    if count(a, &complex_out) != count(b, &complex_out)
+        && a.point.multipliers.iter().any(|m| !is_real(m))
+        && b.point.multipliers.iter().any(|m| !is_real(m))
+    {
+        out.push(Located::NeimarkSacker);
+    }
+    out
+}
+
+fn is_real(m: &Complex<f64>) -> bool {
+    m.im.abs() <= 1e-9 * (1.0 + m.norm())
+}
+
+/// The test function of a kind at a node (None where it is not defined there).
+fn test(kind: Located, n: &Node) -> Option<f64> {
+    let mu = &n.point.multipliers;
+    match kind {
+        Located::Fold => Some(n.tp()),
+        // det(M + I) = Π(μ + 1): real, continuous, of one sign while complex pairs
+        // come and go, zero where a real multiplier passes −1
+        Located::PeriodDoubling => Some(
+            mu.iter()
+                .fold(Complex::new(1.0, 0.0), |p, m| p * (m + 1.0))
+                .re,
+        ),
+        // the bialternate product Π_{i<j}(μ_i μ_j − 1): zero where a complex pair is on
+        // the unit circle (detected only between points with complex pairs)
+        Located::NeimarkSacker => {
+            let mut p = Complex::new(1.0, 0.0);
+            for i in 0..mu.len() {
+                for j in i + 1..mu.len() {
+                    p *= mu[i] * mu[j] - 1.0;
+                }
+            }
+            Some(p.re)
+        }
+        Located::Peak => None,
+    }
+}
+
+impl Tracer<'_> {
+    /// The first point: Newton at p = from from the linear response; where that fails,
+    /// from a settled stepped-sine response.
+    fn start(&mut self, mut x0: Vec<f64>, from: f64, to: f64, opts: &NfrOptions) -> Result<Node> {
+        self.sh.project(&mut x0);
+        let base = |sh: &mut Shooting, x: Vec<f64>| -> Result<Node> {
+            let basis = sh.tangent_basis(&x);
+            let d = basis.ncols();
+            let mut tangent = DVector::zeros(d + 1);
+            tangent[d] = (to - from).signum();
+            let omega = sh.omega();
+            Ok(Node {
+                point: NfrPoint {
+                    value: sh.value(),
+                    omega,
+                    measures: Vec::new(),
+                    multipliers: Vec::new(),
+                    stable: true,
+                    located: None,
+                    s: 0.0,
+                    branch: 0,
+                    x,
+                },
+                basis,
+                tangent,
+                iterations: 0,
+            })
+        };
+        let guess = base(&mut self.sh, x0)?;
+        if let Some(n) = self.correct(&guess, 0.0, Some(from))? {
+            return Ok(self.orient(n, &guess));
+        }
+        // settle by integration, then Newton
+        let mut state = crate::dynamics::State {
+            t: 0.0,
+            q: guess.point.x[..self.sh.sys.nq()].to_vec(),
+            v: guess.point.x[self.sh.sys.nq()..].to_vec(),
+        };
+        let steady = crate::frequency::SteadyOptions {
+            rtol: opts.shooting.rtol,
+            atol: opts.shooting.atol,
+            settle_tol: 1e-6,
+            ..Default::default()
+        };
+        let s = crate::frequency::steady_state(&self.sh.sys, &state, &[], &steady, self.cancel)?;
+        state = s.end;
+        let x: Vec<f64> = state.q.iter().chain(&state.v).copied().collect();
+        let guess = base(&mut self.sh, x)?;
+        match self.correct(&guess, 0.0, Some(from))? {
+            Some(n) => Ok(self.orient(n, &guess)),
+            None => Err(Error::request(
+                format!(
+                    "no periodic orbit found at {} = {}: shooting from the linear response and from a settled response does not converge",
+                    opts.param, from
+                ),
+                "start the curve at another value (a frequency away from resonances and jumps), or raise the damping",
+            )),
+        }
+    }
+
+    /// Trace a branch from `first` (at `from`) toward `to`, until it gets there, turns
+    /// back out of the range, meets one of `before`, or stalls; its folds and
+    /// bifurcations go to `specials` (and their points into the branch).
+    #[allow(clippy::too_many_arguments)]
+    fn branch(
+        &mut self,
+        mut first: Node,
+        from: f64,
+        to: f64,
+        index: usize,
+        before: &[Node],
+        specials: &mut Vec<Special>,
+        budget: &mut usize,
+        progress: &dyn Fn(usize, f64),
+    ) -> Result<Branch> {
+        first.point.branch = index;
+        let mut nodes = vec![first];
+        let dir = (to - from).signum();
+        let mut ds = 0.01f64.min(self.max_step);
+        let mut located: Vec<Node> = Vec::new();
+        let finish = |mut nodes: Vec<Node>, located: Vec<Node>, end| {
+            nodes.extend(located);
+            nodes.sort_by(|a: &Node, b: &Node| a.point.s.total_cmp(&b.point.s));
+            Ok(Branch { nodes, end })
+        };
+        loop {
+            if *budget == 0 {
+                return finish(nodes, located, BranchEnd::PointLimit);
+            }
+            if self.cancel.load(std::sync::atomic::Ordering::Relaxed) {
+                return finish(nodes, located, BranchEnd::Interrupted);
+            }
+            let last = nodes.last().expect("a start").clone();
+            let next = match self.correct(&last, ds, None) {
+                Ok(n) => n,
+                Err(e) if is_interrupt(&e) => {
+                    return finish(nodes, located, BranchEnd::Interrupted);
+                }
+                Err(_) => None,
+            };
+            let Some(mut next) = next else {
+                ds *= 0.5;
+                if ds < 1e-6 {
+                    return finish(nodes, located, BranchEnd::Stalled);
+                }
+                continue;
+            };
+            // a sharp turn: a smaller step
+            if last.ambient().dot(&next.ambient()) < 0.9 && ds > 1e-6 {
+                ds *= 0.5;
+                continue;
+            }
+            next.point.s = last.point.s + ds;
+            for kind in events(&last, &next) {
+                match self.locate(&last, &next, ds, kind) {
+                    Ok(Some(mut nd)) => {
+                        nd.point.located = Some(kind);
+                        specials.push(Special {
+                            kind,
+                            value: nd.point.value,
+                            omega: nd.point.omega,
+                            amplitude: nd.point.measures.iter().map(|m| m.amplitude).collect(),
+                            multipliers: nd.point.multipliers.clone(),
+                            stable_before: last.point.stable,
+                            direction_before: last.tp().signum() * dir,
+                        });
+                        located.push(nd);
+                    }
+                    Ok(None) => {}
+                    Err(e) if is_interrupt(&e) => {
+                        return finish(nodes, located, BranchEnd::Interrupted);
+                    }
+                    Err(_) => {}
+                }
+            }
+            *budget = budget.saturating_sub(1);
+            let v = next.point.value;
+            if (v - to) * dir >= 0.0 {
+                // the point at `to` exactly
+                let end = match self.correct(&last, 0.0, Some(to)) {
+                    Ok(Some(mut end)) => {
+                        end.point.s =
+                            last.point.s + ((to - last.point.value) / (v - last.point.value)) * ds;
+                        end
+                    }
+                    _ => next,
+                };
+                nodes.push(end);
+                return finish(nodes, located, BranchEnd::Reached);
+            }
+            if (v - from) * dir < 0.0 {
+                nodes.push(next);
+                return finish(nodes, located, BranchEnd::Returned);
+            }
+            let joined = !before.is_empty() && on_branch(&next, before);
+            let growth = next.point.multipliers.first().map_or(0.0, |m| m.norm());
+            let its = next.iterations;
+            nodes.push(next);
+            progress(nodes.len(), v);
+            if joined {
+                return finish(nodes, located, BranchEnd::Joined);
+            }
+            if growth > 1e6 {
+                return finish(nodes, located, BranchEnd::Unstable);
+            }
+            if its <= 3 {
+                ds = (ds * 1.5).min(self.max_step);
+            } else if its >= 6 {
+                ds *= 0.6;
+            }
+        }
+    }
+
+    /// The tangent of the first point pointing toward `to`.
+    fn orient(&self, mut n: Node, guess: &Node) -> Node {
+        if n.tp() * guess.tp() < 0.0 {
+            n.tangent.neg_mut();
+        }
+        n
+    }
+
+    /// A point of the branch: from `base` a step `ds` along its tangent, corrected (the
+    /// arclength condition), or with `fixed` at that parameter value (then `ds` is
+    /// ignored). None when Newton does not converge.
+    fn correct(&mut self, base: &Node, ds: f64, fixed: Option<f64>) -> Result<Option<Node>> {
+        let d = base.basis.ncols();
+        let (sx, sp) = (self.sx, self.sp);
+        let tx = base.tangent.rows(0, d).into_owned();
+        let tpar = base.tangent[d];
+        let (mut x, mut p) = match fixed {
+            None => {
+                let step = &base.basis * &tx * (sx * ds);
+                let x: Vec<f64> = base
+                    .point
+                    .x
+                    .iter()
+                    .zip(step.iter())
+                    .map(|(a, b)| a + b)
+                    .collect();
+                (x, base.point.value + sp * ds * tpar)
+            }
+            Some(v) => {
+                // along the tangent to the value (the start: no tangent, x as is)
+                let s = if tpar.abs() > 1e-12 {
+                    (v - base.point.value) / (sp * tpar)
+                } else {
+                    0.0
+                };
+                let step = &base.basis * &tx * (sx * s);
+                let x: Vec<f64> = base
+                    .point
+                    .x
+                    .iter()
+                    .zip(step.iter())
+                    .map(|(a, b)| a + b)
+                    .collect();
+                (x, v)
+            }
+        };
+        self.sh.project(&mut x);
+        let mut prev = f64::INFINITY;
+        let mut worse = 0;
+        for it in 0..12 {
+            self.sh.set(p)?;
+            let tb = self.sh.tangent_basis(&x);
+            if tb.ncols() != d {
+                return Ok(None);
+            }
+            let flow = match self.sh.flow(&x, &tb, true, self.cancel) {
+                Ok(f) => f,
+                Err(e) if is_interrupt(&e) => return Err(e),
+                Err(_) => return Ok(None),
+            };
+            let rel = self.sh.relative(&flow.end, &x, &flow.scale);
+            let diff = DVector::from_fn(x.len(), |i, _| flow.end[i] - x[i]);
+            let dx = DVector::from_fn(x.len(), |i, _| x[i] - base.point.x[i]);
+            let arc = match fixed {
+                None => {
+                    tx.dot(&(base.basis.transpose() * &dx)) / sx
+                        + tpar * (p - base.point.value) / sp
+                        - ds
+                }
+                Some(v) => (p - v) / sp,
+            };
+            // the integration's error, amplified by the orbit's unstable multipliers,
+            // bounds the residual that the fixed point can be found to
+            let growth = base
+                .point
+                .multipliers
+                .iter()
+                .fold(1.0f64, |m, mu| m.max(mu.norm()));
+            let tol = self.sh.opts.tol.max(100.0 * self.sh.opts.rtol * growth);
+            if rel <= tol && arc.abs() <= 1e-10 {
+                return Ok(Some(self.node(x, p, tb, flow, base, it + 1)));
+            }
+            if !(rel < prev) {
+                worse += 1;
+                if worse >= 2 || it >= 4 {
+                    return Ok(None);
+                }
+            }
+            prev = rel;
+            // the bordered Newton system
+            let fx = base.basis.transpose() * (&flow.jac - &tb);
+            let fp = base.basis.transpose() * flow.dp.as_ref().expect("asked");
+            let mut jm = DMatrix::zeros(d + 1, d + 1);
+            jm.view_mut((0, 0), (d, d)).copy_from(&fx);
+            jm.view_mut((0, d), (d, 1)).copy_from(&fp);
+            match fixed {
+                None => {
+                    let row = (tx.transpose() * base.basis.transpose() * &tb) / sx;
+                    jm.view_mut((d, 0), (1, d)).copy_from(&row);
+                    jm[(d, d)] = tpar / sp;
+                }
+                Some(_) => jm[(d, d)] = 1.0 / sp,
+            }
+            let mut rhs = DVector::zeros(d + 1);
+            rhs.rows_mut(0, d)
+                .copy_from(&(-(base.basis.transpose() * &diff)));
+            rhs[d] = -arc;
+            let Some(step) = jm.lu().solve(&rhs) else {
+                return Ok(None);
+            };
+            let dxs = &tb * step.rows(0, d);
+            for (xi, s) in x.iter_mut().zip(dxs.iter()) {
+                *xi += s;
+            }
+            p += step[d];
+            self.sh.project(&mut x);
+            if !x.iter().all(|v| v.is_finite()) || !p.is_finite() {
+                return Ok(None);
+            }
+        }
+        Ok(None)
+    }
+
+    /// A converged point with its multipliers and tangent (oriented along `base`'s).
+    fn node(
+        &self,
+        x: Vec<f64>,
+        p: f64,
+        tb: DMatrix<f64>,
+        flow: Flow,
+        base: &Node,
+        iterations: usize,
+    ) -> Node {
+        let d = tb.ncols();
+        let mono = tb.transpose() * &flow.jac;
+        let mu = multipliers(&mono);
+        let fp = tb.transpose() * flow.dp.as_ref().expect("asked");
+        let mut k = DMatrix::zeros(d, d + 1);
+        let mut mi = mono.clone();
+        for i in 0..d {
+            mi[(i, i)] -= 1.0;
+        }
+        k.view_mut((0, 0), (d, d)).copy_from(&(mi * self.sx));
+        k.view_mut((0, d), (d, 1)).copy_from(&(fp * self.sp));
+        let ktk = k.transpose() * &k;
+        let eig = nalgebra::SymmetricEigen::new(ktk);
+        let imin = (0..=d)
+            .min_by(|&i, &j| eig.eigenvalues[i].total_cmp(&eig.eigenvalues[j]))
+            .unwrap_or(d);
+        let mut tangent = eig.eigenvectors.column(imin).into_owned();
+        tangent.normalize_mut();
+        let measures = (0..flow.values.first().map_or(0, |v| v.len()))
+            .map(|r| {
+                let s: Vec<f64> = flow.values.iter().map(|v| v[r]).collect();
+                Measures::of(&s, 1)
+            })
+            .collect();
+        let stable = mu.iter().all(|m| m.norm() < 1.0);
+        let mut nd = Node {
+            point: NfrPoint {
+                value: p,
+                omega: self.sh.omega(),
+                measures,
+                multipliers: mu,
+                stable,
+                located: None,
+                s: base.point.s,
+                branch: base.point.branch,
+                x,
+            },
+            basis: tb,
+            tangent,
+            iterations,
+        };
+        if base.ambient().dot(&nd.ambient()) < 0.0 {
+            nd.tangent.neg_mut();
+        }
+        nd
+    }
+
+    /// Locate the zero of `kind`'s test function between `a` and `b` (a step `ds` from
+    /// a) by the Illinois method on the arclength.
+    fn locate(&mut self, a: &Node, b: &Node, ds: f64, kind: Located) -> Result<Option<Node>> {
+        let (Some(mut ga), Some(mut gb)) = (test(kind, a), test(kind, b)) else {
+            return Ok(None);
+        };
+        if ga * gb > 0.0 {
+            return Ok(None);
+        }
+        let (mut sa, mut sb) = (0.0, ds);
+        let small = 1e-10 * (ga.abs() + gb.abs());
+        let mut best: Option<(f64, Node)> = None;
+        let mut side = 0;
+        let mut s_prev = f64::NAN;
+        for _ in 0..60 {
+            let s = (sa * gb - sb * ga) / (gb - ga);
+            let s = if s.is_finite() && s > sa && s < sb {
+                s
+            } else {
+                0.5 * (sa + sb)
+            };
+            let Some(mut n) = self.correct(a, s, None)? else {
+                break;
+            };
+            n.point.s = a.point.s + s;
+            let Some(g) = test(kind, &n) else {
+                break;
+            };
+            if best.as_ref().is_none_or(|(b, _)| g.abs() < b.abs()) {
+                best = Some((g, n));
+            }
+            if g.abs() <= small || (s - s_prev).abs() < 1e-10 * ds {
+                break;
+            }
+            s_prev = s;
+            if g * ga > 0.0 {
+                sa = s;
+                ga = g;
+                if side == -1 {
+                    gb *= 0.5;
+                }
+                side = -1;
+            } else {
+                sb = s;
+                gb = g;
+                if side == 1 {
+                    ga *= 0.5;
+                }
+                side = 1;
+            }
+        }
+        Ok(best.map(|(_, n)| n))
+    }
+
+    /// Locate the peak of response `r`'s amplitude near `all[i]` by successive parabolic
+    /// interpolation in the arclength (2048 samples a period).
+    fn peak(&mut self, all: &[Node], i: usize, r: usize) -> Result<Option<Node>> {
+        let keep = self.sh.opts.samples;
+        self.sh.opts.samples = 2048;
+        let out = self.peak_inner(all, i, r);
+        self.sh.opts.samples = keep;
+        out
+    }
+
+    fn peak_inner(&mut self, all: &[Node], i: usize, r: usize) -> Result<Option<Node>> {
+        let base = &all[i - 1];
+        let mut pts: Vec<(f64, f64, Option<Node>)> = Vec::new();
+        for k in [i - 1, i, i + 1] {
+            let ds = all[k].point.s - base.point.s;
+            let n = if k == i - 1 {
+                self.correct(base, 0.0, Some(base.point.value))?
+            } else {
+                self.correct(base, ds, None)?
+            };
+            let Some(mut n) = n else { return Ok(None) };
+            n.point.s = all[k].point.s;
+            pts.push((n.point.s, n.point.measures[r].amplitude, Some(n)));
+        }
+        let mut best: Option<Node> = None;
+        for _ in 0..20 {
+            pts.sort_by(|a, b| a.0.total_cmp(&b.0));
+            let (s0, a0) = (pts[0].0, pts[0].1);
+            let (s1, a1) = (pts[1].0, pts[1].1);
+            let (s2, a2) = (pts[2].0, pts[2].1);
+            let den = (s1 - s0) * (a1 - a2) - (s1 - s2) * (a1 - a0);
+            let num = (s1 - s0).powi(2) * (a1 - a2) - (s1 - s2).powi(2) * (a1 - a0);
+            if den == 0.0 {
+                break;
+            }
+            let s = s1 - 0.5 * num / den;
+            if !(s > s0 && s < s2) || (s - s1).abs() < 1e-10 * (s2 - s0).max(1e-300) {
+                best = pts[1].2.take();
+                break;
+            }
+            let Some(mut n) = self.correct(base, s - base.point.s, None)? else {
+                break;
+            };
+            n.point.s = s;
+            let a = n.point.measures[r].amplitude;
+            let w_new = n.point.omega;
+            let w_old = pts[1].2.as_ref().map_or(f64::NAN, |n| n.point.omega);
+            // keep the three around the largest
+            pts.push((s, a, Some(n)));
+            pts.sort_by(|a, b| a.0.total_cmp(&b.0));
+            let imax = (0..pts.len())
+                .max_by(|&x, &y| pts[x].1.total_cmp(&pts[y].1))
+                .unwrap_or(1)
+                .clamp(1, pts.len() - 2);
+            pts = pts.drain(imax - 1..=imax + 1).collect();
+            if (w_new - w_old).abs() < 1e-10 * w_new.abs().max(1.0) {
+                best = pts[1].2.take();
+                break;
+            }
+        }
+        if best.is_none() && pts.len() == 3 {
+            best = pts[1].2.take();
+        }
+        Ok(best.filter(|n| n.point.stable))
+    }
+}

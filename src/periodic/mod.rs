@@ -1,0 +1,425 @@
+//! Periodic orbits of the forced constrained mechanism by single shooting on the
+//! constraint manifold, with their monodromy matrices from the variational equations.
+//!
+//! # The map
+//!
+//! A state x = (q, v) lies on the manifold 𝓜 = {Φ(q, 0) = 0, A(q)v + Φ_t(q, 0) = 0}
+//! (dimension 2·DoF). The forced motion over one period T of the forcing, integrated as
+//! `simulate` integrates it (the Udwadia–Kalaba equations, DOP853, drift projected after
+//! each step), is the Poincaré map P: 𝓜 → 𝓜. A periodic orbit is a fixed point of P.
+//!
+//! # Shooting, and why single
+//!
+//! The unknowns are the state at forcing phase 0 and the continued parameter. The
+//! residual is written in a chart of 𝓜: with T_c an orthonormal basis of the tangent space
+//! at a centre x_c (the null space of the constraint rows' Jacobian
+//! G = [[A, 0], [∂(Av + Φ_t)/∂q, A]]), R(x) = T_cᵀ (P(x) − x) ∈ ℝ^{2·DoF}, and a Newton
+//! step moves x along the tangent basis T_x at the iterate itself, x ← π(x + T_x η)
+//! (π: the projection of `simulate` back onto 𝓜), so every iterate is a consistent state
+//! and no coordinate ever leaves the constraints. Single shooting suffices here: the
+//! mechanisms are damped or conservative, one forcing period is short against the growth
+//! of any unstable direction (|μ| ≤ 10³ on the curves of docs/nonlinear-frequency-response.md),
+//! and the integration error control makes P accurate to its tolerance. Multiple shooting
+//! would only pay for strongly unstable orbits.
+//!
+//! # The monodromy matrix
+//!
+//! The variational equations Ẋ = ∂F/∂y · X (F the right-hand side of the first-order
+//! system y = (q, v)) are integrated with the state, for the 2·DoF tangent directions and,
+//! when asked, the parameter direction (Ẋ_p = ∂F/∂y X_p + ∂F/∂p). Their products
+//! ∂F/∂y · X are directional derivatives of F by central differences along each column
+//! (step 6e-6 relative: error ~1e-11 of the column), evaluated at every stage of the same
+//! steps as the state: the derivative of the integrated flow, not finite differences of
+//! whole periods (whose error would be the integrator's tolerance over the step). The
+//! multipliers are the eigenvalues of T_xᵀ Φ(T) T_x at a fixed point, the monodromy on
+//! the manifold. Written by hand: no crate integrates variational equations of a
+//! constrained multibody system.
+
+pub mod continuation;
+
+use crate::diag::Result;
+use crate::dynamics::integrator::{Integrator, IntegratorOptions};
+use crate::dynamics::simulate::ConstrainedOde;
+use crate::dynamics::{
+    DynWorkspace, project_position, project_velocity, residual_norm, velocity_residual_blocks,
+};
+use crate::failure::Failure;
+use crate::system::System;
+use crate::system::outputs::{Output, Probe};
+use differential_equations::ode::ODE;
+use nalgebra::{Complex, DMatrix, DVector};
+use std::cell::{Cell, RefCell};
+use std::sync::atomic::{AtomicBool, Ordering};
+
+/// Settings of the shooting.
+#[derive(Debug, Clone)]
+pub struct ShootingOptions {
+    pub rtol: f64,
+    pub atol: f64,
+    /// Samples per period for the measures.
+    pub samples: usize,
+    /// Newton converges when every component of P(x) − x is below this fraction of the
+    /// orbit's amplitude (positions and velocities separately).
+    pub tol: f64,
+}
+
+impl Default for ShootingOptions {
+    fn default() -> Self {
+        ShootingOptions {
+            rtol: 1e-10,
+            atol: 1e-12,
+            samples: 128,
+            tol: 1e-9,
+        }
+    }
+}
+
+/// One period integrated with its variational equations.
+#[derive(Debug, Clone)]
+pub struct Flow {
+    /// P(x): the state after one period (2n).
+    pub end: Vec<f64>,
+    /// ∂P/∂x · D for the directions D the flow was asked for (2n × k).
+    pub jac: DMatrix<f64>,
+    /// dP/dp, the continued parameter's column (the period's dependence included).
+    pub dp: Option<DVector<f64>>,
+    /// Per sample (the period's end excluded), the responses.
+    pub values: Vec<Vec<f64>>,
+    /// Half peak-to-peak of each state component over the period.
+    pub scale: Vec<f64>,
+}
+
+/// Periodic orbits of one model at values of one parameter.
+pub struct Shooting {
+    /// The model, its continued parameter set to the value of the last flow.
+    pub sys: System,
+    /// The continued parameter.
+    pub param: usize,
+    /// The forcing-frequency parameter (T = 2π/ω).
+    pub freq: usize,
+    pub opts: ShootingOptions,
+    probe: Probe,
+    ws: DynWorkspace,
+    /// Right-hand-side evaluations so far (each evaluation of the state or of one
+    /// perturbed state counts 1).
+    pub rhs_evaluations: usize,
+    /// Periods integrated.
+    pub flows: usize,
+}
+
+/// Relative step of the central differences of the right-hand side.
+const FD_STEP: f64 = 6e-6;
+
+impl Shooting {
+    pub fn new(
+        sys: &System,
+        param: usize,
+        responses: &[Output],
+        opts: ShootingOptions,
+    ) -> Result<Shooting> {
+        sys.refuse_free_bodies("the periodic-orbit continuation")?;
+        let freq = sys
+            .forcing_param()
+            .ok_or(crate::request::Invalid::NoForcingFrequency)?;
+        Ok(Shooting {
+            sys: sys.clone(),
+            param,
+            freq,
+            opts,
+            probe: Probe::new(sys, responses.to_vec()),
+            ws: DynWorkspace::new(sys),
+            rhs_evaluations: 0,
+            flows: 0,
+        })
+    }
+
+    /// 2n: the length of a state (q, v).
+    pub fn len(&self) -> usize {
+        self.sys.nq() + self.sys.nv()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// Set the continued parameter.
+    pub fn set(&mut self, p: f64) -> Result<()> {
+        self.sys.set_param(self.param, p)
+    }
+
+    /// The continued parameter's value.
+    pub fn value(&self) -> f64 {
+        self.sys.param(self.param)
+    }
+
+    /// The forcing frequency, rad/s.
+    pub fn omega(&self) -> f64 {
+        self.sys.param(self.freq)
+    }
+
+    /// The forcing period, s.
+    pub fn period(&self) -> f64 {
+        2.0 * std::f64::consts::PI / self.omega()
+    }
+
+    /// Put x on the manifold (positions, then velocities, at forcing phase 0).
+    pub fn project(&mut self, x: &mut [f64]) -> f64 {
+        let n = self.sys.nq();
+        let (q, v) = x.split_at_mut(n);
+        project_position(&self.sys, &mut self.ws, q, 0.0, 1e-14, 20);
+        project_velocity(&self.sys, &mut self.ws, q, v, 0.0);
+        let pos = residual_norm(&self.sys, q, 0.0);
+        let vel = velocity_residual_blocks(&self.sys, &mut self.ws, q, v, 0.0);
+        pos.max(vel)
+    }
+
+    /// An orthonormal basis of the manifold's tangent space at x (2n × 2·DoF).
+    pub fn tangent_basis(&mut self, x: &[f64]) -> DMatrix<f64> {
+        let sys = &self.sys;
+        let (n, m) = (sys.nq(), sys.m());
+        let mut a = DMatrix::zeros(m, n);
+        let (q, v) = x.split_at(n);
+        let psi = |ws: &mut DynWorkspace, q: &[f64]| -> DVector<f64> {
+            crate::dynamics::velocity_residual(sys, ws, q, v, 0.0)
+        };
+        sys.jacobian(&mut self.ws.sys, q, 0.0, &mut a);
+        let mut g = DMatrix::zeros(2 * m, 2 * n);
+        g.view_mut((0, 0), (m, n)).copy_from(&a);
+        g.view_mut((m, n), (m, n)).copy_from(&a);
+        let mut qp = q.to_vec();
+        for j in 0..n {
+            let h = 1e-6 * (1.0 + q[j].abs());
+            qp[j] = q[j] + h;
+            let up = psi(&mut self.ws, &qp);
+            qp[j] = q[j] - h;
+            let down = psi(&mut self.ws, &qp);
+            qp[j] = q[j];
+            for i in 0..m {
+                g[(m + i, j)] = (up[i] - down[i]) / (2.0 * h);
+            }
+        }
+        crate::linalg::null_space_of(&g)
+    }
+
+    /// Integrate one period from x (consistent), with the variational equations along
+    /// the columns of `dirs` and, if `with_dp`, along the continued parameter.
+    pub fn flow(
+        &mut self,
+        x: &[f64],
+        dirs: &DMatrix<f64>,
+        with_dp: bool,
+        cancel: &AtomicBool,
+    ) -> Result<Flow> {
+        let n2 = self.len();
+        let k = dirs.ncols();
+        let period = self.period();
+        let p = self.value();
+        let dp = 1e-6 * p.abs().max(1e-3);
+        let perturbed = if with_dp {
+            Some((
+                self.sys.with_param(self.param, p + dp)?,
+                self.sys.with_param(self.param, p - dp)?,
+            ))
+        } else {
+            None
+        };
+        let ode = Variational {
+            base: ConstrainedOde::new(&self.sys),
+            perturbed: perturbed
+                .as_ref()
+                .map(|(a, b)| (ConstrainedOde::new(a), ConstrainedOde::new(b), dp)),
+            n2,
+            k,
+            evals: Cell::new(0),
+            buf: RefCell::new((vec![0.0; n2], vec![0.0; n2], vec![0.0; n2])),
+        };
+        let cols = k + usize::from(with_dp);
+        let mut y0 = vec![0.0; n2 * (1 + cols)];
+        y0[..n2].copy_from_slice(x);
+        for j in 0..k {
+            y0[n2 * (1 + j)..n2 * (2 + j)].copy_from_slice(dirs.column(j).as_slice());
+        }
+        let per = self.opts.samples;
+        let iopts = IntegratorOptions {
+            t0: 0.0,
+            t_end: period,
+            dt_out: period / per as f64,
+            rtol: self.opts.rtol,
+            atol: self.opts.atol,
+            max_steps: 10_000_000,
+            method: Integrator::Dop853,
+        };
+        let n = self.sys.nq();
+        let sys = &self.sys;
+        let probe = &mut self.probe;
+        let mut values = Vec::with_capacity(per + 1);
+        let mut lo = x.to_vec();
+        let mut hi = x.to_vec();
+        let mut last = y0.clone();
+        let proj = RefCell::new(DynWorkspace::new(sys));
+        let outputs = probe.outputs().len();
+        crate::dynamics::integrator::integrate(
+            &ode,
+            &y0,
+            &iopts,
+            &mut |t, y| {
+                let (q, v) = y[..n2].split_at(n);
+                let mut out = vec![0.0; outputs];
+                probe.eval(sys, t, q, v, &mut out);
+                values.push(out);
+                for i in 0..n2 {
+                    lo[i] = lo[i].min(y[i]);
+                    hi[i] = hi[i].max(y[i]);
+                }
+                if values.len() == per + 1 {
+                    last.copy_from_slice(y);
+                }
+                true
+            },
+            &mut |t, y| {
+                let (q, v) = y[..n2].split_at_mut(n);
+                let pos = residual_norm(sys, q, t);
+                let mut ws = proj.borrow_mut();
+                let vel = velocity_residual_blocks(sys, &mut ws, q, v, t);
+                if pos > 1e-12 || vel > 1e-12 {
+                    project_position(sys, &mut ws, q, t, 1e-14, 5);
+                    project_velocity(sys, &mut ws, q, v, t);
+                    true
+                } else {
+                    false
+                }
+            },
+            &mut |_| !cancel.load(Ordering::Relaxed),
+        )?;
+        self.rhs_evaluations += ode.evals.get();
+        self.flows += 1;
+        if values.len() != per + 1 {
+            return Err(Failure::SweepInterrupted.into());
+        }
+        values.pop();
+        let mut end = last[..n2].to_vec();
+        // the end state exactly on the manifold (drift since the last projection)
+        {
+            let (q, v) = end.split_at_mut(n);
+            let mut ws = proj.borrow_mut();
+            project_position(sys, &mut ws, q, 0.0, 1e-14, 5);
+            project_velocity(sys, &mut ws, q, v, 0.0);
+        }
+        let jac = DMatrix::from_fn(n2, k, |i, j| last[n2 * (1 + j) + i]);
+        let dp = with_dp.then(|| {
+            let mut col = DVector::from_fn(n2, |i, _| last[n2 * (1 + k) + i]);
+            if self.param == self.freq {
+                // the period T = 2π/ω moves the end too: dT/dω = −T/ω
+                let mut f = vec![0.0; n2];
+                ode.base.diff(period, &last[..n2].to_vec(), &mut f);
+                let dt = -period / self.sys.param(self.freq);
+                for i in 0..n2 {
+                    col[i] += f[i] * dt;
+                }
+            }
+            col
+        });
+        if !crate::linalg::all_finite(&end) || !crate::linalg::all_finite(jac.as_slice()) {
+            return Err(Failure::NonFiniteResult {
+                quantity: "the state after one period".into(),
+                value: f64::NAN,
+            }
+            .into());
+        }
+        let scale = lo.iter().zip(&hi).map(|(l, h)| 0.5 * (h - l)).collect();
+        Ok(Flow {
+            end,
+            jac,
+            dp,
+            values,
+            scale,
+        })
+    }
+
+    /// max_i |a_i − b_i| / (scale_i + floor), the floor the largest scale of the same kind
+    /// (positions, velocities): a change relative to the orbit's amplitude.
+    pub fn relative(&self, a: &[f64], b: &[f64], scale: &[f64]) -> f64 {
+        let n = self.sys.nq();
+        let qmax = scale[..n].iter().fold(0.0f64, |m, s| m.max(*s));
+        let vmax = scale[n..].iter().fold(0.0f64, |m, s| m.max(*s));
+        (0..a.len())
+            .map(|i| {
+                let floor = if i < n { qmax } else { vmax } + 1e-14;
+                (a[i] - b[i]).abs() / (scale[i] + floor)
+            })
+            .fold(0.0, f64::max)
+    }
+}
+
+/// Floquet multipliers: the eigenvalues of the monodromy on the manifold, sorted by
+/// modulus, largest first.
+pub fn multipliers(monodromy: &DMatrix<f64>) -> Vec<Complex<f64>> {
+    let mut mu: Vec<Complex<f64>> = monodromy
+        .clone()
+        .complex_eigenvalues()
+        .iter()
+        .copied()
+        .collect();
+    mu.sort_by(|a, b| b.norm().total_cmp(&a.norm()).then(b.im.total_cmp(&a.im)));
+    mu
+}
+
+/// The state and its variational columns as one first-order system.
+struct Variational<'a> {
+    base: ConstrainedOde<'a>,
+    /// The right-hand side at p ± dp, and dp.
+    perturbed: Option<(ConstrainedOde<'a>, ConstrainedOde<'a>, f64)>,
+    n2: usize,
+    /// Direction columns (the parameter column follows them).
+    k: usize,
+    evals: Cell<usize>,
+    buf: RefCell<(Vec<f64>, Vec<f64>, Vec<f64>)>,
+}
+
+impl ODE<f64, Vec<f64>> for Variational<'_> {
+    fn diff(&self, t: f64, y: &Vec<f64>, dy: &mut Vec<f64>) {
+        let n2 = self.n2;
+        let mut buf = self.buf.borrow_mut();
+        let (xs, up, down) = &mut *buf;
+        xs.copy_from_slice(&y[..n2]);
+        self.base.diff(t, xs, up);
+        dy[..n2].copy_from_slice(up);
+        let mut evals = 1;
+        let size = 1.0 + crate::linalg::amax(&y[..n2]);
+        let cols = self.k + usize::from(self.perturbed.is_some());
+        for j in 0..cols {
+            let col = &y[n2 * (1 + j)..n2 * (2 + j)];
+            let out = n2 * (1 + j);
+            let norm = crate::linalg::amax(col);
+            if norm > 0.0 && norm.is_finite() {
+                let h = FD_STEP * size / norm;
+                for i in 0..n2 {
+                    xs[i] = y[i] + h * col[i];
+                }
+                self.base.diff(t, xs, up);
+                for i in 0..n2 {
+                    xs[i] = y[i] - h * col[i];
+                }
+                self.base.diff(t, xs, down);
+                evals += 2;
+                for i in 0..n2 {
+                    dy[out + i] = (up[i] - down[i]) / (2.0 * h);
+                }
+            } else {
+                dy[out..out + n2].fill(0.0);
+            }
+            if j == self.k
+                && let Some((plus, minus, dp)) = &self.perturbed
+            {
+                xs.copy_from_slice(&y[..n2]);
+                plus.diff(t, xs, up);
+                minus.diff(t, xs, down);
+                evals += 2;
+                for i in 0..n2 {
+                    dy[out + i] += (up[i] - down[i]) / (2.0 * dp);
+                }
+            }
+        }
+        self.evals.set(self.evals.get() + evals);
+    }
+}
