@@ -13,6 +13,7 @@ use cli::kinematics::KinematicsArgs;
 use cli::margins::MarginsArgs;
 use cli::merge::MergeArgs;
 use cli::modes::ModesArgs;
+use cli::nfr::NfrArgs;
 use cli::report::ReportArgs;
 use cli::sensitivity::SensitivityArgs;
 use cli::simulate::SimulateArgs;
@@ -58,6 +59,10 @@ enum Command {
     /// simulation, resonances located by refinement.
     #[command(allow_negative_numbers = true)]
     Sweep(SweepArgs),
+    /// Nonlinear frequency response by continuation of periodic orbits: stable and
+    /// unstable, with folds, period doublings, Neimark-Sacker points and peaks located.
+    #[command(allow_negative_numbers = true)]
+    Nfr(NfrArgs),
     /// Join the checkpoints of a sharded sweep (`sweep --shard K/N --checkpoint FILE`)
     /// into the CSV, JSON and plot one unsharded run writes, byte for byte.
     Merge(MergeArgs),
@@ -108,6 +113,7 @@ fn main() {
         Command::Modes(a) => cli::modes::run(a),
         Command::Sensitivity(a) => cli::sensitivity::run(a),
         Command::Frf(a) => cli::frf::run(a),
+        Command::Nfr(a) => cli::nfr::run(a),
         Command::Sweep(a) => cli::sweep::run(a),
         Command::Merge(a) => cli::merge::run(a),
         Command::Kinematics(a) => cli::kinematics::run(a),

@@ -15,6 +15,7 @@ pub mod kinematics;
 pub mod margins;
 pub mod merge;
 pub mod modes;
+pub mod nfr;
 pub mod report;
 pub mod sensitivity;
 pub mod simulate;

@@ -21,7 +21,7 @@ pub fn unit(angle: bool) -> &'static str {
 }
 
 /// `name [unit]`, or `name [-]` for a dimensionless quantity.
-fn with_unit(name: &str, unit: &str) -> String {
+pub(crate) fn with_unit(name: &str, unit: &str) -> String {
     format!("{name} [{}]", if unit.is_empty() { "-" } else { unit })
 }
 
@@ -225,7 +225,7 @@ pub fn branch_figure(
 }
 
 /// A number in at most 4 significant decimals, trailing zeros trimmed.
-fn short(x: f64) -> String {
+pub(crate) fn short(x: f64) -> String {
     let s = if x != 0.0 && (x.abs() < 1e-3 || x.abs() >= 1e5) {
         format!("{x:.3e}")
     } else {

@@ -9,6 +9,7 @@ pub mod commit;
 pub mod figures;
 pub mod json;
 pub mod margins;
+pub mod nfr;
 pub mod plot;
 pub mod results;
 pub mod sensitivity;

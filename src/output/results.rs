@@ -45,7 +45,12 @@ impl Cell<'_> {
 }
 
 /// Write a header and rows of cells as CSV, with `footer` lines (comments) at the end.
-fn write_rows(path: &str, header: &[String], rows: &[Vec<Cell>], footer: &[&str]) -> Result<()> {
+pub(crate) fn write_rows(
+    path: &str,
+    header: &[String],
+    rows: &[Vec<Cell>],
+    footer: &[&str],
+) -> Result<()> {
     write_atomic(path, |w| {
         writeln!(w, "{}", header.join(","))?;
         for row in rows {
@@ -122,7 +127,7 @@ pub const MEASURES: [&str; 8] = [
     "thd",
 ];
 
-fn measure_values(m: &crate::frequency::measure::Measures) -> [f64; 8] {
+pub fn measure_values(m: &crate::frequency::measure::Measures) -> [f64; 8] {
     [
         m.amplitude,
         m.max,

@@ -711,7 +711,7 @@ impl Tracer<'_> {
                             amplitude: nd.point.measures.iter().map(|m| m.amplitude).collect(),
                             multipliers: nd.point.multipliers.clone(),
                             stable_before: last.point.stable,
-                            direction_before: last.tp().signum() * dir,
+                            direction_before: last.tp().signum(),
                         });
                         located.push(nd);
                     }
@@ -943,6 +943,17 @@ impl Tracer<'_> {
     /// Locate the zero of `kind`'s test function between `a` and `b` (a step `ds` from
     /// a) by the Illinois method on the arclength.
     fn locate(&mut self, a: &Node, b: &Node, ds: f64, kind: Located) -> Result<Option<Node>> {
+        // the test functions are computed from the monodromy, whose error is the
+        // integration's: 100 times tighter here
+        let keep = (self.sh.opts.rtol, self.sh.opts.atol);
+        self.sh.opts.rtol = (keep.0 * 1e-2).max(1e-14);
+        self.sh.opts.atol = keep.1 * 1e-2;
+        let out = self.locate_inner(a, b, ds, kind);
+        (self.sh.opts.rtol, self.sh.opts.atol) = keep;
+        out
+    }
+
+    fn locate_inner(&mut self, a: &Node, b: &Node, ds: f64, kind: Located) -> Result<Option<Node>> {
         let (Some(mut ga), Some(mut gb)) = (test(kind, a), test(kind, b)) else {
             return Ok(None);
         };

@@ -232,12 +232,18 @@ impl Shooting {
             k,
             evals: Cell::new(0),
             buf: RefCell::new((vec![0.0; n2], vec![0.0; n2], vec![0.0; n2])),
+            tiny: 1e-6 * self.opts.atol,
         };
         let cols = k + usize::from(with_dp);
         let mut y0 = vec![0.0; n2 * (1 + cols)];
         y0[..n2].copy_from_slice(x);
         for j in 0..k {
-            y0[n2 * (1 + j)..n2 * (2 + j)].copy_from_slice(dirs.column(j).as_slice());
+            for (y, d) in y0[n2 * (1 + j)..n2 * (2 + j)]
+                .iter_mut()
+                .zip(dirs.column(j).iter())
+            {
+                *y = d * ode.tiny;
+            }
         }
         let per = self.opts.samples;
         let iopts = IntegratorOptions {
@@ -305,9 +311,10 @@ impl Shooting {
             project_position(sys, &mut ws, q, 0.0, 1e-14, 5);
             project_velocity(sys, &mut ws, q, v, 0.0);
         }
-        let jac = DMatrix::from_fn(n2, k, |i, j| last[n2 * (1 + j) + i]);
+        let tiny = ode.tiny;
+        let jac = DMatrix::from_fn(n2, k, |i, j| last[n2 * (1 + j) + i] / tiny);
         let dp = with_dp.then(|| {
-            let mut col = DVector::from_fn(n2, |i, _| last[n2 * (1 + k) + i]);
+            let mut col = DVector::from_fn(n2, |i, _| last[n2 * (1 + k) + i] / tiny);
             if self.param == self.freq {
                 // the period T = 2π/ω moves the end too: dT/dω = −T/ω
                 let mut f = vec![0.0; n2];
@@ -374,6 +381,11 @@ struct Variational<'a> {
     k: usize,
     evals: Cell<usize>,
     buf: RefCell<(Vec<f64>, Vec<f64>, Vec<f64>)>,
+    /// The variational columns are integrated scaled by this (1e-6 of the absolute
+    /// tolerance): their equations are linear, so the scaling is exact, and their error
+    /// then stays below the tolerance, so that the steps are chosen by the state alone
+    /// (the central differences' ~1e-11 noise would otherwise hold the steps down).
+    tiny: f64,
 }
 
 impl ODE<f64, Vec<f64>> for Variational<'_> {
@@ -416,7 +428,7 @@ impl ODE<f64, Vec<f64>> for Variational<'_> {
                 minus.diff(t, xs, down);
                 evals += 2;
                 for i in 0..n2 {
-                    dy[out + i] += (up[i] - down[i]) / (2.0 * dp);
+                    dy[out + i] += self.tiny * (up[i] - down[i]) / (2.0 * dp);
                 }
             }
         }

@@ -1,0 +1,280 @@
+//! `detune nfr`: the nonlinear frequency response by continuation of periodic orbits,
+//! stable and unstable, with folds, period doublings, Neimark–Sacker points and peaks
+//! located (see `detune::periodic`).
+
+use super::args::{ModelArgs, frequency_value};
+use super::{INTERRUPTED, interrupt_on_ctrl_c, print_json};
+use clap::Args;
+use detune::diag::{Error, Result};
+use detune::output::figures::Case;
+use detune::output::nfr::{NfrReport, jump_words, nfr_figures, write_nfr_csv};
+use detune::output::plot::write_panels_sized;
+use detune::output::units::{Units, WithUnits};
+use detune::output::{Provenance, check_outputs};
+use detune::periodic::continuation::{NfrOptions, nfr};
+
+#[derive(Args)]
+pub struct NfrArgs {
+    #[command(flatten)]
+    pub model: ModelArgs,
+    /// The continued parameter: the forcing frequency (rad/s) or any other parameter.
+    #[arg(long, value_name = "NAME")]
+    pub param: String,
+    /// Start of the range: the curve starts from the linear response here. rad/s or a
+    /// quantity ("0.5 Hz") for the forcing frequency; SI otherwise.
+    #[arg(long, value_name = "A", allow_hyphen_values = true)]
+    pub from: String,
+    /// End of the range.
+    #[arg(long, value_name = "B", allow_hyphen_values = true)]
+    pub to: String,
+    /// Response to measure at every point (repeatable) [default: every coordinate]: any
+    /// name `sweep --response` takes.
+    #[arg(long, value_name = "NAME")]
+    pub response: Vec<String>,
+    /// Relative error tolerance of the integration.
+    #[arg(
+        long,
+        default_value_t = 1e-10,
+        value_name = "R",
+        allow_hyphen_values = true
+    )]
+    pub rtol: f64,
+    /// Absolute error tolerance of the integration (SI).
+    #[arg(
+        long,
+        default_value_t = 1e-12,
+        value_name = "A",
+        allow_hyphen_values = true
+    )]
+    pub atol: f64,
+    /// Give up after this many points (the curve is then written, marked incomplete).
+    #[arg(long, default_value_t = 3000, value_name = "N")]
+    pub max_points: usize,
+    /// Largest continuation step, as a fraction of the curve's size (parameter range,
+    /// largest linear response).
+    #[arg(long, default_value_t = 0.04, value_name = "S")]
+    pub max_step: f64,
+    /// CSV: one row per periodic orbit (see docs/nonlinear-frequency-response.md).
+    #[arg(short = 'o', long = "output", value_name = "OUT.csv")]
+    pub output: Option<String>,
+    /// Print the JSON result.
+    #[arg(long)]
+    pub json: bool,
+    /// Figure (.svg or .png): each response's amplitude against the parameter, stable
+    /// solid, unstable dashed, folds, bifurcations and peaks marked.
+    #[arg(long, value_name = "OUT.svg")]
+    pub plot: Option<String>,
+    #[command(flatten)]
+    pub freq: super::args::FreqUnitArg,
+    #[command(flatten)]
+    pub plot_size: super::args::PlotSize,
+}
+
+pub fn run(a: NfrArgs) -> Result<()> {
+    let (model, sys) = a.model.load()?;
+    let size = a.plot_size.check(a.plot.as_deref(), a.output.as_deref())?;
+    let outputs = check_outputs(
+        &model.source.path,
+        &[a.output.as_deref(), a.plot.as_deref()],
+    )?;
+    let is_freq = sys
+        .forcing_param()
+        .is_some_and(|i| sys.param_names()[i] == a.param);
+    let value = |flag: &str, text: &str| -> Result<f64> {
+        if is_freq {
+            frequency_value(flag, text)
+        } else {
+            text.trim().parse::<f64>().map_err(|_| {
+                Error::request(
+                    format!("{flag} {text}: not a number"),
+                    format!("give {} in SI units, e.g. {flag} 2.5", a.param),
+                )
+            })
+        }
+    };
+    let from = value("--from", &a.from)?;
+    let to = value("--to", &a.to)?;
+    for (flag, v) in [
+        ("--rtol", a.rtol),
+        ("--atol", a.atol),
+        ("--max-step", a.max_step),
+    ] {
+        if !(v > 0.0 && v.is_finite()) || (flag == "--rtol" && v >= 1.0) {
+            return Err(Error::request(
+                format!(
+                    "{flag} {v}: must be a positive number{}",
+                    if flag == "--rtol" { " below 1" } else { "" }
+                ),
+                "use the default, or e.g. --rtol 1e-10 --atol 1e-12 --max-step 0.04",
+            ));
+        }
+    }
+    let responses = if a.response.is_empty() {
+        model.coordinate_names()
+    } else {
+        a.response.clone()
+    };
+    let mut opts = NfrOptions::new(&a.param, from, to, responses);
+    opts.shooting.rtol = a.rtol;
+    opts.shooting.atol = a.atol;
+    opts.max_points = a.max_points.max(2);
+    opts.max_step = a.max_step;
+    interrupt_on_ctrl_c();
+    let bar = indicatif::ProgressBar::new_spinner();
+    bar.set_style(
+        indicatif::ProgressStyle::with_template("continuing {spinner} {msg} {elapsed}")
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_spinner()),
+    );
+    let began = std::time::Instant::now();
+    let param = a.param.clone();
+    let curve = nfr(
+        &sys,
+        &opts,
+        &|n, v| {
+            bar.set_message(format!("{n} points, {param} = {v:.6}"));
+            bar.tick();
+        },
+        &INTERRUPTED,
+    );
+    bar.finish_and_clear();
+    let curve = curve?;
+    let fu = a.freq.freq_unit;
+    let param_unit = if is_freq {
+        "rad/s".to_string()
+    } else {
+        model.param_unit(&a.param)
+    };
+    if let Some(o) = &a.output {
+        write_nfr_csv(o, &curve)?;
+    }
+    if let Some(p) = &a.plot {
+        let figures: Vec<_> = nfr_figures(&Case::of(&model), &curve, &param_unit)
+            .into_iter()
+            .map(|f| if is_freq { f.in_frequency_unit(fu) } else { f })
+            .collect();
+        write_panels_sized(p, &figures, size)?;
+    }
+    outputs.commit()?;
+    for f in [&a.output, &a.plot].into_iter().flatten() {
+        eprintln!(
+            "wrote {f}{}",
+            if curve.complete { "" } else { " (incomplete)" }
+        );
+    }
+    // a value of the continued parameter as printed: in the chosen frequency unit
+    let shown = |v: f64| -> String {
+        if is_freq {
+            format!("{:.6} {}", fu.of(v), fu.symbol())
+        } else {
+            format!("{} {param_unit}", detune::diag::num(v))
+        }
+    };
+    if a.json {
+        let mut units = Units::new().with(curve.param.clone(), param_unit.clone());
+        units.add(curve.omega_param.clone(), "rad/s");
+        for (r, unit) in curve.responses.iter().zip(&curve.units) {
+            for m in ["amplitude", "max", "min", "mean", "h1", "h2"] {
+                units.add(format!("{r}_{m}"), *unit);
+            }
+            units.add(format!("{r}_phase_deg"), "deg");
+            units.add(format!("{r}_thd"), "1");
+        }
+        let units = units.with_all([
+            ("branch", "1"),
+            ("floquet_max", "1"),
+            ("value", param_unit.as_str()),
+            ("omega", "rad/s"),
+            (
+                "amplitude",
+                "the response's unit (its `<response>_amplitude`)",
+            ),
+            ("multipliers", "1 (complex: re, im, modulus)"),
+            ("periods", "1"),
+            ("rhs_evaluations", "1"),
+        ]);
+        print_json(&WithUnits {
+            doc: NfrReport::new(&curve, &Provenance::of(&model)),
+            units: &units,
+        });
+    } else {
+        println!(
+            "{} points on {} branch{} in {:.2} s ({} periods, {} right-hand-side evaluations); {} degree{} of freedom, {} Floquet multipliers a point",
+            curve.points.len(),
+            curve.branches.len(),
+            if curve.branches.len() == 1 { "" } else { "es" },
+            began.elapsed().as_secs_f64(),
+            curve.periods,
+            curve.rhs_evaluations,
+            curve.dof,
+            if curve.dof == 1 { "" } else { "s" },
+            2 * curve.dof
+        );
+        for b in &curve.branches {
+            println!(
+                "branch {}: from {} = {}, {} points; {}",
+                b.index,
+                curve.param,
+                shown(b.from),
+                b.points,
+                b.end
+            );
+        }
+        let amp = |s: &detune::periodic::continuation::Special| -> String {
+            curve
+                .responses
+                .iter()
+                .zip(&s.amplitude)
+                .zip(&curve.units)
+                .map(|((r, x), u)| format!("{r} {x:.6e} {u}"))
+                .collect::<Vec<_>>()
+                .join(", ")
+        };
+        for s in curve
+            .folds
+            .iter()
+            .chain(&curve.period_doublings)
+            .chain(&curve.neimark_sacker)
+        {
+            println!(
+                "{} at {} = {}: amplitude {}; {}",
+                match s.kind {
+                    detune::periodic::continuation::Located::Fold => "fold",
+                    detune::periodic::continuation::Located::PeriodDoubling => "period doubling",
+                    _ => "Neimark-Sacker point",
+                },
+                curve.param,
+                shown(s.value),
+                amp(s),
+                jump_words(&curve, s)
+            );
+        }
+        for p in &curve.peaks {
+            let unit = curve
+                .responses
+                .iter()
+                .position(|r| *r == p.response)
+                .map(|i| curve.units[i])
+                .unwrap_or("");
+            println!(
+                "peak {}: {} = {}, amplitude {:.6e} {unit}",
+                p.response,
+                curve.param,
+                shown(p.value),
+                p.amplitude
+            );
+        }
+    }
+    if !curve.complete {
+        if INTERRUPTED.load(std::sync::atomic::Ordering::Relaxed) {
+            return Err(detune::failure::Failure::SweepInterrupted.into());
+        }
+        return Err(Error::request(
+            format!(
+                "the continuation stopped after {} points without covering the range",
+                curve.points.len()
+            ),
+            "raise --max-points, or narrow --from/--to around what matters",
+        ));
+    }
+    Ok(())
+}
