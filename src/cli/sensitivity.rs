@@ -2,7 +2,7 @@
 //! paper's Tables 2–3), analytic derivatives with finite-difference checks, the worst
 //! case over the tolerance box, a tornado chart.
 
-use super::args::{ModelArgs, varies};
+use super::args::{ModelArgs, Tolerances, varies};
 use super::print_json;
 use clap::{Args, ValueEnum};
 use detune::diag::{Error, Result};
@@ -43,6 +43,9 @@ pub struct SensitivityArgs {
     /// [default: the first angle coordinate].
     #[arg(long, value_name = "NAME")]
     pub response: Option<String>,
+    /// The sweeps' integrator and tolerances (--method sweep|both).
+    #[command(flatten)]
+    pub tol: Tolerances,
     /// Print JSON on standard output.
     #[arg(long)]
     pub json: bool,
@@ -91,6 +94,11 @@ pub fn run(a: SensitivityArgs) -> Result<()> {
         ),
         _ => e,
     })?;
+    let watch = super::StiffWatch::new(
+        &sys.forcing_param()
+            .map(|f| sys.param_names()[f].clone())
+            .unwrap_or_default(),
+    );
     if a.method != Method::Linear {
         super::interrupt_on_ctrl_c();
         let cases: usize = 1 + vs.iter().map(|v| v.cases.len()).sum::<usize>();
@@ -98,13 +106,16 @@ pub fn run(a: SensitivityArgs) -> Result<()> {
             cases as u64,
             "stepped-sine sweeps {bar:30} {pos}/{len} cases, eta {eta}",
         );
+        let steady = a.tol.steady();
         detune::linear::sensitivity::add_sweep_peaks(
             &sys,
             &vs,
             &mut study,
             &response,
+            &steady,
             &|done, _| bar.set_position(done as u64),
             &super::INTERRUPTED,
+            &|case, at| watch.found(&format!("the sweep of {case}"), at, &bar),
         )
         .map_err(|e| {
             if let Error::Numerical { .. } | Error::Failed { .. } = e {
@@ -154,11 +165,10 @@ pub fn run(a: SensitivityArgs) -> Result<()> {
                 max: v.range.1,
             })
             .collect();
-        print_json(&SensitivityReport::new(
-            &study,
-            &Provenance::of(&model),
-            params,
-        ));
+        print_json(&super::Warned {
+            doc: SensitivityReport::new(&study, &Provenance::of(&model), params),
+            warnings: watch.warnings(),
+        });
         return Ok(());
     }
     print_tables(&study, &|n| unit(n), a.freq.freq_unit);
