@@ -1185,6 +1185,10 @@ pub fn verify_sweep(
     let hi = ws.iter().copied().fold(0.0, f64::max);
     let opts = crate::linear::sensitivity::peak_sweep(&s, f, lo, hi, response, steady);
     let sw = crate::frequency::sweep_watched(&s, &opts, &|_| {}, cancel, stiff)?;
+    // an interrupted sweep has no peaks: "every peak clears" would be a false verdict
+    if !sw.complete {
+        return Err(crate::failure::Failure::SweepInterrupted.into());
+    }
     let peaks: Vec<f64> = sw.peaks.iter().map(|p| p.omega).collect();
     let clear = peaks.iter().all(|&w| {
         lines
