@@ -258,3 +258,68 @@ fn shards_are_refused_where_they_cannot_work() {
         "a refused shard wrote its checkpoint"
     );
 }
+
+/// `detune merge` run from another directory than the shards': the stored command's
+/// relative model path is resolved where the shards ran (told by where their checkpoints
+/// are now and the path their command gave them), and the merged CSV is byte for byte
+/// the one run's; a model that is nowhere to be found is refused, saying where it looked.
+#[test]
+fn merge_finds_the_shards_model_from_another_directory() {
+    let root = tempfile::tempdir().unwrap();
+    let (run, other) = (root.path().join("run"), root.path().join("other"));
+    std::fs::create_dir_all(run.join("out")).unwrap();
+    std::fs::create_dir_all(&other).unwrap();
+    let model = format!("{}/models/overcentre.toml", env!("CARGO_MANIFEST_DIR"));
+    std::fs::copy(&model, run.join("overcentre.toml")).unwrap();
+    let at = |dir: &Path, args: &[&str]| -> Output {
+        Command::new(env!("CARGO_BIN_EXE_detune"))
+            .current_dir(dir)
+            .args(args)
+            .output()
+            .unwrap()
+    };
+    let base = "sweep overcentre.toml --set theta1_0=-0.85 --set F0=1 --param omega \
+        --from 2 --to 3 --step 0.25 --response bar1.theta --max-periods 200";
+    ok(&at(&run, &with(base, &["-o", "one.csv"])));
+    for k in 1..=2 {
+        let (shard, ckpt) = (format!("{k}/2"), format!("out/p{k}.ckpt"));
+        ok(&at(
+            &run,
+            &with(base, &["--shard", &shard, "--checkpoint", &ckpt]),
+        ));
+    }
+    let merge = [
+        "merge",
+        "../run/out/p2.ckpt",
+        "../run/out/p1.ckpt",
+        "-o",
+        "all.csv",
+    ];
+    ok(&at(&other, &merge));
+    let one = read(run.join("one.csv").to_str().unwrap());
+    assert_eq!(read(other.join("all.csv").to_str().unwrap()), one);
+    // the checkpoints moved away from the model: refused, naming the places tried
+    for k in 1..=2 {
+        let name = format!("p{k}.ckpt");
+        std::fs::rename(run.join("out").join(&name), other.join(&name)).unwrap();
+    }
+    let err = refused(
+        &at(&other, &["merge", "p1.ckpt", "p2.ckpt", "-o", "moved.csv"]),
+        "the shards' model overcentre.toml (relative to the directory they ran in) is not found",
+    );
+    assert!(err.contains("run detune merge in that directory"), "{err}");
+    assert!(!other.join("moved.csv").exists());
+    // beside the checkpoints it is found again
+    std::fs::copy(&model, other.join("overcentre.toml")).unwrap();
+    ok(&at(
+        &root.path().join("run"),
+        &[
+            "merge",
+            "../other/p1.ckpt",
+            "../other/p2.ckpt",
+            "-o",
+            "again.csv",
+        ],
+    ));
+    assert_eq!(read(run.join("again.csv").to_str().unwrap()), one);
+}
