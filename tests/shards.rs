@@ -323,3 +323,70 @@ fn merge_finds_the_shards_model_from_another_directory() {
     ));
     assert_eq!(read(run.join("again.csv").to_str().unwrap()), one);
 }
+
+/// `sensitivity --method sweep --checkpoint FILE`: a study stopped part way (its
+/// checkpoint cut after a third of the steady states, the last line torn, as SIGKILL
+/// leaves it) resumes with the same command to exactly the output of a run without a
+/// checkpoint; a checkpoint of other cases, of a sweep, or with --method linear is
+/// refused.
+#[test]
+fn a_sensitivity_study_resumes_from_its_checkpoint_to_the_same_bytes() {
+    const SENS: &str = "sensitivity tests/data/sdof.toml --set F0=1 --vary k=880 \
+        --method sweep --response block.x --json";
+    let dir = tempfile::tempdir().unwrap();
+    let ckpt = path(dir.path(), "s.ckpt");
+    let plain = detune(&words(SENS));
+    ok(&plain);
+    let first = detune(&with(SENS, &["--checkpoint", &ckpt]));
+    ok(&first);
+    assert_eq!(first.stdout, plain.stdout);
+    let full = read(&ckpt);
+    let lines: Vec<&str> = full.lines().collect();
+    assert!(lines.len() > 60, "{} lines", lines.len());
+    let keep = lines.len() / 3;
+    let torn = &lines[keep][..lines[keep].len() / 2];
+    std::fs::write(&ckpt, format!("{}\n{torn}", lines[..keep].join("\n"))).unwrap();
+    let resumed = detune(&with(SENS, &["--checkpoint", &ckpt]));
+    let err = ok(&resumed);
+    assert!(
+        err.contains(&format!(
+            "resuming from the checkpoint {ckpt}: {} steady states done before",
+            keep - 1
+        )),
+        "{err}"
+    );
+    assert_eq!(
+        String::from_utf8_lossy(&resumed.stdout),
+        String::from_utf8_lossy(&plain.stdout)
+    );
+    assert_eq!(read(&ckpt).lines().count(), lines.len());
+    // other cases: refused with the command that wrote it
+    let other = SENS.replace("k=880", "k=900");
+    let err = refused(
+        &detune(&with(&other, &["--checkpoint", &ckpt])),
+        "is of a study with other options, --set or --values",
+    );
+    assert!(
+        err.contains("detune sensitivity tests/data/sdof.toml"),
+        "{err}"
+    );
+    // a sweep's checkpoint is not a sensitivity study's, and the other way round
+    refused(
+        &detune(&with(
+            "sweep tests/data/sdof.toml --set F0=1 --param omega --from 15 --to 25 --step 1",
+            &["--checkpoint", &ckpt],
+        )),
+        "is of a `detune sensitivity` study, not of this `detune sweep`",
+    );
+    refused(
+        &detune(&["merge", &ckpt, "-o", &path(dir.path(), "m.csv")]),
+        "not of a sharded sweep",
+    );
+    refused(
+        &detune(&with(
+            "sensitivity tests/data/sdof.toml --vary k=880",
+            &["--checkpoint", &ckpt],
+        )),
+        "--method linear has no sweeps to resume",
+    );
+}

@@ -61,6 +61,15 @@ pub fn run(m: MergeArgs) -> Result<()> {
         }
     }
     let merged = Checkpoint::merge(&m.shards)?;
+    if let Some(study) = &merged.header.study {
+        return Err(Error::request(
+            format!(
+                "{} is the checkpoint of a `detune {study}` study, not of a sharded sweep",
+                m.shards[0]
+            ),
+            format!("resume it with its own command: detune {study} ... --checkpoint FILE"),
+        ));
+    }
     let command = merged.header.command.clone();
     let mut a = Stored::try_parse_from(&command)
         .map_err(|e| {

@@ -46,6 +46,12 @@ pub struct SensitivityArgs {
     /// The sweeps' integrator and tolerances (--method sweep|both).
     #[command(flatten)]
     pub tol: Tolerances,
+    /// --method sweep|both: append each steady state of the cases' sweeps to FILE as it
+    /// is computed; the same command with the same FILE resumes, skipping what is done
+    /// (the outputs are identical to an uninterrupted run's). A FILE of another model,
+    /// --vary, --set or options, or of another command, is refused.
+    #[arg(long, value_name = "FILE")]
+    pub checkpoint: Option<String>,
     /// Print JSON on standard output.
     #[arg(long)]
     pub json: bool,
@@ -68,6 +74,20 @@ pub fn run(a: SensitivityArgs) -> Result<()> {
         &model.source.path,
         &[a.output.as_deref(), a.plot.as_deref()],
     )?;
+    if let Some(c) = &a.checkpoint {
+        if a.method == Method::Linear {
+            return Err(Error::request(
+                format!("--checkpoint {c}: --method linear has no sweeps to resume"),
+                "--checkpoint goes with --method sweep|both",
+            ));
+        }
+        if [a.output.as_deref(), a.plot.as_deref()].contains(&Some(c.as_str())) {
+            return Err(Error::request(
+                format!("--checkpoint {c} is also an output"),
+                "give the checkpoint its own file (e.g. sensitivity.ckpt)",
+            ));
+        }
+    }
     let vs = varies(&model, &sys, &a.vary)?;
     let response = match &a.response {
         Some(r) => {
@@ -116,8 +136,16 @@ pub fn run(a: SensitivityArgs) -> Result<()> {
             &|done, _| bar.set_position(done as u64),
             &super::INTERRUPTED,
             &|case, at| watch.found(&format!("the sweep of {case}"), at, &bar),
+            &|opts, runs| open_checkpoint(&a, &model, &vs, &response, opts, runs),
         )
         .map_err(|e| {
+            if let (Some(c), Some(detune::failure::Failure::StudyInterrupted { .. })) =
+                (&a.checkpoint, e.failure())
+            {
+                eprintln!(
+                    "the steady states computed are in the checkpoint {c}: the same command resumes from them"
+                );
+            }
             if let Error::Numerical { .. } | Error::Failed { .. } = e {
                 e
             } else {
@@ -321,4 +349,60 @@ fn print_tables(s: &Sensitivity, unit: &dyn Fn(&str) -> String, fu: FreqUnit) {
             );
         }
     }
+}
+
+/// `--checkpoint FILE` of the sensitivity's sweeps (`runs` of them, one per case, on the
+/// grid of `opts`): opened (resumed when it exists) with a fingerprint of everything that
+/// changes a case's result: the model, its parameters (`--set`), the cases (`--vary`),
+/// the response and the sweep's options.
+fn open_checkpoint(
+    a: &SensitivityArgs,
+    model: &detune::model::Model,
+    vs: &[detune::linear::sensitivity::Vary],
+    response: &str,
+    opts: &detune::frequency::SweepOptions,
+    runs: usize,
+) -> Result<Box<dyn detune::frequency::checkpoint::CaseLog>> {
+    use detune::frequency::checkpoint::{self, Checkpoint, Header, NoLog, Shard};
+    use sha2::{Digest, Sha256};
+    let Some(path) = &a.checkpoint else {
+        return Ok(Box::new(NoLog));
+    };
+    let cases: Vec<_> = vs.iter().map(|v| (v.param, &v.cases)).collect();
+    let text = format!(
+        "detune {}\nsensitivity model {} parameters {:?}\ncases {cases:?}\nresponse {response}\noptions {opts:?}\n",
+        env!("CARGO_PKG_VERSION"),
+        model.hash,
+        model.parameters.values,
+    );
+    let fingerprint = Sha256::digest(text.as_bytes())
+        .iter()
+        .map(|b| format!("{b:02x}"))
+        .collect();
+    let header = Header {
+        format: checkpoint::FORMAT.into(),
+        format_version: checkpoint::FORMAT_VERSION,
+        detune_version: env!("CARGO_PKG_VERSION").into(),
+        model_file: model.source.path.clone(),
+        model_sha256: model.hash.clone(),
+        overrides: Provenance::of(model).overrides,
+        fingerprint,
+        command: std::env::args_os()
+            .skip(2)
+            .map(|s| s.to_string_lossy().into_owned())
+            .collect(),
+        shard: Shard::ALL,
+        sequential: false,
+        grid: opts.values.len(),
+        runs,
+        study: Some("sensitivity".into()),
+    };
+    let c = Checkpoint::open(path, header, &opts.values)?;
+    if c.reused > 0 {
+        eprintln!(
+            "resuming from the checkpoint {path}: {} steady states done before",
+            c.reused
+        );
+    }
+    Ok(Box::new(c))
 }

@@ -260,6 +260,7 @@ pub fn execute(a: SweepArgs, source: Source) -> Result<()> {
                     sequential: study.sequential(),
                     grid: study.options.values.len(),
                     runs: study.runs.len(),
+                    study: None,
                 };
                 let mut c = Checkpoint::open(path, header, &study.options.values)?;
                 c.run_labels = labels;

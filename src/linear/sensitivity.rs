@@ -1101,6 +1101,10 @@ pub fn add_sweep_peaks(
     progress: &dyn Fn(usize, usize),
     cancel: &std::sync::atomic::AtomicBool,
     stiff: &(dyn Fn(&str, &crate::frequency::StiffAt) + Sync),
+    open_log: &dyn Fn(
+        &crate::frequency::SweepOptions,
+        usize,
+    ) -> Result<Box<dyn crate::frequency::checkpoint::CaseLog>>,
 ) -> Result<()> {
     let Some(f) = sys.forcing_param() else {
         return Err(crate::diag::Error::request(
@@ -1131,6 +1135,8 @@ pub fn add_sweep_peaks(
         )
         .collect();
     let total = jobs.len();
+    // each case's sweep is run `k` of the log (a checkpoint resumes the cases done)
+    let log = open_log(&opts, total)?;
     let base = modal_analysis(sys, None)?;
     for (k, job) in jobs.iter().enumerate() {
         let (s, label) = match job {
@@ -1143,13 +1149,16 @@ pub fn add_sweep_peaks(
             }
         };
         let sw =
-            crate::frequency::sweep_watched(&s, &opts, &|_| {}, cancel, &|at| stiff(&label, at))
-                .map_err(|e| e.context(&format!("the stepped-sine sweep of {label}")))?;
+            crate::frequency::sweep_logged(&s, &opts, &|_| {}, cancel, log.as_ref(), k, &|at| {
+                stiff(&label, at)
+            })
+            .map_err(|e| e.context(&format!("the stepped-sine sweep of {label}")))?;
         if !sw.complete {
-            return Err(crate::diag::Error::request(
-                "interrupted",
-                "the sensitivity's sweeps were stopped before the end",
-            ));
+            return Err(crate::failure::Failure::StudyInterrupted {
+                what: "the sensitivity study".into(),
+                kept: false,
+            }
+            .into());
         }
         let nearest = |w: f64| -> Option<f64> {
             sw.peaks
