@@ -12,6 +12,11 @@ pub enum Failure {
     Interrupted { t: f64 },
     #[error("the sweep was interrupted")]
     SweepInterrupted,
+    /// A long computation other than a sweep or simulation (a continuation, a mode
+    /// tracking, a linear frequency response) stopped by a signal; `kept`: its partial
+    /// result is returned, marked incomplete.
+    #[error("{what} was interrupted")]
+    StudyInterrupted { what: String, kept: bool },
     /// A simulation stopped by a signal at model time `t` (s), its samples up to `t` kept.
     #[error("the simulation was interrupted at model time t = {t:.6} s")]
     SimulationInterrupted { t: f64 },
@@ -220,6 +225,8 @@ impl Failure {
             }
             Interrupted { .. } => "the run was cancelled".into(),
             SweepInterrupted => "the sweep was interrupted".into(),
+            StudyInterrupted { kept: true, .. } => "the part computed until then is kept, marked incomplete".into(),
+            StudyInterrupted { kept: false, .. } => "the run was cancelled".into(),
             SimulationInterrupted { .. } => "the samples computed up to then are kept, marked incomplete".into(),
             NonFinite { .. } => "an expression in a force or constraint is undefined there (sqrt or ln of a negative number, division by zero), or the mechanism reached a singular pose".into(),
             SingularMass { .. } => "two axes of the body's rotation sequence line up there, so its angles cannot follow the motion: use another rotation sequence whose singular pose the motion does not reach, or `rotation = \"free\"` (a unit quaternion, which has none)".into(),
@@ -274,6 +281,10 @@ mod tests {
             Failure::StepLimit { t: 1.0, steps: 10 },
             Failure::Interrupted { t: 1.0 },
             Failure::SweepInterrupted,
+            Failure::StudyInterrupted {
+                what: "the continuation".into(),
+                kept: true,
+            },
             Failure::SimulationInterrupted { t: 1.0 },
             Failure::NonFinite { t: 1.0, h: 1e-12 },
             Failure::StepSizeUnderflow { t: 1.0, h: 1e-15 },

@@ -1155,14 +1155,17 @@ fn verify_design(
 /// `--verify sweep`: a stepped-sine sweep of the nonlinear model at `design` (the model's
 /// own forcing amplitude, which must not be zero) of `response` over 0.7 × the lowest to
 /// 1.3 × the highest ω_n in 60 steps, peaks refined to 1/20 of a step; returns the peaks
-/// (rad/s) and whether each clears every band by `margin`.
+/// (rad/s) and whether each clears every band by `margin`. The steady states are
+/// computed with `steady` (integrator, tolerances); `stiff` hears of a stiff integration.
 pub fn verify_sweep(
     sys: &System,
     design: &Design,
     lines: &[ForcingLine],
     margin: f64,
     response: &str,
+    steady: &crate::frequency::SteadyOptions,
     cancel: &std::sync::atomic::AtomicBool,
+    stiff: crate::frequency::StiffHook,
 ) -> Result<(Vec<f64>, bool)> {
     let Some(f) = sys.forcing_param() else {
         return Err(Error::request(
@@ -1180,8 +1183,12 @@ pub fn verify_sweep(
     let ws: Vec<f64> = design.modes.values().filter_map(|w| w.as_f64()).collect();
     let lo = ws.iter().copied().fold(f64::INFINITY, f64::min);
     let hi = ws.iter().copied().fold(0.0, f64::max);
-    let opts = crate::linear::sensitivity::peak_sweep(&s, f, lo, hi, response);
-    let sw = crate::frequency::sweep(&s, &opts, &|_| {}, cancel)?;
+    let opts = crate::linear::sensitivity::peak_sweep(&s, f, lo, hi, response, steady);
+    let sw = crate::frequency::sweep_watched(&s, &opts, &|_| {}, cancel, stiff)?;
+    // an interrupted sweep has no peaks: "every peak clears" would be a false verdict
+    if !sw.complete {
+        return Err(crate::failure::Failure::SweepInterrupted.into());
+    }
     let peaks: Vec<f64> = sw.peaks.iter().map(|p| p.omega).collect();
     let clear = peaks.iter().all(|&w| {
         lines

@@ -325,3 +325,70 @@ fn an_overflowing_load_is_no_equilibrium() {
         assert!(!String::from_utf8_lossy(&out.stdout).contains("residual"));
     }
 }
+
+/// Issue 12's bad input: a nonlinear element's nonsense parameters are located errors
+/// (file:line:column) saying what to do, also when a `--set` makes them so: an end stop
+/// whose lower limit is not below its upper one, a negative breakout preload, a zero
+/// smoothing width, a negative backlash gap.
+#[test]
+fn nonlinear_elements_with_nonsense_parameters() {
+    let with = |force: &str| -> String {
+        format!(
+            "{}\n[[forces]]\nname = \"e\"\nbody1 = \"bar1\"\n{force}\n",
+            shipped()
+        )
+    };
+    for (force, needle, offset, message) in [
+        (
+            "type = \"torsion_end_stop\"\nstiffness = 1e3\nlower = 0.9\nupper = 0.7",
+            "lower = 0.9",
+            8,
+            "the lower limit of `e` must be below the upper limit: it is 0.9 rad, the upper limit 0.7 rad",
+        ),
+        (
+            "type = \"torsion_end_stop\"\nstiffness = 1e3\nlower = 0.7\nupper = 0.7",
+            "lower = 0.7",
+            8,
+            "the lower limit of `e` must be below the upper limit: it is 0.7 rad",
+        ),
+        (
+            "type = \"breakout\"\nstiffness = 403\npreload = -5.5\nstiffness2 = 250",
+            "preload = -5.5",
+            10,
+            "the preload of `e` must be positive",
+        ),
+        (
+            "type = \"torsion_end_stop\"\nstiffness = 1e3\nupper = 1.2\nsmoothing = 0",
+            "smoothing = 0",
+            12,
+            "the smoothing of `e` must be positive",
+        ),
+        (
+            "type = \"torsion_backlash\"\nstiffness = 10\ngap = -0.01",
+            "gap = -0.01",
+            6,
+            "the gap of `e` must be positive",
+        ),
+    ] {
+        let text = with(force);
+        let o = simulate(&text, &[]);
+        assert_clean_failure(&o, message);
+        let at = location(&text, needle, offset);
+        assert!(o.stderr.contains(&at), "{at} in {}", o.stderr);
+    }
+    // a parameter that makes the limits cross only with --set: said, with the --set
+    let text = with(
+        "type = \"torsion_end_stop\"\nstiffness = 1e3\nlower = \"theta1_0 - 0.5\"\nupper = 1.2",
+    );
+    let o = simulate(&text, &["--set", "theta1_0=1.8"]);
+    assert_clean_failure(
+        &o,
+        "the lower limit of `e` must be below the upper limit: it is 1.3 rad, the upper limit 1.2 rad (with --set theta1_0=1.8)",
+    );
+    assert!(
+        o.stderr.contains("swap them if they are reversed"),
+        "{}",
+        o.stderr
+    );
+    assert!(o.stderr.contains(&location(&text, "\"theta1_0 - 0.5\"", 0)));
+}

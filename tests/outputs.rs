@@ -489,23 +489,21 @@ fn usage_errors_exit_2_and_errors_1() {
 
 #[test]
 fn a_command_without_steps_to_stop_at_ends_at_a_signal_leaving_no_temporary_file() {
-    // `frf` does not check the flag between its points: the signal handler itself
+    // `kinematics` does not check the flag between its points: the signal handler itself
     // unlinks the run's temporary files and exits 128 + the signal
     let dir = tempfile::tempdir().unwrap();
-    let csv = dir.path().join("fr.csv");
+    let csv = dir.path().join("k.csv");
     let args = [
-        "frf",
+        "kinematics",
         "models/overcentre.toml",
-        "--set",
-        "F0=1",
-        "--param",
-        "omega",
+        "--drive",
+        "bar1.theta",
         "--from",
-        "1",
+        "0.3",
         "--to",
-        "100",
+        "1.2",
         "--step",
-        "0.0005",
+        "1e-7",
         "-o",
         s(&csv),
     ];
@@ -514,4 +512,115 @@ fn a_command_without_steps_to_stop_at_ends_at_a_signal_leaving_no_temporary_file
     assert_eq!(out.status.code(), Some(143), "{err}");
     assert!(!csv.exists());
     assert!(temps(dir.path()).is_empty(), "{:?}", temps(dir.path()));
+}
+
+/// Issue 13: a signal stops `continue` at its next step; the branch so far is written,
+/// the CSV ending `# incomplete: interrupted at Fs = ...` and the JSON saying
+/// "complete": false, exit 130. Every point kept is an equilibrium: the last one equals
+/// `detune equilibrium --set Fs=<its value>` (Newton's statics, not the continuation).
+#[test]
+fn a_signal_stops_a_continuation_keeping_the_branch_marked_incomplete() {
+    let dir = tempfile::tempdir().unwrap();
+    let csv = dir.path().join("branch.csv");
+    let args = [
+        "continue",
+        "models/overcentre.toml",
+        "--param",
+        "Fs",
+        "--from",
+        "0",
+        "--to",
+        "5",
+        "--step",
+        "1e-6",
+        "--max-steps",
+        "100000000",
+        "-o",
+        s(&csv),
+    ];
+    let out = interrupt(&args, dir.path(), libc::SIGINT);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(130), "{err}");
+    assert!(err.contains("the continuation was interrupted"), "{err}");
+    let text = std::fs::read_to_string(&csv).unwrap();
+    let lines: Vec<&str> = text.lines().collect();
+    assert!(lines[0].starts_with("Fs,bar1.x,"), "{}", lines[0]);
+    let last = lines.last().unwrap();
+    let stopped: f64 = last
+        .strip_prefix("# incomplete: interrupted at Fs = ")
+        .and_then(|r| r.split_once(';'))
+        .map(|(v, _)| v.parse().unwrap())
+        .unwrap_or_else(|| panic!("{last}"));
+    let rows: Vec<Vec<f64>> = lines[1..lines.len() - 1]
+        .iter()
+        .map(|r| r.split(',').map(|x| x.parse().unwrap()).collect())
+        .collect();
+    assert!(rows.len() > 2 && stopped < 5.0, "{} rows", rows.len());
+    assert!(rows.iter().all(|r| r.len() == 9));
+    assert_eq!(rows.last().unwrap()[0], stopped);
+    assert!(rows.windows(2).all(|w| w[1][0] > w[0][0]));
+    let (code, json, err) = detune(&[
+        "equilibrium",
+        "models/overcentre.toml",
+        "--set",
+        &format!("Fs={stopped:e}"),
+        "--json",
+    ]);
+    assert_eq!(code, 0, "{err}");
+    let eq: serde_json::Value = serde_json::from_str(&json).unwrap();
+    let theta = eq["coordinates"]["bar1.theta"].as_f64().unwrap();
+    let got = rows.last().unwrap()[3];
+    assert!((got - theta).abs() < 1e-9, "{got} vs {theta}");
+    assert!(temps(dir.path()).is_empty(), "{:?}", temps(dir.path()));
+}
+
+/// A signal stops `frf` (a huge grid) and `modes --param` at their next frequency or
+/// value: nothing is written, no temporary file is left, exit 143 for SIGTERM.
+#[test]
+fn a_signal_stops_frf_and_mode_tracking_writing_nothing() {
+    for (what, args) in [
+        (
+            "the linear frequency response",
+            vec![
+                "frf",
+                "models/overcentre.toml",
+                "--set",
+                "F0=1",
+                "--param",
+                "omega",
+                "--from",
+                "0.1",
+                "--to",
+                "10",
+                "--step",
+                "1e-5",
+            ],
+        ),
+        (
+            "the mode tracking",
+            vec![
+                "modes",
+                "models/overcentre.toml",
+                "--param",
+                "k",
+                "--from",
+                "10",
+                "--to",
+                "100",
+                "--points",
+                "100000",
+            ],
+        ),
+    ] {
+        let dir = tempfile::tempdir().unwrap();
+        let csv = dir.path().join("out.csv");
+        let mut args = args.clone();
+        args.extend(["-o", s(&csv)]);
+        let out = interrupt(&args, dir.path(), libc::SIGTERM);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(143), "{err}");
+        assert!(err.contains(&format!("{what} was interrupted")), "{err}");
+        assert!(!csv.exists());
+        assert!(temps(dir.path()).is_empty(), "{:?}", temps(dir.path()));
+    }
 }

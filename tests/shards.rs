@@ -258,3 +258,135 @@ fn shards_are_refused_where_they_cannot_work() {
         "a refused shard wrote its checkpoint"
     );
 }
+
+/// `detune merge` run from another directory than the shards': the stored command's
+/// relative model path is resolved where the shards ran (told by where their checkpoints
+/// are now and the path their command gave them), and the merged CSV is byte for byte
+/// the one run's; a model that is nowhere to be found is refused, saying where it looked.
+#[test]
+fn merge_finds_the_shards_model_from_another_directory() {
+    let root = tempfile::tempdir().unwrap();
+    let (run, other) = (root.path().join("run"), root.path().join("other"));
+    std::fs::create_dir_all(run.join("out")).unwrap();
+    std::fs::create_dir_all(&other).unwrap();
+    let model = format!("{}/models/overcentre.toml", env!("CARGO_MANIFEST_DIR"));
+    std::fs::copy(&model, run.join("overcentre.toml")).unwrap();
+    let at = |dir: &Path, args: &[&str]| -> Output {
+        Command::new(env!("CARGO_BIN_EXE_detune"))
+            .current_dir(dir)
+            .args(args)
+            .output()
+            .unwrap()
+    };
+    let base = "sweep overcentre.toml --set theta1_0=-0.85 --set F0=1 --param omega \
+        --from 2 --to 3 --step 0.25 --response bar1.theta --max-periods 200";
+    ok(&at(&run, &with(base, &["-o", "one.csv"])));
+    for k in 1..=2 {
+        let (shard, ckpt) = (format!("{k}/2"), format!("out/p{k}.ckpt"));
+        ok(&at(
+            &run,
+            &with(base, &["--shard", &shard, "--checkpoint", &ckpt]),
+        ));
+    }
+    let merge = [
+        "merge",
+        "../run/out/p2.ckpt",
+        "../run/out/p1.ckpt",
+        "-o",
+        "all.csv",
+    ];
+    ok(&at(&other, &merge));
+    let one = read(run.join("one.csv").to_str().unwrap());
+    assert_eq!(read(other.join("all.csv").to_str().unwrap()), one);
+    // the checkpoints moved away from the model: refused, naming the places tried
+    for k in 1..=2 {
+        let name = format!("p{k}.ckpt");
+        std::fs::rename(run.join("out").join(&name), other.join(&name)).unwrap();
+    }
+    let err = refused(
+        &at(&other, &["merge", "p1.ckpt", "p2.ckpt", "-o", "moved.csv"]),
+        "the shards' model overcentre.toml (relative to the directory they ran in) is not found",
+    );
+    assert!(err.contains("run detune merge in that directory"), "{err}");
+    assert!(!other.join("moved.csv").exists());
+    // beside the checkpoints it is found again
+    std::fs::copy(&model, other.join("overcentre.toml")).unwrap();
+    ok(&at(
+        &root.path().join("run"),
+        &[
+            "merge",
+            "../other/p1.ckpt",
+            "../other/p2.ckpt",
+            "-o",
+            "again.csv",
+        ],
+    ));
+    assert_eq!(read(run.join("again.csv").to_str().unwrap()), one);
+}
+
+/// `sensitivity --method sweep --checkpoint FILE`: a study stopped part way (its
+/// checkpoint cut after a third of the steady states, the last line torn, as SIGKILL
+/// leaves it) resumes with the same command to exactly the output of a run without a
+/// checkpoint; a checkpoint of other cases, of a sweep, or with --method linear is
+/// refused.
+#[test]
+fn a_sensitivity_study_resumes_from_its_checkpoint_to_the_same_bytes() {
+    const SENS: &str = "sensitivity tests/data/sdof.toml --set F0=1 --vary k=880 \
+        --method sweep --response block.x --json";
+    let dir = tempfile::tempdir().unwrap();
+    let ckpt = path(dir.path(), "s.ckpt");
+    let plain = detune(&words(SENS));
+    ok(&plain);
+    let first = detune(&with(SENS, &["--checkpoint", &ckpt]));
+    ok(&first);
+    assert_eq!(first.stdout, plain.stdout);
+    let full = read(&ckpt);
+    let lines: Vec<&str> = full.lines().collect();
+    assert!(lines.len() > 60, "{} lines", lines.len());
+    let keep = lines.len() / 3;
+    let torn = &lines[keep][..lines[keep].len() / 2];
+    std::fs::write(&ckpt, format!("{}\n{torn}", lines[..keep].join("\n"))).unwrap();
+    let resumed = detune(&with(SENS, &["--checkpoint", &ckpt]));
+    let err = ok(&resumed);
+    assert!(
+        err.contains(&format!(
+            "resuming from the checkpoint {ckpt}: {} steady states done before",
+            keep - 1
+        )),
+        "{err}"
+    );
+    assert_eq!(
+        String::from_utf8_lossy(&resumed.stdout),
+        String::from_utf8_lossy(&plain.stdout)
+    );
+    assert_eq!(read(&ckpt).lines().count(), lines.len());
+    // other cases: refused with the command that wrote it
+    let other = SENS.replace("k=880", "k=900");
+    let err = refused(
+        &detune(&with(&other, &["--checkpoint", &ckpt])),
+        "is of a study with other options, --set or --values",
+    );
+    assert!(
+        err.contains("detune sensitivity tests/data/sdof.toml"),
+        "{err}"
+    );
+    // a sweep's checkpoint is not a sensitivity study's, and the other way round
+    refused(
+        &detune(&with(
+            "sweep tests/data/sdof.toml --set F0=1 --param omega --from 15 --to 25 --step 1",
+            &["--checkpoint", &ckpt],
+        )),
+        "is of a `detune sensitivity` study, not of this `detune sweep`",
+    );
+    refused(
+        &detune(&["merge", &ckpt, "-o", &path(dir.path(), "m.csv")]),
+        "not of a sharded sweep",
+    );
+    refused(
+        &detune(&with(
+            "sensitivity tests/data/sdof.toml --vary k=880",
+            &["--checkpoint", &ckpt],
+        )),
+        "--method linear has no sweeps to resume",
+    );
+}

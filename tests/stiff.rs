@@ -200,3 +200,166 @@ free_length = 1
         traj.stats.accepted_steps
     );
 }
+
+/// tests/data/stiff_sdof.toml: a 2 kg block on a spring (ω_n ≈ 20 rad/s) carrying a bead
+/// of mass m2 on a stiff damper c2 = 1e3 N·s/m (and spring k2 = 1e4 N/m).
+fn stiff_sdof() -> String {
+    format!("{}/tests/data/stiff_sdof.toml", env!("CARGO_MANIFEST_DIR"))
+}
+
+/// The fast eigenvalue of the bead's motion relative to the block, |r| of
+/// μ r² + c2 r + k2 = 0 (μ = m m2/(m + m2), the block's own spring 1e-4 of k2 aside).
+fn bead_rate(m2: f64) -> f64 {
+    let (m, c2, k2) = (2.0, 1e3, 1e4);
+    let mu = m * m2 / (m + m2);
+    (c2 + (c2 * c2 - 4.0 * mu * k2).sqrt()) / (2.0 * mu)
+}
+
+/// The first stiffness warning of a command (which is then killed), within 30 s.
+fn stiff_warning_of(args: &[&str]) -> Option<String> {
+    let mut child = Command::new(bin())
+        .args(args)
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let stderr = child.stderr.take().unwrap();
+    let (tx, rx) = std::sync::mpsc::channel();
+    std::thread::spawn(move || {
+        for line in BufReader::new(stderr).lines().map_while(|l| l.ok()) {
+            if line.starts_with("warning: the model is stiff") {
+                let _ = tx.send(line);
+                return;
+            }
+        }
+    });
+    let line = rx.recv_timeout(Duration::from_secs(30)).ok();
+    let _ = child.kill();
+    let _ = child.wait();
+    line
+}
+
+/// A sweep whose integration is stiff says so once, on stderr with the numbers and
+/// `--integrator radau`, and in the JSON under `warnings` (|λ| the bead's closed-form
+/// rate); with `--integrator radau` it says nothing and its curve is the same.
+#[test]
+fn a_stiff_sweep_says_so_once_and_in_its_json() {
+    let sweep = |extra: &[&str]| {
+        let o = Command::new(bin())
+            .args(["sweep", &stiff_sdof(), "--param", "omega", "--from", "15"])
+            .args(["--to", "25", "--step", "1", "--response", "block.x"])
+            .args(["--set", "m2=0.1", "--json"])
+            .args(extra)
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&o.stderr).into_owned();
+        assert!(o.status.success(), "{err}");
+        let doc: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+        (doc, err)
+    };
+    let (doc, err) = sweep(&[]);
+    assert_eq!(
+        err.matches("warning: the model is stiff").count(),
+        1,
+        "{err}"
+    );
+    assert!(err.contains("at omega = "), "{err}");
+    assert!(err.contains("--integrator radau"), "{err}");
+    let w = &doc["warnings"][0];
+    assert_eq!(w["kind"], "stiff", "{w}");
+    let lambda = w["lambda"].as_f64().unwrap();
+    assert!(
+        (lambda / bead_rate(0.1) - 1.0).abs() < 1e-3,
+        "|λ| = {lambda}, closed form {}",
+        bead_rate(0.1)
+    );
+    assert!(w["help"].as_str().unwrap().contains("--integrator radau"));
+    assert!(w["omega"].as_f64().unwrap() >= 15.0);
+    let (radau, err) = sweep(&["--integrator", "radau"]);
+    assert!(!err.contains("stiff"), "{err}");
+    assert!(radau.get("warnings").is_none(), "{radau}");
+    let amps = |d: &serde_json::Value| -> Vec<f64> {
+        d["points"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|p| p["block.x_amplitude"].as_f64().unwrap())
+            .collect()
+    };
+    let (a, b) = (amps(&doc), amps(&radau));
+    assert_eq!(a.len(), 11);
+    for (x, y) in a.iter().zip(&b) {
+        assert!((x / y - 1.0).abs() < 1e-6, "dop853 {x} vs radau {y}");
+    }
+}
+
+/// `sensitivity --method sweep` and `tune --verify sweep` run their sweeps with
+/// `--integrator`: with DOP853 the very stiff bead (|λ| ≈ 1e6 1/s) is reported early
+/// (naming the case); with Radau they finish, without a warning, on the stepped-sine
+/// peak of the 2.001 kg block's displacement, ω_n·sqrt(1 − 2ζ²) = sqrt(k/M − c²/(2M²)),
+/// to the sweeps' refinement (1/20 of their 0.23 rad/s step).
+#[test]
+fn sensitivity_and_tune_sweeps_use_the_integrator_asked_for() {
+    let model = stiff_sdof();
+    let sens = [
+        "sensitivity",
+        &model,
+        "--vary",
+        "k=880",
+        "--method",
+        "sweep",
+        "--response",
+        "block.x",
+    ];
+    let line = stiff_warning_of(&sens).expect("a stiffness warning within 30 s");
+    assert!(line.contains("(the sweep of the baseline)"), "{line}");
+    let lambda: f64 = line
+        .split("|λ| ≈ ")
+        .nth(1)
+        .and_then(|r| r.split(' ').next())
+        .and_then(|x| x.parse().ok())
+        .expect("|λ| in the warning");
+    assert!((lambda / bead_rate(1e-3) - 1.0).abs() < 1e-3, "{line}");
+    let (m, k, c) = (2.001f64, 800.0f64, 6.0f64);
+    let peak = (k / m - c * c / (2.0 * m * m)).sqrt();
+    let o = Command::new(bin())
+        .args(sens)
+        .args(["--integrator", "radau", "--json"])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{err}");
+    assert!(!err.contains("stiff"), "{err}");
+    let doc: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert!(doc.get("warnings").is_none());
+    let got = doc["modes"][0]["peak_omega_rad_s"].as_f64().unwrap();
+    assert!((got - peak).abs() < 0.012, "peak {got}, closed form {peak}");
+
+    let tune = [
+        "tune",
+        &model,
+        "--environment",
+        "UH-60",
+        "--vary",
+        "k=50%..200%",
+        "--designs",
+        "1",
+        "--verify",
+        "sweep",
+        "--response",
+        "block.x",
+    ];
+    let line = stiff_warning_of(&tune).expect("a stiffness warning within 30 s");
+    assert!(line.contains("(the sweep of design 1)"), "{line}");
+    let o = Command::new(bin())
+        .args(tune)
+        .args(["--integrator", "radau", "--json"])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{err}");
+    assert!(!err.contains("stiff"), "{err}");
+    let doc: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let got = doc["designs"][0]["sweep_peaks_rad_s"][0].as_f64().unwrap();
+    assert!((got - peak).abs() < 0.012, "peak {got}, closed form {peak}");
+}

@@ -38,6 +38,8 @@ pub fn advice(f: &Failure) -> Option<String> {
         ConstraintsNotKept { .. } => "tighten --rtol/--atol (the defaults are 1e-10 and 1e-12); if that does not help, the mechanism may pass a singular pose".into(),
         ContinuationStalled { .. } => "the branch may end here (a singular pose or no equilibrium), or --step is far too large for this model (the default is the range / 50): try a smaller --step".into(),
         SweepInterrupted => "the frequencies completed were written and marked incomplete".into(),
+        StudyInterrupted { kept: true, .. } => "the part computed until then was written (a CSV ends with a line `# incomplete: ...`, the JSON says \"complete\": false; exit 130 SIGINT, 143 SIGTERM, 129 SIGHUP)".into(),
+        StudyInterrupted { kept: false, .. } => "the run was cancelled; nothing was written (exit 130 SIGINT, 143 SIGTERM, 129 SIGHUP)".into(),
         Interrupted { .. } => "the run was cancelled; nothing was written (exit 130 SIGINT, 143 SIGTERM, 129 SIGHUP)".into(),
         SimulationInterrupted { .. } => "the samples computed up to then were written, the CSV ending with a line `# incomplete: ...` and the JSON summary saying \"complete\": false (exit 130 SIGINT, 143 SIGTERM, 129 SIGHUP)".into(),
         BranchTurns { .. } => "the branch may end here (a singular pose); try a smaller --step".into(),

@@ -115,6 +115,17 @@ impl Tolerances {
             IntegratorChoice::Radau => Integrator::Radau,
         }
     }
+
+    /// The steady-state settings of a sweep with these tolerances and integrator (the
+    /// rest at their defaults).
+    pub fn steady(&self) -> detune::frequency::SteadyOptions {
+        detune::frequency::SteadyOptions {
+            rtol: self.rtol,
+            atol: self.atol,
+            integrator: self.integrator(),
+            ..Default::default()
+        }
+    }
 }
 
 /// The frequencies of `frf` and `sweep`, and what they report.

@@ -14,7 +14,7 @@ use detune::output::results::write_branch_csv;
 use detune::output::units::{Units, WithUnits};
 use detune::output::{Provenance, check_outputs};
 use detune::request::Argument;
-use detune::statics::continuation::{ContinuationOptions, continue_equilibria};
+use detune::statics::continuation::{ContinuationOptions, continue_equilibria_until};
 
 #[derive(Args)]
 pub struct ContinueArgs {
@@ -78,7 +78,10 @@ pub fn run(a: ContinueArgs) -> Result<()> {
         Some(name) => detune::linear::coordinate(&sys, name, Argument::PlotCoordinate)?,
         None => detune::linear::default_reference(&sys),
     };
-    let branch = continue_equilibria(&sys, &opts)?;
+    // a signal stops the continuation at its next step; the branch so far is kept,
+    // marked incomplete, and the exit code says which signal (130, 143, 129)
+    super::interrupt_on_ctrl_c();
+    let branch = continue_equilibria_until(&sys, &opts, &super::INTERRUPTED)?;
     if let Some(o) = &a.output {
         write_branch_csv(o, &branch)?;
     }
@@ -145,6 +148,16 @@ pub fn run(a: ContinueArgs) -> Result<()> {
             println!(
                 "{total} points on {} branches (the CSV's `branch` column: 0 is the start's)",
                 1 + branch.switched.len()
+            );
+        }
+        if !branch.complete {
+            println!(
+                "interrupted: the points computed until then (the branch ends early{})",
+                if branch.branch_points.is_empty() {
+                    ""
+                } else {
+                    "; branches through its branch points may be missing"
+                }
             );
         }
         println!(
@@ -221,7 +234,17 @@ pub fn run(a: ContinueArgs) -> Result<()> {
         }
     }
     for f in [&a.output, &a.plot].into_iter().flatten() {
-        eprintln!("wrote {f}");
+        eprintln!(
+            "wrote {f}{}",
+            if branch.complete { "" } else { " (incomplete)" }
+        );
+    }
+    if !branch.complete {
+        return Err(detune::failure::Failure::StudyInterrupted {
+            what: "the continuation".into(),
+            kept: true,
+        }
+        .into());
     }
     Ok(())
 }

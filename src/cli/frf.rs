@@ -5,7 +5,6 @@ use super::args::{FrequencyGrid, ModelArgs};
 use super::print_json;
 use clap::Args;
 use detune::diag::Result;
-use detune::linear::frequency_response;
 use detune::output::json::FrfReport;
 use detune::output::results::write_frf_csv;
 use detune::output::units::{Units, WithUnits};
@@ -83,7 +82,15 @@ pub fn run(a: FrfArgs) -> Result<()> {
     )?;
     let (values, responses) = a.grid.resolve(&model)?;
     let marks = super::args::frequency_marks(&a.mark, &values, a.plot.is_some())?;
-    let fr = frequency_response(&sys, &a.grid.param, &values, &responses)?;
+    // a signal stops it at the next frequency; nothing is written (exit 130, 143, 129)
+    super::interrupt_on_ctrl_c();
+    let fr = detune::linear::frequency_response_until(
+        &sys,
+        &a.grid.param,
+        &values,
+        &responses,
+        &super::INTERRUPTED,
+    )?;
     let fu = a.freq.freq_unit;
     let sym = fu.symbol();
     // each response's amplitude unit (rad, m, N; per unit of the forcing with --per-unit)

@@ -61,6 +61,15 @@ pub fn run(m: MergeArgs) -> Result<()> {
         }
     }
     let merged = Checkpoint::merge(&m.shards)?;
+    if let Some(study) = &merged.header.study {
+        return Err(Error::request(
+            format!(
+                "{} is the checkpoint of a `detune {study}` study, not of a sharded sweep",
+                m.shards[0]
+            ),
+            format!("resume it with its own command: detune {study} ... --checkpoint FILE"),
+        ));
+    }
     let command = merged.header.command.clone();
     let mut a = Stored::try_parse_from(&command)
         .map_err(|e| {
@@ -74,6 +83,8 @@ pub fn run(m: MergeArgs) -> Result<()> {
             )
         })?
         .sweep;
+    // the model path is as the shards were given it, relative to where they ran
+    a.model.model = locate_model(&a.model.model, a.checkpoint.as_deref(), &m.shards[0])?;
     a.output = m.output;
     a.json = m.json;
     a.plot = m.plot;
@@ -90,4 +101,58 @@ pub fn run(m: MergeArgs) -> Result<()> {
         eprintln!("wrote {path} ({} steady states)", merged.reused);
     }
     execute(a, Source::Merge(Box::new(merged)))
+}
+
+/// The model file of the shards' stored command, `stored` (a path as the shards were
+/// given it: relative to the directory they ran in), found from here. Tried in order:
+/// the directory the shards ran in, told by where the checkpoint `actual` (the first one
+/// given, whose command is stored) is now and the path its command gave it
+/// (`stored_checkpoint`: `out/p1.ckpt` now at `../run/out/p1.ckpt` ran in `../run`);
+/// the checkpoint's own directory (shards and model moved together); here. The model's
+/// hash (checked against the shards') makes sure it is the same file.
+fn locate_model(stored: &str, stored_checkpoint: Option<&str>, actual: &str) -> Result<String> {
+    use std::path::{Component, Path, PathBuf};
+    if Path::new(stored).is_absolute() {
+        return Ok(stored.to_string());
+    }
+    let here = |p: &Path| -> PathBuf {
+        if p.as_os_str().is_empty() {
+            PathBuf::from(".")
+        } else {
+            p.to_path_buf()
+        }
+    };
+    let beside = here(Path::new(actual).parent().unwrap_or(Path::new("")));
+    let mut dirs: Vec<PathBuf> = Vec::new();
+    if let Some(c) = stored_checkpoint.map(Path::new).filter(|c| c.is_relative()) {
+        let up = c.parent().unwrap_or(Path::new(""));
+        let plain = up.components().all(|k| matches!(k, Component::Normal(_)));
+        let depth = up.components().count();
+        if plain && (depth == 0 || beside.ends_with(up)) {
+            let mut d = beside.clone();
+            for _ in 0..depth {
+                d = here(d.parent().unwrap_or(Path::new("")));
+            }
+            dirs.push(d);
+        }
+    }
+    dirs.push(beside);
+    dirs.push(PathBuf::from("."));
+    let tried: Vec<PathBuf> = dirs.iter().map(|d| d.join(stored)).collect();
+    if let Some(found) = tried.iter().find(|p| p.is_file()) {
+        let found = found.strip_prefix(".").unwrap_or(found);
+        return Ok(found.to_string_lossy().into_owned());
+    }
+    let mut listed: Vec<String> = tried
+        .iter()
+        .map(|p| p.to_string_lossy().into_owned())
+        .collect();
+    listed.dedup();
+    Err(Error::request(
+        format!(
+            "the shards' model {stored} (relative to the directory they ran in) is not found: tried {}",
+            listed.join(", ")
+        ),
+        "keep the model file where the shards ran (beside their checkpoints, or as their command named it from that directory), or run detune merge in that directory",
+    ))
 }

@@ -121,6 +121,93 @@ pub fn progress_bar(len: u64, template: &str) -> indicatif::ProgressBar {
     bar
 }
 
+/// Watches a command's stepped-sine sweeps (`sweep`, `sensitivity --method sweep|both`,
+/// `tune --verify sweep`) for an integration DOP853 finds stiff: the first one is told at
+/// once on stderr (above the progress bar), with its numbers and `--integrator radau`,
+/// and kept for the JSON's `warnings`; later ones are not repeated.
+pub struct StiffWatch {
+    first: std::sync::OnceLock<(String, detune::frequency::StiffAt)>,
+    began: std::time::Instant,
+    /// The forcing frequency's parameter, as the warning names it.
+    param: String,
+}
+
+impl StiffWatch {
+    pub fn new(param: &str) -> StiffWatch {
+        StiffWatch {
+            first: std::sync::OnceLock::new(),
+            began: std::time::Instant::now(),
+            param: param.to_string(),
+        }
+    }
+
+    fn context(&self, case: &str, at: &detune::frequency::StiffAt) -> String {
+        format!(
+            " at {} = {} rad/s{}",
+            self.param,
+            detune::output::num(at.omega),
+            if case.is_empty() {
+                String::new()
+            } else {
+                format!(" ({case})")
+            }
+        )
+    }
+
+    /// A sweep of `case` ("" for the command's own sweep) found `at` stiff: told unless
+    /// one was told before.
+    pub fn found(&self, case: &str, at: &detune::frequency::StiffAt, bar: &indicatif::ProgressBar) {
+        if self.first.set((case.to_string(), at.clone())).is_ok() {
+            let text = simulate::stiffness_warning_in(
+                &at.stiffness,
+                Some(self.began.elapsed()),
+                &self.context(case, at),
+                "this steady state's integration",
+            );
+            bar.suspend(|| eprintln!("{text}"));
+        }
+    }
+
+    /// The JSON's `warnings`: empty, or the stiff integration with its numbers, the
+    /// message and the help.
+    pub fn warnings(&self) -> Vec<serde_json::Value> {
+        let Some((case, at)) = self.first.get() else {
+            return Vec::new();
+        };
+        let text = simulate::stiffness_warning_in(
+            &at.stiffness,
+            None,
+            &self.context(case, at),
+            "this steady state's integration",
+        );
+        let (message, help) = text.split_once("\nhelp: ").unwrap_or((&text, ""));
+        let mut w = serde_json::json!({
+            "kind": "stiff",
+            "omega": at.omega,
+            "message": message.trim_start_matches("warning: "),
+            "help": help,
+        });
+        if !case.is_empty() {
+            w["case"] = case.as_str().into();
+        }
+        if let (Some(map), Ok(serde_json::Value::Object(numbers))) =
+            (w.as_object_mut(), serde_json::to_value(&at.stiffness))
+        {
+            map.extend(numbers);
+        }
+        vec![w]
+    }
+}
+
+/// A `--json` document with the warnings of its run after its own keys (none: no key).
+#[derive(serde::Serialize)]
+pub struct Warned<T> {
+    #[serde(flatten)]
+    pub doc: T,
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub warnings: Vec<serde_json::Value>,
+}
+
 /// Print a JSON document on stdout, pretty.
 pub fn print_json(v: &impl serde::Serialize) {
     println!("{}", serde_json::to_string_pretty(v).unwrap_or_default());

@@ -252,8 +252,12 @@ fn track(a: ModesArgs, param: &str) -> Result<()> {
     let to = value("--to", &a.to)?.unwrap_or(f64::NAN);
     let step = value("--step", &a.step)?;
     let grid = values(from, to, step, a.points)?;
+    // a signal stops the tracking at its next value; nothing is written (exit 130, 143,
+    // 129)
+    super::interrupt_on_ctrl_c();
     let opts = TrackOptions {
         normalize: a.normalize.clone(),
+        cancel: Some(&super::INTERRUPTED),
         ..TrackOptions::default()
     };
     // the analytic dλ/dp predicts each label's eigenvalue at the next value

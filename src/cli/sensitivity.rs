@@ -2,7 +2,7 @@
 //! paper's Tables 2–3), analytic derivatives with finite-difference checks, the worst
 //! case over the tolerance box, a tornado chart.
 
-use super::args::{ModelArgs, varies};
+use super::args::{ModelArgs, Tolerances, varies};
 use super::print_json;
 use clap::{Args, ValueEnum};
 use detune::diag::{Error, Result};
@@ -43,6 +43,15 @@ pub struct SensitivityArgs {
     /// [default: the first angle coordinate].
     #[arg(long, value_name = "NAME")]
     pub response: Option<String>,
+    /// The sweeps' integrator and tolerances (--method sweep|both).
+    #[command(flatten)]
+    pub tol: Tolerances,
+    /// --method sweep|both: append each steady state of the cases' sweeps to FILE as it
+    /// is computed; the same command with the same FILE resumes, skipping what is done
+    /// (the outputs are identical to an uninterrupted run's). A FILE of another model,
+    /// --vary, --set or options, or of another command, is refused.
+    #[arg(long, value_name = "FILE")]
+    pub checkpoint: Option<String>,
     /// Print JSON on standard output.
     #[arg(long)]
     pub json: bool,
@@ -65,6 +74,20 @@ pub fn run(a: SensitivityArgs) -> Result<()> {
         &model.source.path,
         &[a.output.as_deref(), a.plot.as_deref()],
     )?;
+    if let Some(c) = &a.checkpoint {
+        if a.method == Method::Linear {
+            return Err(Error::request(
+                format!("--checkpoint {c}: --method linear has no sweeps to resume"),
+                "--checkpoint goes with --method sweep|both",
+            ));
+        }
+        if [a.output.as_deref(), a.plot.as_deref()].contains(&Some(c.as_str())) {
+            return Err(Error::request(
+                format!("--checkpoint {c} is also an output"),
+                "give the checkpoint its own file (e.g. sensitivity.ckpt)",
+            ));
+        }
+    }
     let vs = varies(&model, &sys, &a.vary)?;
     let response = match &a.response {
         Some(r) => {
@@ -91,6 +114,11 @@ pub fn run(a: SensitivityArgs) -> Result<()> {
         ),
         _ => e,
     })?;
+    let watch = super::StiffWatch::new(
+        &sys.forcing_param()
+            .map(|f| sys.param_names()[f].clone())
+            .unwrap_or_default(),
+    );
     if a.method != Method::Linear {
         super::interrupt_on_ctrl_c();
         let cases: usize = 1 + vs.iter().map(|v| v.cases.len()).sum::<usize>();
@@ -98,15 +126,26 @@ pub fn run(a: SensitivityArgs) -> Result<()> {
             cases as u64,
             "stepped-sine sweeps {bar:30} {pos}/{len} cases, eta {eta}",
         );
+        let steady = a.tol.steady();
         detune::linear::sensitivity::add_sweep_peaks(
             &sys,
             &vs,
             &mut study,
             &response,
+            &steady,
             &|done, _| bar.set_position(done as u64),
             &super::INTERRUPTED,
+            &|case, at| watch.found(&format!("the sweep of {case}"), at, &bar),
+            &|opts, runs| open_checkpoint(&a, &model, &vs, &response, opts, runs),
         )
         .map_err(|e| {
+            if let (Some(c), Some(detune::failure::Failure::StudyInterrupted { .. })) =
+                (&a.checkpoint, e.failure())
+            {
+                eprintln!(
+                    "the steady states computed are in the checkpoint {c}: the same command resumes from them"
+                );
+            }
             if let Error::Numerical { .. } | Error::Failed { .. } = e {
                 e
             } else {
@@ -154,11 +193,10 @@ pub fn run(a: SensitivityArgs) -> Result<()> {
                 max: v.range.1,
             })
             .collect();
-        print_json(&SensitivityReport::new(
-            &study,
-            &Provenance::of(&model),
-            params,
-        ));
+        print_json(&super::Warned {
+            doc: SensitivityReport::new(&study, &Provenance::of(&model), params),
+            warnings: watch.warnings(),
+        });
         return Ok(());
     }
     print_tables(&study, &|n| unit(n), a.freq.freq_unit);
@@ -311,4 +349,60 @@ fn print_tables(s: &Sensitivity, unit: &dyn Fn(&str) -> String, fu: FreqUnit) {
             );
         }
     }
+}
+
+/// `--checkpoint FILE` of the sensitivity's sweeps (`runs` of them, one per case, on the
+/// grid of `opts`): opened (resumed when it exists) with a fingerprint of everything that
+/// changes a case's result: the model, its parameters (`--set`), the cases (`--vary`),
+/// the response and the sweep's options.
+fn open_checkpoint(
+    a: &SensitivityArgs,
+    model: &detune::model::Model,
+    vs: &[detune::linear::sensitivity::Vary],
+    response: &str,
+    opts: &detune::frequency::SweepOptions,
+    runs: usize,
+) -> Result<Box<dyn detune::frequency::checkpoint::CaseLog>> {
+    use detune::frequency::checkpoint::{self, Checkpoint, Header, NoLog, Shard};
+    use sha2::{Digest, Sha256};
+    let Some(path) = &a.checkpoint else {
+        return Ok(Box::new(NoLog));
+    };
+    let cases: Vec<_> = vs.iter().map(|v| (v.param, &v.cases)).collect();
+    let text = format!(
+        "detune {}\nsensitivity model {} parameters {:?}\ncases {cases:?}\nresponse {response}\noptions {opts:?}\n",
+        env!("CARGO_PKG_VERSION"),
+        model.hash,
+        model.parameters.values,
+    );
+    let fingerprint = Sha256::digest(text.as_bytes())
+        .iter()
+        .map(|b| format!("{b:02x}"))
+        .collect();
+    let header = Header {
+        format: checkpoint::FORMAT.into(),
+        format_version: checkpoint::FORMAT_VERSION,
+        detune_version: env!("CARGO_PKG_VERSION").into(),
+        model_file: model.source.path.clone(),
+        model_sha256: model.hash.clone(),
+        overrides: Provenance::of(model).overrides,
+        fingerprint,
+        command: std::env::args_os()
+            .skip(2)
+            .map(|s| s.to_string_lossy().into_owned())
+            .collect(),
+        shard: Shard::ALL,
+        sequential: false,
+        grid: opts.values.len(),
+        runs,
+        study: Some("sensitivity".into()),
+    };
+    let c = Checkpoint::open(path, header, &opts.values)?;
+    if c.reused > 0 {
+        eprintln!(
+            "resuming from the checkpoint {path}: {} steady states done before",
+            c.reused
+        );
+    }
+    Ok(Box::new(c))
 }

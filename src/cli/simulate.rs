@@ -314,6 +314,18 @@ pub fn stiffness_warning(
     s: &detune::dynamics::integrator::Stiffness,
     elapsed: std::time::Duration,
 ) -> String {
+    stiffness_warning_in(s, Some(elapsed), "", "the run")
+}
+
+/// [`stiffness_warning`] of one integration of a longer command: `context` follows "the
+/// model is stiff" (" at omega = 3 rad/s"), `run` names the integration ("this steady
+/// state's integration").
+pub fn stiffness_warning_in(
+    s: &detune::dynamics::integrator::Stiffness,
+    elapsed: Option<std::time::Duration>,
+    context: &str,
+    run: &str,
+) -> String {
     let (held, help) = if s.stability_limited {
         (
             format!(
@@ -332,13 +344,15 @@ pub fn stiffness_warning(
         )
     };
     format!(
-        "warning: the model is stiff: its fastest motion has |λ| ≈ {:.3e} 1/s (a time constant of {:.2e} s; the run spans {:.2e} of them), and {held}: the run will take about {:.2e} steps ({} so far, at t = {:.3e} s, after {:.3} s)\nhelp: {help}",
+        "warning: the model is stiff{context}: its fastest motion has |λ| ≈ {:.3e} 1/s (a time constant of {:.2e} s; {run} spans {:.2e} of them), and {held}: {run} will take about {:.2e} steps ({} so far, at t = {:.3e} s{})\nhelp: {help}",
         s.lambda,
         1.0 / s.lambda,
         s.stiffness_ratio,
         s.projected_steps,
         s.steps,
         s.t,
-        elapsed.as_secs_f64(),
+        elapsed
+            .map(|e| format!(", after {:.3} s", e.as_secs_f64()))
+            .unwrap_or_default(),
     )
 }

@@ -260,6 +260,7 @@ pub fn execute(a: SweepArgs, source: Source) -> Result<()> {
                     sequential: study.sequential(),
                     grid: study.options.values.len(),
                     runs: study.runs.len(),
+                    study: None,
                 };
                 let mut c = Checkpoint::open(path, header, &study.options.values)?;
                 c.run_labels = labels;
@@ -287,6 +288,7 @@ pub fn execute(a: SweepArgs, source: Source) -> Result<()> {
             .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar())
     };
     let began = std::time::Instant::now();
+    let watch = super::StiffWatch::new(&a.grid.param);
     let runs = study.run(
         &|p: Progress| {
             let refine = p.refine_expected > 0;
@@ -311,6 +313,7 @@ pub fn execute(a: SweepArgs, source: Source) -> Result<()> {
         },
         &INTERRUPTED,
         log.as_ref(),
+        &|at| watch.found("", at, &bar),
     );
     bar.finish_and_clear();
     let runs = runs?;
@@ -367,7 +370,10 @@ pub fn execute(a: SweepArgs, source: Source) -> Result<()> {
     if a.json {
         let units = sweep_units(&runs, &compiled);
         print_json(&WithUnits {
-            doc: SweepReport::new(&runs, &Provenance::of(&model)),
+            doc: super::Warned {
+                doc: SweepReport::new(&runs, &Provenance::of(&model)),
+                warnings: watch.warnings(),
+            },
             units: &units,
         });
     } else {

@@ -37,6 +37,9 @@ pub struct TuneArgs {
     /// The response the sweep measures [default: the first angle coordinate].
     #[arg(long, value_name = "NAME")]
     pub response: Option<String>,
+    /// The --verify sweep's integrator and tolerances.
+    #[command(flatten)]
+    pub tol: super::args::Tolerances,
     /// A manufacturing tolerance the design must clear the bands over, as `margins --vary`
     /// checks it: `k_fs=±10%` (relative: ±10 % of the design's value) or `k_fs=±500 N/m`.
     /// Repeatable; a parameter may be both free (--vary) and toleranced.
@@ -70,6 +73,9 @@ struct TuneReport<'a> {
     margin_pct: f64,
     #[serde(flatten)]
     tuning: &'a Tuning,
+    /// A stiff integration of `--verify sweep` (none: no key).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    warnings: Vec<serde_json::Value>,
     /// Key → unit: the varied parameters (their SI units), the modes (rad/s), the
     /// margins' keys.
     units: detune::output::units::Units,
@@ -132,7 +138,14 @@ pub fn run(a: TuneArgs) -> Result<super::Outcome> {
         }
     };
     let mut t = tune(&sys, &vs, &lines, &opts)?;
+    let watch = super::StiffWatch::new(
+        &sys.forcing_param()
+            .map(|f| sys.param_names()[f].clone())
+            .unwrap_or_default(),
+    );
     if sweep {
+        let steady = a.tol.steady();
+        let bar = indicatif::ProgressBar::hidden();
         super::interrupt_on_ctrl_c();
         let response = match &a.response {
             Some(r) => {
@@ -143,8 +156,17 @@ pub fn run(a: TuneArgs) -> Result<super::Outcome> {
         };
         for (k, d) in t.designs.iter_mut().enumerate() {
             let (peaks, clear) =
-                detune::tune::verify_sweep(&sys, d, &lines, margin, &response, &super::INTERRUPTED)
-                    .map_err(|e| {
+                detune::tune::verify_sweep(
+                    &sys,
+                    d,
+                    &lines,
+                    margin,
+                    &response,
+                    &steady,
+                    &super::INTERRUPTED,
+                    &|at| watch.found(&format!("the sweep of design {}", k + 1), at, &bar),
+                )
+                .map_err(|e| {
                         e.context(&format!(
                             "--verify sweep of design {} (set the forcing amplitude, e.g. --set \"D0=7 mm\")",
                             k + 1
@@ -160,6 +182,7 @@ pub fn run(a: TuneArgs) -> Result<super::Outcome> {
         environment: &env.name,
         margin_pct: margin * 100.0,
         tuning: &t,
+        warnings: watch.warnings(),
         units: {
             let mut u = detune::output::units::Units::new().with("cost", "1");
             for v in &vs {

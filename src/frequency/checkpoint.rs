@@ -146,6 +146,10 @@ pub struct Header {
     /// Coarse-grid frequencies per run, and runs.
     pub grid: usize,
     pub runs: usize,
+    /// The command whose study it is when not `sweep`: `sensitivity` (its sweeps' cases,
+    /// one run per case of the study). Absent for a sweep.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub study: Option<String>,
 }
 
 pub const FORMAT: &str = "detune-sweep-checkpoint";
@@ -531,6 +535,17 @@ fn io(path: &str, e: std::io::Error) -> Error {
 /// A checkpoint of another study than `want` is refused, with the reason.
 fn refuse_other(path: &str, old: &Header, want: &Header) -> Result<()> {
     let afresh = "to start afresh, remove it or give another --checkpoint FILE";
+    let command = |h: &Header| h.study.clone().unwrap_or_else(|| "sweep".into());
+    if old.study != want.study {
+        return Err(Error::request(
+            format!(
+                "the checkpoint {path} is of a `detune {}` study, not of this `detune {}`",
+                command(old),
+                command(want)
+            ),
+            afresh,
+        ));
+    }
     if old.detune_version != want.detune_version {
         return Err(Error::request(
             format!(
@@ -555,7 +570,13 @@ fn refuse_other(path: &str, old: &Header, want: &Header) -> Result<()> {
     if old.fingerprint != want.fingerprint {
         return Err(Error::request(
             format!(
-                "the checkpoint {path} is of a sweep with other options, --set or --values: it was written by\n  detune sweep {}",
+                "the checkpoint {path} is of a {} with other options, --set or --values: it was written by\n  detune {} {}",
+                if old.study.is_some() {
+                    "study"
+                } else {
+                    "sweep"
+                },
+                command(old),
                 old.command.join(" ")
             ),
             format!("resume it with that command; {afresh}"),

@@ -20,6 +20,7 @@ pub mod study;
 pub mod wells;
 
 use crate::diag::Result;
+use crate::dynamics::integrator::Stiffness;
 use crate::dynamics::simulate::SimOptions;
 use crate::dynamics::{
     DynWorkspace, State, project_position, project_velocity, velocity_residual_blocks,
@@ -104,6 +105,19 @@ pub fn steady_state(
     opts: &SteadyOptions,
     cancel: &AtomicBool,
 ) -> Result<SteadyState> {
+    steady_state_watched(sys, start, responses, opts, cancel, &|_| {})
+}
+
+/// [`steady_state`], and `stiff` hears as soon as an integration (DOP853) is found stiff
+/// (see [`crate::dynamics::integrator`]); the computation goes on.
+pub fn steady_state_watched(
+    sys: &System,
+    start: &State,
+    responses: &[Output],
+    opts: &SteadyOptions,
+    cancel: &AtomicBool,
+    stiff: &(dyn Fn(&Stiffness) + Sync),
+) -> Result<SteadyState> {
     let mut probe = Probe::new(sys, responses.to_vec());
     let omega = sys.forcing_frequency().ok_or(Invalid::NoForcingFrequency)?;
     let period = 2.0 * std::f64::consts::PI / omega;
@@ -149,7 +163,7 @@ pub fn steady_state(
         let mut vals: Vec<Vec<f64>> = Vec::with_capacity(per + 1);
         let mut restart: Option<State> = None;
         let mut last = state.clone();
-        crate::dynamics::simulate::simulate_with(
+        crate::dynamics::simulate::simulate_watched(
             sys,
             &state,
             &sim,
@@ -187,6 +201,7 @@ pub fn steady_state(
                 }
             },
             &mut |_| !cancel.load(Ordering::Relaxed),
+            &mut |s| stiff(s),
         )?;
         state = restart.unwrap_or(last);
     }
@@ -547,7 +562,23 @@ pub struct Sweep {
     pub hysteresis: Vec<Hysteresis>,
     /// False when interrupted: `points` holds what was computed.
     pub complete: bool,
+    /// The first integration of the sweep found stiff (DOP853's steps held by the
+    /// model's fastest motion), with its frequency: the sweep is right but slow, and
+    /// `--integrator radau` is the remedy. None with Radau, or when nothing was stiff.
+    pub stiffness: Option<StiffAt>,
 }
+
+/// A stiff integration of a sweep: at which forcing frequency, and the numbers.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct StiffAt {
+    /// The forcing frequency of the steady state whose integration was found stiff, rad/s.
+    pub omega: f64,
+    pub stiffness: Stiffness,
+}
+
+/// Hears of a sweep's first stiff integration (its frequency and the numbers), as soon as
+/// it is found: a front end warns then, not after the sweep.
+pub type StiffHook<'a> = &'a (dyn Fn(&StiffAt) + Sync);
 
 fn check_request(sys: &System, opts: &SweepOptions) -> Result<usize> {
     let index = crate::linear::check_frequencies(sys, &opts.param, &opts.values)?;
@@ -609,8 +640,20 @@ pub fn sweep(
     progress: &(dyn Fn(usize) + Sync),
     cancel: &AtomicBool,
 ) -> Result<Sweep> {
+    sweep_watched(sys, opts, progress, cancel, &|_| {})
+}
+
+/// [`sweep`], and `stiff` hears of the first integration found stiff, as soon as it is
+/// (the sweep goes on; [`Sweep::stiffness`] keeps the same numbers).
+pub fn sweep_watched(
+    sys: &System,
+    opts: &SweepOptions,
+    progress: &(dyn Fn(usize) + Sync),
+    cancel: &AtomicBool,
+    stiff: StiffHook,
+) -> Result<Sweep> {
     let report = |p: Progress| progress(p.grid + p.refined);
-    sweep_logged(sys, opts, &report, cancel, &checkpoint::NoLog, 0)
+    sweep_logged(sys, opts, &report, cancel, &checkpoint::NoLog, 0, stiff)
 }
 
 /// How far a sweep is: steady states of the coarse grid done (with the jump checks of
@@ -635,8 +678,11 @@ pub fn sweep_logged(
     cancel: &AtomicBool,
     log: &dyn checkpoint::CaseLog,
     run: usize,
+    stiff: StiffHook,
 ) -> Result<Sweep> {
     use checkpoint::{CaseKey, CaseKind};
+    // the first stiff integration, told once (the steady states run in parallel)
+    let stiffness: std::sync::OnceLock<StiffAt> = std::sync::OnceLock::new();
     let (sys0, responses, eq) = prepare(sys, opts)?;
     let index = sys0.forcing_param().expect("checked by prepare");
     // the wells: the statics under the loads' mean, the same at every ω of the sweep
@@ -664,7 +710,18 @@ pub fn sweep_logged(
     let eval = |omega: f64, from: &State| -> Result<SteadyState> {
         let s = at(omega)?;
         let start = absolute(&s, from);
-        steady_state(&s, &start, &responses, &opts.steady, cancel)
+        let found = |st: &Stiffness| {
+            let at = StiffAt {
+                omega,
+                stiffness: st.clone(),
+            };
+            if stiffness.set(at).is_ok()
+                && let Some(at) = stiffness.get()
+            {
+                stiff(at);
+            }
+        };
+        steady_state_watched(&s, &start, &responses, &opts.steady, cancel, &found)
             .map_err(|e| e.context(&format!("{} = {omega}", opts.param)))
     };
     // one case: from the log if it has it, else computed, classified by well and recorded
@@ -906,6 +963,7 @@ pub fn sweep_logged(
         wells,
         hysteresis,
         complete,
+        stiffness: stiffness.into_inner(),
     })
 }
 

@@ -311,6 +311,7 @@ impl SweepStudy {
         progress: &(dyn Fn(Progress) + Sync),
         cancel: &AtomicBool,
         log: &dyn CaseLog,
+        stiff: super::StiffHook,
     ) -> Result<Vec<SweepRun>> {
         let done = AtomicUsize::new(0);
         let mut out = Vec::new();
@@ -332,6 +333,7 @@ impl SweepStudy {
                 cancel,
                 log,
                 index,
+                stiff,
             )?;
             let complete = s.complete;
             let units: Vec<String> = run

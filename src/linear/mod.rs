@@ -687,6 +687,24 @@ pub fn frequency_response(
     values: &[f64],
     responses: &[String],
 ) -> Result<FrequencyResponse> {
+    frequency_response_until(
+        sys,
+        param,
+        values,
+        responses,
+        &std::sync::atomic::AtomicBool::new(false),
+    )
+}
+
+/// [`frequency_response`], stopped at the next frequency once `cancel` is set (by a
+/// signal): [`crate::failure::Failure::StudyInterrupted`], nothing kept.
+pub fn frequency_response_until(
+    sys: &System,
+    param: &str,
+    values: &[f64],
+    responses: &[String],
+    cancel: &std::sync::atomic::AtomicBool,
+) -> Result<FrequencyResponse> {
     let index = check_frequencies(sys, param, values)?;
     let mut at = at_frequency(sys, index, values[0])?;
     let outputs = at.outputs(responses)?;
@@ -701,6 +719,13 @@ pub fn frequency_response(
     let rows = modal.rows.clone();
     let mut out = Vec::with_capacity(values.len());
     for &w in values {
+        if cancel.load(std::sync::atomic::Ordering::Relaxed) {
+            return Err(crate::failure::Failure::StudyInterrupted {
+                what: "the linear frequency response".into(),
+                kept: false,
+            }
+            .into());
+        }
         at.set_param(index, w)?;
         let forcing = harmonic_forcing(&at, &modal.equilibrium, &rows, param, w)?;
         let y = modal.linearization.response(w, &forcing)?;

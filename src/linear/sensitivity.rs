@@ -1089,14 +1089,22 @@ pub fn sensitivity(
 /// peaks refined to 1/20 of a step; each mode gets the peak nearest its ω_n in that case
 /// (`peak_omega_rad_s`, the baseline's in [`ModeSensitivity::peak_omega_rad_s`]). The
 /// model must be forced (a non-zero forcing amplitude): the paper's method, which costs
-/// a sweep per case. `progress` is called after each sweep with (done, total).
+/// a sweep per case. Each steady state is integrated with `steady`'s integrator and
+/// tolerances; `stiff` hears of each sweep's first stiff integration as soon as it is
+/// found, with the case's label. `progress` is called after each sweep with (done, total).
 pub fn add_sweep_peaks(
     sys: &System,
     varies: &[Vary],
     study: &mut Sensitivity,
     response: &str,
+    steady: &crate::frequency::SteadyOptions,
     progress: &dyn Fn(usize, usize),
     cancel: &std::sync::atomic::AtomicBool,
+    stiff: &(dyn Fn(&str, &crate::frequency::StiffAt) + Sync),
+    open_log: &dyn Fn(
+        &crate::frequency::SweepOptions,
+        usize,
+    ) -> Result<Box<dyn crate::frequency::checkpoint::CaseLog>>,
 ) -> Result<()> {
     let Some(f) = sys.forcing_param() else {
         return Err(crate::diag::Error::request(
@@ -1117,7 +1125,7 @@ pub fn add_sweep_peaks(
     if !(lo.is_finite() && hi > 0.0) {
         return Ok(());
     }
-    let opts = peak_sweep(sys, f, lo, hi, response);
+    let opts = peak_sweep(sys, f, lo, hi, response, steady);
     let jobs: Vec<Option<(usize, usize)>> = std::iter::once(None)
         .chain(
             varies
@@ -1127,6 +1135,8 @@ pub fn add_sweep_peaks(
         )
         .collect();
     let total = jobs.len();
+    // each case's sweep is run `k` of the log (a checkpoint resumes the cases done)
+    let log = open_log(&opts, total)?;
     let base = modal_analysis(sys, None)?;
     for (k, job) in jobs.iter().enumerate() {
         let (s, label) = match job {
@@ -1138,13 +1148,17 @@ pub fn add_sweep_peaks(
                 (s, label.clone())
             }
         };
-        let sw = crate::frequency::sweep(&s, &opts, &|_| {}, cancel)
+        let sw =
+            crate::frequency::sweep_logged(&s, &opts, &|_| {}, cancel, log.as_ref(), k, &|at| {
+                stiff(&label, at)
+            })
             .map_err(|e| e.context(&format!("the stepped-sine sweep of {label}")))?;
         if !sw.complete {
-            return Err(crate::diag::Error::request(
-                "interrupted",
-                "the sensitivity's sweeps were stopped before the end",
-            ));
+            return Err(crate::failure::Failure::StudyInterrupted {
+                what: "the sensitivity study".into(),
+                kept: false,
+            }
+            .into());
         }
         let nearest = |w: f64| -> Option<f64> {
             sw.peaks
@@ -1212,13 +1226,15 @@ impl super::tracking::Predictor for Analytic {
 
 /// The sweep that locates the resonances between ω_n = `lo` and `hi` (rad/s): `response`
 /// over 0.7·lo to 1.3·hi in 60 steps of the forcing frequency (parameter `f`), peaks
-/// refined to 1/20 of a step (`--method sweep`, `tune --verify sweep`).
+/// refined to 1/20 of a step (`--method sweep`, `tune --verify sweep`), each steady state
+/// computed with `steady` (the integrator and its tolerances).
 pub fn peak_sweep(
     sys: &System,
     f: usize,
     lo: f64,
     hi: f64,
     response: &str,
+    steady: &crate::frequency::SteadyOptions,
 ) -> crate::frequency::SweepOptions {
     let (lo, hi) = (0.7 * lo, 1.3 * hi);
     let step = (hi - lo) / 60.0;
@@ -1228,6 +1244,6 @@ pub fn peak_sweep(
         mode: crate::frequency::SweepMode::Independent,
         responses: vec![response.to_string()],
         refine: Some(step / 20.0),
-        steady: crate::frequency::SteadyOptions::default(),
+        steady: steady.clone(),
     }
 }

@@ -412,6 +412,9 @@ pub struct TrackOptions {
     pub max_halvings: usize,
     /// The coordinate the shapes are normalized to (default: the first angle).
     pub normalize: Option<String>,
+    /// Set (by a signal) to stop at the next value of the parameter:
+    /// [`Failure::StudyInterrupted`](crate::failure::Failure::StudyInterrupted), nothing kept.
+    pub cancel: Option<&'static std::sync::atomic::AtomicBool>,
 }
 
 impl Default for TrackOptions {
@@ -421,7 +424,22 @@ impl Default for TrackOptions {
             ambiguity: 0.1,
             max_halvings: 8,
             normalize: None,
+            cancel: None,
         }
+    }
+}
+
+/// An error once `opts.cancel` is set: the tracking stops at its next value.
+fn stop_if_cancelled(opts: &TrackOptions) -> Result<()> {
+    match opts.cancel {
+        Some(c) if c.load(std::sync::atomic::Ordering::Relaxed) => {
+            Err(crate::failure::Failure::StudyInterrupted {
+                what: "the mode tracking".into(),
+                kept: false,
+            }
+            .into())
+        }
+        _ => Ok(()),
     }
 }
 
@@ -858,12 +876,14 @@ pub fn track_modes_with(
             1
         };
         for k in 1..=n {
+            stop_if_cancelled(opts)?;
             path.step_to(baseline + approach * k as f64 / n as f64, 0)?;
         }
     }
     let start = path.solved.len() - 1;
     let mut requested = vec![start];
     for &v in &values[1..] {
+        stop_if_cancelled(opts)?;
         path.step_to(v, 0)?;
         requested.push(path.solved.len() - 1);
     }

@@ -226,6 +226,8 @@ pub struct BranchReport<'a> {
     /// Every branch: 0 the one followed from the start (its points are the CSV's rows
     /// of `branch` 0), then those switched to at its branch points, each to one side.
     pub branches: Vec<BranchJson<'a>>,
+    /// False when interrupted: the points are those computed until then.
+    pub complete: bool,
     pub provenance: &'a Provenance,
 }
 
@@ -286,6 +288,7 @@ impl<'a> BranchReport<'a> {
                     truncated,
                 })
                 .collect(),
+            complete: b.complete,
             provenance,
         }
     }

@@ -66,6 +66,7 @@ pub(crate) fn write_rows(
 
 /// CSV of a branch: `<param>,<coordinates>...,stable,branch`: the branch followed from the
 /// start (`branch` 0), then the branches switched to at its branch points (1, 2, …).
+/// (An interrupted run, `complete = false`, ends with a comment line `# incomplete: ...`.)
 pub fn write_branch_csv(path: &str, b: &Branch) -> Result<()> {
     write_atomic(path, |w| {
         // the trim's solved parameters, when the model has one, after the coordinates
@@ -80,6 +81,19 @@ pub fn write_branch_csv(path: &str, b: &Branch) -> Result<()> {
                 }
                 writeln!(w, ",{},{k}", u8::from(p.stable))?;
             }
+        }
+        if !b.complete {
+            let last = b
+                .all()
+                .last()
+                .and_then(|(_, p, ..)| p.last())
+                .map(|p| p.value);
+            writeln!(
+                w,
+                "# incomplete: interrupted{}; the rows above are the points computed",
+                last.map(|v| format!(" at {} = {}", b.param, num(v)))
+                    .unwrap_or_default()
+            )?;
         }
         Ok(())
     })

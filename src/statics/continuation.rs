@@ -31,6 +31,7 @@ use crate::diag::Result;
 use crate::failure::Failure;
 use crate::system::System;
 use nalgebra::{DMatrix, DVector};
+use std::sync::atomic::{AtomicBool, Ordering};
 
 /// Settings of a continuation run.
 #[derive(Debug, Clone)]
@@ -75,6 +76,9 @@ pub struct Branch {
     /// branch point to one side (two per simple bifurcation), in the order of
     /// `branch_points`.
     pub switched: Vec<Switched>,
+    /// False when the run was cancelled: the points are those computed until then (the
+    /// last branch ends early; branches not started yet are missing).
+    pub complete: bool,
 }
 
 /// One branch of a run: the branch point it leaves (None for the primary), its points,
@@ -139,6 +143,8 @@ struct Family<'m> {
     /// multipliers in y, its held coordinates at their initial values (which may follow
     /// the parameter, e.g. a datum angle) extra equations: (coordinate, parameter).
     trim: Vec<(usize, usize)>,
+    /// Set by a signal: stop following at the next step.
+    cancel: &'m AtomicBool,
 }
 
 /// A corrected point: y = (x, p), with the data needed at it.
@@ -361,6 +367,16 @@ impl Family<'_> {
 /// at p = `from`, until p leaves [from, to] or `max_steps` points were computed; then,
 /// from every branch point found on it, the branches that cross it, to both sides.
 pub fn continue_equilibria(sys: &System, opts: &ContinuationOptions) -> Result<Branch> {
+    continue_equilibria_until(sys, opts, &AtomicBool::new(false))
+}
+
+/// [`continue_equilibria`], stopped at the next step once `cancel` is set: the branch so
+/// far is returned with `complete = false` (a signal's partial result).
+pub fn continue_equilibria_until(
+    sys: &System,
+    opts: &ContinuationOptions,
+    cancel: &AtomicBool,
+) -> Result<Branch> {
     let index = check(sys, opts)?;
     let dir = (opts.to - opts.from).signum();
     let at_from = |e: crate::diag::Error| {
@@ -418,6 +434,7 @@ pub fn continue_equilibria(sys: &System, opts: &ContinuationOptions) -> Result<B
         lo,
         hi,
         trim: trim.clone(),
+        cancel,
     };
     let scale = {
         let mut f = vec![0.0; n];
@@ -441,6 +458,9 @@ pub fn continue_equilibria(sys: &System, opts: &ContinuationOptions) -> Result<B
     let mut switched = Vec::new();
     for (k, bp) in located.iter().enumerate() {
         for side in [1.0, -1.0] {
+            if cancel.load(Ordering::Relaxed) {
+                break;
+            }
             let Some(first) = fam.leave(bp, side, opts.step, scale)? else {
                 continue;
             };
@@ -466,6 +486,7 @@ pub fn continue_equilibria(sys: &System, opts: &ContinuationOptions) -> Result<B
             .map(|&(_, p)| sys.param_names()[p].clone())
             .collect(),
         switched,
+        complete: !cancel.load(Ordering::Relaxed),
     })
 }
 
@@ -514,6 +535,9 @@ impl Family<'_> {
         let min_ds = opts.step * 1e-6;
         let mut steps = 0;
         loop {
+            if self.cancel.load(Ordering::Relaxed) {
+                break;
+            }
             if steps >= opts.max_steps {
                 trace.truncated = true;
                 break;

@@ -385,6 +385,16 @@ impl Compiler<'_> {
                     .as_ref()
                     .map(|u| self.constant(u, stretch, &of("upper limit")));
                 let width = self.checked(smoothing, stretch, &of("smoothing"), CheckKind::Positive);
+                // a free range between the limits: lower < upper (a located error)
+                if let (Some(Some(l)), Some(Some(u)), Some(f)) = (lo, up, lower.as_ref()) {
+                    self.live.checks.push(Check {
+                        coef: l,
+                        kind: CheckKind::Below(u),
+                        what: of("lower limit"),
+                        dim: stretch,
+                        span: f.span.clone(),
+                    });
+                }
                 Law::EndStop {
                     lower: lo.map(|l| l.ok_or(())).transpose().ok()?,
                     upper: up.map(|u| u.ok_or(())).transpose().ok()?,

@@ -22,6 +22,9 @@ pub enum CheckKind {
     Finite,
     Positive,
     NonNegative,
+    /// Below the value of another coefficient (an end stop's lower limit below its
+    /// upper one).
+    Below(usize),
 }
 
 /// A value check on one coefficient, with what to say where.
@@ -249,8 +252,33 @@ impl Live {
                 );
                 continue;
             }
+            if let CheckKind::Below(upper) = c.kind {
+                let u = coefs[upper];
+                // (a non-finite upper limit has its own check)
+                if u.is_finite() && !(v < u) {
+                    // an end stop's limits: m, or an angle (dimensionless) in rad
+                    let unit = if c.dim.is_dimensionless() {
+                        "rad".to_string()
+                    } else {
+                        c.dim.to_string()
+                    };
+                    let mut msg = format!(
+                        "{what} must be below the upper limit: it is {v} {unit}, the upper limit {u} {unit}"
+                    );
+                    if !overrides.is_empty() {
+                        msg.push_str(&format!(" (with --set {overrides})"));
+                    }
+                    diags.push(
+                        Diagnostic::new(msg)
+                            .at(c.span.clone())
+                            .label(if v == u { "equal to the upper limit" } else { "above the upper limit" })
+                            .help("the stop pushes back below `lower` and above `upper`, the coordinate moves freely between them: give `lower` < `upper` (swap them if they are reversed; leave one out for a stop on one side only)"),
+                    );
+                }
+                continue;
+            }
             let strict = match c.kind {
-                CheckKind::Finite => continue,
+                CheckKind::Finite | CheckKind::Below(_) => continue,
                 CheckKind::Positive => true,
                 CheckKind::NonNegative => false,
             };
