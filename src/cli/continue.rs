@@ -11,7 +11,7 @@ use detune::output::figures::{Case, branch_figure};
 use detune::output::json::BranchReport;
 use detune::output::plot::write_panels_sized;
 use detune::output::results::write_branch_csv;
-use detune::output::units::{Units, WithUnits};
+use detune::output::units::{FreqUnit, Units, WithUnits};
 use detune::output::{Provenance, check_outputs};
 use detune::request::Argument;
 use detune::statics::continuation::{ContinuationOptions, continue_equilibria};
@@ -51,6 +51,10 @@ pub struct ContinueArgs {
     pub plot_coordinate: Option<String>,
     #[command(flatten)]
     pub plot_size: super::args::PlotSize,
+    /// When the parameter (or one solved by [trim]) is a frequency (rad/s): the unit its
+    /// values are printed and plotted in. The CSV and JSON stay in rad/s.
+    #[command(flatten)]
+    pub freq: super::args::FreqUnitArg,
 }
 
 pub fn run(a: ContinueArgs) -> Result<()> {
@@ -78,19 +82,51 @@ pub fn run(a: ContinueArgs) -> Result<()> {
         Some(name) => detune::linear::coordinate(&sys, name, Argument::PlotCoordinate)?,
         None => detune::linear::default_reference(&sys),
     };
+    let fu = a.freq.freq_unit;
+    // a parameter in rad/s is printed and plotted in --freq-unit
+    let is_freq = |name: &str| model.param_unit(name) == "rad/s";
+    // a value of parameter `name` with its unit (` N`, ` Hz`), `decimals` or as computed
+    let show = |name: &str, x: f64, decimals: Option<usize>| -> String {
+        let (x, u) = if is_freq(name) {
+            (fu.of(x), fu.symbol().to_string())
+        } else {
+            (x, model.param_unit(name))
+        };
+        let u = if u.is_empty() { u } else { format!(" {u}") };
+        match decimals {
+            Some(d) => format!("{x:.d$}{u}"),
+            None => format!("{x}{u}"),
+        }
+    };
     let branch = continue_equilibria(&sys, &opts)?;
+    if fu != FreqUnit::RadPerSecond
+        && !is_freq(&a.param)
+        && !branch.solved.iter().any(|n| is_freq(n))
+    {
+        eprintln!(
+            "note: --freq-unit {fu} changes frequencies only; {} is not one (its unit: {}), so the values are shown as they are",
+            a.param,
+            match model.param_unit(&a.param) {
+                u if u.is_empty() => "none".to_string(),
+                u => u,
+            }
+        );
+    }
     if let Some(o) = &a.output {
         write_branch_csv(o, &branch)?;
     }
     if let Some(p) = &a.plot {
         let case = Case::of(&model);
-        let figure = branch_figure(
+        let mut figure = branch_figure(
             &case,
             &branch,
             idx,
             sys.is_angle(idx),
             &model.param_unit(&a.param),
         );
+        if is_freq(&a.param) {
+            figure = figure.in_frequency_unit(fu);
+        }
         write_panels_sized(p, &[figure], size)?;
     }
     outputs.commit()?;
@@ -115,12 +151,20 @@ pub fn run(a: ContinueArgs) -> Result<()> {
             if u.is_empty() { u } else { format!(" {u}") }
         };
         let reached = (end - to).abs() <= 1e-9 * (1.0 + to.abs());
+        // a requested end as given; a plain number (SI) in --freq-unit when converted
+        let given = |text: &str| -> String {
+            match text.trim().parse::<f64>() {
+                Ok(x) if is_freq(param) && fu != FreqUnit::RadPerSecond => show(param, x, Some(6)),
+                _ => given(text, &pu),
+            }
+        };
         let how = if reached {
-            format!("to {}", given(&a.to, &pu))
+            format!("to {}", given(&a.to))
         } else if let Some(f) = branch.folds.first() {
             format!(
-                "turned at the fold at {param} = {:.6}{pu}; ends at {param} = {end}{pu}",
-                f.value
+                "turned at the fold at {param} = {}; ends at {param} = {}",
+                show(param, f.value, Some(6)),
+                show(param, end, None)
             )
         } else if let Some(b) = branch
             .branch_points
@@ -129,11 +173,16 @@ pub fn run(a: ContinueArgs) -> Result<()> {
         {
             // a pitchfork reached along a side branch: it turns there, onto the other side
             format!(
-                "turned at the branch point at {param} = {:.6}{pu}; ends at {param} = {end}{pu}",
-                b.value
+                "turned at the branch point at {param} = {}; ends at {param} = {}",
+                show(param, b.value, Some(6)),
+                show(param, end, None)
             )
         } else {
-            format!("ends at {param} = {end}{pu} (before {})", given(&a.to, &pu))
+            format!(
+                "ends at {param} = {} (before {})",
+                show(param, end, None),
+                given(&a.to)
+            )
         };
         if !branch.switched.is_empty() {
             let total: usize = branch.points.len()
@@ -155,7 +204,7 @@ pub fn run(a: ContinueArgs) -> Result<()> {
                 "branch 0: "
             },
             branch.points.len(),
-            given(&a.from, &pu),
+            given(&a.from),
             if branch.truncated {
                 " (stopped at --max-steps)"
             } else {
@@ -164,11 +213,10 @@ pub fn run(a: ContinueArgs) -> Result<()> {
         );
         if let (Some(p0), Some(p1)) = (branch.points.first(), branch.points.last()) {
             for (k, name) in branch.solved.iter().enumerate() {
-                let u = model.param_unit(name);
-                let u = if u.is_empty() { u } else { format!(" {u}") };
                 println!(
-                    "solved by [trim]: {name} from {}{u} to {}{u}",
-                    p0.solved[k], p1.solved[k]
+                    "solved by [trim]: {name} from {} to {}",
+                    show(name, p0.solved[k], None),
+                    show(name, p1.solved[k], None)
                 );
             }
         }
@@ -178,9 +226,9 @@ pub fn run(a: ContinueArgs) -> Result<()> {
         ] {
             for p in points {
                 println!(
-                    "{kind} at {} = {:.10}{pu}: {}",
+                    "{kind} at {} = {}: {}",
                     branch.param,
-                    p.value,
+                    show(param, p.value, Some(10)),
                     pose(&sys, &p.q)
                 );
             }
@@ -199,14 +247,14 @@ pub fn run(a: ContinueArgs) -> Result<()> {
                 _ => "stable in part",
             };
             println!(
-                "branch {} from the branch point at {param} = {:.10}{pu} ({} = {:.8}{} first): {} points to {param} = {}{pu}, {stability}{}{}",
+                "branch {} from the branch point at {param} = {} ({} = {:.8}{} first): {} points to {param} = {}, {stability}{}{}",
                 k + 1,
-                branch.branch_points[s.branch_point].value,
+                show(param, branch.branch_points[s.branch_point].value, Some(10)),
                 sys.coordinates[idx],
                 p0.q[idx],
                 super::unit_and_degrees(&sys, &sys.coordinates[idx], p0.q[idx]),
                 s.points.len(),
-                p1.value,
+                show(param, p1.value, None),
                 if s.folds.is_empty() {
                     String::new()
                 } else {
