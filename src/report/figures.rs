@@ -12,6 +12,7 @@ use crate::output::plot::{
     legend_height, legend_layout, reference_pen, render,
 };
 use crate::output::style::{self, Fonts};
+use crate::output::units::FreqUnit;
 use plotters::coord::Shift;
 use plotters::prelude::*;
 
@@ -41,6 +42,23 @@ pub struct FrfPlot {
     /// Refined peaks (ω rad/s, amplitude), marked on the curves.
     pub peaks: Vec<(f64, f64)>,
     pub bands: Vec<Band>,
+    /// The unit of the frequency axis (`--freq-unit`); the data above stay in rad/s.
+    pub freq_unit: FreqUnit,
+}
+
+impl FrfPlot {
+    /// The data with every frequency in `freq_unit` (drawn as they are then).
+    fn in_unit(&self) -> FrfPlot {
+        let u = self.freq_unit;
+        let mut p = self.clone();
+        p.omega.iter_mut().for_each(|w| *w = u.of(*w));
+        p.resonances.iter_mut().for_each(|(_, w)| *w = u.of(*w));
+        p.peaks.iter_mut().for_each(|(w, _)| *w = u.of(*w));
+        for b in &mut p.bands {
+            (b.lo, b.nominal, b.hi) = (u.of(b.lo), u.of(b.nominal), u.of(b.hi));
+        }
+        p
+    }
 }
 
 /// The report figures' size, px.
@@ -150,7 +168,8 @@ impl Figure for FrfPlot {
         root: &DrawingArea<DB, Shift>,
         painter: &mut Painter<'_, DB>,
     ) -> std::result::Result<(), String> {
-        let p = self;
+        let p = &self.in_unit();
+        let sym = p.freq_unit.symbol();
         let f = Fonts::for_width(SIZE.0);
         let s = f.scale;
         let (x0, x1) = (
@@ -190,20 +209,20 @@ impl Figure for FrfPlot {
         }
         if !p.resonances.is_empty() {
             entries.push(Entry {
-                label: "natural frequencies (labelled) [rad/s]".into(),
+                label: format!("natural frequencies (labelled) [{sym}]"),
                 pen: reference_pen(s),
             });
         }
         if !p.bands.is_empty() {
             entries.push(Entry {
-                label: "forcing line [rad/s] and its band (shaded)".into(),
+                label: format!("forcing line [{sym}] and its band (shaded)"),
                 pen: forcing_pen(s),
             });
         }
         let lay = layout(root, &p.title, &entries, &f)?;
         let px = axes(
             &lay.chart,
-            "ω [rad/s]",
+            &format!("ω [{sym}]"),
             &format!("amplitude [{}]", p.unit),
             (x0, x1),
             (y0, y1),
@@ -312,6 +331,21 @@ pub struct CampbellPlot {
     /// Right end of the speed axis, rpm; top of the frequency axis, rad/s.
     pub rpm_end: f64,
     pub omega_end: f64,
+    /// The unit of the frequency axis (`--freq-unit`); the data above stay in rad/s.
+    pub freq_unit: FreqUnit,
+}
+
+impl CampbellPlot {
+    /// The data with every frequency in `freq_unit` (the speed axis stays in rpm).
+    fn in_unit(&self) -> CampbellPlot {
+        let u = self.freq_unit;
+        let mut p = self.clone();
+        p.modes.iter_mut().for_each(|(_, w)| *w = u.of(*w));
+        p.lines.iter_mut().for_each(|l| l.slope = u.of(l.slope));
+        p.crossings.iter_mut().for_each(|c| c.1 = u.of(c.1));
+        p.omega_end = u.of(p.omega_end);
+        p
+    }
 }
 
 /// Mode frequencies against rotor speed (horizontal lines: the mechanism's modes do not
@@ -331,7 +365,8 @@ impl Figure for CampbellPlot {
         root: &DrawingArea<DB, Shift>,
         painter: &mut Painter<'_, DB>,
     ) -> std::result::Result<(), String> {
-        let p = self;
+        let p = &self.in_unit();
+        let sym = p.freq_unit.symbol();
         let f = Fonts::for_width(SIZE.0);
         let s = f.scale;
         let (xe, ye) = (p.rpm_end, p.omega_end);
@@ -340,7 +375,7 @@ impl Figure for CampbellPlot {
             .iter()
             .enumerate()
             .map(|(i, (label, w))| Entry {
-                label: format!("{label}: ω_n = {w:.2} rad/s"),
+                label: format!("{label}: ω_n = {w:.2} {sym}"),
                 pen: curve_pen(i, s),
             })
             .collect();
@@ -348,7 +383,7 @@ impl Figure for CampbellPlot {
         let mut thin = forcing_pen(s);
         thin.width = style::REFERENCE_WIDTH * s;
         entries.push(Entry {
-            label: "forcing lines n/rev [rad/s] (labelled)".into(),
+            label: format!("forcing lines n/rev [{sym}] (labelled)"),
             pen: thin.clone(),
         });
         entries.push(Entry {
@@ -378,7 +413,7 @@ impl Figure for CampbellPlot {
         let px = axes(
             &lay.chart,
             &format!("{} rotor speed [rpm]", p.rotor),
-            "frequency [rad/s]",
+            &format!("frequency [{sym}]"),
             (0.0, xe),
             (0.0, ye),
             false,
