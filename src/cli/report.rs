@@ -137,6 +137,14 @@ pub fn run(a: ReportArgs) -> Result<()> {
             command_words: &|except: &[&str]| a.model.command_words(except),
         },
     )?;
+    // a --vary case that makes a damping coefficient negative (warned of on standard
+    // error when parsed): in the sidecar's `warnings`
+    if given {
+        let warnings = super::args::damping_warnings(&model, &sys, &varies);
+        if !warnings.is_empty() {
+            report.add_data("warnings", &warnings)?;
+        }
+    }
     report.in_frequency_unit(a.freq.freq_unit);
     report.write(&a.output, &json)?;
     let modes = report

@@ -154,11 +154,11 @@ pub fn run(a: SensitivityArgs) -> Result<()> {
                 max: v.range.1,
             })
             .collect();
-        print_json(&SensitivityReport::new(
-            &study,
-            &Provenance::of(&model),
-            params,
-        ));
+        let warnings = super::args::damping_warnings(&model, &sys, &vs);
+        print_json(&detune::output::json::WithWarnings {
+            doc: SensitivityReport::new(&study, &Provenance::of(&model), params),
+            warnings: &warnings,
+        });
         return Ok(());
     }
     print_tables(&study, &|n| unit(n), a.freq.freq_unit);

@@ -489,3 +489,13 @@ impl<'a> SweepReport<'a> {
         }
     }
 }
+
+/// A document with the `warnings` of its run after its own keys (a case that made a
+/// damping coefficient negative, ...), left out when there are none.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct WithWarnings<'a, T> {
+    #[serde(flatten)]
+    pub doc: T,
+    #[serde(skip_serializing_if = "<[String]>::is_empty")]
+    pub warnings: &'a [String],
+}

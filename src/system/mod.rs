@@ -567,6 +567,22 @@ impl System {
         Ok(())
     }
 
+    /// The damping coefficients (of spring–dampers and torsions) that are negative at the
+    /// current parameter values: (what, e.g. "the damping of `spring`", value in SI, its
+    /// dimension). The model may hold one (nothing refuses it: an element that feeds
+    /// energy in); a study that varies a parameter warns when a case makes one negative
+    /// ([`crate::linear::sensitivity::negative_dampings`]).
+    pub fn negative_dampings(&self) -> Vec<(String, f64, crate::model::units::Dim)> {
+        use crate::model::units::Dim;
+        self.live
+            .checks
+            .iter()
+            .filter(|c| c.dim == Dim::DAMPING || c.dim == Dim::ANGULAR_DAMPING)
+            .filter(|c| self.live.coefs[c.coef] < 0.0)
+            .map(|c| (c.what.clone(), self.live.coefs[c.coef], c.dim))
+            .collect()
+    }
+
     /// A copy with parameter `name` at `value` (see [`System::set_param`]).
     pub fn with_param(&self, i: usize, value: f64) -> Result<System> {
         let mut s = self.clone();
