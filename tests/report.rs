@@ -950,3 +950,52 @@ fn freq_unit_shows_the_pages_frequencies_in_the_unit_with_rad_s_beside() {
     // the default page is unchanged: rad/s, no data-unit
     assert!(!base_page.contains("data-unit"));
 }
+
+/// The interference diagram's line labels (1P, 4P, 8P, 12P, 1T, 4T of the UH-60) do not
+/// overlap: lines that leave the plot through its top close together (4T, 12P, 8P) had
+/// their labels written side by side as one string. Read from the SVG: each label's box
+/// (0.7 em per character, 1.2 em high, from its x, y) is apart from every other by a
+/// quarter em at least.
+#[test]
+fn the_interference_diagrams_line_labels_do_not_overlap() {
+    let (_dir, _, page, _) = report("inceptor", &["--environment", "UH-60"]);
+    let at = page.find("Interference diagram (").unwrap();
+    let svg = &page[page[..at].rfind("<svg").unwrap()..at + page[at..].find("</svg>").unwrap()];
+    let width: f64 = {
+        let w = &svg[svg.find("width=\"").unwrap() + 7..];
+        w[..w.find('"').unwrap()].parse().unwrap()
+    };
+    let names = ["1P", "4P", "8P", "12P", "1T", "4T"];
+    let mut boxes = Vec::new();
+    for part in svg.split("<text").skip(1) {
+        let attr = |name: &str| -> f64 {
+            let a = &part[part.find(&format!(" {name}=\"")).unwrap() + name.len() + 3..];
+            a[..a.find('"').unwrap()].parse().unwrap()
+        };
+        let text = part[part.find('>').unwrap() + 1..part.find("</text>").unwrap()].trim();
+        if names.contains(&text) {
+            let (x, y, em) = (attr("x"), attr("y"), attr("font-size"));
+            boxes.push((
+                text,
+                x,
+                y,
+                x + 0.7 * em * text.len() as f64,
+                y + 1.2 * em,
+                em,
+            ));
+        }
+    }
+    assert_eq!(boxes.len(), names.len(), "{boxes:?}");
+    for (i, a) in boxes.iter().enumerate() {
+        assert!(
+            a.1 >= 0.0 && a.3 <= width,
+            "{} outside the figure: {a:?}",
+            a.0
+        );
+        for b in &boxes[i + 1..] {
+            let gap = 0.25 * a.5;
+            let apart = a.3 + gap <= b.1 || b.3 + gap <= a.1 || a.4 <= b.2 || b.4 <= a.2;
+            assert!(apart, "labels {} and {} overlap: {a:?} {b:?}", a.0, b.0);
+        }
+    }
+}

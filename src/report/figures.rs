@@ -448,6 +448,10 @@ impl Figure for CampbellPlot {
                 &format!("r-{}", n_modes + 1),
             )?;
         }
+        // each line's label just inside the box where the line leaves it, moved back along
+        // the line until it overlaps no label placed before (lines that leave through the
+        // top close together, 4T 12P 8P, would write theirs on top of each other)
+        let mut placed: Vec<[f64; 4]> = Vec::new();
         for l in &p.lines {
             let w = l.slope;
             // from the origin to where the line leaves the box
@@ -456,12 +460,36 @@ impl Figure for CampbellPlot {
                 continue;
             };
             painter.line(&[a, b], &thin, "forcing", &format!("r-{n_modes}"))?;
-            // the label just inside the box where the line leaves it
-            let (tx, ty) = if x_end < xe {
-                (b.0 + 4.0 * s, b.1 + 2.0 * s)
-            } else {
-                (b.0 - 60.0 * s, b.1 - f.note * 1.4)
+            let (tw, th) = root
+                .estimate_text_size(&l.label, &style::font(f.note).into())
+                .map(|(w, h)| (w as f64, h as f64))
+                .unwrap_or((l.label.chars().count() as f64 * f.note * 0.6, f.note));
+            let at = |t: f64| -> (f64, f64) {
+                // the point a length t back from b toward a, and the label beside it
+                let len = ((a.0 - b.0).powi(2) + (a.1 - b.1).powi(2)).sqrt().max(1.0);
+                let (x, y) = (b.0 + (a.0 - b.0) * t / len, b.1 + (a.1 - b.1) * t / len);
+                if x_end < xe {
+                    (x + 4.0 * s, y + 2.0 * s)
+                } else {
+                    (x - tw - 6.0 * s, y - th - 2.0 * s)
+                }
             };
+            // apart by half an em at least, so that neighbours do not read as one string
+            let gap = 0.5 * f.note;
+            let free = |(x, y): (f64, f64)| {
+                placed.iter().all(|q| {
+                    x + tw + gap <= q[0]
+                        || q[2] + gap <= x
+                        || y + th + gap <= q[1]
+                        || q[3] + gap <= y
+                })
+            };
+            let step = 0.5 * th;
+            let (tx, ty) = (0..200)
+                .map(|k| at(k as f64 * step))
+                .find(|&q| free(q))
+                .unwrap_or_else(|| at(0.0));
+            placed.push([tx, ty, tx + tw, ty + th]);
             label(root, &l.label, (tx, ty), style::EVENT, &f)?;
         }
         for (i, (_, w)) in p.modes.iter().enumerate() {
