@@ -451,6 +451,7 @@ fn report_figures_share_the_style() {
             nominal: 25.0,
             hi: 30.0,
         }],
+        freq_unit: Default::default(),
     };
     let dir = tempfile::tempdir().unwrap();
     let p = dir.path().join("frf.svg");
@@ -470,6 +471,7 @@ fn report_figures_share_the_style() {
         crossings: vec![(124.1, 13.0, false)],
         rpm_end: 400.0,
         omega_end: 40.0,
+        freq_unit: Default::default(),
     };
     let p = dir.path().join("campbell.svg");
     std::fs::write(&p, campbell_svg(&c).unwrap()).unwrap();

@@ -137,7 +137,7 @@ fn freq_unit_rescales_the_frf_table_and_plot_but_not_the_csv() {
         std::fs::read_to_string(&csv_rad).unwrap(),
         std::fs::read_to_string(&csv_hz).unwrap()
     );
-    // the plot's axis and lines in Hz: the undamped ω_n (2.9732 rad/s) at 0.4732 Hz
+    // the plot's axis and lines in Hz: ω_n = |λ| (2.9732 rad/s) at 0.4732 Hz
     let text = std::fs::read_to_string(&svg).unwrap();
     let doc = roxmltree::Document::parse(&text).unwrap();
     let texts: Vec<&str> = doc
@@ -148,7 +148,7 @@ fn freq_unit_rescales_the_frf_table_and_plot_but_not_the_csv() {
         .collect();
     assert!(texts.contains(&"omega [Hz]"), "{texts:?}");
     assert!(!texts.iter().any(|t| t.contains("rad/s")), "{texts:?}");
-    assert!(texts.contains(&"undamped ω_n = 0.4732 Hz"), "{texts:?}");
+    assert!(texts.contains(&"ω_n = |λ| = 0.4732 Hz"), "{texts:?}");
 }
 
 /// The plot method on its own: x, vertical lines and marks rescaled, numbers in rad/s

@@ -536,8 +536,9 @@ pub enum AmplitudeScale {
 }
 
 /// The linear frequency response: per response (at most six) an amplitude panel
-/// (`scale`) and a phase panel [deg], the undamped natural frequencies `natural` (rad/s)
-/// as reference lines, the refined peaks marked and labelled, and `marks` (a rotor's
+/// (`scale`) and a phase panel [deg], the natural frequencies `natural` (rad/s: ω_n =
+/// |λ| of the damped modes, as the modes table and the report give them) as reference
+/// lines, the refined peaks marked and labelled, and `marks` (a rotor's
 /// forcing lines) in the forcing colour.
 pub fn frf_figures(
     case: &Case,
@@ -549,7 +550,7 @@ pub fn frf_figures(
 ) -> Vec<LinePlot> {
     let vertical: Vec<(f64, String)> = natural
         .iter()
-        .map(|w| (*w, format!("undamped ω_n = {w:.4} rad/s")))
+        .map(|w| (*w, format!("ω_n = |λ| = {w:.4} rad/s")))
         .collect();
     let marks: Vec<(f64, String)> = marks
         .iter()
@@ -607,7 +608,12 @@ pub fn frf_figures(
         plots.push(LinePlot {
             title: format!("{name}: linear frequency response, amplitude"),
             caption: if r == 0 {
-                case.caption(&[])
+                let lines = if natural.is_empty() {
+                    vec![]
+                } else {
+                    vec!["dash-dot: ω_n = |λ| of the damped modes".to_string()]
+                };
+                case.caption(&lines)
             } else {
                 String::new()
             },
