@@ -46,9 +46,10 @@ pub struct ContinueArgs {
     /// SVG of the branches (stable solid, unstable dashed, folds and branch points marked).
     #[arg(long, value_name = "OUT.svg")]
     pub plot: Option<String>,
-    /// Coordinate drawn against the parameter [default: the first angle].
+    /// Coordinate drawn against the parameter, one panel each; repeatable (as sweep's
+    /// --response) [default: the first angle].
     #[arg(long, value_name = "NAME")]
-    pub plot_coordinate: Option<String>,
+    pub plot_coordinate: Vec<String>,
     #[command(flatten)]
     pub plot_size: super::args::PlotSize,
     /// When the parameter (or one solved by [trim]) is a frequency (rad/s): the unit its
@@ -78,10 +79,18 @@ pub fn run(a: ContinueArgs) -> Result<()> {
         max_steps: a.max_steps,
     };
     // Every request is checked before the work, so a bad one leaves no file behind.
-    let idx = match &a.plot_coordinate {
-        Some(name) => detune::linear::coordinate(&sys, name, Argument::PlotCoordinate)?,
-        None => detune::linear::default_reference(&sys),
-    };
+    let mut picked: Vec<usize> = Vec::new();
+    for name in &a.plot_coordinate {
+        let i = detune::linear::coordinate(&sys, name, Argument::PlotCoordinate)?;
+        if !picked.contains(&i) {
+            picked.push(i);
+        }
+    }
+    if picked.is_empty() {
+        picked.push(detune::linear::default_reference(&sys));
+    }
+    // the coordinate the printed branch lines name: the first drawn
+    let idx = picked[0];
     let fu = a.freq.freq_unit;
     // a parameter in rad/s is printed and plotted in --freq-unit
     let is_freq = |name: &str| model.param_unit(name) == "rad/s";
@@ -117,17 +126,24 @@ pub fn run(a: ContinueArgs) -> Result<()> {
     }
     if let Some(p) = &a.plot {
         let case = Case::of(&model);
-        let mut figure = branch_figure(
-            &case,
-            &branch,
-            idx,
-            sys.is_angle(idx),
-            &model.param_unit(&a.param),
-        );
-        if is_freq(&a.param) {
-            figure = figure.in_frequency_unit(fu);
-        }
-        write_panels_sized(p, &[figure], size)?;
+        let figures: Vec<_> = picked
+            .iter()
+            .map(|&i| {
+                let figure = branch_figure(
+                    &case,
+                    &branch,
+                    i,
+                    sys.is_angle(i),
+                    &model.param_unit(&a.param),
+                );
+                if is_freq(&a.param) {
+                    figure.in_frequency_unit(fu)
+                } else {
+                    figure
+                }
+            })
+            .collect();
+        write_panels_sized(p, &figures, size)?;
     }
     outputs.commit()?;
     if a.json {
