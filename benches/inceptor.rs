@@ -98,6 +98,7 @@ fn report_uh60() -> usize {
         environment: Some(&env),
         mode_extras: None,
         generated_utc: "2026-11-23T00:00:00Z".into(),
+        freq_unit: Default::default(),
     })
     .unwrap();
     report.document.html().len() + report.sidecar.to_json().len()

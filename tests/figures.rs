@@ -189,6 +189,81 @@ fn branch_figure_stable_solid_unstable_dashed_folds_labelled() {
     assert!(has(&s, "Fs [N]"));
 }
 
+/// `continue --plot-coordinate` repeated: one panel per coordinate (as sweep's
+/// --response), each with its axis and both folds; an unknown one is refused before any
+/// file is written.
+#[test]
+fn branch_figure_draws_each_plot_coordinate() {
+    let dir = tempfile::tempdir().unwrap();
+    let svg = dir.path().join("b.svg");
+    let base = [
+        "continue",
+        "models/overcentre.toml",
+        "--param",
+        "Fs",
+        "--from",
+        "-10",
+        "--to",
+        "30",
+        "--step",
+        "0.5",
+    ];
+    let args = [
+        &base[..],
+        &[
+            "--plot",
+            svg.to_str().unwrap(),
+            "--plot-coordinate",
+            "bar1.theta",
+            "--plot-coordinate",
+            "bar2.x",
+        ],
+    ]
+    .concat();
+    let (code, _, err) = detune(&args);
+    assert_eq!(code, 0, "{err}");
+    let s = check(&svg, 6);
+    for axis in ["bar1.theta [rad]", "bar2.x [m]"] {
+        assert_eq!(
+            s.texts.iter().filter(|(t, _)| t == axis).count(),
+            1,
+            "{axis}: {:?}",
+            s.texts
+        );
+    }
+    let folds = s
+        .texts
+        .iter()
+        .filter(|(t, _)| t == "fold Fs = 23.06 N")
+        .count();
+    assert_eq!(folds, 2, "one fold label per panel: {:?}", s.texts);
+    assert_eq!(
+        s.texts
+            .iter()
+            .filter(|(t, _)| t == "equilibria against Fs")
+            .count(),
+        2
+    );
+    // a coordinate the model lacks: refused, nothing written
+    let bad = dir.path().join("c.svg");
+    let args = [
+        &base[..],
+        &[
+            "--plot",
+            bad.to_str().unwrap(),
+            "--plot-coordinate",
+            "bar1.theta",
+            "--plot-coordinate",
+            "bar9.x",
+        ],
+    ]
+    .concat();
+    let (code, _, err) = detune(&args);
+    assert_ne!(code, 0);
+    assert!(err.contains("bar9.x"), "{err}");
+    assert!(!bad.exists());
+}
+
 #[test]
 fn sweep_figure_splits_wells_and_marks_the_case() {
     let dir = tempfile::tempdir().unwrap();
@@ -451,6 +526,7 @@ fn report_figures_share_the_style() {
             nominal: 25.0,
             hi: 30.0,
         }],
+        freq_unit: Default::default(),
     };
     let dir = tempfile::tempdir().unwrap();
     let p = dir.path().join("frf.svg");
@@ -470,6 +546,7 @@ fn report_figures_share_the_style() {
         crossings: vec![(124.1, 13.0, false)],
         rpm_end: 400.0,
         omega_end: 40.0,
+        freq_unit: Default::default(),
     };
     let p = dir.path().join("campbell.svg");
     std::fs::write(&p, campbell_svg(&c).unwrap()).unwrap();

@@ -54,6 +54,15 @@ fn unescape(s: &str) -> String {
 /// Every keyed number of the page, in order: `<td ... data-key="K">TEXT</td>` in tables,
 /// `<span class="num" data-key="K">TEXT</span>` in running text; (key, text).
 fn keyed_numbers(page: &str) -> Vec<(String, String)> {
+    keyed_numbers_in_units(page)
+        .into_iter()
+        .map(|(k, _, t)| (k, t))
+        .collect()
+}
+
+/// [`keyed_numbers`] with the frequency unit each is shown in (`data-unit="Hz"` after
+/// the key, `--freq-unit`; None: as the sidecar holds it); (key, unit, text).
+fn keyed_numbers_in_units(page: &str) -> Vec<(String, Option<String>, String)> {
     let mut out = Vec::new();
     let mut rest = page;
     while let Some(i) = rest.find("data-key=\"") {
@@ -61,11 +70,24 @@ fn keyed_numbers(page: &str) -> Vec<(String, String)> {
         let end = rest.find('"').unwrap();
         let key = unescape(&rest[..end]);
         let open = rest.find('>').unwrap();
+        let unit = rest[end..open]
+            .split_once("data-unit=\"")
+            .map(|(_, u)| u[..u.find('"').unwrap()].to_string());
         let close = open + rest[open..].find('<').unwrap();
-        out.push((key, unescape(&rest[open + 1..close])));
+        out.push((key, unit, unescape(&rest[open + 1..close])));
         rest = &rest[close..];
     }
     out
+}
+
+/// A value in rad/s in `unit` (rad/s, Hz, rpm): ω, ω/2π, 30ω/π.
+fn in_unit(rad_s: f64, unit: Option<&str>) -> f64 {
+    match unit {
+        None | Some("rad/s") => rad_s,
+        Some("Hz") => rad_s / (2.0 * std::f64::consts::PI),
+        Some("rpm") => rad_s * 30.0 / std::f64::consts::PI,
+        Some(u) => panic!("data-unit {u}"),
+    }
 }
 
 /// [`keyed_numbers`] by key: key → text (a table cell is keyed once; a number also named
@@ -128,17 +150,17 @@ fn as_shown(value: f64, shown: &str) -> String {
 }
 
 /// The keyed cells whose text is not the sidecar's value written as shown (`n/a` for a
-/// value that is not a number).
+/// value that is not a number), converted to the cell's `data-unit` where it has one.
 fn mismatches(page: &str, json: &Value) -> Vec<String> {
-    keyed_numbers(page)
+    keyed_numbers_in_units(page)
         .into_iter()
-        .filter_map(|(key, text)| {
+        .filter_map(|(key, unit, text)| {
             let v = at(json, &key);
             let want = v
                 .as_f64()
-                .map(|x| as_shown(x, &text))
+                .map(|x| as_shown(in_unit(x, unit.as_deref()), &text))
                 .unwrap_or("n/a".into());
-            (text != want).then(|| format!("{key}: page {text}, sidecar {v}"))
+            (text != want).then(|| format!("{key} [{unit:?}]: page {text}, sidecar {v}"))
         })
         .collect()
 }
@@ -832,4 +854,148 @@ fn tune_without_its_arguments_is_a_usage_error() {
         assert!(err.contains(missing), "{err}");
     }
     assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
+}
+
+#[test]
+fn freq_unit_shows_the_pages_frequencies_in_the_unit_with_rad_s_beside() {
+    let (_d, _, base_page, base) = report("inceptor", &["--environment", "UH-60"]);
+    for (unit, scale) in [
+        ("Hz", 1.0 / std::f64::consts::TAU),
+        ("rpm", 30.0 / std::f64::consts::PI),
+    ] {
+        let (_dir, _, page, json) =
+            report("inceptor", &["--environment", "UH-60", "--freq-unit", unit]);
+        // the sidecar is the same document (rad/s), only the time it was made differs
+        let strip = |j: &Value| {
+            let mut j = j.clone();
+            j["provenance"]["generated_utc"] = Value::Null;
+            j
+        };
+        assert_eq!(strip(&json), strip(&base), "{unit}: the sidecar changed");
+        // every number is the sidecar's, converted where the page says data-unit
+        let bad = mismatches(&page, &json);
+        assert!(bad.is_empty(), "{unit}: {}", bad.join("\n"));
+        let unkeyed = unkeyed_numbers(&page);
+        assert!(unkeyed.is_empty(), "{unit}: {}", unkeyed.join("\n"));
+        let cells = keyed_numbers_in_units(&page);
+        let converted: Vec<_> = cells.iter().filter(|c| c.1.is_some()).collect();
+        assert!(
+            converted.len() > 50,
+            "{unit}: {} converted",
+            converted.len()
+        );
+        for (key, u, text) in &converted {
+            assert_eq!(u.as_deref(), Some(unit));
+            // its rad/s companion is on the page, unconverted
+            assert!(
+                cells.iter().any(|c| c.0 == *key && c.1.is_none()),
+                "{unit}: {key} ({text}) has no rad/s companion"
+            );
+        }
+        // an independent check of one number: mode 2's ω_d in the unit
+        let wd = json["modes"][1]["omega_d_rad_s"].as_f64().unwrap();
+        let shown = &converted
+            .iter()
+            .find(|c| c.0 == "modes/1/omega_d_rad_s")
+            .unwrap()
+            .2;
+        let x: f64 = shown.parse().unwrap();
+        assert!(
+            (x - wd * scale).abs() < 1e-3 * wd * scale,
+            "{shown} vs {wd} rad/s"
+        );
+        // headers: the unit, rad/s beside it; the sentences too
+        for h in [
+            "ω_d [UNIT]",
+            "ω_d [rad/s]",
+            "band low [UNIT]",
+            "band low [rad/s]",
+        ] {
+            assert!(
+                page.contains(&h.replace("UNIT", unit)),
+                "{unit}: no header {h}"
+            );
+        }
+        let worst =
+            format!("data-key=\"sensitivity/modes/1/worst_case/max_rad_s\" data-unit=\"{unit}\">");
+        assert!(page.contains(&worst), "{unit}: worst case not in {unit}");
+        assert!(
+            page.contains(&format!(" {unit} (<span class=\"num\"")),
+            "{unit}: no companion"
+        );
+        // the figures' frequency axes in the unit, no rad/s left in them
+        let svgs: Vec<&str> = page
+            .split("<svg")
+            .skip(1)
+            .map(|s| &s[..s.find("</svg>").unwrap()])
+            .collect();
+        let frf = svgs
+            .iter()
+            .find(|s| s.contains("linear response to"))
+            .unwrap();
+        assert!(
+            frf.contains(&format!("ω [{unit}]")) && !frf.contains("rad/s"),
+            "{unit}: FRF axis"
+        );
+        let campbell = svgs
+            .iter()
+            .find(|s| s.contains("Interference diagram"))
+            .unwrap();
+        assert!(
+            campbell.contains(&format!("frequency [{unit}]")) && !campbell.contains("rad/s"),
+            "{unit}: Campbell axis"
+        );
+        assert!(campbell.contains("rotor speed [rpm]"));
+    }
+    // the default page is unchanged: rad/s, no data-unit
+    assert!(!base_page.contains("data-unit"));
+}
+
+/// The interference diagram's line labels (1P, 4P, 8P, 12P, 1T, 4T of the UH-60) do not
+/// overlap: lines that leave the plot through its top close together (4T, 12P, 8P) had
+/// their labels written side by side as one string. Read from the SVG: each label's box
+/// (0.7 em per character, 1.2 em high, from its x, y) is apart from every other by a
+/// quarter em at least.
+#[test]
+fn the_interference_diagrams_line_labels_do_not_overlap() {
+    let (_dir, _, page, _) = report("inceptor", &["--environment", "UH-60"]);
+    let at = page.find("Interference diagram (").unwrap();
+    let svg = &page[page[..at].rfind("<svg").unwrap()..at + page[at..].find("</svg>").unwrap()];
+    let width: f64 = {
+        let w = &svg[svg.find("width=\"").unwrap() + 7..];
+        w[..w.find('"').unwrap()].parse().unwrap()
+    };
+    let names = ["1P", "4P", "8P", "12P", "1T", "4T"];
+    let mut boxes = Vec::new();
+    for part in svg.split("<text").skip(1) {
+        let attr = |name: &str| -> f64 {
+            let a = &part[part.find(&format!(" {name}=\"")).unwrap() + name.len() + 3..];
+            a[..a.find('"').unwrap()].parse().unwrap()
+        };
+        let text = part[part.find('>').unwrap() + 1..part.find("</text>").unwrap()].trim();
+        if names.contains(&text) {
+            let (x, y, em) = (attr("x"), attr("y"), attr("font-size"));
+            boxes.push((
+                text,
+                x,
+                y,
+                x + 0.7 * em * text.len() as f64,
+                y + 1.2 * em,
+                em,
+            ));
+        }
+    }
+    assert_eq!(boxes.len(), names.len(), "{boxes:?}");
+    for (i, a) in boxes.iter().enumerate() {
+        assert!(
+            a.1 >= 0.0 && a.3 <= width,
+            "{} outside the figure: {a:?}",
+            a.0
+        );
+        for b in &boxes[i + 1..] {
+            let gap = 0.25 * a.5;
+            let apart = a.3 + gap <= b.1 || b.3 + gap <= a.1 || a.4 <= b.2 || b.4 <= a.2;
+            assert!(apart, "labels {} and {} overlap: {a:?} {b:?}", a.0, b.0);
+        }
+    }
 }

@@ -470,3 +470,86 @@ fn the_analytic_predictor_beats_the_secant() {
         );
     }
 }
+
+/// A `--vary` whose case makes a damping coefficient negative is computed and warned of
+/// (stderr and JSON `warnings`), naming the case, the value and the element; a case that
+/// keeps it positive is not.
+#[test]
+fn a_case_with_negative_damping_is_warned_of() {
+    let run = |args: &[&str]| {
+        let o = std::process::Command::new(env!("CARGO_BIN_EXE_detune"))
+            .current_dir(env!("CARGO_MANIFEST_DIR"))
+            .args(args)
+            .output()
+            .unwrap();
+        // (margins exits 3: the inceptor's second mode fails the UH-60 1P line)
+        assert!(
+            matches!(o.status.code(), Some(0 | 3)),
+            "{}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+        (
+            String::from_utf8_lossy(&o.stdout).into_owned(),
+            String::from_utf8_lossy(&o.stderr).into_owned(),
+        )
+    };
+    // c = 5 N·s/m: c − 200 % = −5 N·s/m
+    let (out, err) = run(&[
+        "sensitivity",
+        "models/overcentre.toml",
+        "--vary",
+        "c=±200%",
+        "--json",
+    ]);
+    let j: serde_json::Value = serde_json::from_str(&out).unwrap();
+    let w = j["warnings"].as_array().expect("warnings");
+    assert_eq!(w.len(), 1, "{w:?}");
+    assert_eq!(w[0]["kind"], "negative_damping");
+    let text = w[0]["message"].as_str().unwrap();
+    assert!(
+        text.starts_with(
+            "the case c-200% (c = -5 N·s/m) makes the damping of `spring` negative (-5 N·s/m)"
+        ),
+        "{text}"
+    );
+    assert!(err.contains(&format!("warning: {text}")), "{err}");
+    // computed: that case's ζ is the baseline's negated (the damping is linear in c)
+    let m = &j["modes"][0];
+    let z0 = m["damping_ratio"].as_f64().unwrap();
+    let case = m["cases"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|c| c["label"] == "c-200%")
+        .unwrap();
+    assert!(z0 > 0.0);
+    assert!((case["damping_ratio"].as_f64().unwrap() + z0).abs() < 1e-9);
+    // within 100 % nothing is said, and the JSON has no `warnings`
+    let (out, err) = run(&[
+        "sensitivity",
+        "models/overcentre.toml",
+        "--vary",
+        "c=±50%",
+        "--json",
+    ]);
+    let j: serde_json::Value = serde_json::from_str(&out).unwrap();
+    assert!(j.get("warnings").is_none());
+    assert!(!err.contains("warning"), "{err}");
+    // a torsional damper in margins --vary: named with its unit
+    let (out, err) = run(&[
+        "margins",
+        "models/inceptor.toml",
+        "--environment",
+        "UH-60",
+        "--vary",
+        "c_d=±150%",
+        "--json",
+    ]);
+    let j: serde_json::Value = serde_json::from_str(&out).unwrap();
+    let text = j["warnings"][0]["message"].as_str().unwrap();
+    assert!(
+        text.starts_with("the case c_d-150% (c_d = -2.8245 N·m·s/rad) makes the torsional damping of `damper` negative"),
+        "{text}"
+    );
+    assert!(err.contains("warning: the case c_d-150%"), "{err}");
+}

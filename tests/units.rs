@@ -137,7 +137,7 @@ fn freq_unit_rescales_the_frf_table_and_plot_but_not_the_csv() {
         std::fs::read_to_string(&csv_rad).unwrap(),
         std::fs::read_to_string(&csv_hz).unwrap()
     );
-    // the plot's axis and lines in Hz: the undamped ω_n (2.9732 rad/s) at 0.4732 Hz
+    // the plot's axis and lines in Hz: ω_n = |λ| (2.9732 rad/s) at 0.4732 Hz
     let text = std::fs::read_to_string(&svg).unwrap();
     let doc = roxmltree::Document::parse(&text).unwrap();
     let texts: Vec<&str> = doc
@@ -148,7 +148,7 @@ fn freq_unit_rescales_the_frf_table_and_plot_but_not_the_csv() {
         .collect();
     assert!(texts.contains(&"omega [Hz]"), "{texts:?}");
     assert!(!texts.iter().any(|t| t.contains("rad/s")), "{texts:?}");
-    assert!(texts.contains(&"undamped ω_n = 0.4732 Hz"), "{texts:?}");
+    assert!(texts.contains(&"ω_n = |λ| = 0.4732 Hz"), "{texts:?}");
 }
 
 /// The plot method on its own: x, vertical lines and marks rescaled, numbers in rad/s
@@ -477,4 +477,127 @@ fn frf_peaks_are_not_read_from_flat_or_round_off_curves() {
     for flat in ["crank.x", "gearbox.x", "stick.z"] {
         assert!(of(flat).is_empty(), "{flat}: {:?}", of(flat));
     }
+}
+
+/// The overcentre with a downward force mr·spin² on bar 1 (spin in rad/s): a parameter
+/// that is a frequency, whose fold is where mr·spin² equals the fold load of `Fs`,
+/// 3.4414126719 N (the `continue --param Fs` snapshot), so spin = √3.4414126719 rad/s.
+fn spinning_overcentre(dir: &std::path::Path) -> String {
+    let text = std::fs::read_to_string("models/overcentre.toml").unwrap();
+    let text = text
+        .replacen(
+            "omega = {",
+            "spin = { value = 0, unit = \"rad/s\" }\nmr = { value = 1, unit = \"kg*m\" }\nomega = {",
+            1,
+        )
+        .replacen("\"Fs + F0*sin", "\"Fs - mr*spin^2 + F0*sin", 1);
+    assert!(text.contains("mr*spin^2"));
+    let path = dir.join("spin.toml");
+    std::fs::write(&path, text).unwrap();
+    path.to_string_lossy().into_owned()
+}
+
+#[test]
+fn freq_unit_prints_and_plots_a_continued_frequency() {
+    let dir = tempfile::tempdir().unwrap();
+    let model = spinning_overcentre(dir.path());
+    let fold = 3.4414126719f64.sqrt(); // rad/s
+    let base = [
+        "continue", &model, "--param", "spin", "--from", "0", "--to", "3", "--step", "0.05",
+    ];
+    // rad/s by default, as before
+    let rad = ok(&base);
+    let f = numbers(line(&rad, "fold at spin ="))[0];
+    assert!((f - fold).abs() < 1e-8, "{rad}");
+    assert!(line(&rad, "fold at").starts_with("fold at spin = 1.8551044908 rad/s:"));
+    for (unit, scale) in [("Hz", 1.0 / TAU), ("rpm", 60.0 / TAU)] {
+        let svg = dir.path().join(format!("{unit}.svg"));
+        let csv = dir.path().join(format!("{unit}.csv"));
+        let args = [
+            &base[..],
+            &[
+                "--freq-unit",
+                unit,
+                "--plot",
+                svg.to_str().unwrap(),
+                "-o",
+                csv.to_str().unwrap(),
+            ],
+        ]
+        .concat();
+        let out = ok(&args);
+        let fl = line(&out, "fold at spin =");
+        assert!(fl.contains(&format!(" {unit}: ")), "{fl}");
+        assert!((numbers(fl)[0] - fold * scale).abs() < 1e-8, "{fl}");
+        let first = line(&out, "83 points from spin = 0.000000");
+        assert!(
+            first.contains(&format!(
+                "turned at the fold at spin = {:.6} {unit}",
+                fold * scale
+            )),
+            "{first}"
+        );
+        // the plot's axis and fold label in the unit; the CSV stays in rad/s
+        let text = std::fs::read_to_string(&svg).unwrap();
+        assert!(text.contains(&format!("spin [{unit}]")), "axis in {unit}");
+        assert!(!text.contains("rad/s"));
+        let (h, rows) = common::read_csv(&csv);
+        assert_eq!(h[0], "spin");
+        let top = rows.iter().map(|r| r[0]).fold(0.0, f64::max);
+        assert!((top - fold).abs() < 1e-3, "CSV in rad/s: {top}");
+    }
+    // a parameter that is no frequency: shown as it is, with a note
+    let (code, out, err) = detune(&[
+        "continue",
+        &model,
+        "--param",
+        "Fs",
+        "--from",
+        "0",
+        "--to",
+        "5",
+        "--freq-unit",
+        "Hz",
+    ]);
+    assert_eq!(code, 0, "{err}");
+    assert!(out.contains(" points from Fs = 0 N to 5 N"), "{out}");
+    assert!(
+        err.contains("--freq-unit Hz changes frequencies only; Fs is not one"),
+        "{err}"
+    );
+}
+
+#[test]
+fn the_sweeps_well_summary_follows_freq_unit() {
+    // the F0 = 10 N overcentre from its upper well snaps into the lower one up to 4 rad/s
+    // (tests/wells.rs); here 3.5..4 rad/s of 3.5..4.5
+    let base = [
+        "sweep",
+        "models/overcentre.toml",
+        "--set",
+        "F0=10",
+        "--param",
+        "omega",
+        "--from",
+        "3.5",
+        "--to",
+        "4.5",
+        "--step",
+        "0.25",
+        "--response",
+        "bar1.theta",
+    ];
+    let rad = ok(&base);
+    assert!(
+        rad.contains("at 3 of 5 frequencies (independent): 3.5–4 rad/s in well"),
+        "{rad}"
+    );
+    let hz = ok(&[&base[..], &["--freq-unit", "Hz"]].concat());
+    let expect = format!(
+        "at 3 of 5 frequencies (independent): {:.6}–{:.6} Hz in well",
+        3.5 / TAU,
+        4.0 / TAU
+    );
+    assert!(hz.contains(&expect), "{hz}");
+    assert!(!hz.contains("rad/s in well"), "{hz}");
 }

@@ -280,3 +280,116 @@ fn simulate_reports_the_well_it_ends_in() {
         assert_eq!(e["stable"], true);
     }
 }
+
+/// The rule "−1 for an orbit that spans two wells", on the overcentre's wells (its
+/// equilibria, stable at θ1 ≈ −0.866 and +0.644 rad, a saddle between): an orbit that
+/// spends half its samples at each stable pose spans them (−1); one that stays at the
+/// lower pose with a fifth of its samples (below the quarter of the rule) at the upper
+/// one is in the lower well; one that visits the saddle on the rim (not a well) is too,
+/// unless its mean is nearest the saddle.
+/// The orbit's samples are equilibrium poses, exact configurations of the mechanism.
+#[test]
+fn an_orbit_over_both_wells_spans_them() {
+    use detune::frequency::wells::{SPAN_FRACTION, SPANS, Wells};
+    let model = detune::Model::load("models/overcentre.toml").unwrap();
+    let sys = detune::System::new(&model).unwrap();
+    let rest = detune::dynamics::assemble_at_rest(&sys).unwrap();
+    let start = detune::statics::Statics::new(&sys, &rest.q)
+        .unwrap()
+        .nearest(&rest)
+        .unwrap();
+    let wells = Wells::find(&sys, &start);
+    let truth = closed_form_equilibria();
+    let pose = |theta: f64| -> (usize, Vec<f64>) {
+        let k = wells
+            .equilibria
+            .iter()
+            .position(|e| (e.q[2] - theta).abs() < 1e-8)
+            .unwrap_or_else(|| panic!("no equilibrium at θ1 = {theta}"));
+        (k, wells.equilibria[k].q.clone())
+    };
+    let (lower, ql) = pose(truth[0].0);
+    let (_, qs) = pose(truth[1].0);
+    let (upper, qu) = pose(truth[2].0);
+    assert!(!truth[1].1 && truth[0].1 && truth[2].1);
+    let orbit = |n_lower: usize, other: &[f64], n_other: usize| -> Vec<Vec<f64>> {
+        let mut o = vec![ql.clone(); n_lower];
+        o.extend(std::iter::repeat_n(other.to_vec(), n_other));
+        o
+    };
+    // half and half: spans (whichever the mean is nearest to)
+    assert_eq!(wells.classify(&sys, &orbit(10, &qu, 10)), SPANS);
+    // exactly a quarter on the far side spans; a fifth does not
+    assert_eq!(SPAN_FRACTION, 0.25);
+    assert_eq!(wells.classify(&sys, &orbit(15, &qu, 5)), SPANS);
+    assert_eq!(wells.classify(&sys, &orbit(16, &qu, 4)), lower as isize);
+    // the saddle on the rim is no well: a quarter of the samples there (the top of the
+    // excursion), still the lower well
+    assert_eq!(wells.classify(&sys, &orbit(15, &qs, 5)), lower as isize);
+    // an orbit whose mean is nearest the saddle, visiting the lower well: spans (the
+    // module's rule for a mean nearest an unstable equilibrium)
+    assert_eq!(wells.classify(&sys, &orbit(10, &qs, 10)), SPANS);
+    // and the upper well alone is the upper well
+    assert_eq!(wells.classify(&sys, &[qu.clone()]), upper as isize);
+}
+
+/// Angles are compared modulo 2π in the wells' distance, for a spatial body turning by a
+/// sequence of angles as for a planar one: a pose 2π away in each angle is the same pose
+/// (the tangent between them wraps to zero), and a planar pose 2π away is in the same
+/// well.
+#[test]
+fn angles_of_spatial_bodies_wrap_in_the_well_distance() {
+    let text = r#"
+[[bodies]]
+name = "rod"
+mass = 1
+inertia = [0.01, 0.01, 0.002]
+x = 0
+y = 0.2
+z = -0.3
+rotation = [["z", "psi"], ["x", "th"]]
+angles = { psi = 0.3, th = 0.5 }
+
+[[joints]]
+name = "pivot"
+type = "spherical"
+body1 = "rod"
+point1 = [0, 0, 0.36]
+body2 = "ground"
+point2 = [0, 0, 0]
+"#;
+    let model = detune::Model::from_str("spatial.toml", text).unwrap();
+    let sys = detune::System::new(&model).unwrap();
+    let n = sys.nq();
+    let q0: Vec<f64> = (0..n).map(|i| 0.1 * i as f64).collect();
+    let angles: Vec<usize> = (0..n).filter(|&i| sys.is_angle(i)).collect();
+    assert_eq!(angles.len(), 2, "psi and th are angles");
+    let mut q1 = q0.clone();
+    q1[angles[0]] += std::f64::consts::TAU;
+    q1[angles[1]] -= 2.0 * std::f64::consts::TAU;
+    q1[0] += 0.25; // and a length that does not wrap
+    let mut d = vec![0.0; sys.nv()];
+    sys.difference(&q1, &q0, &mut d);
+    sys.wrap_angles(&mut d);
+    for (i, x) in d.iter().enumerate() {
+        let want = if i == 0 { 0.25 } else { 0.0 };
+        assert!(
+            (x - want).abs() < 1e-12,
+            "component {i}: {x} (tangent {d:?})"
+        );
+    }
+    // a planar pose 2π away in both bars' angles: the well it started in
+    let model = detune::Model::load("models/overcentre.toml").unwrap();
+    let sys = detune::System::new(&model).unwrap();
+    let rest = detune::dynamics::assemble_at_rest(&sys).unwrap();
+    let start = detune::statics::Statics::new(&sys, &rest.q)
+        .unwrap()
+        .nearest(&rest)
+        .unwrap();
+    let wells = detune::frequency::wells::Wells::find(&sys, &start);
+    let mut q = start.q.clone();
+    q[2] += std::f64::consts::TAU;
+    q[5] -= std::f64::consts::TAU;
+    assert!(wells.distance2(&sys, &q, wells.start) < 1e-20);
+    assert_eq!(wells.classify(&sys, &[q]), wells.start as isize);
+}

@@ -452,8 +452,22 @@ pub fn vary(model: &Model, sys: &System, text: &str) -> Result<detune::linear::s
     })
 }
 
-/// Every `--vary`, each parameter at most once.
+/// Every `--vary`, each parameter at most once; a case that makes a damping coefficient
+/// negative is warned of on standard error ([`damping_warnings`]).
 pub fn varies(
+    model: &Model,
+    sys: &System,
+    texts: &[String],
+) -> Result<Vec<detune::linear::sensitivity::Vary>> {
+    let out = varies_quietly(model, sys, texts)?;
+    for w in damping_warnings(model, sys, &out) {
+        eprintln!("warning: {w}");
+    }
+    Ok(out)
+}
+
+/// [`varies`] without the warnings (parsed again for a document's `warnings`).
+pub fn varies_quietly(
     model: &Model,
     sys: &System,
     texts: &[String],
@@ -470,6 +484,28 @@ pub fn varies(
         out.push(v);
     }
     Ok(out)
+}
+
+/// The warnings of the cases of `vs` that make a damping coefficient negative (for the
+/// The damping warnings as the JSON's `warnings` entries: `{"kind": "negative_damping",
+/// "message": ...}`, like the other warnings (a stiff integration's).
+pub fn damping_warning_values(texts: &[String]) -> Vec<serde_json::Value> {
+    texts
+        .iter()
+        .map(|t| serde_json::json!({"kind": "negative_damping", "message": t}))
+        .collect()
+}
+
+/// JSON documents' `warnings`; [`varies`] prints them on standard error).
+pub fn damping_warnings(
+    model: &Model,
+    sys: &System,
+    vs: &[detune::linear::sensitivity::Vary],
+) -> Vec<String> {
+    detune::linear::sensitivity::negative_dampings(sys, vs)
+        .iter()
+        .map(|w| w.message(&model.param_unit(&w.param)))
+        .collect()
 }
 
 /// An SI unit to suggest for a dimension in a hint.

@@ -11,7 +11,7 @@ use detune::output::figures::{Case, branch_figure};
 use detune::output::json::BranchReport;
 use detune::output::plot::write_panels_sized;
 use detune::output::results::write_branch_csv;
-use detune::output::units::{Units, WithUnits};
+use detune::output::units::{FreqUnit, Units, WithUnits};
 use detune::output::{Provenance, check_outputs};
 use detune::request::Argument;
 use detune::statics::continuation::{ContinuationOptions, continue_equilibria_until};
@@ -46,11 +46,16 @@ pub struct ContinueArgs {
     /// SVG of the branches (stable solid, unstable dashed, folds and branch points marked).
     #[arg(long, value_name = "OUT.svg")]
     pub plot: Option<String>,
-    /// Coordinate drawn against the parameter [default: the first angle].
+    /// Coordinate drawn against the parameter, one panel each; repeatable (as sweep's
+    /// --response) [default: the first angle].
     #[arg(long, value_name = "NAME")]
-    pub plot_coordinate: Option<String>,
+    pub plot_coordinate: Vec<String>,
     #[command(flatten)]
     pub plot_size: super::args::PlotSize,
+    /// When the parameter (or one solved by [trim]) is a frequency (rad/s): the unit its
+    /// values are printed and plotted in. The CSV and JSON stay in rad/s.
+    #[command(flatten)]
+    pub freq: super::args::FreqUnitArg,
 }
 
 pub fn run(a: ContinueArgs) -> Result<()> {
@@ -74,27 +79,74 @@ pub fn run(a: ContinueArgs) -> Result<()> {
         max_steps: a.max_steps,
     };
     // Every request is checked before the work, so a bad one leaves no file behind.
-    let idx = match &a.plot_coordinate {
-        Some(name) => detune::linear::coordinate(&sys, name, Argument::PlotCoordinate)?,
-        None => detune::linear::default_reference(&sys),
+    let mut picked: Vec<usize> = Vec::new();
+    for name in &a.plot_coordinate {
+        let i = detune::linear::coordinate(&sys, name, Argument::PlotCoordinate)?;
+        if !picked.contains(&i) {
+            picked.push(i);
+        }
+    }
+    if picked.is_empty() {
+        picked.push(detune::linear::default_reference(&sys));
+    }
+    // the coordinate the printed branch lines name: the first drawn
+    let idx = picked[0];
+    let fu = a.freq.freq_unit;
+    // a parameter in rad/s is printed and plotted in --freq-unit
+    let is_freq = |name: &str| model.param_unit(name) == "rad/s";
+    // a value of parameter `name` with its unit (` N`, ` Hz`), `decimals` or as computed
+    let show = |name: &str, x: f64, decimals: Option<usize>| -> String {
+        let (x, u) = if is_freq(name) {
+            (fu.of(x), fu.symbol().to_string())
+        } else {
+            (x, model.param_unit(name))
+        };
+        let u = if u.is_empty() { u } else { format!(" {u}") };
+        match decimals {
+            Some(d) => format!("{x:.d$}{u}"),
+            None => format!("{x}{u}"),
+        }
     };
     // a signal stops the continuation at its next step; the branch so far is kept,
     // marked incomplete, and the exit code says which signal (130, 143, 129)
     super::interrupt_on_ctrl_c();
     let branch = continue_equilibria_until(&sys, &opts, &super::INTERRUPTED)?;
+    if fu != FreqUnit::RadPerSecond
+        && !is_freq(&a.param)
+        && !branch.solved.iter().any(|n| is_freq(n))
+    {
+        eprintln!(
+            "note: --freq-unit {fu} changes frequencies only; {} is not one (its unit: {}), so the values are shown as they are",
+            a.param,
+            match model.param_unit(&a.param) {
+                u if u.is_empty() => "none".to_string(),
+                u => u,
+            }
+        );
+    }
     if let Some(o) = &a.output {
         write_branch_csv(o, &branch)?;
     }
     if let Some(p) = &a.plot {
         let case = Case::of(&model);
-        let figure = branch_figure(
-            &case,
-            &branch,
-            idx,
-            sys.is_angle(idx),
-            &model.param_unit(&a.param),
-        );
-        write_panels_sized(p, &[figure], size)?;
+        let figures: Vec<_> = picked
+            .iter()
+            .map(|&i| {
+                let figure = branch_figure(
+                    &case,
+                    &branch,
+                    i,
+                    sys.is_angle(i),
+                    &model.param_unit(&a.param),
+                );
+                if is_freq(&a.param) {
+                    figure.in_frequency_unit(fu)
+                } else {
+                    figure
+                }
+            })
+            .collect();
+        write_panels_sized(p, &figures, size)?;
     }
     outputs.commit()?;
     if a.json {
@@ -118,12 +170,20 @@ pub fn run(a: ContinueArgs) -> Result<()> {
             if u.is_empty() { u } else { format!(" {u}") }
         };
         let reached = (end - to).abs() <= 1e-9 * (1.0 + to.abs());
+        // a requested end as given; a plain number (SI) in --freq-unit when converted
+        let given = |text: &str| -> String {
+            match text.trim().parse::<f64>() {
+                Ok(x) if is_freq(param) && fu != FreqUnit::RadPerSecond => show(param, x, Some(6)),
+                _ => given(text, &pu),
+            }
+        };
         let how = if reached {
-            format!("to {}", given(&a.to, &pu))
+            format!("to {}", given(&a.to))
         } else if let Some(f) = branch.folds.first() {
             format!(
-                "turned at the fold at {param} = {:.6}{pu}; ends at {param} = {end}{pu}",
-                f.value
+                "turned at the fold at {param} = {}; ends at {param} = {}",
+                show(param, f.value, Some(6)),
+                show(param, end, None)
             )
         } else if let Some(b) = branch
             .branch_points
@@ -132,11 +192,16 @@ pub fn run(a: ContinueArgs) -> Result<()> {
         {
             // a pitchfork reached along a side branch: it turns there, onto the other side
             format!(
-                "turned at the branch point at {param} = {:.6}{pu}; ends at {param} = {end}{pu}",
-                b.value
+                "turned at the branch point at {param} = {}; ends at {param} = {}",
+                show(param, b.value, Some(6)),
+                show(param, end, None)
             )
         } else {
-            format!("ends at {param} = {end}{pu} (before {})", given(&a.to, &pu))
+            format!(
+                "ends at {param} = {} (before {})",
+                show(param, end, None),
+                given(&a.to)
+            )
         };
         if !branch.switched.is_empty() {
             let total: usize = branch.points.len()
@@ -168,7 +233,7 @@ pub fn run(a: ContinueArgs) -> Result<()> {
                 "branch 0: "
             },
             branch.points.len(),
-            given(&a.from, &pu),
+            given(&a.from),
             if branch.truncated {
                 " (stopped at --max-steps)"
             } else {
@@ -177,11 +242,10 @@ pub fn run(a: ContinueArgs) -> Result<()> {
         );
         if let (Some(p0), Some(p1)) = (branch.points.first(), branch.points.last()) {
             for (k, name) in branch.solved.iter().enumerate() {
-                let u = model.param_unit(name);
-                let u = if u.is_empty() { u } else { format!(" {u}") };
                 println!(
-                    "solved by [trim]: {name} from {}{u} to {}{u}",
-                    p0.solved[k], p1.solved[k]
+                    "solved by [trim]: {name} from {} to {}",
+                    show(name, p0.solved[k], None),
+                    show(name, p1.solved[k], None)
                 );
             }
         }
@@ -191,9 +255,9 @@ pub fn run(a: ContinueArgs) -> Result<()> {
         ] {
             for p in points {
                 println!(
-                    "{kind} at {} = {:.10}{pu}: {}",
+                    "{kind} at {} = {}: {}",
                     branch.param,
-                    p.value,
+                    show(param, p.value, Some(10)),
                     pose(&sys, &p.q)
                 );
             }
@@ -212,14 +276,14 @@ pub fn run(a: ContinueArgs) -> Result<()> {
                 _ => "stable in part",
             };
             println!(
-                "branch {} from the branch point at {param} = {:.10}{pu} ({} = {:.8}{} first): {} points to {param} = {}{pu}, {stability}{}{}",
+                "branch {} from the branch point at {param} = {} ({} = {:.8}{} first): {} points to {param} = {}, {stability}{}{}",
                 k + 1,
-                branch.branch_points[s.branch_point].value,
+                show(param, branch.branch_points[s.branch_point].value, Some(10)),
                 sys.coordinates[idx],
                 p0.q[idx],
                 super::unit_and_degrees(&sys, &sys.coordinates[idx], p0.q[idx]),
                 s.points.len(),
-                p1.value,
+                show(param, p1.value, None),
                 if s.folds.is_empty() {
                     String::new()
                 } else {

@@ -28,7 +28,8 @@ pub struct FrfArgs {
     #[arg(short = 'o', long = "output", value_name = "OUT.csv")]
     pub output: Option<String>,
     /// Figure (.svg or .png): each response's amplitude and phase against frequency, the
-    /// undamped natural frequencies drawn and the refined peaks marked.
+    /// natural frequencies ω_n = |λ| of the damped modes drawn and the refined peaks
+    /// marked.
     #[arg(long, value_name = "OUT.svg")]
     pub plot: Option<String>,
     /// A labelled frequency drawn on the plot, LABEL=VALUE (VALUE in rad/s or a
@@ -110,11 +111,13 @@ pub fn run(a: FrfArgs) -> Result<()> {
         let natural: Vec<f64> = index
             .and_then(|i| detune::linear::at_frequency(&sys, i, values[0]).ok())
             .and_then(|at| detune::linear::modal_analysis(&at, None).ok())
+            // ω_n = |λ| of each oscillating mode of the damped system, as the modes
+            // table and the report mark it
             .map(|m| {
-                m.undamped_omega2
+                m.modes
                     .iter()
-                    .filter(|w| **w > 0.0)
-                    .map(|w| w.sqrt())
+                    .filter(|x| x.omega_d_rad_s > 0.0 && x.omega_n_rad_s.is_finite())
+                    .map(|x| x.omega_n_rad_s)
                     .collect()
             })
             .unwrap_or_default();

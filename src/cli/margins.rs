@@ -100,9 +100,19 @@ pub fn run(a: MarginsArgs) -> Result<Outcome> {
     if a.json {
         let provenance = Provenance::of(&model);
         let units = detune::output::units::Units::new().with_all(MARGIN_UNITS);
-        print_json(&detune::output::units::WithUnits {
-            doc: MarginsReport::new(&check, &env, &skipped, &provenance),
-            units: &units,
+        let warnings = if a.vary.is_empty() {
+            Vec::new()
+        } else {
+            // (the --vary were parsed, and the warnings printed, by `intervals`)
+            let vs = super::args::varies_quietly(&model, &sys, &a.vary)?;
+            super::args::damping_warnings(&model, &sys, &vs)
+        };
+        print_json(&super::Warned {
+            doc: detune::output::units::WithUnits {
+                doc: MarginsReport::new(&check, &env, &skipped, &provenance),
+                units: &units,
+            },
+            warnings: super::args::damping_warning_values(&warnings),
         });
         for s in summary(&check, &env, fu) {
             eprintln!("{s}");

@@ -43,6 +43,10 @@ pub struct ReportArgs {
     /// Output HTML; the JSON sidecar is written beside it with the extension .json.
     #[arg(short = 'o', long = "output", value_name = "REPORT.html")]
     pub output: String,
+    /// Unit of the frequencies the page shows: rad/s, Hz or rpm (rad/s beside them); the
+    /// JSON sidecar stays in rad/s.
+    #[command(flatten)]
+    pub freq: super::args::FreqUnitArg,
 }
 
 /// The sidecar's path: the page's with the extension `.json`.
@@ -114,6 +118,7 @@ pub fn run(a: ReportArgs) -> Result<()> {
         environment: env.as_ref(),
         mode_extras: extras.as_ref(),
         generated_utc: utc_now(),
+        freq_unit: a.freq.freq_unit,
     })?;
     let unit = |name: &str| -> String { model.param_unit(name) };
     detune::report::studies::add_studies(
@@ -132,6 +137,15 @@ pub fn run(a: ReportArgs) -> Result<()> {
             command_words: &|except: &[&str]| a.model.command_words(except),
         },
     )?;
+    // a --vary case that makes a damping coefficient negative (warned of on standard
+    // error when parsed): in the sidecar's `warnings`
+    if given {
+        let warnings = super::args::damping_warnings(&model, &sys, &varies);
+        if !warnings.is_empty() {
+            report.add_data("warnings", &super::args::damping_warning_values(&warnings))?;
+        }
+    }
+    report.in_frequency_unit(a.freq.freq_unit);
     report.write(&a.output, &json)?;
     let modes = report
         .sidecar

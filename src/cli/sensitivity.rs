@@ -193,9 +193,13 @@ pub fn run(a: SensitivityArgs) -> Result<()> {
                 max: v.range.1,
             })
             .collect();
+        let mut warnings = watch.warnings();
+        warnings.extend(super::args::damping_warning_values(
+            &super::args::damping_warnings(&model, &sys, &vs),
+        ));
         print_json(&super::Warned {
             doc: SensitivityReport::new(&study, &Provenance::of(&model), params),
-            warnings: watch.warnings(),
+            warnings,
         });
         return Ok(());
     }

@@ -411,7 +411,7 @@ pub fn execute(a: SweepArgs, source: Source) -> Result<()> {
                 l if l.is_empty() => String::new(),
                 l => format!(" [{l}]"),
             };
-            for line in detune::output::figures::well_summary(run) {
+            for line in detune::output::figures::well_summary(run, fu) {
                 println!("{line}{tag}");
             }
             for j in &run.sweep.jumps {

@@ -205,6 +205,15 @@ pub fn run(a: TuneArgs) -> Result<super::Outcome> {
     };
     let fu = a.freq.freq_unit;
     let sym = fu.symbol();
+    // a --vary or --tolerance case that makes a damping coefficient negative (warned of
+    // on standard error when parsed)
+    let mut warnings = super::args::damping_warnings(&model, &sys, &vs);
+    let tolerated: Vec<_> = opts.tolerances.iter().map(|t| t.vary.clone()).collect();
+    warnings.extend(super::args::damping_warnings(&model, &sys, &tolerated));
+    let mut report = report;
+    report
+        .warnings
+        .extend(super::args::damping_warning_values(&warnings));
     if let Some(o) = &a.output {
         let text = serde_json::to_string_pretty(&report).unwrap_or_default();
         detune::output::write_atomic(o, |w| w.write_all(text.as_bytes()))?;

@@ -10,8 +10,9 @@
 //! * its **well** is the equilibrium nearest to the period-mean configuration (the mean of
 //!   the tangents from the first sample, retracted back: angles do not wrap, rotations of
 //!   free bodies are averaged on the tangent space), by the mass-weighted distance
-//!   d² = δᵀ M δ, δ the tangent from the equilibrium with planar angles taken modulo 2π
-//!   into (−π, π] (as `--all` deduplicates them);
+//!   d² = δᵀ M δ, δ the tangent from the equilibrium with angles (of planar bodies and
+//!   of spatial bodies' angle sequences) taken modulo 2π into (−π, π] (as `--all`
+//!   deduplicates them);
 //! * it **spans two wells** ([`SPANS`], −1) when at least [`SPAN_FRACTION`] of its
 //!   samples are nearest to a *stable* equilibrium other than its well. An orbit confined
 //!   to one well has its samples nearest to that well's equilibrium or, at the top of its
@@ -87,22 +88,15 @@ impl Wells {
     }
 
     /// Mass-weighted squared distance d² = δᵀ M δ from equilibrium `k` to `q` (kg·m², or
-    /// kg·m² and kg·m² per rad² mixed as the mass matrix is), planar angles modulo 2π.
+    /// kg·m² and kg·m² per rad² mixed as the mass matrix is), angles modulo 2π (planar
+    /// bodies' and spatial bodies' angle sequences; [`System::wrap_angles`]).
     pub fn distance2(&self, sys: &System, q: &[f64], k: usize) -> f64 {
         let e = &self.equilibria[k].q;
         let nv = sys.nv();
         let mut d = DVector::zeros(nv);
         sys.difference(q, e, d.as_mut_slice());
-        if !sys.spatial {
-            // planar: q and v line up, so angle i of q is component i of δ
-            let tau = std::f64::consts::TAU;
-            for i in 0..nv {
-                if sys.is_angle(i) {
-                    let r = d[i].rem_euclid(tau);
-                    d[i] = if r > 0.5 * tau { r - tau } else { r };
-                }
-            }
-        }
+        // angles modulo 2π, of planar bodies and of spatial bodies' angle sequences alike
+        sys.wrap_angles(d.as_mut_slice());
         (d.transpose() * &self.mass[k] * &d)[0]
     }
 

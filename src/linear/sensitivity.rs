@@ -489,6 +489,88 @@ pub struct Vary {
     pub range: (f64, f64),
 }
 
+/// A case of a `--vary` that makes a damping coefficient negative which is not at the
+/// baseline: a damper that feeds energy in (its mode's ζ < 0, the oscillation grows).
+/// The study computes it (the linearization and |λ| are defined), and the commands warn:
+/// no passive damper has a negative coefficient, so the tolerance of a damping
+/// coefficient should stay below 100 % (docs/sensitivity-and-tuning.md).
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct NegativeDamping {
+    /// The varied parameter.
+    pub param: String,
+    /// The case (`c-200%`) and the parameter's value there (SI).
+    pub label: String,
+    pub value: f64,
+    /// The coefficient that goes negative ("the damping of `spring`") and its value (SI:
+    /// N·s/m, or N·m·s/rad for a torsion).
+    pub element: String,
+    pub damping: f64,
+    pub damping_unit: &'static str,
+}
+
+impl NegativeDamping {
+    /// The warning, `unit` the parameter's unit (` N·s/m`, empty when none).
+    pub fn message(&self, unit: &str) -> String {
+        let unit = if unit.is_empty() {
+            String::new()
+        } else {
+            format!(" {unit}")
+        };
+        format!(
+            "the case {} ({} = {}{unit}) makes {} negative ({} {}): a damper that feeds energy in, so its mode grows (ζ < 0); computed, but no passive damper has a negative coefficient: keep a damping tolerance below 100 %",
+            self.label,
+            self.param,
+            short(self.value),
+            self.element,
+            short(self.damping),
+            self.damping_unit
+        )
+    }
+}
+
+/// `x` to 6 decimals, trailing zeros trimmed (`-2.8245`, `-5`), or in scientific
+/// notation when small or large.
+fn short(x: f64) -> String {
+    if x != 0.0 && (x.abs() < 1e-3 || x.abs() >= 1e7) {
+        return format!("{x:.4e}");
+    }
+    let s = format!("{x:.6}");
+    s.trim_end_matches('0').trim_end_matches('.').to_string()
+}
+
+/// The cases of `varies` that make a damping coefficient negative where the baseline's
+/// is not ([`NegativeDamping`]). A case the system refuses is left to the caller (it is
+/// refused with its own message).
+pub fn negative_dampings(sys: &System, varies: &[Vary]) -> Vec<NegativeDamping> {
+    let at_baseline: Vec<String> = sys.negative_dampings().into_iter().map(|d| d.0).collect();
+    let mut out = Vec::new();
+    for v in varies {
+        for (label, value) in &v.cases {
+            let Ok(s) = sys.with_param(v.param, *value) else {
+                continue;
+            };
+            for (element, damping, dim) in s.negative_dampings() {
+                if at_baseline.contains(&element) {
+                    continue;
+                }
+                out.push(NegativeDamping {
+                    param: v.name.clone(),
+                    label: label.clone(),
+                    value: *value,
+                    element,
+                    damping,
+                    damping_unit: if dim == crate::model::units::Dim::DAMPING {
+                        "N·s/m"
+                    } else {
+                        "N·m·s/rad"
+                    },
+                });
+            }
+        }
+    }
+    out
+}
+
 /// One case of one parameter, for one mode.
 #[derive(Debug, Clone, serde::Serialize)]
 pub struct CaseResult {

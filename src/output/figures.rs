@@ -536,8 +536,9 @@ pub enum AmplitudeScale {
 }
 
 /// The linear frequency response: per response (at most six) an amplitude panel
-/// (`scale`) and a phase panel [deg], the undamped natural frequencies `natural` (rad/s)
-/// as reference lines, the refined peaks marked and labelled, and `marks` (a rotor's
+/// (`scale`) and a phase panel [deg], the natural frequencies `natural` (rad/s: ω_n =
+/// |λ| of the damped modes, as the modes table and the report give them) as reference
+/// lines, the refined peaks marked and labelled, and `marks` (a rotor's
 /// forcing lines) in the forcing colour.
 pub fn frf_figures(
     case: &Case,
@@ -549,7 +550,7 @@ pub fn frf_figures(
 ) -> Vec<LinePlot> {
     let vertical: Vec<(f64, String)> = natural
         .iter()
-        .map(|w| (*w, format!("undamped ω_n = {w:.4} rad/s")))
+        .map(|w| (*w, format!("ω_n = |λ| = {w:.4} rad/s")))
         .collect();
     let marks: Vec<(f64, String)> = marks
         .iter()
@@ -607,7 +608,12 @@ pub fn frf_figures(
         plots.push(LinePlot {
             title: format!("{name}: linear frequency response, amplitude"),
             caption: if r == 0 {
-                case.caption(&[])
+                let lines = if natural.is_empty() {
+                    vec![]
+                } else {
+                    vec!["dash-dot: ω_n = |λ| of the damped modes".to_string()]
+                };
+                case.caption(&lines)
             } else {
                 String::new()
             },
@@ -711,9 +717,10 @@ pub fn tracking_figure(
 /// The summary lines of a sweep's wells, per direction, when a response leaves the well
 /// the sweep starts from: "the response left its starting well (well 2: bar1.theta =
 /// 0.644 rad) at 15 of 23 frequencies (independent): 0.5–4 rad/s in well 0 (bar1.theta =
-/// -0.866 rad)". Coarse-grid points only (refinement adds none across wells). None when
-/// every response stays in the starting well.
-pub fn well_summary(run: &SweepRun) -> Vec<String> {
+/// -0.866 rad)", the frequencies in `unit` (`--freq-unit`). Coarse-grid points only
+/// (refinement adds none across wells). None when every response stays in the starting
+/// well.
+pub fn well_summary(run: &SweepRun, unit: super::units::FreqUnit) -> Vec<String> {
     let start = run.sweep.wells.start as isize;
     let mut out = Vec::new();
     for dir in [Direction::Independent, Direction::Up, Direction::Down] {
@@ -739,10 +746,16 @@ pub fn well_summary(run: &SweepRun) -> Vec<String> {
                     .map(|p| p.steady.omega)
                     .collect();
                 let (lo, hi) = (w[0], w[w.len() - 1]);
+                // a grid frequency as computed in rad/s, else in the unit (`--freq-unit`)
+                let shown = |w: f64| match unit {
+                    super::units::FreqUnit::RadPerSecond => w.to_string(),
+                    u => format!("{:.6}", u.of(w)),
+                };
+                let sym = unit.symbol();
                 let range = if lo == hi {
-                    format!("{lo} rad/s")
+                    format!("{} {sym}", shown(lo))
                 } else {
-                    format!("{lo}–{hi} rad/s")
+                    format!("{}–{} {sym}", shown(lo), shown(hi))
                 };
                 format!("{range} in {}", well_name(run, k))
             })

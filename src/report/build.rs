@@ -33,6 +33,9 @@ pub struct ReportInputs<'a> {
     /// When the report is made, e.g. `2026-11-23T19:30:00Z` (the caller's clock: the
     /// library does not read one).
     pub generated_utc: String,
+    /// The unit the page shows frequencies in (`--freq-unit`; rad/s beside them), the
+    /// figures' frequency axes too. The sidecar stays in rad/s.
+    pub freq_unit: crate::output::units::FreqUnit,
 }
 
 /// What mode tracking adds to the modes table, per mode in ω_n order.
@@ -755,6 +758,7 @@ pub fn build(inp: &ReportInputs) -> Result<Report> {
                         .collect(),
                     peaks: fr.peaks.iter().map(|p| (p.omega, p.amplitude)).collect(),
                     bands,
+                    freq_unit: inp.freq_unit,
                 };
                 let svg = frf_svg(&plot)
                     .map_err(|e| Error::io("report.html", format!("FRF figure: {e}")))?;
@@ -806,7 +810,7 @@ pub fn build(inp: &ReportInputs) -> Result<Report> {
     if let Some(env) = inp.environment {
         data.insert("environment", env)?;
         sections.push(environment_section(env, &data));
-        sections.push(campbell(env, &modes, &mut data)?);
+        sections.push(campbell(env, &modes, &mut data, inp.freq_unit)?);
     } else {
         sections.push(Section::new("campbell", "Interference diagram").prose(
             "No vibration environment given: run with --environment (e.g. UH-60) for the forcing lines and the interference diagram.",
@@ -912,7 +916,12 @@ fn environment_section(env: &Environment, data: &Sidecar) -> Section {
 /// speed axis that of the environment's first rotor (the others geared to it); fixed
 /// lines and bands (no rotor) do not move with the speed and are left to the response
 /// figure and the margins.
-fn campbell(env: &Environment, modes: &[ModeJson], data: &mut Sidecar) -> Result<Section> {
+fn campbell(
+    env: &Environment,
+    modes: &[ModeJson],
+    data: &mut Sidecar,
+    freq_unit: crate::output::units::FreqUnit,
+) -> Result<Section> {
     let Some(main) = env.rotors.first() else {
         return Ok(
             Section::new("campbell", "Interference diagram").prose("The environment has no rotor.")
@@ -983,6 +992,7 @@ fn campbell(env: &Environment, modes: &[ModeJson], data: &mut Sidecar) -> Result
             .collect(),
         rpm_end,
         omega_end,
+        freq_unit,
     };
     let svg = campbell_svg(&plot)
         .map_err(|e| Error::io("report.html", format!("Campbell figure: {e}")))?;
@@ -1116,6 +1126,7 @@ mod tests {
             environment: None,
             mode_extras: Some(&extras),
             generated_utc: "2026-11-23T00:00:00Z".into(),
+            freq_unit: Default::default(),
         })
         .unwrap();
         assert_eq!(r.sidecar.get("modes/0/name").unwrap(), "bar swing");
@@ -1152,6 +1163,7 @@ mod tests {
             environment: Some(&env),
             mode_extras: None,
             generated_utc: String::new(),
+            freq_unit: Default::default(),
         })
         .unwrap();
         let c = r

@@ -12,6 +12,7 @@ use crate::output::plot::{
     legend_height, legend_layout, reference_pen, render,
 };
 use crate::output::style::{self, Fonts};
+use crate::output::units::FreqUnit;
 use plotters::coord::Shift;
 use plotters::prelude::*;
 
@@ -41,6 +42,23 @@ pub struct FrfPlot {
     /// Refined peaks (ω rad/s, amplitude), marked on the curves.
     pub peaks: Vec<(f64, f64)>,
     pub bands: Vec<Band>,
+    /// The unit of the frequency axis (`--freq-unit`); the data above stay in rad/s.
+    pub freq_unit: FreqUnit,
+}
+
+impl FrfPlot {
+    /// The data with every frequency in `freq_unit` (drawn as they are then).
+    fn in_unit(&self) -> FrfPlot {
+        let u = self.freq_unit;
+        let mut p = self.clone();
+        p.omega.iter_mut().for_each(|w| *w = u.of(*w));
+        p.resonances.iter_mut().for_each(|(_, w)| *w = u.of(*w));
+        p.peaks.iter_mut().for_each(|(w, _)| *w = u.of(*w));
+        for b in &mut p.bands {
+            (b.lo, b.nominal, b.hi) = (u.of(b.lo), u.of(b.nominal), u.of(b.hi));
+        }
+        p
+    }
 }
 
 /// The report figures' size, px.
@@ -150,7 +168,8 @@ impl Figure for FrfPlot {
         root: &DrawingArea<DB, Shift>,
         painter: &mut Painter<'_, DB>,
     ) -> std::result::Result<(), String> {
-        let p = self;
+        let p = &self.in_unit();
+        let sym = p.freq_unit.symbol();
         let f = Fonts::for_width(SIZE.0);
         let s = f.scale;
         let (x0, x1) = (
@@ -190,20 +209,20 @@ impl Figure for FrfPlot {
         }
         if !p.resonances.is_empty() {
             entries.push(Entry {
-                label: "natural frequencies (labelled) [rad/s]".into(),
+                label: format!("natural frequencies (labelled) [{sym}]"),
                 pen: reference_pen(s),
             });
         }
         if !p.bands.is_empty() {
             entries.push(Entry {
-                label: "forcing line [rad/s] and its band (shaded)".into(),
+                label: format!("forcing line [{sym}] and its band (shaded)"),
                 pen: forcing_pen(s),
             });
         }
         let lay = layout(root, &p.title, &entries, &f)?;
         let px = axes(
             &lay.chart,
-            "ω [rad/s]",
+            &format!("ω [{sym}]"),
             &format!("amplitude [{}]", p.unit),
             (x0, x1),
             (y0, y1),
@@ -312,6 +331,21 @@ pub struct CampbellPlot {
     /// Right end of the speed axis, rpm; top of the frequency axis, rad/s.
     pub rpm_end: f64,
     pub omega_end: f64,
+    /// The unit of the frequency axis (`--freq-unit`); the data above stay in rad/s.
+    pub freq_unit: FreqUnit,
+}
+
+impl CampbellPlot {
+    /// The data with every frequency in `freq_unit` (the speed axis stays in rpm).
+    fn in_unit(&self) -> CampbellPlot {
+        let u = self.freq_unit;
+        let mut p = self.clone();
+        p.modes.iter_mut().for_each(|(_, w)| *w = u.of(*w));
+        p.lines.iter_mut().for_each(|l| l.slope = u.of(l.slope));
+        p.crossings.iter_mut().for_each(|c| c.1 = u.of(c.1));
+        p.omega_end = u.of(p.omega_end);
+        p
+    }
 }
 
 /// Mode frequencies against rotor speed (horizontal lines: the mechanism's modes do not
@@ -331,7 +365,8 @@ impl Figure for CampbellPlot {
         root: &DrawingArea<DB, Shift>,
         painter: &mut Painter<'_, DB>,
     ) -> std::result::Result<(), String> {
-        let p = self;
+        let p = &self.in_unit();
+        let sym = p.freq_unit.symbol();
         let f = Fonts::for_width(SIZE.0);
         let s = f.scale;
         let (xe, ye) = (p.rpm_end, p.omega_end);
@@ -340,7 +375,7 @@ impl Figure for CampbellPlot {
             .iter()
             .enumerate()
             .map(|(i, (label, w))| Entry {
-                label: format!("{label}: ω_n = {w:.2} rad/s"),
+                label: format!("{label}: ω_n = {w:.2} {sym}"),
                 pen: curve_pen(i, s),
             })
             .collect();
@@ -348,7 +383,7 @@ impl Figure for CampbellPlot {
         let mut thin = forcing_pen(s);
         thin.width = style::REFERENCE_WIDTH * s;
         entries.push(Entry {
-            label: "forcing lines n/rev [rad/s] (labelled)".into(),
+            label: format!("forcing lines n/rev [{sym}] (labelled)"),
             pen: thin.clone(),
         });
         entries.push(Entry {
@@ -378,7 +413,7 @@ impl Figure for CampbellPlot {
         let px = axes(
             &lay.chart,
             &format!("{} rotor speed [rpm]", p.rotor),
-            "frequency [rad/s]",
+            &format!("frequency [{sym}]"),
             (0.0, xe),
             (0.0, ye),
             false,
@@ -413,6 +448,10 @@ impl Figure for CampbellPlot {
                 &format!("r-{}", n_modes + 1),
             )?;
         }
+        // each line's label just inside the box where the line leaves it, moved back along
+        // the line until it overlaps no label placed before (lines that leave through the
+        // top close together, 4T 12P 8P, would write theirs on top of each other)
+        let mut placed: Vec<[f64; 4]> = Vec::new();
         for l in &p.lines {
             let w = l.slope;
             // from the origin to where the line leaves the box
@@ -421,12 +460,36 @@ impl Figure for CampbellPlot {
                 continue;
             };
             painter.line(&[a, b], &thin, "forcing", &format!("r-{n_modes}"))?;
-            // the label just inside the box where the line leaves it
-            let (tx, ty) = if x_end < xe {
-                (b.0 + 4.0 * s, b.1 + 2.0 * s)
-            } else {
-                (b.0 - 60.0 * s, b.1 - f.note * 1.4)
+            let (tw, th) = root
+                .estimate_text_size(&l.label, &style::font(f.note).into())
+                .map(|(w, h)| (w as f64, h as f64))
+                .unwrap_or((l.label.chars().count() as f64 * f.note * 0.6, f.note));
+            let at = |t: f64| -> (f64, f64) {
+                // the point a length t back from b toward a, and the label beside it
+                let len = ((a.0 - b.0).powi(2) + (a.1 - b.1).powi(2)).sqrt().max(1.0);
+                let (x, y) = (b.0 + (a.0 - b.0) * t / len, b.1 + (a.1 - b.1) * t / len);
+                if x_end < xe {
+                    (x + 4.0 * s, y + 2.0 * s)
+                } else {
+                    (x - tw - 6.0 * s, y - th - 2.0 * s)
+                }
             };
+            // apart by half an em at least, so that neighbours do not read as one string
+            let gap = 0.5 * f.note;
+            let free = |(x, y): (f64, f64)| {
+                placed.iter().all(|q| {
+                    x + tw + gap <= q[0]
+                        || q[2] + gap <= x
+                        || y + th + gap <= q[1]
+                        || q[3] + gap <= y
+                })
+            };
+            let step = 0.5 * th;
+            let (tx, ty) = (0..200)
+                .map(|k| at(k as f64 * step))
+                .find(|&q| free(q))
+                .unwrap_or_else(|| at(0.0));
+            placed.push([tx, ty, tx + tw, ty + th]);
             label(root, &l.label, (tx, ty), style::EVENT, &f)?;
         }
         for (i, (_, w)) in p.modes.iter().enumerate() {

@@ -35,6 +35,7 @@ pub use build::{ReportInputs, build};
 pub use environment::{Environment, ForcingLine, Rotor};
 
 use crate::diag::{Error, Result};
+use crate::output::units::FreqUnit;
 use maud::{DOCTYPE, Markup, PreEscaped, html};
 use serde_json::{Map, Value};
 
@@ -86,6 +87,9 @@ pub enum Cell {
         key: String,
         value: Option<f64>,
         digits: Digits,
+        /// Shown in this frequency unit (the value, in rad/s, converted; the page marks
+        /// the cell `data-unit`), or as the sidecar holds it (None).
+        unit: Option<FreqUnit>,
     },
 }
 
@@ -98,7 +102,15 @@ impl Cell {
     pub fn shown(&self) -> String {
         match self {
             Cell::Text(s) => s.clone(),
-            Cell::Number { value, digits, .. } => digits.format(value.unwrap_or(f64::NAN)),
+            Cell::Number {
+                value,
+                digits,
+                unit,
+                ..
+            } => {
+                let x = value.unwrap_or(f64::NAN);
+                digits.format(unit.map_or(x, |u| u.of(x)))
+            }
         }
     }
 }
@@ -235,7 +247,12 @@ impl Sidecar {
     pub fn num(&self, key: impl Into<String>, digits: Digits) -> Cell {
         let key = key.into();
         let value = self.get(&key).and_then(Value::as_f64);
-        Cell::Number { key, value, digits }
+        Cell::Number {
+            key,
+            value,
+            digits,
+            unit: None,
+        }
     }
 
     /// The number at `key` shown with `digits` inside running text (prose, a caption): a
@@ -296,11 +313,232 @@ impl Report {
     }
 }
 
+// ---- --freq-unit --------------------------------------------------------------------------
+
+/// `digits` for a frequency shown in `unit` instead of rad/s, to about as many
+/// significant digits: a decimal more in Hz (÷ 2π), one fewer in rpm (× 9.55).
+fn digits_in(digits: Digits, unit: FreqUnit) -> Digits {
+    match (digits, unit) {
+        (Digits::Fixed(n), FreqUnit::Hertz) => Digits::Fixed(n + 1),
+        (Digits::Fixed(n), FreqUnit::Rpm) => Digits::Fixed(n.saturating_sub(1)),
+        (d, _) => d,
+    }
+}
+
+/// The digits a shown number was written with (`26.531` → Fixed(3), `1.2e-5` → Sci(1)).
+fn digits_of(shown: &str) -> Digits {
+    let decimals = |s: &str| s.split_once('.').map_or(0, |(_, d)| d.len());
+    match shown.split_once('e') {
+        Some((m, _)) => Digits::Sci(decimals(m)),
+        None => Digits::Fixed(decimals(shown)),
+    }
+}
+
+impl Report {
+    /// The page with its frequencies shown in `unit` (`--freq-unit`), rad/s beside them;
+    /// the sidecar is unchanged (rad/s), and each converted number is marked `data-unit`
+    /// so that a script can check it against the sidecar:
+    ///
+    /// * a table column in rad/s (or `rad/s per unit`) becomes two, the unit's (the
+    ///   sidecar's numbers converted) and rad/s beside it, unless one of the next two
+    ///   columns is already in the unit (the modes table's `f_n [Hz]`, `f_n [rpm]`); a
+    ///   row whose unit cell says `rad/s` (the tuning table) shows its numbers in the
+    ///   unit, the unit cell naming the rad/s values;
+    /// * in prose, captions and text cells a keyed number (or a range `a–b`, `a to b`)
+    ///   followed by ` rad/s` is shown in the unit, the rad/s text in parentheses after it.
+    ///
+    /// Rotor speeds (rpm columns of the environment and the interference diagram) are
+    /// speeds, not converted.
+    pub fn in_frequency_unit(&mut self, unit: FreqUnit) {
+        if unit == FreqUnit::RadPerSecond {
+            return;
+        }
+        let data = &self.sidecar;
+        for section in &mut self.document.sections {
+            for block in &mut section.blocks {
+                match block {
+                    Block::Prose(p) => *p = text_in(data, p, unit),
+                    Block::Figure(f) => f.caption = text_in(data, &f.caption, unit),
+                    Block::Code(_) => {}
+                    Block::Table(t) => table_in(data, t, unit),
+                }
+            }
+        }
+    }
+}
+
+/// A number cell shown in `unit`.
+fn cell_in(cell: &Cell, unit: FreqUnit) -> Cell {
+    match cell {
+        Cell::Number {
+            key,
+            value,
+            digits,
+            unit: None,
+        } => Cell::Number {
+            key: key.clone(),
+            value: *value,
+            digits: digits_in(*digits, unit),
+            unit: Some(unit),
+        },
+        c => c.clone(),
+    }
+}
+
+fn table_in(data: &Sidecar, t: &mut Table, unit: FreqUnit) {
+    t.caption = text_in(data, &t.caption, unit);
+    for row in &mut t.rows {
+        for c in row.iter_mut() {
+            if let Cell::Text(s) = c {
+                *s = text_in(data, s, unit);
+            }
+        }
+    }
+    // rows whose unit cell says rad/s (the tuning table: parameter, baseline, design, unit)
+    for row in &mut t.rows {
+        let Some(u) = row
+            .iter()
+            .position(|c| matches!(c, Cell::Text(s) if s == "rad/s"))
+        else {
+            continue;
+        };
+        // the numbers of columns without a unit of their own
+        let numbers: Vec<usize> = (0..row.len())
+            .filter(|&i| matches!(row[i], Cell::Number { unit: None, .. }))
+            .filter(|&i| t.columns.get(i).is_none_or(|c| c.unit.is_empty()))
+            .collect();
+        if numbers.is_empty() {
+            continue;
+        }
+        let companion: Vec<String> = numbers
+            .iter()
+            .map(|&i| match &row[i] {
+                Cell::Number { key, digits, .. } => data.inline(key.clone(), *digits),
+                _ => String::new(),
+            })
+            .collect();
+        for &i in &numbers {
+            row[i] = cell_in(&row[i], unit);
+        }
+        row[u] = Cell::Text(format!(
+            "{} ({} rad/s)",
+            unit.symbol(),
+            companion.join(", ")
+        ));
+    }
+    // columns in rad/s: the unit's, then rad/s
+    let mut i = 0;
+    while i < t.columns.len() {
+        let c = &t.columns[i];
+        let per = c.unit.strip_prefix("rad/s");
+        let shown_beside = t.columns[i + 1..]
+            .iter()
+            .take(2)
+            .any(|n| n.unit == unit.symbol());
+        match per {
+            Some(rest) if !shown_beside => {
+                let converted = Column::new(c.title.clone(), format!("{}{rest}", unit.symbol()));
+                t.columns.insert(i, converted);
+                for row in &mut t.rows {
+                    if let Some(cell) = row.get(i) {
+                        let new = cell_in(cell, unit);
+                        row.insert(i, new);
+                    }
+                }
+                i += 2;
+            }
+            _ => i += 1,
+        }
+    }
+}
+
+/// `text` with each keyed number (or range of two, `a–b`, `a to b`) followed by ` rad/s`
+/// shown in `unit`, the rad/s text after it in parentheses.
+fn text_in(data: &Sidecar, text: &str, unit: FreqUnit) -> String {
+    // the text as pieces: plain text and keyed numbers (key, shown)
+    enum Piece<'a> {
+        Plain(&'a str),
+        Num(&'a str, &'a str),
+    }
+    let mut pieces = Vec::new();
+    let mut rest = text;
+    while let Some(i) = rest.find(INLINE_OPEN) {
+        let after = &rest[i + INLINE_OPEN.len_utf8()..];
+        let (Some(m), Some(c)) = (after.find(INLINE_MID), after.find(INLINE_CLOSE)) else {
+            break;
+        };
+        pieces.push(Piece::Plain(&rest[..i]));
+        pieces.push(Piece::Num(
+            &after[..m],
+            &after[m + INLINE_MID.len_utf8()..c],
+        ));
+        rest = &after[c + INLINE_CLOSE.len_utf8()..];
+    }
+    pieces.push(Piece::Plain(rest));
+    let span =
+        |key: &str, shown: &str| format!("{INLINE_OPEN}{key}{INLINE_MID}{shown}{INLINE_CLOSE}");
+    let converted = |key: &str, shown: &str| -> String {
+        if key.contains(INLINE_UNIT) {
+            return span(key, shown);
+        }
+        let cell = data.num(key, digits_of(shown));
+        let cell = cell_in(&cell, unit);
+        format!(
+            "{INLINE_OPEN}{key}{INLINE_UNIT}{}{INLINE_MID}{}{INLINE_CLOSE}",
+            unit.symbol(),
+            cell.shown()
+        )
+    };
+    let mut out = String::new();
+    let mut k = 0;
+    while k < pieces.len() {
+        match pieces[k] {
+            Piece::Plain(p) => {
+                out.push_str(p);
+                k += 1;
+            }
+            Piece::Num(key, shown) => {
+                // a range: number, `–` or ` to `, number
+                let range = match (pieces.get(k + 1), pieces.get(k + 2)) {
+                    (Some(Piece::Plain(sep)), Some(Piece::Num(k2, s2)))
+                        if *sep == "–" || *sep == " to " =>
+                    {
+                        Some((*sep, *k2, *s2))
+                    }
+                    _ => None,
+                };
+                let next = k + if range.is_some() { 3 } else { 1 };
+                match pieces.get(next) {
+                    Some(Piece::Plain(p)) if p.starts_with(" rad/s") => {
+                        let tail = &p[" rad/s".len()..];
+                        let (new, old) = match range {
+                            Some((sep, k2, s2)) => (
+                                format!("{}{sep}{}", converted(key, shown), converted(k2, s2)),
+                                format!("{}{sep}{}", span(key, shown), span(k2, s2)),
+                            ),
+                            None => (converted(key, shown), span(key, shown)),
+                        };
+                        out.push_str(&format!("{new} {} ({old} rad/s){tail}", unit.symbol()));
+                        k = next + 1;
+                    }
+                    _ => {
+                        out.push_str(&span(key, shown));
+                        k += 1;
+                    }
+                }
+            }
+        }
+    }
+    out
+}
+
 /// The marks of a keyed number in running text ([`Sidecar::inline`]): Unicode private-use
 /// characters, which no model name or message contains.
 const INLINE_OPEN: char = '\u{E000}';
 const INLINE_MID: char = '\u{E001}';
 const INLINE_CLOSE: char = '\u{E002}';
+/// Between a keyed number's key and the frequency unit it is shown in (`data-unit`).
+const INLINE_UNIT: char = '\u{E003}';
 
 /// Running text with its keyed numbers ([`Sidecar::inline`]) as
 /// `<span class="num" data-key=...>`; the rest escaped.
@@ -319,8 +557,9 @@ fn rich(text: &str) -> Markup {
     parts.push((None, rest));
     html! {
         @for (key, text) in parts {
-            @match key {
-                Some(k) => span class="num" data-key=(k) { (text) },
+            @match key.map(|k| k.split_once(INLINE_UNIT).map_or((k, None), |(k, u)| (k, Some(u)))) {
+                Some((k, Some(u))) => span class="num" data-key=(k) data-unit=(u) { (text) },
+                Some((k, None)) => span class="num" data-key=(k) { (text) },
                 None => (text),
             }
         }
@@ -378,6 +617,7 @@ fn render_table(t: &Table) -> Markup {
                         @for cell in row {
                             @match cell {
                                 Cell::Text(s) => td { (rich(s)) },
+                                Cell::Number { key, unit: Some(u), .. } => td class="num" data-key=(key) data-unit=(u.symbol()) { (cell.shown()) },
                                 Cell::Number { key, .. } => td class="num" data-key=(key) { (cell.shown()) },
                             }
                         }
@@ -476,5 +716,47 @@ mod tests {
         assert!(page.contains("a &lt;b&gt; &amp; c"));
         assert!(page.contains(r#"<td class="num" data-key="x/v">1.5</td>"#));
         assert!(page.contains("v [m]"));
+    }
+
+    #[test]
+    fn freq_unit_converts_rad_s_columns_rows_and_sentences() {
+        let mut s = Sidecar::default();
+        s.insert("m", &serde_json::json!({"w": 6.283185307179586, "r": 2.0}))
+            .unwrap();
+        let sentence = format!(
+            "at {} rad/s; ratio {}",
+            s.inline("m/w", Digits::Fixed(3)),
+            s.inline("m/r", Digits::Fixed(1))
+        );
+        let mut report = Report {
+            document: Document {
+                title: String::new(),
+                subtitle: String::new(),
+                sections: vec![Section::new("x", "X").prose(sentence).table(Table {
+                    caption: String::new(),
+                    columns: vec![
+                        Column::new("ω", "rad/s"),
+                        Column::new("what", ""),
+                        Column::new("v", ""),
+                        Column::new("unit", ""),
+                    ],
+                    rows: vec![vec![
+                        s.num("m/w", Digits::Fixed(3)),
+                        Cell::text("mode ω_n"),
+                        s.num("m/w", Digits::Fixed(4)),
+                        Cell::text("rad/s"),
+                    ]],
+                })],
+            },
+            sidecar: s,
+        };
+        report.in_frequency_unit(FreqUnit::Hertz);
+        let page = report.document.html();
+        // the column: Hz then rad/s; the row with a rad/s unit cell: Hz, rad/s named
+        assert!(page.contains("ω [Hz]</th><th>ω [rad/s]"), "{page}");
+        assert!(page.contains(r#"<td class="num" data-key="m/w" data-unit="Hz">1.0000</td><td class="num" data-key="m/w">6.283</td>"#), "{page}");
+        assert!(page.contains(r#"<td class="num" data-key="m/w" data-unit="Hz">1.00000</td><td>Hz (<span class="num" data-key="m/w">6.2832</span> rad/s)</td>"#), "{page}");
+        // the sentence: the number followed by rad/s, not the ratio
+        assert!(page.contains(r#"at <span class="num" data-key="m/w" data-unit="Hz">1.0000</span> Hz (<span class="num" data-key="m/w">6.283</span> rad/s); ratio <span class="num" data-key="m/r">2.0</span>"#), "{page}");
     }
 }

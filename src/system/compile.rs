@@ -832,7 +832,11 @@ impl Compiler<'_> {
                         let ends2 =
                             (!model.spatial).then(|| (self.point(p1, &w1), self.point(p2, &w2)));
                         let k = self.constant(stiffness, Dim::STIFFNESS, "the stiffness");
-                        let c = self.constant(damping, Dim::DAMPING, "the damping");
+                        let c = self.constant(
+                            damping,
+                            Dim::DAMPING,
+                            &format!("the damping of `{}`", f.name),
+                        );
                         let l0 = self.checked(
                             free_length,
                             Dim::LENGTH,
@@ -934,8 +938,11 @@ impl Compiler<'_> {
                             Dim::ANGULAR_STIFFNESS,
                             "the torsional stiffness",
                         );
-                        let c =
-                            self.constant(damping, Dim::ANGULAR_DAMPING, "the torsional damping");
+                        let c = self.constant(
+                            damping,
+                            Dim::ANGULAR_DAMPING,
+                            &format!("the torsional damping of `{}`", f.name),
+                        );
                         let free = self.constant(free_angle, Dim::NONE, "the free angle");
                         let law = self.law(law, true, &f.name, stiffness, k);
                         let (Some(k), Some(c), Some(free), Some(law)) = (k, c, free, law) else {

@@ -323,6 +323,24 @@ impl System {
         }
     }
 
+    /// A tangent (a [`System::difference`]) with its angle components taken modulo 2π
+    /// into (−π, π]: the angles of planar bodies and of spatial bodies turning by a
+    /// sequence of angles (their tangent components are their coordinates' differences);
+    /// a free body's rotation vector is already the shortest (the quaternion logarithm).
+    pub fn wrap_angles(&self, d: &mut [f64]) {
+        let tau = std::f64::consts::TAU;
+        for b in &self.bodies {
+            if let BodyKind::Planar | BodyKind::Spatial { .. } = b.kind {
+                for i in 0..self.body_nv(b) {
+                    if self.is_angle(b.offset + i) {
+                        let r = d[b.voff + i].rem_euclid(tau);
+                        d[b.voff + i] = if r > 0.5 * tau { r - tau } else { r };
+                    }
+                }
+            }
+        }
+    }
+
     /// q̇ = N(q) v (nq): how the coordinates move with the velocities (planar: q̇ = v; a
     /// free body's quaternion: `q̇ = ½ q ⊗ (0, ω_b)`).
     pub fn qdot(&self, q: &[f64], v: &[f64], out: &mut [f64]) {
@@ -565,6 +583,22 @@ impl System {
             })?;
         self.refresh();
         Ok(())
+    }
+
+    /// The damping coefficients (of spring–dampers and torsions) that are negative at the
+    /// current parameter values: (what, e.g. "the damping of `spring`", value in SI, its
+    /// dimension). The model may hold one (nothing refuses it: an element that feeds
+    /// energy in); a study that varies a parameter warns when a case makes one negative
+    /// ([`crate::linear::sensitivity::negative_dampings`]).
+    pub fn negative_dampings(&self) -> Vec<(String, f64, crate::model::units::Dim)> {
+        use crate::model::units::Dim;
+        self.live
+            .checks
+            .iter()
+            .filter(|c| c.dim == Dim::DAMPING || c.dim == Dim::ANGULAR_DAMPING)
+            .filter(|c| self.live.coefs[c.coef] < 0.0)
+            .map(|c| (c.what.clone(), self.live.coefs[c.coef], c.dim))
+            .collect()
     }
 
     /// A copy with parameter `name` at `value` (see [`System::set_param`]).
