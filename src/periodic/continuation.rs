@@ -752,9 +752,9 @@ impl Tracer<'_> {
             if growth > 1e6 {
                 return finish(nodes, located, BranchEnd::Unstable);
             }
-            if its <= 3 {
+            if its <= 4 {
                 ds = (ds * 1.5).min(self.max_step);
-            } else if its >= 6 {
+            } else if its >= 8 {
                 ds *= 0.6;
             }
         }
@@ -851,7 +851,7 @@ impl Tracer<'_> {
             prev = rel;
             // the bordered Newton system
             let fx = base.basis.transpose() * (&flow.jac - &tb);
-            let fp = base.basis.transpose() * flow.dp.as_ref().expect("asked");
+            let fp = base.basis.transpose() * flow.p_column();
             let mut jm = DMatrix::zeros(d + 1, d + 1);
             jm.view_mut((0, 0), (d, d)).copy_from(&fx);
             jm.view_mut((0, d), (d, 1)).copy_from(&fp);
@@ -875,6 +875,8 @@ impl Tracer<'_> {
                 *xi += s;
             }
             p += step[d];
+            // onto the manifold of the new p (a moving constraint's depends on it)
+            self.sh.set(p)?;
             self.sh.project(&mut x);
             if !x.iter().all(|v| v.is_finite()) || !p.is_finite() {
                 return Ok(None);
@@ -896,7 +898,7 @@ impl Tracer<'_> {
         let d = tb.ncols();
         let mono = tb.transpose() * &flow.jac;
         let mu = multipliers(&mono);
-        let fp = tb.transpose() * flow.dp.as_ref().expect("asked");
+        let fp = tb.transpose() * flow.p_column();
         let mut k = DMatrix::zeros(d, d + 1);
         let mut mi = mono.clone();
         for i in 0..d {

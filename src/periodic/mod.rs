@@ -81,12 +81,27 @@ pub struct Flow {
     pub end: Vec<f64>,
     /// ∂P/∂x · D for the directions D the flow was asked for (2n × k).
     pub jac: DMatrix<f64>,
-    /// dP/dp, the continued parameter's column (the period's dependence included).
+    /// dP/dp, the continued parameter's column (the period's dependence included, and
+    /// the start's: see `start_dp`).
     pub dp: Option<DVector<f64>>,
+    /// dx/dp of the start state kept on the manifold as p changes (zero unless the
+    /// constraints move with p: a base motion's velocity at t = 0 moves with its ω).
+    pub start_dp: Option<DVector<f64>>,
     /// Per sample (the period's end excluded), the responses.
     pub values: Vec<Vec<f64>>,
     /// Half peak-to-peak of each state component over the period.
     pub scale: Vec<f64>,
+}
+
+impl Flow {
+    /// d(P(x) − x)/dp: the residual's column for the parameter.
+    pub fn p_column(&self) -> DVector<f64> {
+        match (&self.dp, &self.start_dp) {
+            (Some(d), Some(s)) => d - s,
+            (Some(d), None) => d.clone(),
+            _ => DVector::zeros(self.end.len()),
+        }
+    }
 }
 
 /// Periodic orbits of one model at values of one parameter.
@@ -215,6 +230,19 @@ impl Shooting {
         let period = self.period();
         let p = self.value();
         let dp = 1e-6 * p.abs().max(1e-3);
+        // the start's shift with p: where the projection puts x at p ± dp
+        let start_dp = if with_dp {
+            let mut up = x.to_vec();
+            let mut down = x.to_vec();
+            self.sys.set_param(self.param, p + dp)?;
+            self.project(&mut up);
+            self.sys.set_param(self.param, p - dp)?;
+            self.project(&mut down);
+            self.sys.set_param(self.param, p)?;
+            Some(DVector::from_fn(n2, |i, _| (up[i] - down[i]) / (2.0 * dp)))
+        } else {
+            None
+        };
         let perturbed = if with_dp {
             Some((
                 self.sys.with_param(self.param, p + dp)?,
@@ -243,6 +271,11 @@ impl Shooting {
                 .zip(dirs.column(j).iter())
             {
                 *y = d * ode.tiny;
+            }
+        }
+        if let Some(d) = &start_dp {
+            for (y, v) in y0[n2 * (1 + k)..].iter_mut().zip(d.iter()) {
+                *y = v * ode.tiny;
             }
         }
         let per = self.opts.samples;
@@ -338,6 +371,7 @@ impl Shooting {
             end,
             jac,
             dp,
+            start_dp,
             values,
             scale,
         })
