@@ -1153,6 +1153,7 @@ impl Compiler<'_> {
                         .collect(),
                 })
                 .collect(),
+            undamped: false,
         };
         sys.refresh();
         sys.layout();
