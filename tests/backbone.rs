@@ -177,6 +177,41 @@ fn overcentre_lower_well_softens_from_its_linear_frequency() {
     assert!(c2 < 0.0, "softening: c₂ = {c2}");
 }
 
+#[test]
+fn undamped_is_the_model_without_its_damper() {
+    // a second formulation: the overcentre's undamped forces are those of the model with
+    // c = 0, at any state; its damped forces are not
+    let sys = load(OVERCENTRE, &[("theta1_0", "-0.85")]);
+    let c0 = load(OVERCENTRE, &[("theta1_0", "-0.85"), ("c", "0")]);
+    let und = sys.undamped();
+    assert!(und.is_undamped() && !sys.is_undamped());
+    let q = detune::assemble(&sys).unwrap().q;
+    let v = [0.3, -0.2, 0.5, 0.1, 0.4, -0.7];
+    let f = |s: &detune::System| {
+        let mut f = vec![0.0; 6];
+        s.forces(&q, &v, 0.7, &mut f);
+        f
+    };
+    let (fu, f0, fd) = (f(&und), f(&c0), f(&sys));
+    for i in 0..6 {
+        assert!(
+            (fu[i] - f0[i]).abs() <= 1e-12 * (1.0 + f0[i].abs()),
+            "{fu:?} vs {f0:?}"
+        );
+    }
+    assert!(fd.iter().zip(&f0).any(|(a, b)| (a - b).abs() > 1e-3));
+    // and the spring's tension response is its elastic part
+    let o = und.outputs(&["spring.tension".to_string()]).unwrap();
+    let o0 = c0.outputs(&["spring.tension".to_string()]).unwrap();
+    let (mut a, mut b) = ([0.0], [0.0]);
+    detune::system::outputs::Probe::new(&und, o).eval(&und, 0.7, &q, &v, &mut a);
+    detune::system::outputs::Probe::new(&c0, o0).eval(&c0, 0.7, &q, &v, &mut b);
+    assert!(
+        (a[0] - b[0]).abs() <= 1e-12 * (1.0 + b[0].abs()),
+        "{a:?} vs {b:?}"
+    );
+}
+
 fn detune(args: &[&str]) -> std::process::Output {
     Command::new(env!("CARGO_BIN_EXE_detune"))
         .args(args)

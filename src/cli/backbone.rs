@@ -117,6 +117,7 @@ pub fn run(a: BackboneArgs) -> Result<()> {
     let bb = backbone(&sys, mode, to, &opts, &progress, &super::INTERRUPTED)?;
     bar.finish_and_clear();
     let unit_of = |k: usize| bb.units[k];
+    let label = mode_label(&bb);
     let ref_unit = if sys0.is_angle(r) { "rad" } else { "m" };
     if let Some(o) = &a.output {
         write_csv(o, &bb)?;
@@ -134,6 +135,9 @@ pub fn run(a: BackboneArgs) -> Result<()> {
             ("amplitude", ref_unit),
             ("omega", "rad/s"),
             ("omega_linear", "rad/s"),
+            ("mode_number", "1"),
+            ("periods", "1"),
+            ("rhs_evaluations", "1"),
         ]);
         for (k, r) in bb.responses.iter().enumerate() {
             units.add(format!("{r}_amplitude"), unit_of(k));
@@ -144,11 +148,8 @@ pub fn run(a: BackboneArgs) -> Result<()> {
         });
     } else if a.output.is_none() {
         println!(
-            "backbone of mode {} `{}` (undamped, unforced): linear ω_n = {:.8} rad/s; amplitude = {} at the turning point, from the equilibrium",
-            bb.mode + 1,
-            bb.mode_name,
-            bb.omega_linear,
-            bb.reference_name
+            "backbone of {label} (undamped, unforced): linear ω_n = {:.8} rad/s; amplitude = {} at the turning point, from the equilibrium",
+            bb.omega_linear, bb.reference_name
         );
         let head: Vec<String> = bb
             .responses
@@ -260,7 +261,7 @@ fn figures(model: &detune::Model, bb: &Backbone, ref_unit: &str) -> Vec<LinePlot
     let mut panels = Vec::new();
     let mut panel = |name: &str, unit: &str, y: Vec<f64>| {
         let mut lp = LinePlot::new(
-            format!("Backbone of mode {} `{}`", bb.mode + 1, bb.mode_name),
+            format!("Backbone of {}", mode_label(bb)),
             "ω [rad/s]",
             format!("{name} [{}]", if unit.is_empty() { "-" } else { unit }),
         );
@@ -293,4 +294,13 @@ fn figures(model: &detune::Model, bb: &Backbone, ref_unit: &str) -> Vec<LinePlot
         );
     }
     panels
+}
+
+/// `mode 2`, or `mode 2 `shaft-twist`` for a named mode.
+fn mode_label(bb: &Backbone) -> String {
+    if bb.mode_name == format!("mode {}", bb.mode + 1) {
+        bb.mode_name.clone()
+    } else {
+        format!("mode {} `{}`", bb.mode + 1, bb.mode_name)
+    }
 }
