@@ -86,6 +86,10 @@ enum Command {
     /// environment by the margin, with alternatives. Exit 3 when none exists.
     #[command(allow_negative_numbers = true)]
     Tune(TuneArgs),
+    /// The backbone curve of a mode: the amplitude-dependent natural frequency of the
+    /// undamped, unforced mechanism (its family of free periodic orbits from the linear mode).
+    #[command(allow_negative_numbers = true)]
+    Backbone(cli::backbone::BackboneArgs),
     /// One self-contained HTML report for a design review (model, equilibrium, modes,
     /// linear response, interference diagram) and its JSON sidecar.
     #[command(allow_negative_numbers = true)]
@@ -121,6 +125,7 @@ fn main() {
         Command::Margins(a) => cli::margins::run(a).map(|o| exit_code = o.exit_code()),
         Command::Tune(a) => cli::tune::run(a).map(|o| exit_code = o.exit_code()),
         Command::Report(a) => cli::report::run(a),
+        Command::Backbone(a) => cli::backbone::run(a),
     };
     // exit codes (README, docs/reliability.md): 0 success, 1 error, 2 usage (clap), 3 a
     // check failed, 128 + the signal (130 SIGINT, 143 SIGTERM, 129 SIGHUP) interrupted

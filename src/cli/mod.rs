@@ -6,6 +6,7 @@
 
 pub mod advice;
 pub mod args;
+pub mod backbone;
 pub mod check;
 pub mod r#continue;
 pub mod draw;

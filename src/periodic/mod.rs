@@ -35,6 +35,7 @@
 //! the manifold. Written by hand: no crate integrates variational equations of a
 //! constrained multibody system.
 
+pub mod backbone;
 pub mod continuation;
 
 use crate::diag::Result;

@@ -1170,6 +1170,7 @@ impl Compiler<'_> {
                         .collect(),
                 })
                 .collect(),
+            undamped: false,
         };
         sys.refresh();
         sys.layout();

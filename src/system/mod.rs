@@ -177,6 +177,8 @@ pub struct System {
     overrides: String,
     /// The model's named modes (`[[modes]]`), their shapes by velocity index.
     pub declared_modes: Vec<DeclaredMode>,
+    /// Every impressed force element evaluated at rest (see [`System::undamped`]).
+    undamped: bool,
 }
 
 /// A mode the model file names (`[[modes]]`): what the analyses match by MAC.
@@ -508,6 +510,26 @@ impl System {
     /// The forcing frequency's parameter index (`[model] forcing_frequency`).
     pub fn forcing_param(&self) -> Option<usize> {
         self.forcing
+    }
+
+    /// A copy without its velocity-dependent loads: every impressed force element (spring
+    /// and torsion laws, dampers, friction, point forces and torques) is evaluated with
+    /// the velocities at zero, f_u(q, v, t) = gravity + Σ f_e(q, 0, t) + the inertial
+    /// velocity terms of spatial bodies (kept: they are not loads). A linear
+    /// spring–damper keeps k·s and loses c·ṡ, friction F·tanh(ṡ/v0) vanishes, a user's
+    /// law f(x, x_dot) becomes f(x, 0). With the forcing amplitude at 0 this is the
+    /// conservative system whose free oscillations the backbone curve follows
+    /// (`periodic::backbone`). The switch is the system's, not a change of coefficients,
+    /// so `set_param` keeps it and nothing else changes.
+    pub fn undamped(&self) -> System {
+        let mut s = self.clone();
+        s.undamped = true;
+        s
+    }
+
+    /// Whether the velocity-dependent loads are switched off ([`System::undamped`]).
+    pub fn is_undamped(&self) -> bool {
+        self.undamped
     }
 
     /// A copy whose ground is held at its mean pose over `times` (at rest): what statics
@@ -987,6 +1009,13 @@ impl System {
         let env = self.env();
         self.gravity_in(env, f);
         if !self.forces.is_empty() {
+            let still;
+            let v = if self.undamped {
+                still = vec![0.0; v.len()];
+                &still[..]
+            } else {
+                v
+            };
             let fr = Frames {
                 q,
                 poses: &ws.pose_f,
@@ -1075,6 +1104,13 @@ impl System {
         if self.forces.is_empty() {
             return;
         }
+        let still;
+        let v = if self.undamped {
+            still = vec![D::from(0.0); v.len()];
+            &still[..]
+        } else {
+            v
+        };
         self.with_frames(q, t, env, |fr| {
             for force in &self.forces {
                 force.add(fr, v, t, f);
@@ -1099,6 +1135,13 @@ impl System {
         if !self.force_names.iter().any(|n| n == name) {
             return;
         }
+        let still;
+        let v = if self.undamped {
+            still = vec![D::from(0.0); v.len()];
+            &still[..]
+        } else {
+            v
+        };
         self.with_frames(q, t, env, |fr| {
             for (force, n) in self.forces.iter().zip(&self.force_names) {
                 if n == name {

@@ -440,6 +440,14 @@ impl System {
         t: D,
     ) -> D {
         let env = self.env();
+        // an undamped system's loads are those at rest (the rates stay the motion's)
+        let load_only = matches!(quantity, ForceQuantity::Tension | ForceQuantity::Torque);
+        let still = if self.is_undamped() && load_only {
+            vec![D::from(0.0); v.len()]
+        } else {
+            Vec::new()
+        };
+        let v = if still.is_empty() { v } else { &still[..] };
         self.with_frames(q, t, env, |fr| {
             let nan = D::from(f64::NAN);
             let e = fr.env;
