@@ -64,6 +64,11 @@ pub struct NfrArgs {
     /// solid, unstable dashed, folds, bifurcations and peaks marked.
     #[arg(long, value_name = "OUT.svg")]
     pub plot: Option<String>,
+    /// Draw the backbone curve of this mode (a name or a number from 1, as `backbone
+    /// --of-mode`) under the forced curve: the amplitude-dependent natural frequency of
+    /// the undamped, unforced mechanism. Repeatable; --param must be the forcing frequency.
+    #[arg(long, value_name = "MODE")]
+    pub backbone: Vec<String>,
     #[command(flatten)]
     pub freq: super::args::FreqUnitArg,
     #[command(flatten)]
@@ -92,6 +97,20 @@ pub fn run(a: NfrArgs) -> Result<()> {
             })
         }
     };
+    if !a.backbone.is_empty() && !is_freq {
+        return Err(Error::request(
+            format!(
+                "--backbone draws against the forcing frequency, and --param {} is not it",
+                a.param
+            ),
+            "continue in the forcing frequency to draw backbones, or leave --backbone out",
+        ));
+    }
+    let modes: Vec<usize> = a
+        .backbone
+        .iter()
+        .map(|m| detune::periodic::backbone::mode_index(&sys, m, None))
+        .collect::<Result<_>>()?;
     let from = value("--from", &a.from)?;
     let to = value("--to", &a.to)?;
     for (flag, v) in [
@@ -148,7 +167,31 @@ pub fn run(a: NfrArgs) -> Result<()> {
         write_nfr_csv(o, &curve)?;
     }
     if let Some(p) = &a.plot {
-        let figures: Vec<_> = nfr_figures(&Case::of(&model), &curve, &param_unit)
+        // the backbones, to the largest amplitude of the curve (of the backbone's own
+        // reference coordinate when it is a response), else 25 % of frequency shift
+        let mut lines = Vec::new();
+        for (spec, &mode) in a.backbone.iter().zip(&modes) {
+            let bopts = detune::periodic::backbone::BackboneOptions {
+                responses: curve.responses.clone(),
+                ..Default::default()
+            };
+            match detune::periodic::backbone::backbone(
+                &sys,
+                mode,
+                f64::INFINITY,
+                &bopts,
+                &|_, _| {},
+                &INTERRUPTED,
+            ) {
+                Ok(b) => lines.push(detune::output::nfr::BackboneLine {
+                    label: format!("backbone of mode {spec}"),
+                    omega: b.points.iter().map(|p| p.omega).collect(),
+                    amplitudes: b.points.iter().map(|p| p.amplitudes.clone()).collect(),
+                }),
+                Err(e) => eprintln!("warning: the backbone of mode {spec} is not drawn: {e}"),
+            }
+        }
+        let figures: Vec<_> = nfr_figures(&Case::of(&model), &curve, &param_unit, &lines)
             .into_iter()
             .map(|f| if is_freq { f.in_frequency_unit(fu) } else { f })
             .collect();

@@ -203,10 +203,24 @@ pub fn jump_words(c: &Nfr, s: &Special) -> String {
     }
 }
 
+/// A backbone curve drawn under the forced one: its label, and per orbit ω (rad/s) and
+/// each response's amplitude (in the curve's response order).
+#[derive(Debug, Clone)]
+pub struct BackboneLine {
+    pub label: String,
+    pub omega: Vec<f64>,
+    pub amplitudes: Vec<Vec<f64>>,
+}
+
 /// One panel per response: its amplitude against the continued parameter, each branch
 /// stable solid and unstable dashed, folds, period doublings, Neimark–Sacker points and
-/// peaks marked and labelled.
-pub fn nfr_figures(case: &Case, c: &Nfr, param_unit: &str) -> Vec<LinePlot> {
+/// peaks marked and labelled, the backbones (`nfr --backbone`) dotted under them.
+pub fn nfr_figures(
+    case: &Case,
+    c: &Nfr,
+    param_unit: &str,
+    backbones: &[BackboneLine],
+) -> Vec<LinePlot> {
     (0..c.responses.len())
         .map(|r| {
             let unit = c.units.get(r).copied().unwrap_or("");
@@ -244,6 +258,17 @@ pub fn nfr_figures(case: &Case, c: &Nfr, param_unit: &str) -> Vec<LinePlot> {
                 seg.push(xy);
             }
             flush(&mut seg, seg_stable);
+            for (k, b) in backbones.iter().enumerate() {
+                series.push(
+                    Series::new(
+                        b.label.clone(),
+                        b.omega.clone(),
+                        b.amplitudes.iter().map(|a| a[r]).collect(),
+                        Style::Dotted,
+                    )
+                    .color(5 + k),
+                );
+            }
             let mut notes = Vec::new();
             let groups: [(&str, &[Special]); 3] = [
                 ("folds", &c.folds),
@@ -305,10 +330,7 @@ pub fn nfr_figures(case: &Case, c: &Nfr, param_unit: &str) -> Vec<LinePlot> {
                 }
             }
             LinePlot {
-                title: format!(
-                    "{} amplitude against {} (periodic orbits: stable solid, unstable dashed)",
-                    c.responses[r], c.param
-                ),
+                title: format!("{} amplitude against {}", c.responses[r], c.param),
                 caption: case.caption(&[]),
                 x_label: with_unit(&c.param, param_unit),
                 y_label: with_unit(&format!("{} amplitude", c.responses[r]), unit),

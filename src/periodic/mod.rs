@@ -311,9 +311,8 @@ impl Shooting {
                     lo[i] = lo[i].min(y[i]);
                     hi[i] = hi[i].max(y[i]);
                 }
-                if values.len() == per + 1 {
-                    last.copy_from_slice(y);
-                }
+                // the last sample is the period's end
+                last.copy_from_slice(y);
                 true
             },
             &mut |t, y| {
@@ -333,10 +332,21 @@ impl Shooting {
         )?;
         self.rhs_evaluations += ode.evals.get();
         self.flows += 1;
-        if values.len() != per + 1 {
+        if cancel.load(Ordering::Relaxed) {
             return Err(Failure::SweepInterrupted.into());
         }
-        values.pop();
+        if values.len() < per + 1 {
+            return Err(Failure::NonFiniteResult {
+                quantity: format!(
+                    "the samples of one period ({} of {})",
+                    values.len(),
+                    per + 1
+                ),
+                value: f64::NAN,
+            }
+            .into());
+        }
+        values.truncate(per);
         let mut end = last[..n2].to_vec();
         // the end state exactly on the manifold (drift since the last projection)
         {
