@@ -1,5 +1,8 @@
 //! Nonlinear frequency response by continuation of periodic orbits.
 
+mod common;
+
+use common::detune;
 use detune::periodic::continuation::{NfrOptions, nfr};
 use std::sync::atomic::AtomicBool;
 
@@ -236,127 +239,140 @@ fn multiplier_is_the_decay_of_a_perturbation() {
     );
 }
 
+/// The command: the JSON keys scripts rely on (the names), units on them, the
+/// CSV's header; and bad input refused with a hint before any work.
 #[test]
-#[ignore]
-fn explore() {
-    let sys = model(&[("theta1_0", -0.85), ("c", 1.0), ("F0", 4.0)]);
-    let mut opts = NfrOptions::new("omega", 1.5, 5.0, vec!["bar1.theta".into()]);
-    opts.max_points = std::env::var("MAXP")
-        .ok()
-        .and_then(|s| s.parse().ok())
-        .unwrap_or(3000);
-    let t = std::time::Instant::now();
-    let c = nfr(&sys, &opts, &|_n, _v| {}, &AtomicBool::new(false)).unwrap();
-    eprintln!(
-        "{:?} points {} periods {} rhs {}",
-        t.elapsed(),
-        c.points.len(),
-        c.periods,
-        c.rhs_evaluations
-    );
-    for p in &c.points {
-        eprintln!(
-            "{} {:.6} {:.6} {} {:?} {:?}",
-            p.branch,
-            p.omega,
-            p.measures[0].amplitude,
-            p.stable,
-            p.located,
-            p.multipliers
-                .iter()
-                .map(|m| (m.re, m.im))
-                .collect::<Vec<_>>()
+fn command_outputs_and_bad_input() {
+    let dir = std::env::temp_dir().join(format!("detune-nfr-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let csv = dir.join("curve.csv");
+    let (code, out, err) = detune(&[
+        "nfr",
+        "models/overcentre.toml",
+        "--set",
+        "theta1_0=-0.85",
+        "--set",
+        "c=1",
+        "--set",
+        "F0=4",
+        "--param",
+        "omega",
+        "--from",
+        "3.6",
+        "--to",
+        "4.2",
+        "--response",
+        "bar1.theta",
+        "--json",
+        "-o",
+        csv.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 0, "{err}");
+    let j: serde_json::Value = serde_json::from_str(&out).unwrap();
+    for k in [
+        "param",
+        "complete",
+        "points",
+        "folds",
+        "period_doublings",
+        "neimark_sacker",
+        "peaks",
+        "branches",
+        "units",
+    ] {
+        assert!(
+            j.get(k).is_some(),
+            "no `{k}` in {}",
+            &out[..out.len().min(400)]
         );
     }
-    for f in c
-        .folds
-        .iter()
-        .chain(&c.period_doublings)
-        .chain(&c.neimark_sacker)
-    {
-        eprintln!("{:?} {:.9} {:?}", f.kind, f.omega, f.amplitude);
+    assert_eq!(j["param"], "omega");
+    assert_eq!(j["complete"], true);
+    let fold = &j["folds"][0];
+    for k in ["value", "omega", "amplitude", "multipliers"] {
+        assert!(fold.get(k).is_some(), "fold without `{k}`");
     }
-    for b in &c.branches {
-        eprintln!("{b:?}");
+    assert!((fold["omega"].as_f64().unwrap() - 4.024).abs() < 1e-3);
+    assert!(fold["amplitude"]["bar1.theta"].as_f64().unwrap() > 0.3);
+    let p0 = &j["points"][0];
+    for k in [
+        "omega",
+        "bar1.theta_amplitude",
+        "bar1.theta_max",
+        "bar1.theta_min",
+        "bar1.theta_mean",
+        "bar1.theta_h1",
+        "bar1.theta_phase_deg",
+        "stable",
+        "mu1_re",
+        "mu2_im",
+    ] {
+        assert!(p0.get(k).is_some(), "point without `{k}`");
     }
-    for p in &c.peaks {
-        eprintln!("peak {:.9} {:.6}", p.omega, p.amplitude);
-    }
-}
-
-#[test]
-#[ignore]
-fn mono_noise() {
-    use detune::periodic::{Shooting, ShootingOptions, multipliers};
-    let sys = model(&[("theta1_0", -0.85), ("c", 1.0), ("F0", 4.0)]);
-    let opts = NfrOptions::new("omega", 4.5, 3.1, vec!["bar1.theta".into()]);
-    let c = nfr(&sys, &opts, &|_, _| {}, &AtomicBool::new(false)).unwrap();
-    let p = c
-        .points
-        .iter()
-        .find(|p| p.located.is_some())
-        .unwrap_or(&c.points[3]);
-    eprintln!("at {:?} {} {:?}", p.located, p.omega, p.multipliers);
-    let w = sys.param_index("omega").unwrap();
-    let outs = sys.outputs(&["bar1.theta".to_string()]).unwrap();
-    for rtol in [1e-8, 1e-10, 1e-12] {
-        let o = ShootingOptions {
-            rtol,
-            atol: rtol * 1e-2,
-            ..Default::default()
-        };
-        let mut sh = Shooting::new(&sys, w, &outs, o).unwrap();
-        sh.set(p.omega).unwrap();
-        let tb = sh.tangent_basis(&p.x);
-        let f = sh.flow(&p.x, &tb, false, &AtomicBool::new(false)).unwrap();
-        let m = tb.transpose() * &f.jac;
-        let mu = multipliers(&m);
-        eprintln!("rtol {rtol}: {:?} evals {}", mu, sh.rhs_evaluations);
-        // FD of whole periods
-        let f0 = sh
-            .flow(
-                &p.x,
-                &nalgebra::DMatrix::zeros(p.x.len(), 0),
-                false,
-                &AtomicBool::new(false),
-            )
-            .unwrap();
-        let mut fd = nalgebra::DMatrix::zeros(tb.nrows(), tb.ncols());
-        for j in 0..tb.ncols() {
-            let h = 1e-5;
-            let mut xp: Vec<f64> =
-                p.x.iter()
-                    .zip(tb.column(j).iter())
-                    .map(|(a, b)| a + h * b)
-                    .collect();
-            sh.project(&mut xp);
-            let mut xm: Vec<f64> =
-                p.x.iter()
-                    .zip(tb.column(j).iter())
-                    .map(|(a, b)| a - h * b)
-                    .collect();
-            sh.project(&mut xm);
-            let fp = sh
-                .flow(
-                    &xp,
-                    &nalgebra::DMatrix::zeros(p.x.len(), 0),
-                    false,
-                    &AtomicBool::new(false),
-                )
-                .unwrap();
-            let fm = sh
-                .flow(
-                    &xm,
-                    &nalgebra::DMatrix::zeros(p.x.len(), 0),
-                    false,
-                    &AtomicBool::new(false),
-                )
-                .unwrap();
-            for i in 0..tb.nrows() {
-                fd[(i, j)] = (fp.end[i] - fm.end[i]) / (2.0 * h);
-            }
-        }
-        let _ = f0;
-        eprintln!("   fd: {:?}", multipliers(&(tb.transpose() * &fd)));
-    }
+    assert_eq!(j["units"]["bar1.theta_amplitude"], "rad");
+    assert_eq!(j["units"]["omega"], "rad/s");
+    let head = std::fs::read_to_string(&csv).unwrap();
+    assert!(
+        head.starts_with("omega,branch,bar1.theta_amplitude,"),
+        "{}",
+        &head[..80]
+    );
+    assert!(
+        head.lines()
+            .next()
+            .unwrap()
+            .ends_with(",stable,floquet_max,mu1_re,mu1_im,mu2_re,mu2_im,located")
+    );
+    // no forcing: a clear error with a hint
+    let (code, _, err) = detune(&[
+        "nfr",
+        "models/overcentre.toml",
+        "--set",
+        "theta1_0=-0.85",
+        "--param",
+        "omega",
+        "--from",
+        "3",
+        "--to",
+        "4",
+    ]);
+    assert_eq!(code, 1);
+    assert!(
+        err.contains("zero forcing") && err.contains("help:"),
+        "{err}"
+    );
+    // an empty range, and a backbone against another parameter
+    let (code, _, err) = detune(&[
+        "nfr",
+        "models/overcentre.toml",
+        "--set",
+        "F0=1",
+        "--param",
+        "omega",
+        "--from",
+        "3",
+        "--to",
+        "3",
+    ]);
+    assert_eq!(code, 1);
+    assert!(err.contains("empty"), "{err}");
+    let (code, _, err) = detune(&[
+        "nfr",
+        "models/overcentre.toml",
+        "--set",
+        "F0=1",
+        "--set",
+        "omega=3",
+        "--param",
+        "c",
+        "--from",
+        "1",
+        "--to",
+        "2",
+        "--backbone",
+        "1",
+    ]);
+    assert_eq!(code, 1);
+    assert!(err.contains("--backbone") && err.contains("help:"), "{err}");
+    std::fs::remove_dir_all(&dir).ok();
 }
