@@ -182,7 +182,9 @@ impl<'a> NfrReport<'a> {
 /// quasi-periodic one. The sweep that meets it comes along the stable side.
 pub fn jump_words(c: &Nfr, s: &Special) -> String {
     // the direction of the continued parameter on the stable side, toward the point
-    let toward = if s.stable_before {
+    // a fold is an extremum of the parameter along the branch: both of its sides reach
+    // it moving the same way; a bifurcation is crossed, its stable side behind it
+    let toward = if s.kind == Located::Fold || s.stable_before {
         s.direction_before
     } else {
         -s.direction_before

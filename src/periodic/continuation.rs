@@ -229,6 +229,12 @@ pub fn nfr(
         .ok_or(crate::request::Invalid::NoForcingFrequency)?;
     let omega_param = sys.param_names()[freq].clone();
     let sys0 = sys.with_param(param, opts.from)?;
+    if param == freq && !(opts.to > 0.0) {
+        return Err(Error::request(
+            format!("--to {}: a forcing frequency must be positive", opts.to),
+            "give a positive end of the range (rad/s or a quantity such as \"0.5 Hz\")",
+        ));
+    }
     if !(sys0.param(freq) > 0.0) {
         return Err(Error::request(
             format!(
@@ -297,7 +303,14 @@ pub fn nfr(
         progress,
     )?;
     let mut interrupted = one.end == BranchEnd::Interrupted;
-    let mut complete = one.end != BranchEnd::PointLimit && !interrupted;
+    // a branch that stalls leaves a gap in the range: the curve is not complete
+    let covers = |e: BranchEnd| {
+        matches!(
+            e,
+            BranchEnd::Reached | BranchEnd::Returned | BranchEnd::Joined
+        )
+    };
+    let mut complete = covers(one.end) && !interrupted;
     let reached = one.end == BranchEnd::Reached;
     all.extend(one.nodes.iter().cloned());
     branches.push(one.summary(0, opts));
@@ -331,7 +344,7 @@ pub fn nfr(
                 progress,
             )?;
             interrupted |= two.end == BranchEnd::Interrupted;
-            complete &= two.end != BranchEnd::PointLimit && !interrupted;
+            complete &= covers(two.end) && !interrupted;
             all.extend(two.nodes.iter().cloned());
             branches.push(two.summary(1, opts));
         }
@@ -376,6 +389,8 @@ pub fn nfr(
     }
     let pick =
         |k: Located| -> Vec<Special> { specials.iter().filter(|s| s.kind == k).cloned().collect() };
+    // a signal during the peaks or the far end's start: what is here is incomplete
+    let interrupted = interrupted || cancel.load(std::sync::atomic::Ordering::Relaxed);
     Ok(Nfr {
         param: opts.param.clone(),
         omega_param,
@@ -542,11 +557,13 @@ fn events(a: &Node, b: &Node) -> Vec<Located> {
     let count = |n: &Node, pred: &dyn Fn(&Complex<f64>) -> bool| {
         n.point.multipliers.iter().filter(|m| pred(m)).count()
     };
-    let real_below = |m: &Complex<f64>| is_real(m) && m.re < -1.0;
+    // a band of 1e-6 about the unit circle: an undamped orbit's multipliers lie on it,
+    // and round-off must not make crossings of them
+    let real_below = |m: &Complex<f64>| is_real(m) && m.re < -1.0 - 1e-6;
     if count(a, &real_below) != count(b, &real_below) {
         out.push(Located::PeriodDoubling);
     }
-    let complex_out = |m: &Complex<f64>| !is_real(m) && m.norm() > 1.0;
+    let complex_out = |m: &Complex<f64>| !is_real(m) && m.norm() > 1.0 + 1e-6;
     if count(a, &complex_out) != count(b, &complex_out)
         && a.point.multipliers.iter().any(|m| !is_real(m))
         && b.point.multipliers.iter().any(|m| !is_real(m))
