@@ -215,13 +215,7 @@ pub fn run(a: NfrArgs) -> Result<()> {
     if a.json {
         let mut units = Units::new().with(curve.param.clone(), param_unit.clone());
         units.add(curve.omega_param.clone(), "rad/s");
-        for (r, unit) in curve.responses.iter().zip(&curve.units) {
-            for m in ["amplitude", "max", "min", "mean", "h1", "h2"] {
-                units.add(format!("{r}_{m}"), *unit);
-            }
-            units.add(format!("{r}_phase_deg"), "deg");
-            units.add(format!("{r}_thd"), "1");
-        }
+        super::sweep::add_measure_units(&mut units, &curve.responses, &curve.units);
         let units = units.with_all([
             ("branch", "1"),
             ("floquet_max", "1"),

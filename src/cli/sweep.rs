@@ -28,13 +28,7 @@ fn sweep_units(runs: &[detune::frequency::study::SweepRun], sys: &detune::System
     for ((name, _), unit) in runs[0].tags().into_iter().zip(&runs[0].units) {
         u.add(name, unit.clone());
     }
-    for (r, unit) in first.responses.iter().zip(&first.units) {
-        for m in ["amplitude", "max", "min", "mean", "h1", "h2"] {
-            u.add(format!("{r}_{m}"), *unit);
-        }
-        u.add(format!("{r}_phase_deg"), "deg");
-        u.add(format!("{r}_thd"), "1");
-    }
+    add_measure_units(&mut u, &first.responses, &first.units);
     u.with_all([("periods", "1"), ("period_multiple", "1"), ("well", "1")])
         .coordinates(sys)
         .with_all([
@@ -50,6 +44,18 @@ fn sweep_units(runs: &[detune::frequency::study::SweepRun], sys: &detune::System
             ("amplitude_after", "the response's unit"),
             ("omega2", "rad^2/s^2"),
         ])
+}
+
+/// The units of each response's measures (`<r>_amplitude` ... `<r>_thd`), as the CSV
+/// columns of a sweep and of `nfr` name them.
+pub fn add_measure_units(u: &mut Units, responses: &[String], units: &[&'static str]) {
+    for (r, unit) in responses.iter().zip(units) {
+        for m in ["amplitude", "max", "min", "mean", "h1", "h2"] {
+            u.add(format!("{r}_{m}"), *unit);
+        }
+        u.add(format!("{r}_phase_deg"), "deg");
+        u.add(format!("{r}_thd"), "1");
+    }
 }
 
 #[derive(Clone, Copy, Debug, clap::ValueEnum)]

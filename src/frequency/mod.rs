@@ -289,7 +289,11 @@ impl Poincare<'_> {
         self.record(buf, vals);
         let y = self.pack(end);
         let scale = amplitude_scale(buf);
-        let change = relative_change(&y, self.points.last().expect("non-empty"), &scale);
+        let change = relative_change(
+            y.as_slice(),
+            self.points.last().expect("non-empty").as_slice(),
+            scale.as_slice(),
+        );
         // An extrapolation that made things worse is undone.
         if let Some((before, fallback)) = self.pending_check.take()
             && change > before
@@ -310,13 +314,20 @@ impl Poincare<'_> {
                 let len = points.len();
                 let c = (0..if k == 1 { 1 } else { k })
                     .map(|j| {
-                        relative_change(&points[len - 1 - j], &points[len - 1 - j - k], &scale)
+                        relative_change(
+                            points[len - 1 - j].as_slice(),
+                            points[len - 1 - j - k].as_slice(),
+                            scale.as_slice(),
+                        )
                     })
                     .fold(0.0, f64::max);
                 let shorter = (1..k).any(|j| {
                     points.len() > j
-                        && relative_change(&y, &points[points.len() - 1 - j], &scale)
-                            <= opts.settle_tol
+                        && relative_change(
+                            y.as_slice(),
+                            points[points.len() - 1 - j].as_slice(),
+                            scale.as_slice(),
+                        ) <= opts.settle_tol
                 });
                 if c <= opts.settle_tol && !shorter {
                     let window = &self.recent[self.recent.len() - k..];
@@ -408,10 +419,12 @@ fn amplitude_scale(samples: &[(Vec<f64>, Vec<f64>)]) -> DVector<f64> {
 /// keeps components that hardly move from dominating: a coordinate that follows the
 /// others through a constraint at second order (a pendulum's height, 1e-9 m at a
 /// 1e-4 rad swing) carries the projection's noise (1e-13), which no settling removes.
-fn relative_change(a: &DVector<f64>, b: &DVector<f64>, scale: &DVector<f64>) -> f64 {
+/// The state is positions then velocities, as many of each (a Poincaré point here, a
+/// periodic orbit's state in [`crate::periodic`]).
+pub(crate) fn relative_change(a: &[f64], b: &[f64], scale: &[f64]) -> f64 {
     let n = a.len() / 2;
-    let qmax = scale.rows(0, n).max();
-    let vmax = scale.rows(n, n).max();
+    let qmax = scale[..n].iter().fold(0.0f64, |m, s| m.max(*s));
+    let vmax = scale[n..].iter().fold(0.0f64, |m, s| m.max(*s));
     (0..a.len())
         .map(|i| {
             let floor = if i < n { qmax } else { vmax } + 1e-14;

@@ -62,7 +62,7 @@ impl<T: Serialize> Serialize for Tagged<'_, T> {
 
 /// A result row as an object, keyed by its CSV header. Built as a map: a key given twice
 /// (a response named twice) appears once, where it first appears, with its last value.
-fn row_object(header: &[String], row: &[Cell]) -> Map<String, Value> {
+pub(crate) fn row_object(header: &[String], row: &[Cell]) -> Map<String, Value> {
     header
         .iter()
         .cloned()

@@ -151,11 +151,7 @@ impl<'a> NfrReport<'a> {
             points: nfr_rows(c)
                 .iter()
                 .map(|row| {
-                    let mut m: Map<String, Value> = header
-                        .iter()
-                        .cloned()
-                        .zip(row.iter().map(Cell::json))
-                        .collect();
+                    let mut m = super::json::row_object(&header, row);
                     // `located` is null for a step, not ""
                     if m.get("located").and_then(Value::as_str) == Some("") {
                         m.insert("located".into(), Value::Null);

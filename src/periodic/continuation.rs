@@ -793,36 +793,21 @@ impl Tracer<'_> {
         let (sx, sp) = (self.sx, self.sp);
         let tx = base.tangent.rows(0, d).into_owned();
         let tpar = base.tangent[d];
-        let (mut x, mut p) = match fixed {
-            None => {
-                let step = &base.basis * &tx * (sx * ds);
-                let x: Vec<f64> = base
-                    .point
-                    .x
-                    .iter()
-                    .zip(step.iter())
-                    .map(|(a, b)| a + b)
-                    .collect();
-                (x, base.point.value + sp * ds * tpar)
-            }
-            Some(v) => {
-                // along the tangent to the value (the start: no tangent, x as is)
-                let s = if tpar.abs() > 1e-12 {
-                    (v - base.point.value) / (sp * tpar)
-                } else {
-                    0.0
-                };
-                let step = &base.basis * &tx * (sx * s);
-                let x: Vec<f64> = base
-                    .point
-                    .x
-                    .iter()
-                    .zip(step.iter())
-                    .map(|(a, b)| a + b)
-                    .collect();
-                (x, v)
-            }
+        // the predictor: a step s along the tangent (to the value, when one is fixed; the
+        // start has no tangent and keeps x as it is)
+        let (s, mut p) = match fixed {
+            None => (ds, base.point.value + sp * ds * tpar),
+            Some(v) if tpar.abs() > 1e-12 => ((v - base.point.value) / (sp * tpar), v),
+            Some(v) => (0.0, v),
         };
+        let step = &base.basis * &tx * (sx * s);
+        let mut x: Vec<f64> = base
+            .point
+            .x
+            .iter()
+            .zip(step.iter())
+            .map(|(a, b)| a + b)
+            .collect();
         self.sh.project(&mut x);
         let mut prev = f64::INFINITY;
         let mut worse = 0;

@@ -389,17 +389,10 @@ impl Shooting {
     }
 
     /// max_i |a_i − b_i| / (scale_i + floor), the floor the largest scale of the same kind
-    /// (positions, velocities): a change relative to the orbit's amplitude.
+    /// (positions, velocities): a change relative to the orbit's amplitude, as the
+    /// stepped sine's settling measures it (nq = nv here: free bodies are refused).
     pub fn relative(&self, a: &[f64], b: &[f64], scale: &[f64]) -> f64 {
-        let n = self.sys.nq();
-        let qmax = scale[..n].iter().fold(0.0f64, |m, s| m.max(*s));
-        let vmax = scale[n..].iter().fold(0.0f64, |m, s| m.max(*s));
-        (0..a.len())
-            .map(|i| {
-                let floor = if i < n { qmax } else { vmax } + 1e-14;
-                (a[i] - b[i]).abs() / (scale[i] + floor)
-            })
-            .fold(0.0, f64::max)
+        crate::frequency::relative_change(a, b, scale)
     }
 }
 
