@@ -136,6 +136,11 @@ pub struct NfrPeak {
     pub value: f64,
     pub omega: f64,
     pub amplitude: f64,
+    /// How well `value` is known, in the continued parameter's unit (`peak_uncertainty`;
+    /// for a peak whose refinement failed, half its neighbours' spacing).
+    pub uncertainty: f64,
+    /// False when the refinement failed and the peak is the continuation's own point.
+    pub refined: bool,
 }
 
 /// The curve.
@@ -175,6 +180,8 @@ struct Node {
     tangent: DVector<f64>,
     /// Newton iterations it took.
     iterations: usize,
+    /// The Newton residual it was accepted at, relative to the orbit's amplitude.
+    residual: f64,
 }
 
 impl Node {
@@ -367,19 +374,30 @@ pub fn nfr(
                     && a(i) >= a(i + 1)
                 {
                     match tr.peak(&all, i, r) {
-                        Ok(Some(mut nd)) => {
+                        Ok(Some((mut nd, uncertainty))) => {
                             nd.point.located = Some(Located::Peak);
                             peaks.push(NfrPeak {
                                 response: opts.responses[r].clone(),
                                 value: nd.point.value,
                                 omega: nd.point.omega,
                                 amplitude: nd.point.measures[r].amplitude,
+                                uncertainty,
+                                refined: true,
                             });
                             found.push(nd);
                         }
-                        Ok(None) => {}
                         Err(e) if is_interrupt(&e) => break,
-                        Err(_) => {}
+                        // the refinement failed: the continuation's own point, with
+                        // its neighbours' spacing as the uncertainty
+                        _ => peaks.push(NfrPeak {
+                            response: opts.responses[r].clone(),
+                            value: all[i].point.value,
+                            omega: all[i].point.omega,
+                            amplitude: a(i),
+                            uncertainty: 0.5
+                                * (all[i + 1].point.value - all[i - 1].point.value).abs(),
+                            refined: false,
+                        }),
                     }
                 }
             }
@@ -604,6 +622,10 @@ fn test(kind: Located, n: &Node) -> Option<f64> {
     }
 }
 
+/// The largest Newton residual (relative to the orbit's amplitude) accepted as the
+/// integration's noise when the iteration stops converging (`Tracer::correct`).
+const NOISE_FLOOR: f64 = 1e-6;
+
 impl Tracer<'_> {
     /// The first point: Newton at p = from from the linear response; where that fails,
     /// from a settled stepped-sine response.
@@ -630,6 +652,7 @@ impl Tracer<'_> {
                 basis,
                 tangent,
                 iterations: 0,
+                residual: f64::INFINITY,
             })
         };
         let guess = base(&mut self.sh, x0)?;
@@ -808,6 +831,8 @@ impl Tracer<'_> {
             .zip(step.iter())
             .map(|(a, b)| a + b)
             .collect();
+        // onto the manifold at the predicted p (a base motion's velocity moves with ω)
+        self.sh.set(p)?;
         self.sh.project(&mut x);
         let mut prev = f64::INFINITY;
         let mut worse = 0;
@@ -842,7 +867,15 @@ impl Tracer<'_> {
                 .fold(1.0f64, |m, mu| m.max(mu.norm()));
             let tol = self.sh.opts.tol.max(100.0 * self.sh.opts.rtol * growth);
             if rel <= tol && arc.abs() <= 1e-10 {
-                return Ok(Some(self.node(x, p, tb, flow, base, it + 1)));
+                return Ok(Some(self.node(x, p, tb, flow, base, (it + 1, rel))));
+            }
+            // The integration's noise: P is no smoother than its error control, which is
+            // relative to the coordinates' size, not to the orbit's amplitude; where the
+            // coordinates are large against a small orbit (a base-driven mechanism) and a
+            // stiff law switches within the period (a breakout), a Newton residual that
+            // stops falling has reached that noise. Accepted below NOISE_FLOOR.
+            if it >= 1 && rel <= NOISE_FLOOR && rel > 0.25 * prev && arc.abs() <= 1e-6 {
+                return Ok(Some(self.node(x, p, tb, flow, base, (it + 1, rel))));
             }
             if !(rel < prev) {
                 worse += 1;
@@ -895,7 +928,7 @@ impl Tracer<'_> {
         tb: DMatrix<f64>,
         flow: Flow,
         base: &Node,
-        iterations: usize,
+        (iterations, residual): (usize, f64),
     ) -> Node {
         let d = tb.ncols();
         let mono = tb.transpose() * &flow.jac;
@@ -937,6 +970,7 @@ impl Tracer<'_> {
             basis: tb,
             tangent,
             iterations,
+            residual,
         };
         if base.ambient().dot(&nd.ambient()) < 0.0 {
             nd.tangent.neg_mut();
@@ -948,12 +982,20 @@ impl Tracer<'_> {
     /// a) by the Illinois method on the arclength.
     fn locate(&mut self, a: &Node, b: &Node, ds: f64, kind: Located) -> Result<Option<Node>> {
         // the test functions are computed from the monodromy, whose error is the
-        // integration's: 100 times tighter here
-        let keep = (self.sh.opts.rtol, self.sh.opts.atol);
-        self.sh.opts.rtol = (keep.0 * 1e-2).max(1e-14);
-        self.sh.opts.atol = keep.1 * 1e-2;
-        let out = self.locate_inner(a, b, ds, kind);
-        (self.sh.opts.rtol, self.sh.opts.atol) = keep;
+        // integration's
+        self.precise(None, |t| t.locate_inner(a, b, ds, kind))
+    }
+
+    /// `f` with the integration 100 times tighter (and `samples` a period, if given):
+    /// for the located points, whose test functions or amplitudes are differences of
+    /// nearby orbits.
+    fn precise<T>(&mut self, samples: Option<usize>, f: impl FnOnce(&mut Self) -> T) -> T {
+        let keep = self.sh.opts.clone();
+        self.sh.opts.rtol = (keep.rtol * 1e-2).max(1e-14);
+        self.sh.opts.atol = keep.atol * 1e-2;
+        self.sh.opts.samples = samples.unwrap_or(keep.samples);
+        let out = f(self);
+        self.sh.opts = keep;
         out
     }
 
@@ -1010,18 +1052,15 @@ impl Tracer<'_> {
     }
 
     /// Locate the peak of response `r`'s amplitude near `all[i]` by successive parabolic
-    /// interpolation in the arclength (2048 samples a period).
-    fn peak(&mut self, all: &[Node], i: usize, r: usize) -> Result<Option<Node>> {
-        let keep = self.sh.opts.samples;
-        self.sh.opts.samples = 2048;
-        let out = self.peak_inner(all, i, r);
-        self.sh.opts.samples = keep;
-        out
+    /// interpolation in the arclength (2048 samples a period, the integration 100 times
+    /// tighter), with the uncertainty of its frequency (`peak_uncertainty`).
+    fn peak(&mut self, all: &[Node], i: usize, r: usize) -> Result<Option<(Node, f64)>> {
+        self.precise(Some(2048), |t| t.peak_inner(all, i, r))
     }
 
-    fn peak_inner(&mut self, all: &[Node], i: usize, r: usize) -> Result<Option<Node>> {
+    fn peak_inner(&mut self, all: &[Node], i: usize, r: usize) -> Result<Option<(Node, f64)>> {
         let base = &all[i - 1];
-        let mut pts: Vec<(f64, f64, Option<Node>)> = Vec::new();
+        let mut pts: Vec<(f64, f64, Node)> = Vec::new();
         for k in [i - 1, i, i + 1] {
             let ds = all[k].point.s - base.point.s;
             let n = if k == i - 1 {
@@ -1031,9 +1070,8 @@ impl Tracer<'_> {
             };
             let Some(mut n) = n else { return Ok(None) };
             n.point.s = all[k].point.s;
-            pts.push((n.point.s, n.point.measures[r].amplitude, Some(n)));
+            pts.push((n.point.s, n.point.measures[r].amplitude, n));
         }
-        let mut best: Option<Node> = None;
         for _ in 0..20 {
             pts.sort_by(|a, b| a.0.total_cmp(&b.0));
             let (s0, a0) = (pts[0].0, pts[0].1);
@@ -1046,7 +1084,6 @@ impl Tracer<'_> {
             }
             let s = s1 - 0.5 * num / den;
             if !(s > s0 && s < s2) || (s - s1).abs() < 1e-10 * (s2 - s0).max(1e-300) {
-                best = pts[1].2.take();
                 break;
             }
             let Some(mut n) = self.correct(base, s - base.point.s, None)? else {
@@ -1055,9 +1092,9 @@ impl Tracer<'_> {
             n.point.s = s;
             let a = n.point.measures[r].amplitude;
             let w_new = n.point.omega;
-            let w_old = pts[1].2.as_ref().map_or(f64::NAN, |n| n.point.omega);
+            let w_old = pts[1].2.point.omega;
             // keep the three around the largest
-            pts.push((s, a, Some(n)));
+            pts.push((s, a, n));
             pts.sort_by(|a, b| a.0.total_cmp(&b.0));
             let imax = (0..pts.len())
                 .max_by(|&x, &y| pts[x].1.total_cmp(&pts[y].1))
@@ -1065,13 +1102,40 @@ impl Tracer<'_> {
                 .clamp(1, pts.len() - 2);
             pts = pts.drain(imax - 1..=imax + 1).collect();
             if (w_new - w_old).abs() < 1e-10 * w_new.abs().max(1.0) {
-                best = pts[1].2.take();
                 break;
             }
         }
-        if best.is_none() && pts.len() == 3 {
-            best = pts[1].2.take();
-        }
-        Ok(best.filter(|n| n.point.stable))
+        pts.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let best = pts.swap_remove(1).2;
+        let noise = best.residual.max(100.0 * self.sh.opts.rtol);
+        let u = peak_uncertainty(
+            &all[i - 1..=i + 1],
+            r,
+            noise * best.point.measures[r].amplitude,
+        );
+        Ok(best.point.stable.then_some((best, u)))
+    }
+}
+
+/// The uncertainty of a peak's place: an amplitude known to `da` (the orbits' accepted
+/// Newton residual or the integration's noise, relative to the amplitude) on a parabola
+/// of curvature a'' in the parameter (from the continuation's three points about the
+/// peak) puts the maximum anywhere within √(2·da/|a''|): a flat peak is located less
+/// well than a fold.
+fn peak_uncertainty(around: &[Node], r: usize, da: f64) -> f64 {
+    let w: Vec<f64> = around.iter().map(|n| n.point.value).collect();
+    let a: Vec<f64> = around
+        .iter()
+        .map(|n| n.point.measures[r].amplitude)
+        .collect();
+    let d1 = (a[1] - a[0]) / (w[1] - w[0]);
+    let d2 = (a[2] - a[1]) / (w[2] - w[1]);
+    let curvature = 2.0 * (d2 - d1) / (w[2] - w[0]);
+    let u = (2.0 * da / curvature.abs()).sqrt();
+    if u.is_finite() {
+        u.min(0.5 * (w[2] - w[0]).abs())
+    } else {
+        // a vertical flank or a flat top: no better than the bracket
+        0.5 * (w[2] - w[0]).abs()
     }
 }
