@@ -234,17 +234,17 @@ fn forced_duffing_folds_are_where_simulation_jumps() {
             mu.iter().all(|m| m.norm() < 1.0),
             "the orbit at {w_in} is not the stable one: {mu:?}"
         );
-        let (first, last, end) = simulate(&sys, w_in, &x_in);
+        let (first, last_in, end) = simulate(&sys, w_in, &x_in);
         assert!(
             (first.amplitude - a_fold).abs() < 0.05 * a_fold,
             "{} vs the fold's {a_fold}",
             first.amplitude
         );
         assert!(
-            (last.amplitude - first.amplitude).abs() < 1e-6 * first.amplitude,
+            (last_in.amplitude - first.amplitude).abs() < 1e-6 * first.amplitude,
             "inside the fold at {} ({w_in} rad/s): amplitude {} after {PERIODS} periods, {} at the start",
             fold.omega,
-            last.amplitude,
+            last_in.amplitude,
             first.amplitude
         );
         assert!(
@@ -261,6 +261,16 @@ fn forced_duffing_folds_are_where_simulation_jumps() {
             (last.amplitude - a_fold).abs() > 0.2 * a_fold,
             "outside the fold at {} ({w_out} rad/s): amplitude {} after {PERIODS} periods, the fold's {a_fold}",
             fold.omega,
+            last.amplitude
+        );
+        println!(
+            "fold at {:.8} rad/s (first harmonic {:.6}), amplitude {a_fold:.6} m; inside at {w_in:.6}: {:.6} m -> {:.6} m after {PERIODS} periods; outside at {w_out:.6}: {:.6} m after {PERIODS} periods",
+            fold.omega,
+            hb.iter()
+                .min_by(|a, b| (*a - fold.omega).abs().total_cmp(&(*b - fold.omega).abs()))
+                .unwrap(),
+            first.amplitude,
+            last_in.amplitude,
             last.amplitude
         );
         // the other branch at w_out: its orbit, corrected from the curve's nearest stable

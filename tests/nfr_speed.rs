@@ -76,6 +76,7 @@ fn nfr_against_the_stepped_sine() {
         };
         let began = Instant::now();
         let mut rhs_bisect = 0;
+        let mut periods = 0;
         let mut steadies = 0;
         let mut jumps = Vec::new();
         for j in &sw.jumps {
@@ -124,6 +125,7 @@ fn nfr_against_the_stepped_sine() {
                 .unwrap();
                 rhs_bisect += s.rhs_evaluations;
                 steadies += 1;
+                periods += s.periods;
                 let a = s.measures[0].amplitude;
                 println!(
                     "    {:?} trial {mid:.7}: settled {} period-{} after {} periods, amplitude {a:.6} (branch {a_before:.6}, jumped to {a_after:.6})",
@@ -139,11 +141,17 @@ fn nfr_against_the_stepped_sine() {
             }
             jumps.push((j.direction, 0.5 * (stay + leave)));
         }
-        (jumps, rhs_bisect, steadies, began.elapsed().as_secs_f64())
+        (
+            jumps,
+            rhs_bisect,
+            steadies,
+            periods,
+            began.elapsed().as_secs_f64(),
+        )
     };
     // (at --settle-tol 1e-10 the trials near the period doubling do not settle within
     // 600 periods: the integration's own noise; the sweep's default is the one that works)
-    let (jumps, rhs_bisect, steadies, t_bisect) = bisect(1e-8);
+    let (jumps, rhs_bisect, steadies, periods, t_bisect) = bisect(1e-8);
 
     let located: Vec<(&str, f64)> = c
         .folds
@@ -178,9 +186,10 @@ fn nfr_against_the_stepped_sine() {
         println!("  peak at {:.7} ({:.6})", p.omega, p.amplitude);
     }
     println!(
-        "sweep --mode both --refine 1e-4 (0.1 grid): {t_sweep:.2} s, {} RHS, {} steady states",
+        "sweep --mode both --refine 1e-4 (0.1 grid): {t_sweep:.2} s, {} RHS, {} steady states, {} periods",
         sw.rhs_evaluations,
-        sw.points.len()
+        sw.points.len(),
+        sw.points.iter().map(|p| p.steady.periods).sum::<usize>()
     );
     for p in &sw.peaks {
         println!(
@@ -191,7 +200,9 @@ fn nfr_against_the_stepped_sine() {
     for j in &sw.jumps {
         println!("  jump {:?} between {} and {}", j.direction, j.from, j.to);
     }
-    println!("jump bisection to 1e-4: {t_bisect:.2} s, {rhs_bisect} RHS, {steadies} steady states");
+    println!(
+        "jump bisection to 1e-4: {t_bisect:.2} s, {rhs_bisect} RHS, {steadies} steady states, {periods} periods"
+    );
     for (d, w) in &jumps {
         println!("  jump {d:?} at {w:.5}");
     }
