@@ -652,6 +652,7 @@ fn refine_from(path: &str, a: &SweepArgs, study: &SweepStudy) -> Result<CsvCases
                 v: Vec::new(),
             },
             orbit: Vec::new(),
+            rhs_evaluations: 0,
         };
         known.insert(key, (s, int(f[k + 4])? as isize));
     }

@@ -255,6 +255,7 @@ impl Line {
             },
             // the well is stored: the orbit is only read to classify it
             orbit: Vec::new(),
+            rhs_evaluations: 0,
         };
         Ok((key, s, self.well))
     }

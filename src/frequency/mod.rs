@@ -88,6 +88,9 @@ pub struct SteadyState {
     /// The coordinates (nq) at the samples of the measured period(s), the endpoint
     /// excluded: what [`wells::Wells::classify`] reads.
     pub orbit: Vec<Vec<f64>>,
+    /// Right-hand-side evaluations of its integrations (0 for a case read back from a
+    /// checkpoint or a CSV: nothing was integrated).
+    pub rhs_evaluations: usize,
 }
 
 /// Steady response from `start` (t = 0 at forcing phase 0) at the system's forcing
@@ -144,6 +147,7 @@ pub fn steady_state_watched(
     let mut state = start.clone();
     let total = opts.fixed_periods.unwrap_or(opts.max_periods);
     let mut done = 0; // periods integrated
+    let mut rhs_evaluations = 0;
     let mut outcome: Option<SteadyState> = None;
     while done < total && outcome.is_none() {
         if cancel.load(Ordering::Relaxed) {
@@ -163,7 +167,7 @@ pub fn steady_state_watched(
         let mut vals: Vec<Vec<f64>> = Vec::with_capacity(per + 1);
         let mut restart: Option<State> = None;
         let mut last = state.clone();
-        crate::dynamics::simulate::simulate_watched(
+        let stats = crate::dynamics::simulate::simulate_watched(
             sys,
             &state,
             &sim,
@@ -203,9 +207,11 @@ pub fn steady_state_watched(
             &mut |_| !cancel.load(Ordering::Relaxed),
             &mut |s| stiff(s),
         )?;
+        rhs_evaluations += stats.rhs_evaluations;
         state = restart.unwrap_or(last);
     }
-    if let Some(s) = outcome {
+    if let Some(mut s) = outcome {
+        s.rhs_evaluations = rhs_evaluations;
         return Ok(s);
     }
     // Not settled (or the fixed protocol): the last period's measures, flagged.
@@ -220,6 +226,7 @@ pub fn steady_state_watched(
         measures,
         end: state,
         orbit: map.recent_q.last().cloned().unwrap_or_default(),
+        rhs_evaluations,
     })
 }
 
@@ -347,6 +354,8 @@ impl Poincare<'_> {
                         measures,
                         end: end.clone(),
                         orbit,
+                        // the caller adds its integrations' count
+                        rhs_evaluations: 0,
                     });
                 }
             }
@@ -579,6 +588,9 @@ pub struct Sweep {
     /// model's fastest motion), with its frequency: the sweep is right but slow, and
     /// `--integrator radau` is the remedy. None with Radau, or when nothing was stiff.
     pub stiffness: Option<StiffAt>,
+    /// Right-hand-side evaluations of every steady state this run integrated: the coarse
+    /// grid, the jump checks and the refinement (cases read from a checkpoint count 0).
+    pub rhs_evaluations: usize,
 }
 
 /// A stiff integration of a sweep: at which forcing frequency, and the numbers.
@@ -708,6 +720,7 @@ pub fn sweep_logged(
         v: vec![0.0; sys0.nv()],
     };
     let grid_done = AtomicUsize::new(0);
+    let rhs_evaluations = AtomicUsize::new(0);
     let refine_done = AtomicUsize::new(0);
     let refine_expected = AtomicUsize::new(0);
     let report = || {
@@ -734,8 +747,10 @@ pub fn sweep_logged(
                 stiff(at);
             }
         };
-        steady_state_watched(&s, &start, &responses, &opts.steady, cancel, &found)
-            .map_err(|e| e.context(&format!("{} = {omega}", opts.param)))
+        let st = steady_state_watched(&s, &start, &responses, &opts.steady, cancel, &found)
+            .map_err(|e| e.context(&format!("{} = {omega}", opts.param)))?;
+        rhs_evaluations.fetch_add(st.rhs_evaluations, Ordering::SeqCst);
+        Ok(st)
     };
     // one case: from the log if it has it, else computed, classified by well and recorded
     let case = |kind: CaseKind,
@@ -977,6 +992,7 @@ pub fn sweep_logged(
         hysteresis,
         complete,
         stiffness: stiffness.into_inner(),
+        rhs_evaluations: rhs_evaluations.into_inner(),
     })
 }
 
