@@ -73,7 +73,8 @@ fn parse_sets(sets: &[String]) -> Result<Vec<(String, String)>> {
         .collect()
 }
 
-/// The integrator and its error tolerances (`simulate`, `sweep`).
+/// The integrator and its error tolerances (`simulate`, `sweep`; `nfr`, which refuses
+/// radau).
 #[derive(Args)]
 pub struct Tolerances {
     /// Relative error tolerance per step.

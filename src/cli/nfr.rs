@@ -88,11 +88,11 @@ pub fn run(a: NfrArgs) -> Result<()> {
         ("--atol", a.tol.atol),
         ("--max-step", a.max_step),
     ] {
-        if !(v > 0.0 && v.is_finite()) || (flag != "--atol" && v >= 1.0) {
+        if !(v > 0.0 && v.is_finite()) || (flag == "--rtol" && v >= 1.0) {
             return Err(Error::request(
                 format!(
                     "{flag} {v}: must be a positive number{}",
-                    if flag == "--atol" { "" } else { " below 1" }
+                    if flag == "--rtol" { " below 1" } else { "" }
                 ),
                 "use the default, or e.g. --rtol 1e-10 --atol 1e-12 --max-step 0.04",
             ));
@@ -189,18 +189,29 @@ pub fn run(a: NfrArgs) -> Result<()> {
     );
     let began = std::time::Instant::now();
     let param = a.param.clone();
+    let fu = a.freq.freq_unit;
+    // a value of the continued parameter as printed: in the chosen frequency unit, or
+    // in the parameter's unit, to 7 significant digits
+    let shown = |v: f64| -> String {
+        if is_freq {
+            format!("{:.6} {}", fu.of(v), fu.symbol())
+        } else {
+            format!("{} {param_unit}", significant(v, 7))
+                .trim_end()
+                .to_string()
+        }
+    };
     let curve = nfr(
         &sys,
         &opts,
         &|n, v| {
-            bar.set_message(format!("{n} points, {param} = {v:.6}"));
+            bar.set_message(format!("{n} points, {param} = {}", shown(v)));
             bar.tick();
         },
         &INTERRUPTED,
     );
     bar.finish_and_clear();
     let curve = curve?;
-    let fu = a.freq.freq_unit;
     if let Some(o) = &a.output {
         write_nfr_csv(o, &curve)?;
     }
@@ -242,17 +253,6 @@ pub fn run(a: NfrArgs) -> Result<()> {
             if curve.complete { "" } else { " (incomplete)" }
         );
     }
-    // a value of the continued parameter as printed: in the chosen frequency unit, or
-    // in the parameter's unit, to 7 significant digits
-    let shown = |v: f64| -> String {
-        if is_freq {
-            format!("{:.6} {}", fu.of(v), fu.symbol())
-        } else {
-            format!("{} {param_unit}", significant(v, 7))
-                .trim_end()
-                .to_string()
-        }
-    };
     if a.json {
         let mut units = Units::new().with(curve.param.clone(), param_unit.clone());
         units.add(curve.omega_param.clone(), "rad/s");
@@ -350,12 +350,21 @@ pub fn run(a: NfrArgs) -> Result<()> {
             }
             .into());
         }
+        // what stopped it, from the branches' ends (the library's words)
+        let ended = |what: &str| curve.branches.iter().any(|b| b.end.contains(what));
+        let help = if ended("no longer converges") {
+            "the branch lines above say where: tighten --rtol/--atol, lower --max-step, or end --from/--to before that value (a non-smooth element there may need a wider smoothing)"
+        } else if ended("single shooting") {
+            "the orbit there is too unstable for single shooting: end --from/--to before that value"
+        } else {
+            "raise --max-points, or narrow --from/--to around what matters"
+        };
         return Err(Error::request(
             format!(
                 "the continuation stopped after {} points without covering the range",
                 curve.points.len()
             ),
-            "raise --max-points, or narrow --from/--to around what matters",
+            help,
         ));
     }
     Ok(())
