@@ -409,7 +409,7 @@ mod tests {
                 2.9950710345863336,
                 &hz
             ),
-            "turned back and left the range at omega = 0.476675 Hz"
+            "turned back and left the range at omega = 0.476680 Hz"
         );
         assert_eq!(significant(1.371070973412056, 7), "1.371071");
         assert_eq!(significant(-1371.070973412056, 7), "-1371.071");
