@@ -376,3 +376,157 @@ fn command_outputs_and_bad_input() {
     assert!(err.contains("--backbone") && err.contains("help:"), "{err}");
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// The command's wording and requests (a fresh-eyes review): values of another parameter
+/// with units, printed in its unit to sensible digits; requests that did nothing said so
+/// (--backbone without --plot, a --max-points too small to make a curve, radau, F0 from
+/// 0) before any work; Ctrl-C says the continuation was interrupted, and the branch's
+/// end is printed in the --freq-unit.
+#[test]
+fn command_wording_and_requests() {
+    let oc = |more: &[&str]| {
+        let mut args = vec![
+            "nfr",
+            "models/overcentre.toml",
+            "--set",
+            "theta1_0=-0.85",
+            "--set",
+            "c=1",
+            "--response",
+            "bar1.theta",
+        ];
+        args.extend_from_slice(more);
+        detune(&args)
+    };
+    // F0 = 2..2.2 N at 3 rad/s, given with units, printed with the unit (it was "2.2")
+    let (code, out, err) = oc(&[
+        "--set", "omega=3", "--param", "F0", "--from", "2 N", "--to", "2.2 N",
+    ]);
+    assert_eq!(code, 0, "{err}");
+    assert!(
+        out.contains("branch 0: from F0 = 2.000000 N,") && out.contains("reached F0 = 2.200000 N"),
+        "{out}"
+    );
+    // refused before any work, each with what to give
+    for (more, says) in [
+        (
+            &[
+                "--set",
+                "F0=4",
+                "--param",
+                "omega",
+                "--from",
+                "3",
+                "--to",
+                "4",
+                "--backbone",
+                "1",
+            ][..],
+            "--plot",
+        ),
+        (
+            &[
+                "--set",
+                "F0=4",
+                "--param",
+                "omega",
+                "--from",
+                "3",
+                "--to",
+                "4",
+                "--max-points",
+                "1",
+            ],
+            "the least useful value is 26",
+        ),
+        (
+            &[
+                "--set",
+                "F0=4",
+                "--param",
+                "omega",
+                "--from",
+                "3",
+                "--to",
+                "4",
+                "--integrator",
+                "radau",
+            ],
+            "DOP853",
+        ),
+        (
+            &[
+                "--set", "omega=3", "--param", "F0", "--from", "0", "--to", "2",
+            ],
+            "--from \"0.002 N\"",
+        ),
+        (
+            &[
+                "--set", "omega=3", "--param", "F0", "--from", "3 kg", "--to", "2",
+            ],
+            "`F0` is a quantity in N, the value given is in kg",
+        ),
+    ] {
+        let (code, _, err) = oc(more);
+        assert_eq!(code, 1, "{more:?}: {err}");
+        assert!(
+            err.contains(says) && err.contains("help:"),
+            "{more:?}: {err}"
+        );
+        assert!(!err.contains("zero forcing"), "{err}");
+    }
+    // Ctrl-C: what was computed is printed, the branch's end in Hz, exit 130
+    let child = std::process::Command::new(env!("CARGO_BIN_EXE_detune"))
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .args([
+            "nfr",
+            "models/overcentre.toml",
+            "--set",
+            "theta1_0=-0.85",
+            "--set",
+            "c=1",
+            "--set",
+            "F0=4",
+            "--param",
+            "omega",
+            "--from",
+            "3",
+            "--to",
+            "4.5",
+            "--response",
+            "bar1.theta",
+            "--freq-unit",
+            "Hz",
+        ])
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    std::thread::sleep(std::time::Duration::from_millis(1500));
+    let killed = std::process::Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(killed.success());
+    let o = child.wait_with_output().unwrap();
+    let (out, err) = (
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr),
+    );
+    assert_eq!(o.status.code(), Some(130), "{out}{err}");
+    assert!(
+        err.contains("the continuation was interrupted") && !err.contains("sweep"),
+        "{err}"
+    );
+    // 3 rad/s = 0.477465 Hz; the end "interrupted at omega = 0.6... Hz", not in rad/s
+    let branch = out
+        .lines()
+        .find(|l| l.starts_with("branch 0:"))
+        .unwrap_or("");
+    assert!(
+        branch.starts_with("branch 0: from omega = 0.477465 Hz,")
+            && branch.contains("interrupted at omega = 0.")
+            && branch.ends_with(" Hz"),
+        "{out}"
+    );
+}

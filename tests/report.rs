@@ -999,3 +999,43 @@ fn the_interference_diagrams_line_labels_do_not_overlap() {
         }
     }
 }
+
+/// Issues 10/11, leftovers: a --vary case that makes a damping coefficient negative is
+/// warned of on the page itself, in a box at its top (it was in the sidecar's `warnings`
+/// only); the environment's source text, which writes the UH-60's main rotor as
+/// 27 rad/s, follows --freq-unit with rad/s beside it (27/2π = 4.297 Hz).
+#[test]
+fn warnings_and_the_environments_source_on_the_page() {
+    let (_d, _, page, json) = report(
+        "overcentre",
+        &[
+            "--environment",
+            "UH-60",
+            "--vary",
+            "c=±200%",
+            "--freq-unit",
+            "Hz",
+        ],
+    );
+    let w = json["warnings"][0]["message"].as_str().unwrap();
+    assert!(w.contains("c = -5 N·s/m"), "{w}");
+    let at = page
+        .find("<aside class=\"warnings\"")
+        .expect("no warnings box");
+    let boxed = &page[at..at + page[at..].find("</aside>").unwrap()];
+    assert!(boxed.contains(&w.replace('<', "&lt;")), "{boxed}");
+    assert!(at < page.find("<section").unwrap(), "the box is not on top");
+    assert_eq!(json["environment"]["source_rad_s"][0].as_f64(), Some(27.0));
+    assert!(
+        page.contains(r#"main rotor <span class="num" data-key="environment/source_rad_s/0" data-unit="Hz">4.3</span> Hz (<span class="num" data-key="environment/source_rad_s/0">27</span> rad/s)"#),
+        "{}",
+        &page[page.find("Forcing lines of").unwrap()..][..300]
+    );
+    assert!(mismatches(&page, &json).is_empty());
+    // no warning, no box; in rad/s the source reads as written
+    let (_d, _, page, _) = report("overcentre", &["--environment", "UH-60"]);
+    assert!(!page.contains("<aside"));
+    assert!(page.contains(
+        r#"main rotor <span class="num" data-key="environment/source_rad_s/0">27</span> rad/s with 4 blades"#
+    ));
+}

@@ -393,3 +393,63 @@ point2 = [0, 0, 0]
     assert!(wells.distance2(&sys, &q, wells.start) < 1e-20);
     assert_eq!(wells.classify(&sys, &[q]), wells.start as isize);
 }
+
+/// Issue 10/11 leftover, "no JSON at all": at F0 = 80 N the overcentre's bars are driven
+/// into their folded pose (bar 1 at −90°, B on A: the constraints lose rank) and the
+/// integration toward a steady state cannot go on. That is an error, not an empty
+/// success: exit 1, nothing on standard output, and the message says where the sweep
+/// stopped, what happens to the mechanism and what to try (a smaller F0, a higher
+/// start, the `simulate` command that shows the motion).
+#[test]
+fn a_forcing_beyond_the_folded_pose_is_an_error_that_says_so() {
+    let (code, out, err) = detune(&[
+        "sweep",
+        "models/overcentre.toml",
+        "--set",
+        "F0=80",
+        "--param",
+        "omega",
+        "--from",
+        "0.5",
+        "--to",
+        "1.5",
+        "--step",
+        "0.25",
+        "--json",
+    ]);
+    assert_eq!(code, 1, "{err}");
+    assert!(out.is_empty(), "{out}");
+    for says in [
+        "the sweep stopped at omega = 1 rad/s, where the motion cannot be integrated",
+        "nothing was written",
+        "singular pose",
+        "--set F0=",
+        "F0 = 80 N now",
+        "detune simulate models/overcentre.toml --set F0=80 --set omega=1 --t-end",
+    ] {
+        assert!(err.contains(says), "no {says:?} in {err}");
+    }
+    // the motion the hint shows: bar 1 swings down to the folded pose, −90°
+    let dir = tempfile::tempdir().unwrap();
+    let csv = dir.path().join("motion.csv");
+    let (code, _, err) = detune(&[
+        "simulate",
+        "models/overcentre.toml",
+        "--set",
+        "F0=80",
+        "--set",
+        "omega=1",
+        "--t-end",
+        "4.05",
+        "-o",
+        csv.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 0, "{err}");
+    let (head, rows) = common::read_csv(&csv);
+    let k = head.iter().position(|h| h == "bar1.theta").unwrap();
+    let lowest = rows.iter().map(|r| r[k]).fold(f64::INFINITY, f64::min);
+    assert!(
+        (lowest + std::f64::consts::FRAC_PI_2).abs() < 0.05,
+        "bar 1 reaches {lowest} rad"
+    );
+}

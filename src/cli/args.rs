@@ -73,7 +73,8 @@ fn parse_sets(sets: &[String]) -> Result<Vec<(String, String)>> {
         .collect()
 }
 
-/// The integrator and its error tolerances (`simulate`, `sweep`).
+/// The integrator and its error tolerances (`simulate`, `sweep`; `nfr`, which refuses
+/// radau).
 #[derive(Args)]
 pub struct Tolerances {
     /// Relative error tolerance per step.
@@ -173,11 +174,13 @@ impl FrequencyGrid {
 /// deg"); no parameters.
 pub fn quantity(flag: &str, text: &str, drive: &str, dim: Dim) -> Result<f64> {
     let example = if dim == Dim::NONE {
-        "\"-15 deg\" or -0.26 (rad)"
+        "\"-15 deg\" or -0.26 (rad)".to_string()
     } else if dim == Dim::FREQUENCY {
-        "\"4.3 Hz\", \"258 rpm\" or 27.0 (rad/s)"
+        "\"4.3 Hz\", \"258 rpm\" or 27.0 (rad/s)".to_string()
+    } else if dim == Dim::LENGTH {
+        "\"3 mm\" or 0.003 (m)".to_string()
     } else {
-        "\"3 mm\" or 0.003 (m)"
+        format!("\"2.5 {dim}\" or 2.5 ({dim})")
     };
     let bad = |message: String, help: Option<String>| Error::Request {
         message: format!("{flag} {text}: {message}"),

@@ -118,7 +118,7 @@ pub fn run(a: MarginsArgs) -> Result<Outcome> {
             eprintln!("{s}");
         }
     } else {
-        print_environment(&env, &lines);
+        print_environment(&env, &lines, fu);
         if modes.is_empty() {
             println!("\nno oscillatory modes: nothing can resonate with a forcing line");
         }
@@ -224,7 +224,8 @@ fn freq(w: f64) -> String {
     )
 }
 
-fn print_environment(env: &Environment, lines: &[ForcingLine]) {
+fn print_environment(env: &Environment, lines: &[ForcingLine], fu: FreqUnit) {
+    use detune::output::units::text_in_unit;
     println!(
         "environment: {} ({}{})",
         env.name,
@@ -235,9 +236,9 @@ fn print_environment(env: &Environment, lines: &[ForcingLine]) {
             ""
         }
     );
-    println!("  source: {}", env.source);
+    println!("  source: {}", text_in_unit(&env.source, fu));
     if let Some(n) = &env.notes {
-        println!("  note: {n}");
+        println!("  note: {}", text_in_unit(n, fu));
     }
     println!("forcing lines:");
     for l in lines {

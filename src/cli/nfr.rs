@@ -2,7 +2,7 @@
 //! stable and unstable, with folds, period doublings, Neimark–Sacker points and peaks
 //! located (see `detune::periodic`).
 
-use super::args::{ModelArgs, frequency_value};
+use super::args::{IntegratorChoice, ModelArgs, Tolerances, frequency_value, param_value};
 use super::{INTERRUPTED, interrupt_on_ctrl_c, print_json};
 use clap::Args;
 use detune::diag::{Error, Result};
@@ -20,8 +20,9 @@ pub struct NfrArgs {
     /// The continued parameter: the forcing frequency (rad/s) or any other parameter.
     #[arg(long, value_name = "NAME")]
     pub param: String,
-    /// Start of the range: the curve starts from the linear response here. rad/s or a
-    /// quantity ("0.5 Hz") for the forcing frequency; SI otherwise.
+    /// Start of the range: the curve starts from the linear response here. A number (SI:
+    /// rad/s for the forcing frequency) or a quantity in the parameter's dimension
+    /// ("0.5 Hz", "2 N", "20 kN/m").
     #[arg(long, value_name = "A", allow_hyphen_values = true)]
     pub from: String,
     /// End of the range.
@@ -31,23 +32,12 @@ pub struct NfrArgs {
     /// name `sweep --response` takes.
     #[arg(long, value_name = "NAME")]
     pub response: Vec<String>,
-    /// Relative error tolerance of the integration.
-    #[arg(
-        long,
-        default_value_t = 1e-10,
-        value_name = "R",
-        allow_hyphen_values = true
-    )]
-    pub rtol: f64,
-    /// Absolute error tolerance of the integration (SI).
-    #[arg(
-        long,
-        default_value_t = 1e-12,
-        value_name = "A",
-        allow_hyphen_values = true
-    )]
-    pub atol: f64,
-    /// Give up after this many points (the curve is then written, marked incomplete).
+    /// The integration's tolerances and method (as `simulate` and `sweep` take them; the
+    /// shooting needs the explicit `dop853`).
+    #[command(flatten)]
+    pub tol: Tolerances,
+    /// Give up after this many points (the curve is then written, marked incomplete); at
+    /// least 1/--max-step + 1, the points of the largest steps across the range.
     #[arg(long, default_value_t = 3000, value_name = "N")]
     pub max_points: usize,
     /// Largest continuation step, as a fraction of the curve's size (parameter range,
@@ -66,7 +56,8 @@ pub struct NfrArgs {
     pub plot: Option<String>,
     /// Draw the backbone curve of this mode (a name or a number from 1, as `backbone
     /// --of-mode`) under the forced curve: the amplitude-dependent natural frequency of
-    /// the undamped, unforced mechanism. Repeatable; --param must be the forcing frequency.
+    /// the undamped, unforced mechanism. Repeatable; needs --plot, and --param must be the
+    /// forcing frequency.
     #[arg(long, value_name = "MODE")]
     pub backbone: Vec<String>,
     #[command(flatten)]
@@ -76,6 +67,53 @@ pub struct NfrArgs {
 }
 
 pub fn run(a: NfrArgs) -> Result<()> {
+    // the requests that need no model, refused before any work
+    if !a.backbone.is_empty() && a.plot.is_none() {
+        return Err(Error::request(
+            format!(
+                "--backbone {}: the backbone is drawn on the figure, and there is no --plot",
+                a.backbone.join(" --backbone ")
+            ),
+            "add --plot curve.svg (or .png), or leave --backbone out (`detune backbone` computes it on its own)",
+        ));
+    }
+    if a.tol.integrator == IntegratorChoice::Radau {
+        return Err(Error::request(
+            "--integrator radau: the shooting integrates the periodic orbit's variational equations with the explicit DOP853 only",
+            "leave --integrator out (or give dop853); for a stiff model, loosen --rtol/--atol or soften the stiff element",
+        ));
+    }
+    for (flag, v) in [
+        ("--rtol", a.tol.rtol),
+        ("--atol", a.tol.atol),
+        ("--max-step", a.max_step),
+    ] {
+        if !(v > 0.0 && v.is_finite()) || (flag == "--rtol" && v >= 1.0) {
+            return Err(Error::request(
+                format!(
+                    "{flag} {v}: must be a positive number{}",
+                    if flag == "--rtol" { " below 1" } else { "" }
+                ),
+                "use the default, or e.g. --rtol 1e-10 --atol 1e-12 --max-step 0.04",
+            ));
+        }
+    }
+    // the largest steps cross the range in 1/max_step of them: fewer points cannot make
+    // a curve from --from to --to
+    let least = (1.0 / a.max_step).ceil() as usize + 1;
+    if a.max_points < least {
+        return Err(Error::request(
+            format!(
+                "--max-points {}: too few to make a curve; the least useful value is {least} (with --max-step {}, the largest steps cross the range in {} points)",
+                a.max_points,
+                a.max_step,
+                least - 1
+            ),
+            format!(
+                "leave --max-points out (3000), or give at least {least}; a fold or a slow flank takes many more"
+            ),
+        ));
+    }
     let (model, sys) = a.model.load()?;
     let size = a.plot_size.check(a.plot.as_deref(), a.output.as_deref())?;
     let outputs = check_outputs(
@@ -89,12 +127,7 @@ pub fn run(a: NfrArgs) -> Result<()> {
         if is_freq {
             frequency_value(flag, text)
         } else {
-            text.trim().parse::<f64>().map_err(|_| {
-                Error::request(
-                    format!("{flag} {text}: not a number"),
-                    format!("give {} in SI units, e.g. {flag} 2.5", a.param),
-                )
-            })
+            param_value(&model, &a.param, flag, text)
         }
     };
     if !a.backbone.is_empty() && !is_freq {
@@ -113,20 +146,30 @@ pub fn run(a: NfrArgs) -> Result<()> {
         .collect::<Result<_>>()?;
     let from = value("--from", &a.from)?;
     let to = value("--to", &a.to)?;
-    for (flag, v) in [
-        ("--rtol", a.rtol),
-        ("--atol", a.atol),
-        ("--max-step", a.max_step),
-    ] {
-        if !(v > 0.0 && v.is_finite()) || (flag == "--rtol" && v >= 1.0) {
-            return Err(Error::request(
-                format!(
-                    "{flag} {v}: must be a positive number{}",
-                    if flag == "--rtol" { " below 1" } else { "" }
-                ),
-                "use the default, or e.g. --rtol 1e-10 --atol 1e-12 --max-step 0.04",
-            ));
-        }
+    let param_unit = if is_freq {
+        "rad/s".to_string()
+    } else {
+        model.param_unit(&a.param)
+    };
+    // The continuation starts from the linear response at --from: in the forcing
+    // amplitude, there is none at 0 (the orbit there is the equilibrium itself, which the
+    // library does not take as a start yet).
+    if let Some(f0) = sys.forcing_amplitude_param()
+        && sys.param_names()[f0] == a.param
+        && from == 0.0
+        && to != 0.0
+    {
+        let start = to.abs() * 1e-3;
+        return Err(Error::request(
+            format!(
+                "--from {}: the curve starts from the linear response at --from, and at {} = 0 the orbit is the equilibrium itself, with no response to start from",
+                a.from, a.param
+            ),
+            format!(
+                "start at a small value of the same sign as --to, e.g. --from \"{} {param_unit}\" (1e-3 of --to): the curve from there is the same",
+                detune::diag::num(start.copysign(to))
+            ),
+        ));
     }
     let responses = if a.response.is_empty() {
         model.coordinate_names()
@@ -134,9 +177,9 @@ pub fn run(a: NfrArgs) -> Result<()> {
         a.response.clone()
     };
     let mut opts = NfrOptions::new(&a.param, from, to, responses);
-    opts.shooting.rtol = a.rtol;
-    opts.shooting.atol = a.atol;
-    opts.max_points = a.max_points.max(2);
+    opts.shooting.rtol = a.tol.rtol;
+    opts.shooting.atol = a.tol.atol;
+    opts.max_points = a.max_points;
     opts.max_step = a.max_step;
     interrupt_on_ctrl_c();
     let bar = indicatif::ProgressBar::new_spinner();
@@ -146,23 +189,29 @@ pub fn run(a: NfrArgs) -> Result<()> {
     );
     let began = std::time::Instant::now();
     let param = a.param.clone();
+    let fu = a.freq.freq_unit;
+    // a value of the continued parameter as printed: in the chosen frequency unit, or
+    // in the parameter's unit, to 7 significant digits
+    let shown = |v: f64| -> String {
+        if is_freq {
+            format!("{:.6} {}", fu.of(v), fu.symbol())
+        } else {
+            format!("{} {param_unit}", significant(v, 7))
+                .trim_end()
+                .to_string()
+        }
+    };
     let curve = nfr(
         &sys,
         &opts,
         &|n, v| {
-            bar.set_message(format!("{n} points, {param} = {v:.6}"));
+            bar.set_message(format!("{n} points, {param} = {}", shown(v)));
             bar.tick();
         },
         &INTERRUPTED,
     );
     bar.finish_and_clear();
     let curve = curve?;
-    let fu = a.freq.freq_unit;
-    let param_unit = if is_freq {
-        "rad/s".to_string()
-    } else {
-        model.param_unit(&a.param)
-    };
     if let Some(o) = &a.output {
         write_nfr_csv(o, &curve)?;
     }
@@ -204,14 +253,6 @@ pub fn run(a: NfrArgs) -> Result<()> {
             if curve.complete { "" } else { " (incomplete)" }
         );
     }
-    // a value of the continued parameter as printed: in the chosen frequency unit
-    let shown = |v: f64| -> String {
-        if is_freq {
-            format!("{:.6} {}", fu.of(v), fu.symbol())
-        } else {
-            format!("{} {param_unit}", detune::diag::num(v))
-        }
-    };
     if a.json {
         let mut units = Units::new().with(curve.param.clone(), param_unit.clone());
         units.add(curve.omega_param.clone(), "rad/s");
@@ -253,7 +294,7 @@ pub fn run(a: NfrArgs) -> Result<()> {
                 curve.param,
                 shown(b.from),
                 b.points,
-                b.end
+                branch_end(&b.end, &curve.param, b.to, &shown)
             );
         }
         let amp = |s: &detune::periodic::continuation::Special| -> String {
@@ -303,15 +344,75 @@ pub fn run(a: NfrArgs) -> Result<()> {
     }
     if !curve.complete {
         if INTERRUPTED.load(std::sync::atomic::Ordering::Relaxed) {
-            return Err(detune::failure::Failure::SweepInterrupted.into());
+            return Err(detune::failure::Failure::StudyInterrupted {
+                what: "the continuation".into(),
+                kept: true,
+            }
+            .into());
         }
+        // what stopped it, from the branches' ends (the library's words)
+        let ended = |what: &str| curve.branches.iter().any(|b| b.end.contains(what));
+        let help = if ended("no longer converges") {
+            "the branch lines above say where: tighten --rtol/--atol, lower --max-step, or end --from/--to before that value (a non-smooth element there may need a wider smoothing)"
+        } else if ended("single shooting") {
+            "the orbit there is too unstable for single shooting: end --from/--to before that value"
+        } else {
+            "raise --max-points, or narrow --from/--to around what matters"
+        };
         return Err(Error::request(
             format!(
                 "the continuation stopped after {} points without covering the range",
                 curve.points.len()
             ),
-            "raise --max-points, or narrow --from/--to around what matters",
+            help,
         ));
     }
     Ok(())
+}
+
+/// How a branch ended (the library's words, `<param> = <value>` with the value as
+/// `f64`'s `Display` writes it), with that value `shown` in the unit asked for.
+fn branch_end(end: &str, param: &str, value: f64, shown: &dyn Fn(f64) -> String) -> String {
+    end.replacen(
+        &format!("{param} = {value}"),
+        &format!("{param} = {}", shown(value)),
+        1,
+    )
+}
+
+/// `x` to `digits` significant digits, in plain notation from 1e-4 to 1e7 (`2.968161`,
+/// `1371.071`), in scientific notation outside it.
+fn significant(x: f64, digits: usize) -> String {
+    let a = x.abs();
+    if x == 0.0 || !x.is_finite() {
+        return format!("{x}");
+    }
+    if !(1e-4..1e7).contains(&a) {
+        return format!("{x:.*e}", digits.saturating_sub(1));
+    }
+    let magnitude = a.log10().floor() as i64;
+    let decimals = (digits as i64 - 1 - magnitude).max(0) as usize;
+    format!("{x:.decimals$}")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{branch_end, significant};
+
+    #[test]
+    fn branch_end_in_the_unit_asked_for() {
+        let hz = |v: f64| format!("{:.6} Hz", v / (2.0 * std::f64::consts::PI));
+        assert_eq!(
+            branch_end(
+                "turned back and left the range at omega = 2.9950710345863336",
+                "omega",
+                2.9950710345863336,
+                &hz
+            ),
+            "turned back and left the range at omega = 0.476680 Hz"
+        );
+        assert_eq!(significant(1.371070973412056, 7), "1.371071");
+        assert_eq!(significant(-1371.070973412056, 7), "-1371.071");
+        assert_eq!(significant(2.5e-7, 3), "2.50e-7");
+    }
 }

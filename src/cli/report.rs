@@ -138,11 +138,15 @@ pub fn run(a: ReportArgs) -> Result<()> {
         },
     )?;
     // a --vary case that makes a damping coefficient negative (warned of on standard
-    // error when parsed): in the sidecar's `warnings`
+    // error when parsed): in the sidecar's `warnings` and on the page
     if given {
         let warnings = super::args::damping_warnings(&model, &sys, &varies);
         if !warnings.is_empty() {
             report.add_data("warnings", &super::args::damping_warning_values(&warnings))?;
+        }
+        // and on the page, in the box at its top
+        for w in warnings {
+            report.warn(w);
         }
     }
     report.in_frequency_unit(a.freq.freq_unit);

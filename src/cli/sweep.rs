@@ -322,7 +322,7 @@ pub fn execute(a: SweepArgs, source: Source) -> Result<()> {
         &|at| watch.found("", at, &bar),
     );
     bar.finish_and_clear();
-    let runs = runs?;
+    let runs = runs.map_err(|e| no_steady_state(e, &model, &compiled, &a))?;
     let complete = runs.iter().all(|r| r.sweep.complete);
     if let (Some(s), Some(path)) = (shard, &a.checkpoint) {
         let points: usize = runs.iter().map(|r| r.sweep.points.len()).sum();
@@ -660,4 +660,61 @@ fn refine_from(path: &str, a: &SweepArgs, study: &SweepStudy) -> Result<CsvCases
         path: path.to_string(),
         known,
     })
+}
+
+/// A frequency whose motion cannot be integrated (the step size falls to zero, the
+/// equations give NaN, the constraints are lost): the sweep has no steady state there and
+/// stops, nothing written. Worded as what happened to the mechanism and what to try: the
+/// forcing drives it into a singular pose (issue 11: the overcentre at F0 = 80 N reaches
+/// its bars' folded pose, θ1 = −90°, where the constraints lose rank).
+fn no_steady_state(e: Error, model: &detune::Model, sys: &detune::System, a: &SweepArgs) -> Error {
+    use detune::failure::Failure::{ConstraintsNotKept, NonFinite, StepSizeUnderflow};
+    let Error::Failed { failure, context } = &e else {
+        return e;
+    };
+    let t = match failure {
+        StepSizeUnderflow { t, .. } | NonFinite { t, .. } => *t,
+        ConstraintsNotKept { .. } => f64::NAN,
+        _ => return e,
+    };
+    let param = &a.grid.param;
+    let Some(at) = context
+        .iter()
+        .rev()
+        .find_map(|c| c.strip_prefix(&format!("{param} = ")))
+    else {
+        return e;
+    };
+    let forcing = sys
+        .forcing_amplitude_param()
+        .map(|i| {
+            let name = &sys.param_names()[i];
+            format!(
+                "lower the forcing ({name} = {} now: --set {name}=...), ",
+                format!(
+                    "{} {}",
+                    detune::diag::num(sys.param(i)),
+                    model.param_unit(name)
+                )
+                .trim_end()
+            )
+        })
+        .unwrap_or_default();
+    let watch = if t.is_finite() {
+        format!(
+            "; see the motion with `detune simulate {} --set {param}={at} --t-end {}`",
+            a.model.command_words(&[param.as_str()]),
+            (t + 1.0).ceil()
+        )
+    } else {
+        String::new()
+    };
+    Error::numerical(
+        format!(
+            "the sweep stopped at {param} = {at} rad/s, where the motion cannot be integrated: {failure} in the run toward its steady state; nothing was written"
+        ),
+        format!(
+            "the forcing drives the mechanism into a pose where it cannot move on: a singular pose (its constraints lose rank, as the overcentre's bars do folded at ±90°), or a force that changes abruptly; a stepped sine needs a steady state at every frequency. Try: {forcing}start --from above {at}, or loosen --rtol/--atol if the pose is regular{watch}"
+        ),
+    )
 }

@@ -63,6 +63,61 @@ impl FreqUnit {
     }
 }
 
+/// The numbers that free text (an environment's `source` or `notes`) writes in rad/s:
+/// each number directly followed by ` rad/s`, as (its byte range in `text`, its value, the
+/// decimals it is written with). Words such as `1P` are not numbers.
+pub fn rad_s_in_text(text: &str) -> Vec<(std::ops::Range<usize>, f64, usize)> {
+    let bytes = text.as_bytes();
+    let mut out = Vec::new();
+    for (at, _) in text.match_indices(" rad/s") {
+        // the number ends where " rad/s" starts
+        let mut start = at;
+        while start > 0 && (bytes[start - 1].is_ascii_digit() || bytes[start - 1] == b'.') {
+            start -= 1;
+        }
+        if start > 0 && bytes[start - 1] == b'-' {
+            start -= 1;
+        }
+        // a number, not the end of a word ("v2 rad/s")
+        if start == at || (start > 0 && (bytes[start - 1] as char).is_alphanumeric()) {
+            continue;
+        }
+        let written = &text[start..at];
+        if let Ok(v) = written.parse::<f64>() {
+            let decimals = written.split_once('.').map_or(0, |(_, d)| d.len());
+            out.push((start..at, v, decimals));
+        }
+    }
+    out
+}
+
+/// `text` with each number it writes in rad/s ([`rad_s_in_text`]) shown in `unit`, the
+/// rad/s after it in parentheses: `27 rad/s` → `4.3 Hz (27 rad/s)` (a decimal more in
+/// Hz, one fewer in rpm, as the report's numbers); unchanged in rad/s.
+pub fn text_in_unit(text: &str, unit: FreqUnit) -> String {
+    if unit == FreqUnit::RadPerSecond {
+        return text.to_string();
+    }
+    let mut out = String::new();
+    let mut last = 0;
+    for (range, v, decimals) in rad_s_in_text(text) {
+        let d = match unit {
+            FreqUnit::Hertz => decimals + 1,
+            _ => decimals.saturating_sub(1),
+        };
+        let end = range.end + " rad/s".len();
+        out.push_str(&text[last..range.start]);
+        out.push_str(&format!(
+            "{} ({})",
+            unit.show(v, d),
+            &text[range.start..end]
+        ));
+        last = end;
+    }
+    out.push_str(&text[last..]);
+    out
+}
+
 impl std::str::FromStr for FreqUnit {
     type Err = String;
     fn from_str(s: &str) -> Result<Self, Self::Err> {
@@ -206,6 +261,25 @@ pub struct WithUnits<'a, T> {
 
 #[cfg(test)]
 mod tests {
+
+    #[test]
+    fn rad_s_in_free_text_is_shown_in_the_unit() {
+        let src = "UH-60A: main rotor 27 rad/s with 4 blades; 1P, tail 124.6 rad/s; v2 rad/s";
+        let found = super::rad_s_in_text(src);
+        assert_eq!(found.len(), 2, "{found:?}");
+        assert_eq!((found[0].1, found[0].2), (27.0, 0));
+        assert_eq!((found[1].1, found[1].2), (124.6, 1));
+        assert_eq!(
+            super::text_in_unit(src, FreqUnit::Hertz),
+            "UH-60A: main rotor 4.3 Hz (27 rad/s) with 4 blades; 1P, tail 19.83 Hz (124.6 rad/s); v2 rad/s"
+        );
+        assert_eq!(
+            super::text_in_unit(src, FreqUnit::Rpm),
+            "UH-60A: main rotor 258 rpm (27 rad/s) with 4 blades; 1P, tail 1190 rpm (124.6 rad/s); v2 rad/s"
+        );
+        assert_eq!(super::text_in_unit(src, FreqUnit::RadPerSecond), src);
+    }
+
     use super::*;
 
     #[test]

@@ -809,7 +809,8 @@ pub fn build(inp: &ReportInputs) -> Result<Report> {
     // environment and interference diagram
     if let Some(env) = inp.environment {
         data.insert("environment", env)?;
-        sections.push(environment_section(env, &data));
+        let source = keyed_source(&env.source, &mut data);
+        sections.push(environment_section(env, &data, &source));
         sections.push(campbell(env, &modes, &mut data, inp.freq_unit)?);
     } else {
         sections.push(Section::new("campbell", "Interference diagram").prose(
@@ -826,6 +827,7 @@ pub fn build(inp: &ReportInputs) -> Result<Report> {
                 provenance.detune_version,
                 inp.generated_utc
             ),
+            warnings: Vec::new(),
             sections,
         },
         sidecar: data,
@@ -835,9 +837,39 @@ pub fn build(inp: &ReportInputs) -> Result<Report> {
 /// Frequencies of the report's linear response grid.
 pub const FRF_POINTS: usize = 400;
 
-fn environment_section(env: &Environment, data: &Sidecar) -> Section {
+/// The environment's `source` text with each number it writes in rad/s keyed into the
+/// sidecar (`environment/source_rad_s/<k>`, as written), so that the page shows it in
+/// the `--freq-unit` with rad/s beside it, like the computed numbers.
+fn keyed_source(source: &str, data: &mut Sidecar) -> String {
+    let found = crate::output::units::rad_s_in_text(source);
+    if found.is_empty() {
+        return source.to_string();
+    }
+    if let Some(serde_json::Value::Object(env)) = data.0.get_mut("environment") {
+        env.insert(
+            "source_rad_s".into(),
+            serde_json::Value::from(found.iter().map(|f| f.1).collect::<Vec<f64>>()),
+        );
+    } else {
+        return source.to_string();
+    }
+    let mut out = String::new();
+    let mut last = 0;
+    for (k, (range, _, decimals)) in found.into_iter().enumerate() {
+        out.push_str(&source[last..range.start]);
+        out.push_str(&data.inline(
+            format!("environment/source_rad_s/{k}"),
+            Digits::Fixed(decimals),
+        ));
+        last = range.end;
+    }
+    out.push_str(&source[last..]);
+    out
+}
+
+fn environment_section(env: &Environment, data: &Sidecar, source: &str) -> Section {
     Section::new("environment", &format!("Environment: {}", env.name))
-        .prose(format!("Forcing lines of the {} ({}).", env.name, env.source))
+        .prose(format!("Forcing lines of the {} ({source}).", env.name))
         .table(Table {
             caption: "Rotors".into(),
             columns: cols(&[

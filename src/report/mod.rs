@@ -204,11 +204,14 @@ impl Section {
     }
 }
 
-/// The whole page: a title, a subtitle line and the sections.
+/// The whole page: a title, a subtitle line, the warnings and the sections.
 #[derive(Debug, Clone)]
 pub struct Document {
     pub title: String,
     pub subtitle: String,
+    /// What the reader must know before reading the numbers (a tolerance case that makes
+    /// a damping coefficient negative): shown in a box at the top of the page.
+    pub warnings: Vec<String>,
     pub sections: Vec<Section>,
 }
 
@@ -291,6 +294,12 @@ pub struct Report {
 }
 
 impl Report {
+    /// A warning shown in the box at the top of the page (put it in the sidecar's
+    /// `warnings` too, for scripts).
+    pub fn warn(&mut self, text: impl Into<String>) {
+        self.document.warnings.push(text.into());
+    }
+
     /// Put a section's results into the sidecar under `key` (to be shown by cells keyed
     /// `key/...`).
     pub fn add_data(&mut self, key: &str, value: &impl serde::Serialize) -> Result<()> {
@@ -587,6 +596,9 @@ figure { margin: 1em 0; page-break-inside: avoid; break-inside: avoid; }
 figure svg { max-width: 100%; height: auto; display: block; }
 figcaption { font-size: 0.92em; color: #333; margin-top: 0.3em; }
 .pass { color: #176b1d; font-weight: bold; }
+aside.warnings { border: 2px solid #b35806; border-left-width: 0.5em; background: #fff3e0; padding: 0.4em 1em; margin: 1em 0; }
+aside.warnings .warnings-title { font-weight: bold; color: #8a3c00; margin: 0.2em 0; }
+aside.warnings ul { margin: 0.2em 0; padding-left: 1.2em; }
 .fail { color: #a4161a; font-weight: bold; }
 footer { margin-top: 3em; font-size: 0.85em; color: #555; }
 @page { size: A4; margin: 15mm; }
@@ -645,6 +657,12 @@ impl Document {
                     header {
                         h1 { (self.title) }
                         p.subtitle { (self.subtitle) }
+                    }
+                    @if !self.warnings.is_empty() {
+                        aside.warnings role="note" {
+                            p.warnings-title { "Warning" @if self.warnings.len() > 1 { "s" } }
+                            ul { @for w in &self.warnings { li { (w) } } }
+                        }
                     }
                     nav {
                         ol { @for s in &self.sections { li { a href=(format!("#{}", s.id)) { (s.title) } } } }
@@ -706,6 +724,7 @@ mod tests {
         let doc = Document {
             title: "a <b> & c".into(),
             subtitle: String::new(),
+            warnings: Vec::new(),
             sections: vec![Section::new("one", "One").table(Table {
                 caption: "t".into(),
                 columns: vec![Column::new("v", "m")],
@@ -732,6 +751,7 @@ mod tests {
             document: Document {
                 title: String::new(),
                 subtitle: String::new(),
+                warnings: Vec::new(),
                 sections: vec![Section::new("x", "X").prose(sentence).table(Table {
                     caption: String::new(),
                     columns: vec![
