@@ -108,6 +108,11 @@ pub struct SpecialJson {
     pub multipliers: Vec<MultiplierJson>,
     /// What a stepped-sine sweep does there, in words.
     pub jump: String,
+    /// How well `value` is known (the continued parameter's unit).
+    pub uncertainty: f64,
+    /// False when locating failed: the point is the end of the continuation step that
+    /// brackets it, and `uncertainty` half that step.
+    pub refined: bool,
 }
 
 /// `detune nfr --json`.
@@ -144,6 +149,8 @@ impl<'a> NfrReport<'a> {
                 .collect(),
             multipliers: multipliers_json(&s.multipliers),
             jump: jump_words(c, s),
+            uncertainty: s.uncertainty,
+            refined: s.refined,
         };
         NfrReport {
             param: &c.param,

@@ -63,7 +63,13 @@ impl NfrOptions {
             from,
             to,
             responses,
-            shooting: ShootingOptions::default(),
+            // forward-difference columns along the curve (1 + 2·DoF + 1 right-hand sides a
+            // stage instead of 1 + 2·(2·DoF + 1)); the located points take central
+            // differences (`Tracer::precise`)
+            shooting: ShootingOptions {
+                central: false,
+                ..ShootingOptions::default()
+            },
             max_points: 3000,
             max_step: 0.04,
         }
@@ -127,6 +133,12 @@ pub struct Special {
     pub stable_before: bool,
     /// The continued parameter's direction before it (+1 increasing, −1 decreasing).
     pub direction_before: f64,
+    /// How well `value` is known: the last change of the located value (the iteration
+    /// stops below 1e-10 of it); where locating failed, half the continuation step that
+    /// brackets the point, which is then given at the bracket's end nearer the zero.
+    pub uncertainty: f64,
+    /// False when locating failed (the point is the bracket's end).
+    pub refined: bool,
 }
 
 /// A located peak: an interior maximum of a response's amplitude on a stable part.
@@ -741,25 +753,34 @@ impl Tracer<'_> {
             }
             next.point.s = last.point.s + ds;
             for kind in events(&last, &next) {
+                let special = |nd: &Node, uncertainty: f64, refined: bool| Special {
+                    kind,
+                    value: nd.point.value,
+                    omega: nd.point.omega,
+                    amplitude: nd.point.measures.iter().map(|m| m.amplitude).collect(),
+                    multipliers: nd.point.multipliers.clone(),
+                    stable_before: last.point.stable,
+                    direction_before: last.tp().signum(),
+                    uncertainty,
+                    refined,
+                };
                 match self.locate(&last, &next, ds, kind) {
-                    Ok(Some(mut nd)) => {
+                    Ok(Some((mut nd, uncertainty))) => {
                         nd.point.located = Some(kind);
-                        specials.push(Special {
-                            kind,
-                            value: nd.point.value,
-                            omega: nd.point.omega,
-                            amplitude: nd.point.measures.iter().map(|m| m.amplitude).collect(),
-                            multipliers: nd.point.multipliers.clone(),
-                            stable_before: last.point.stable,
-                            direction_before: last.tp().signum(),
-                        });
+                        specials.push(special(&nd, uncertainty, true));
                         located.push(nd);
                     }
-                    Ok(None) => {}
                     Err(e) if is_interrupt(&e) => {
                         return finish(nodes, located, BranchEnd::Interrupted);
                     }
-                    Err(_) => {}
+                    // not located: reported at the bracket's end nearer the zero, with
+                    // the bracket as its uncertainty
+                    _ => {
+                        let g = |n: &Node| test(kind, n).map_or(f64::INFINITY, f64::abs);
+                        let near = if g(&last) <= g(&next) { &last } else { &next };
+                        let half = 0.5 * (next.point.value - last.point.value).abs();
+                        specials.push(special(near, half, false));
+                    }
                 }
             }
             *budget = budget.saturating_sub(1);
@@ -836,6 +857,7 @@ impl Tracer<'_> {
         self.sh.project(&mut x);
         let mut prev = f64::INFINITY;
         let mut worse = 0;
+        let mut fresh = false;
         for it in 0..12 {
             self.sh.set(p)?;
             let tb = self.sh.tangent_basis(&x);
@@ -866,17 +888,17 @@ impl Tracer<'_> {
                 .iter()
                 .fold(1.0f64, |m, mu| m.max(mu.norm()));
             let tol = self.sh.opts.tol.max(100.0 * self.sh.opts.rtol * growth);
-            if rel <= tol && arc.abs() <= 1e-10 {
-                return Ok(Some(self.node(x, p, tb, flow, base, (it + 1, rel))));
-            }
             // The integration's noise: P is no smoother than its error control, which is
             // relative to the coordinates' size, not to the orbit's amplitude; where the
             // coordinates are large against a small orbit (a base-driven mechanism) and a
             // stiff law switches within the period (a breakout), a Newton residual that
             // stops falling has reached that noise. Accepted below NOISE_FLOOR.
-            if it >= 1 && rel <= NOISE_FLOOR && rel > 0.25 * prev && arc.abs() <= 1e-6 {
+            let converged = rel <= tol && arc.abs() <= 1e-10;
+            let noise = fresh && rel <= NOISE_FLOOR && rel > 0.25 * prev && arc.abs() <= 1e-6;
+            if converged || noise {
                 return Ok(Some(self.node(x, p, tb, flow, base, (it + 1, rel))));
             }
+            fresh = true;
             if !(rel < prev) {
                 worse += 1;
                 if worse >= 2 || it >= 4 {
@@ -980,9 +1002,15 @@ impl Tracer<'_> {
 
     /// Locate the zero of `kind`'s test function between `a` and `b` (a step `ds` from
     /// a) by the Illinois method on the arclength.
-    fn locate(&mut self, a: &Node, b: &Node, ds: f64, kind: Located) -> Result<Option<Node>> {
+    fn locate(
+        &mut self,
+        a: &Node,
+        b: &Node,
+        ds: f64,
+        kind: Located,
+    ) -> Result<Option<(Node, f64)>> {
         // the test functions are computed from the monodromy, whose error is the
-        // integration's
+        // integration's (and the differences')
         self.precise(None, |t| t.locate_inner(a, b, ds, kind))
     }
 
@@ -991,6 +1019,7 @@ impl Tracer<'_> {
     /// nearby orbits.
     fn precise<T>(&mut self, samples: Option<usize>, f: impl FnOnce(&mut Self) -> T) -> T {
         let keep = self.sh.opts.clone();
+        self.sh.opts.central = true;
         self.sh.opts.rtol = (keep.rtol * 1e-2).max(1e-14);
         self.sh.opts.atol = keep.atol * 1e-2;
         self.sh.opts.samples = samples.unwrap_or(keep.samples);
@@ -999,7 +1028,13 @@ impl Tracer<'_> {
         out
     }
 
-    fn locate_inner(&mut self, a: &Node, b: &Node, ds: f64, kind: Located) -> Result<Option<Node>> {
+    fn locate_inner(
+        &mut self,
+        a: &Node,
+        b: &Node,
+        ds: f64,
+        kind: Located,
+    ) -> Result<Option<(Node, f64)>> {
         let (Some(mut ga), Some(mut gb)) = (test(kind, a), test(kind, b)) else {
             return Ok(None);
         };
@@ -1008,9 +1043,12 @@ impl Tracer<'_> {
         }
         let (mut sa, mut sb) = (0.0, ds);
         let small = 1e-10 * (ga.abs() + gb.abs());
+        let scale = ga.abs().max(gb.abs());
         let mut best: Option<(f64, Node)> = None;
         let mut side = 0;
         let mut s_prev = f64::NAN;
+        let mut p_prev = f64::NAN;
+        let mut change = f64::INFINITY;
         for _ in 0..60 {
             let s = (sa * gb - sb * ga) / (gb - ga);
             let s = if s.is_finite() && s > sa && s < sb {
@@ -1025,13 +1063,22 @@ impl Tracer<'_> {
             let Some(g) = test(kind, &n) else {
                 break;
             };
+            let p = n.point.value;
             if best.as_ref().is_none_or(|(b, _)| g.abs() < b.abs()) {
                 best = Some((g, n));
             }
-            if g.abs() <= small || (s - s_prev).abs() < 1e-10 * ds {
+            // Converged when the test function vanishes, the arclength stops moving, or
+            // the located value does: at a fold the value is stationary in the
+            // arclength, so it settles long before the arclength does.
+            change = (p - p_prev).abs();
+            if g.abs() <= small
+                || (s - s_prev).abs() < 1e-10 * ds
+                || change <= 1e-10 * p.abs().max(self.sp)
+            {
                 break;
             }
             s_prev = s;
+            p_prev = p;
             if g * ga > 0.0 {
                 sa = s;
                 ga = g;
@@ -1048,7 +1095,11 @@ impl Tracer<'_> {
                 side = 1;
             }
         }
-        Ok(best.map(|(_, n)| n))
+        // the best trial must be a zero of the test function, not just the last one
+        // tried before the corrector gave up
+        Ok(best
+            .filter(|(g, _)| g.abs() <= 1e-3 * scale)
+            .map(|(_, n)| (n, if change.is_finite() { change } else { 0.0 })))
     }
 
     /// Locate the peak of response `r`'s amplitude near `all[i]` by successive parabolic

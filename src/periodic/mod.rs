@@ -62,6 +62,10 @@ pub struct ShootingOptions {
     /// Newton converges when every component of P(x) − x is below this fraction of the
     /// orbit's amplitude (positions and velocities separately).
     pub tol: f64,
+    /// The variational columns by central differences of the right-hand side (error
+    /// ~1e-11 of a column, 2 evaluations a column); false: forward differences (~1e-8,
+    /// 1 evaluation), enough for Newton's matrix and the tangent, not for locating.
+    pub central: bool,
 }
 
 impl Default for ShootingOptions {
@@ -71,6 +75,7 @@ impl Default for ShootingOptions {
             atol: 1e-12,
             samples: 128,
             tol: 1e-9,
+            central: true,
         }
     }
 }
@@ -121,6 +126,9 @@ pub struct Shooting {
     pub rhs_evaluations: usize,
     /// Periods integrated.
     pub flows: usize,
+    /// The most steps a period has taken so far: a flow that needs many times more (a
+    /// Newton iterate far off, whose motion crawls through a singular pose) is given up.
+    typical_steps: usize,
 }
 
 /// Relative step of the central differences of the right-hand side.
@@ -146,6 +154,7 @@ impl Shooting {
             ws: DynWorkspace::new(sys),
             rhs_evaluations: 0,
             flows: 0,
+            typical_steps: 0,
         })
     }
 
@@ -245,23 +254,26 @@ impl Shooting {
             None
         };
         let perturbed = if with_dp {
+            let down = if self.opts.central { p - dp } else { p };
             Some((
                 self.sys.with_param(self.param, p + dp)?,
-                self.sys.with_param(self.param, p - dp)?,
+                self.sys.with_param(self.param, down)?,
             ))
         } else {
             None
         };
         let ode = Variational {
             base: ConstrainedOde::new(&self.sys),
-            perturbed: perturbed
-                .as_ref()
-                .map(|(a, b)| (ConstrainedOde::new(a), ConstrainedOde::new(b), dp)),
+            perturbed: perturbed.as_ref().map(|(a, b)| {
+                let width = if self.opts.central { 2.0 * dp } else { dp };
+                (ConstrainedOde::new(a), ConstrainedOde::new(b), width)
+            }),
             n2,
             k,
             evals: Cell::new(0),
-            buf: RefCell::new((vec![0.0; n2], vec![0.0; n2], vec![0.0; n2])),
+            buf: RefCell::new((vec![0.0; n2], vec![0.0; n2], vec![0.0; n2], vec![0.0; n2])),
             tiny: 1e-6 * self.opts.atol,
+            central: self.opts.central,
         };
         let cols = k + usize::from(with_dp);
         let mut y0 = vec![0.0; n2 * (1 + cols)];
@@ -286,7 +298,12 @@ impl Shooting {
             dt_out: period / per as f64,
             rtol: self.opts.rtol,
             atol: self.opts.atol,
-            max_steps: 10_000_000,
+            // 20 times the most a period has taken (a million before the first)
+            max_steps: if self.typical_steps > 0 {
+                (20 * self.typical_steps).max(2_000)
+            } else {
+                1_000_000
+            },
             method: Integrator::Dop853,
         };
         let n = self.sys.nq();
@@ -298,7 +315,7 @@ impl Shooting {
         let mut last = y0.clone();
         let proj = RefCell::new(DynWorkspace::new(sys));
         let outputs = probe.outputs().len();
-        crate::dynamics::integrator::integrate(
+        let stats = crate::dynamics::integrator::integrate(
             &ode,
             &y0,
             &iopts,
@@ -332,6 +349,9 @@ impl Shooting {
         )?;
         self.rhs_evaluations += ode.evals.get();
         self.flows += 1;
+        self.typical_steps = self
+            .typical_steps
+            .max(stats.accepted_steps + stats.rejected_steps);
         if cancel.load(Ordering::Relaxed) {
             return Err(Failure::SweepInterrupted.into());
         }
@@ -412,28 +432,35 @@ pub fn multipliers(monodromy: &DMatrix<f64>) -> Vec<Complex<f64>> {
 /// The state and its variational columns as one first-order system.
 struct Variational<'a> {
     base: ConstrainedOde<'a>,
-    /// The right-hand side at p ± dp, and dp.
+    /// The right-hand side at p + dp and at p − dp (central) or p (forward), and the
+    /// difference of the two parameter values.
     perturbed: Option<(ConstrainedOde<'a>, ConstrainedOde<'a>, f64)>,
     n2: usize,
     /// Direction columns (the parameter column follows them).
     k: usize,
     evals: Cell<usize>,
-    buf: RefCell<(Vec<f64>, Vec<f64>, Vec<f64>)>,
+    /// Scratch: a perturbed state, two right-hand sides, the unperturbed one.
+    buf: RefCell<(Vec<f64>, Vec<f64>, Vec<f64>, Vec<f64>)>,
     /// The variational columns are integrated scaled by this (1e-6 of the absolute
     /// tolerance): their equations are linear, so the scaling is exact, and their error
     /// then stays below the tolerance, so that the steps are chosen by the state alone
     /// (the central differences' ~1e-11 noise would otherwise hold the steps down).
     tiny: f64,
+    /// Central differences (else forward).
+    central: bool,
 }
+
+/// Relative step of the forward differences of the right-hand side (√ε: error ~1e-8).
+const FD_STEP_FORWARD: f64 = 1.5e-8;
 
 impl ODE<f64, Vec<f64>> for Variational<'_> {
     fn diff(&self, t: f64, y: &Vec<f64>, dy: &mut Vec<f64>) {
         let n2 = self.n2;
         let mut buf = self.buf.borrow_mut();
-        let (xs, up, down) = &mut *buf;
+        let (xs, up, down, f0) = &mut *buf;
         xs.copy_from_slice(&y[..n2]);
-        self.base.diff(t, xs, up);
-        dy[..n2].copy_from_slice(up);
+        self.base.diff(t, xs, f0);
+        dy[..n2].copy_from_slice(f0);
         let mut evals = 1;
         let size = 1.0 + crate::linalg::amax(&y[..n2]);
         let cols = self.k + usize::from(self.perturbed.is_some());
@@ -442,31 +469,48 @@ impl ODE<f64, Vec<f64>> for Variational<'_> {
             let out = n2 * (1 + j);
             let norm = crate::linalg::amax(col);
             if norm > 0.0 && norm.is_finite() {
-                let h = FD_STEP * size / norm;
-                for i in 0..n2 {
-                    xs[i] = y[i] + h * col[i];
-                }
-                self.base.diff(t, xs, up);
-                for i in 0..n2 {
-                    xs[i] = y[i] - h * col[i];
-                }
-                self.base.diff(t, xs, down);
-                evals += 2;
-                for i in 0..n2 {
-                    dy[out + i] = (up[i] - down[i]) / (2.0 * h);
+                if self.central {
+                    let h = FD_STEP * size / norm;
+                    for i in 0..n2 {
+                        xs[i] = y[i] + h * col[i];
+                    }
+                    self.base.diff(t, xs, up);
+                    for i in 0..n2 {
+                        xs[i] = y[i] - h * col[i];
+                    }
+                    self.base.diff(t, xs, down);
+                    evals += 2;
+                    for i in 0..n2 {
+                        dy[out + i] = (up[i] - down[i]) / (2.0 * h);
+                    }
+                } else {
+                    let h = FD_STEP_FORWARD * size / norm;
+                    for i in 0..n2 {
+                        xs[i] = y[i] + h * col[i];
+                    }
+                    self.base.diff(t, xs, up);
+                    evals += 1;
+                    for i in 0..n2 {
+                        dy[out + i] = (up[i] - f0[i]) / h;
+                    }
                 }
             } else {
                 dy[out..out + n2].fill(0.0);
             }
             if j == self.k
-                && let Some((plus, minus, dp)) = &self.perturbed
+                && let Some((plus, minus, width)) = &self.perturbed
             {
                 xs.copy_from_slice(&y[..n2]);
                 plus.diff(t, xs, up);
-                minus.diff(t, xs, down);
-                evals += 2;
+                if self.central {
+                    minus.diff(t, xs, down);
+                    evals += 2;
+                } else {
+                    down.copy_from_slice(f0);
+                    evals += 1;
+                }
                 for i in 0..n2 {
-                    dy[out + i] += self.tiny * (up[i] - down[i]) / (2.0 * dp);
+                    dy[out + i] += self.tiny * (up[i] - down[i]) / width;
                 }
             }
         }
