@@ -353,6 +353,17 @@ impl Envelope {
         self.vals.fill(0.0);
     }
 
+    /// Where entry (i, j), j ≤ i, inside the envelope is stored (for [`Envelope::add_at`]).
+    pub fn index(&self, i: usize, j: usize) -> usize {
+        self.idx(i, j)
+    }
+
+    /// Add v to the entry stored at `k` (from [`Envelope::index`]).
+    #[inline(always)]
+    pub fn add_at(&mut self, k: usize, v: f64) {
+        self.vals[k] += v;
+    }
+
     /// Add v to entry (i, j), j ≤ i, inside the envelope.
     #[inline(always)]
     pub fn add(&mut self, i: usize, j: usize, v: f64) {
