@@ -814,7 +814,7 @@ fn dense_output<Y: Slice, S: Interpolation<f64, Y> + OrdinaryNumericalMethod<f64
     let h = t1 - t0;
     let theta = (t - t0) / h;
     let mirrored = (t0 + (1.0 - theta) * h).clamp(t0, t1);
-    let mut y = solver.interpolate(mirrored)?.vec().clone();
+    let mut y = std::mem::take(solver.interpolate(mirrored)?.vec_mut());
     let (y0, y1) = (solver.y_prev().vec(), solver.y().vec());
     for i in 0..y.len() {
         let c1 = y1[i] - y0[i];

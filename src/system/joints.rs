@@ -9,6 +9,15 @@
 //! * only the normal locked (pin-in-slot, prismatic): `n₂ · (P1 − P2)` with n₂ ⟂ the
 //!   slot axis, turning with body 2 (1 row),
 //! * the angle locked (prismatic, fixed): `θ1 − θ2 − angle` (1 row).
+//!
+//! Φ is written once, generically over the scalar (f64 or dual numbers: A and b come from
+//! dual passes through it). One piece is hand-written: a planar joint's columns of A
+//! ([`Joint::column`]), since a point's derivative along its body's angle is a quarter
+//! turn of its arm. A `Dual64` pass per column cost three times as much (it builds the
+//! frames and both points for one derivative; num-dual's multi-direction duals were
+//! slower still), and no crate gives the Jacobian of these few lines of geometry cheaper
+//! than writing them out. The column is written in the dual pass's order of operations,
+//! so it is the same to the last bit (tests/elements.rs).
 
 use super::frame::{Frames, SysPoint};
 use crate::model::expr::Compiled;

@@ -778,7 +778,8 @@ impl System {
     /// A = ∂Φ/∂q by blocks into `ws.vals`: each element is differentiated over the
     /// coordinates it touches only (a joint: its two bodies), with each body's pose
     /// computed once and its derivative along a coordinate seeded without evaluating sin
-    /// and cos again. The cost grows linearly with the number of elements.
+    /// and cos again (planar joints: their columns written out, [`joints::Joint::column`]).
+    /// The cost grows linearly with the number of elements.
     pub fn jacobian_blocks(&self, ws: &mut Workspace, q: &[f64], t: f64) {
         self.poses_into(ws, q);
         self.jacobian_posed(ws, q, t);
