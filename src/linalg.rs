@@ -353,6 +353,17 @@ impl Envelope {
         self.vals.fill(0.0);
     }
 
+    /// Where entry (i, j), j ≤ i, inside the envelope is stored (for [`Envelope::add_at`]).
+    pub fn index(&self, i: usize, j: usize) -> usize {
+        self.idx(i, j)
+    }
+
+    /// Add v to the entry stored at `k` (from [`Envelope::index`]).
+    #[inline(always)]
+    pub fn add_at(&mut self, k: usize, v: f64) {
+        self.vals[k] += v;
+    }
+
     /// Add v to entry (i, j), j ≤ i, inside the envelope.
     #[inline(always)]
     pub fn add(&mut self, i: usize, j: usize, v: f64) {
@@ -371,27 +382,31 @@ impl Envelope {
         if !(scale > 0.0) || !scale.is_finite() {
             return false;
         }
+        // row by row on slices (no index arithmetic or bounds checks in the inner
+        // products); the same operations in the same order as entry by entry
         for i in 0..m {
             let fi = self.first[i];
-            for j in fi..=i {
-                let k0 = fi.max(self.first[j]);
-                let (ri, rj) = (self.idx(i, k0), self.idx(j, k0));
-                let mut s = self.vals[self.idx(i, j)];
-                for k in 0..j - k0 {
-                    s -= self.vals[ri + k] * self.vals[rj + k];
+            let (done, rest) = self.vals.split_at_mut(self.start[i]);
+            let row = &mut rest[..i + 1 - fi];
+            for j in fi..i {
+                let fj = self.first[j];
+                let k0 = fi.max(fj);
+                let rj = &done[self.start[j]..self.start[j] + j + 1 - fj];
+                let mut s = row[j - fi];
+                for (a, b) in row[k0 - fi..j - fi].iter().zip(&rj[k0 - fj..j - fj]) {
+                    s -= a * b;
                 }
-                if j < i {
-                    let d = self.vals[self.idx(j, j)];
-                    let at = self.idx(i, j);
-                    self.vals[at] = s / d;
-                } else {
-                    if !(s > tol * scale) {
-                        return false;
-                    }
-                    let at = self.idx(i, i);
-                    self.vals[at] = s.sqrt();
-                }
+                row[j - fi] = s / rj[j - fj];
             }
+            let (off, diag) = row.split_at_mut(i - fi);
+            let mut s = diag[0];
+            for a in off.iter() {
+                s -= a * a;
+            }
+            if !(s > tol * scale) {
+                return false;
+            }
+            diag[0] = s.sqrt();
         }
         true
     }
@@ -401,20 +416,22 @@ impl Envelope {
         let m = self.dim();
         for i in 0..m {
             let fi = self.first[i];
-            let row = self.idx(i, fi);
-            let mut s = r[i];
-            for k in fi..i {
-                s -= self.vals[row + k - fi] * r[k];
+            let row = &self.vals[self.start[i]..self.start[i] + i + 1 - fi];
+            let (head, tail) = r.split_at_mut(i);
+            let mut s = tail[0];
+            for (a, x) in row[..i - fi].iter().zip(&head[fi..]) {
+                s -= a * x;
             }
-            r[i] = s / self.vals[self.idx(i, i)];
+            tail[0] = s / row[i - fi];
         }
         for i in (0..m).rev() {
             let fi = self.first[i];
-            let row = self.idx(i, fi);
-            r[i] /= self.vals[self.idx(i, i)];
-            let ri = r[i];
-            for k in fi..i {
-                r[k] -= self.vals[row + k - fi] * ri;
+            let row = &self.vals[self.start[i]..self.start[i] + i + 1 - fi];
+            let (head, tail) = r.split_at_mut(i);
+            tail[0] /= row[i - fi];
+            let ri = tail[0];
+            for (x, a) in head[fi..].iter_mut().zip(&row[..i - fi]) {
+                *x -= a * ri;
             }
         }
     }

@@ -29,6 +29,7 @@ mod common;
 use detune::system::Workspace;
 use detune::{Model, System, assemble};
 use nalgebra::{DMatrix, DVector, SymmetricEigen};
+use num_dual::Dual64;
 use std::f64::consts::PI;
 
 // ---- shared helpers: states, differences, errors --------------------------------------
@@ -305,6 +306,24 @@ fn check_constraints(
             "{at_state}\nA {a} vs differences {a_fd} ({e:e})"
         );
         w.a = w.a.max(e);
+
+        // the hand-written planar joint columns against one Dual64 pass through Φ per
+        // coordinate: the same numbers, to the last bit
+        if !sys.spatial {
+            for j in 0..n {
+                let qd: Vec<Dual64> = (0..n)
+                    .map(|i| Dual64::new(q[i], if i == j { 1.0 } else { 0.0 }))
+                    .collect();
+                let mut out = vec![Dual64::from(0.0); m];
+                sys.phi(&qd, Dual64::from(t), &mut out);
+                let col: Vec<f64> = out.iter().map(|x| x.eps).collect();
+                assert!(
+                    a.column(j).iter().zip(&col).all(|(x, y)| x == y),
+                    "{at_state}\nA column {j} {} vs dual numbers {col:?}",
+                    a.column(j)
+                );
+            }
+        }
 
         sys.phi_t(&mut ws, q, t, &mut phi_t);
         let pt_fd = d1(|s| sys.residual(q, t + s), H1);

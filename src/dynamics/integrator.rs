@@ -733,7 +733,14 @@ impl Run<'_> {
                             Some((tc, f)) if tc == t_prev => f,
                             _ => derivative(guarded, t_prev, solver.y_prev().vec()),
                         };
-                        ends = Some((f0, derivative(guarded, t_new, solver.y().vec())));
+                        // f at the accepted end: DOP853 evaluated it (the step's call 12,
+                        // kept for the stiffness test), the same numbers again for nothing
+                        let f1 = if guarded.calls.get() >= DOP853_END {
+                            guarded.f_new.borrow().clone()
+                        } else {
+                            derivative(guarded, t_new, solver.y().vec())
+                        };
+                        ends = Some((f0, f1));
                     }
                     let (f0, f1) = ends.as_ref().expect("set above");
                     let yk = dense_output(&mut solver, tk, f0, f1).map_err(integration_error)?;
@@ -807,7 +814,7 @@ fn dense_output<Y: Slice, S: Interpolation<f64, Y> + OrdinaryNumericalMethod<f64
     let h = t1 - t0;
     let theta = (t - t0) / h;
     let mirrored = (t0 + (1.0 - theta) * h).clamp(t0, t1);
-    let mut y = solver.interpolate(mirrored)?.vec().clone();
+    let mut y = std::mem::take(solver.interpolate(mirrored)?.vec_mut());
     let (y0, y1) = (solver.y_prev().vec(), solver.y().vec());
     for i in 0..y.len() {
         let c1 = y1[i] - y0[i];

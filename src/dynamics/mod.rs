@@ -43,6 +43,9 @@ pub struct DynWorkspace {
     /// The sparse path: A W Aᵀ in envelope storage and the entries of each column of A.
     gram_env: Envelope,
     col_entries: Vec<Vec<(usize, usize)>>,
+    /// Planar models: the products that make A M⁻¹ Aᵀ, in the order of `col_entries`:
+    /// (envelope entry, A value, A value, column), so that assembling it is one flat loop.
+    gram_plan: Vec<[u32; 4]>,
     y: Vec<f64>,
     /// Spatial models: M⁻¹ at the current pose by groups of velocities.
     minv: MassInverse,
@@ -162,7 +165,13 @@ impl DynWorkspace {
         } else {
             gram_envelope(sys.m(), &col_entries)
         };
+        let gram_plan = if sys.spatial {
+            Vec::new()
+        } else {
+            gram_plan(&col_entries, &gram_env)
+        };
         DynWorkspace {
+            gram_plan,
             minv,
             sys: Workspace::new(sys),
             a: DMatrix::zeros(m, n),
@@ -191,6 +200,23 @@ fn column_entries(sys: &System) -> Vec<Vec<(usize, usize)>> {
         }
     }
     cols
+}
+
+/// The products of A M⁻¹ Aᵀ for a diagonal M, in the order [`weighted_solve`] once
+/// looped over `col_entries` (so the sums are the same): for each column j and each pair
+/// of its entries (row ra ≥ rb or the other way): the envelope entry, the two values'
+/// indices, j.
+fn gram_plan(cols: &[Vec<(usize, usize)>], env: &Envelope) -> Vec<[u32; 4]> {
+    let mut plan = Vec::new();
+    for (j, entries) in cols.iter().enumerate() {
+        for (k, &(ra, ia)) in entries.iter().enumerate() {
+            for &(rb, ib) in &entries[..=k] {
+                let (hi, lo) = if ra >= rb { (ra, rb) } else { (rb, ra) };
+                plan.push([env.index(hi, lo), ia, ib, j].map(|x| x as u32));
+            }
+        }
+    }
+    plan
 }
 
 /// The inverse of a symmetric n × n matrix (n ≤ 3, row-major) in closed form, and its
@@ -337,14 +363,10 @@ fn weighted_solve(sys: &System, ws: &mut DynWorkspace, out: &mut [f64]) {
         return weighted_solve_groups(sys, ws, out);
     }
     ws.gram_env.clear();
-    for (j, entries) in ws.col_entries.iter().enumerate() {
-        for (k, &(ra, ia)) in entries.iter().enumerate() {
-            let wa = ws.sys.vals[ia] * sys.mass_inv_diag[j];
-            for &(rb, ib) in &entries[..=k] {
-                let (hi, lo) = if ra >= rb { (ra, rb) } else { (rb, ra) };
-                ws.gram_env.add(hi, lo, wa * ws.sys.vals[ib]);
-            }
-        }
+    let vals = &ws.sys.vals;
+    for &[at, ia, ib, j] in &ws.gram_plan {
+        let wa = vals[ia as usize] * sys.mass_inv_diag[j as usize];
+        ws.gram_env.add_at(at as usize, wa * vals[ib as usize]);
     }
     if ws.gram_env.factor(CHOL_TOL) {
         ws.y.copy_from_slice(ws.r.as_slice());

@@ -9,6 +9,15 @@
 //! * only the normal locked (pin-in-slot, prismatic): `n₂ · (P1 − P2)` with n₂ ⟂ the
 //!   slot axis, turning with body 2 (1 row),
 //! * the angle locked (prismatic, fixed): `θ1 − θ2 − angle` (1 row).
+//!
+//! Φ is written once, generically over the scalar (f64 or dual numbers: A and b come from
+//! dual passes through it). One piece is hand-written: a planar joint's columns of A
+//! ([`Joint::column`]), since a point's derivative along its body's angle is a quarter
+//! turn of its arm. A `Dual64` pass per column cost three times as much (it builds the
+//! frames and both points for one derivative; num-dual's multi-direction duals were
+//! slower still), and no crate gives the Jacobian of these few lines of geometry cheaper
+//! than writing them out. The column is written in the dual pass's order of operations,
+//! so it is the same to the last bit (tests/elements.rs).
 
 use super::frame::{Frames, SysPoint};
 use crate::model::expr::Compiled;
@@ -111,6 +120,64 @@ impl Joint {
         };
         if let Some(angle) = self.angle {
             out[r] = fr.angle(self.a.body) - fr.angle(self.b.body) - fr.env.coef(angle);
+        }
+    }
+}
+
+impl Joint {
+    /// The column of A = ∂Φ/∂q of this joint's rows along tangent direction `d` (0 = x,
+    /// 1 = y, 2 = θ) of body `k`, in f64 from the frames' poses (the ground's motion does
+    /// not depend on q). Written out by hand from Φ because a planar point's derivative is
+    /// a quarter turn of its arm, `∂(r + R p)/∂θ = (−(R p)_y, (R p)_x)`: the same numbers, in
+    /// the same order of operations, as a `Dual64` pass through [`Joint::phi`] with the
+    /// pose seeded along (k, d) (tests/elements.rs compares them), at a fraction of its
+    /// cost. The envelope of a column: `out` has [`Joint::rows`] entries.
+    #[inline]
+    pub fn column<E: Env<f64>>(
+        &self,
+        fr: &Frames<'_, f64, E>,
+        k: usize,
+        d: usize,
+        out: &mut [f64],
+    ) {
+        let dpos = |pt: &SysPoint| -> [f64; 2] {
+            if pt.body != Some(k) {
+                return [0.0, 0.0];
+            }
+            match d {
+                0 => [1.0, 0.0],
+                1 => [0.0, 1.0],
+                _ => {
+                    let a = fr.arm(pt);
+                    [-a[1], a[0]]
+                }
+            }
+        };
+        let (da, db) = (dpos(&self.a), dpos(&self.b));
+        let r = match self.translation {
+            Translation::Both => {
+                out[0] = da[0] - db[0];
+                out[1] = da[1] - db[1];
+                2
+            }
+            Translation::Normal { n } => {
+                let (pa, pb) = (fr.position(&self.a), fr.position(&self.b));
+                let nw = fr.rotate_coefs(self.b.body, n);
+                let dn = if self.b.body == Some(k) && d == 2 {
+                    [-nw[1], nw[0]]
+                } else {
+                    [0.0, 0.0]
+                };
+                let (x, y) = (pa[0] - pb[0], pa[1] - pb[1]);
+                let (dx, dy) = (da[0] - db[0], da[1] - db[1]);
+                // d(x n0 + y n1) as a dual product writes it: ẋ n0 + ṅ0 x, …
+                out[0] = (dx * nw[0] + dn[0] * x) + (dy * nw[1] + dn[1] * y);
+                1
+            }
+        };
+        if self.angle.is_some() {
+            let turn = |body: Option<usize>| if body == Some(k) && d == 2 { 1.0 } else { 0.0 };
+            out[r] = turn(self.a.body) - turn(self.b.body);
         }
     }
 }

@@ -778,7 +778,8 @@ impl System {
     /// A = ∂Φ/∂q by blocks into `ws.vals`: each element is differentiated over the
     /// coordinates it touches only (a joint: its two bodies), with each body's pose
     /// computed once and its derivative along a coordinate seeded without evaluating sin
-    /// and cos again. The cost grows linearly with the number of elements.
+    /// and cos again (planar joints: their columns written out, [`joints::Joint::column`]).
+    /// The cost grows linearly with the number of elements.
     pub fn jacobian_blocks(&self, ws: &mut Workspace, q: &[f64], t: f64) {
         self.poses_into(ws, q);
         self.jacobian_posed(ws, q, t);
@@ -803,6 +804,38 @@ impl System {
             return self.jacobian_posed3(ws, q, t);
         }
         let env = self.env();
+        // planar joints by their hand-written columns (`Joint::column`), from f64 poses
+        let fr = Frames {
+            q,
+            poses: &ws.pose_f,
+            poses3: &[],
+            nrot: &[],
+            offsets: &self.offsets,
+            ground: GroundPose::at(&self.ground, t, env),
+            env,
+        };
+        for (c, b) in self.constraints.iter().zip(&self.blocks) {
+            let joints::Constraint::Joint(joint) = c else {
+                continue;
+            };
+            let ncols = b.cols.len();
+            for (ci, &j) in b.cols.iter().enumerate() {
+                let (k, d) = self.coord_body[j];
+                let mut col = [0.0; 3];
+                joint.column(&fr, k, d, &mut col);
+                for r in 0..b.rows {
+                    ws.vals[b.val0 + r * ncols + ci] = col[r];
+                }
+            }
+        }
+        // the rest (custom constraints, which read q) by one dual pass per column
+        if self
+            .constraints
+            .iter()
+            .all(|c| matches!(c, joints::Constraint::Joint(_)))
+        {
+            return;
+        }
         for k in 0..self.offsets.len() {
             ws.pose_d[k] = ws.pose_f[k].lift();
         }
@@ -811,7 +844,11 @@ impl System {
         }
         let td = Dual64::from(t);
         let ground = GroundPose::at(&self.ground, td, env);
+        // the rest (custom constraints) by one dual pass per column
         for (c, b) in self.constraints.iter().zip(&self.blocks) {
+            if matches!(c, joints::Constraint::Joint(_)) {
+                continue;
+            }
             let ncols = b.cols.len();
             for (ci, &j) in b.cols.iter().enumerate() {
                 let (k, d) = self.coord_body[j];
