@@ -538,3 +538,37 @@ fn command_wording_and_requests() {
         "{out}"
     );
 }
+
+/// The range given downward (4.5 to 3) finds what the upward one finds: the first branch
+/// comes down the large branch to 3, and the far end's start (the small branch) is traced
+/// too, with its fold; every point stays inside the range (a branch that turns back ends
+/// at the range's end exactly). A forcing-amplitude continuation scales its steps by the
+/// largest linear orbit across the range, not the one at its start.
+#[test]
+fn either_direction_and_another_parameter() {
+    let sys = model(&[("theta1_0", -0.85), ("c", 1.0), ("F0", 4.0)]);
+    let down = NfrOptions::new("omega", 4.5, 3.0, vec!["bar1.theta".into()]);
+    let c = nfr(&sys, &down, &|_, _| {}, &AtomicBool::new(false)).unwrap();
+    assert!(c.complete, "{:?}", c.branches);
+    assert_eq!(c.folds.len(), 1, "{:?}", c.folds);
+    assert!((c.folds[0].omega - 4.024061575).abs() < 1e-8);
+    assert!(c.folds[0].refined && c.folds[0].uncertainty < 1e-8);
+    assert_eq!(c.period_doublings.len(), 1, "{:?}", c.period_doublings);
+    assert!((c.period_doublings[0].omega - 3.2027417).abs() < 1e-6);
+    assert!(
+        c.points
+            .iter()
+            .all(|p| p.omega >= 3.0 - 1e-12 && p.omega <= 4.5 + 1e-12),
+        "a point outside the range"
+    );
+    // F0 from 0.01 to 2 N at 4 rad/s: the orbit grows 200 times along the range
+    let sys = model(&[("theta1_0", -0.85), ("c", 1.0), ("omega", 4.0)]);
+    let f0 = NfrOptions::new("F0", 0.01, 2.0, vec!["bar1.theta".into()]);
+    let c = nfr(&sys, &f0, &|_, _| {}, &AtomicBool::new(false)).unwrap();
+    assert!(c.complete, "{:?}", c.branches);
+    assert!(c.points.len() < 100, "{} points", c.points.len());
+    assert_eq!(
+        c.branches[0].ended,
+        detune::periodic::continuation::BranchEnd::Reached
+    );
+}

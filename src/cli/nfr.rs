@@ -201,6 +201,18 @@ pub fn run(a: NfrArgs) -> Result<()> {
                 .to_string()
         }
     };
+    // a difference of values (an uncertainty): two significant digits
+    let shown_difference = |v: f64| -> String {
+        let v = if is_freq { fu.of(v) } else { v };
+        let unit = if is_freq {
+            fu.symbol()
+        } else {
+            param_unit.as_str()
+        };
+        format!("{} {unit}", significant(v, 2))
+            .trim_end()
+            .to_string()
+    };
     let curve = nfr(
         &sys,
         &opts,
@@ -294,7 +306,7 @@ pub fn run(a: NfrArgs) -> Result<()> {
                 curve.param,
                 shown(b.from),
                 b.points,
-                branch_end(&b.end, &curve.param, b.to, &shown)
+                b.words(&curve.param, &shown)
             );
         }
         let amp = |s: &detune::periodic::continuation::Special| -> String {
@@ -314,7 +326,7 @@ pub fn run(a: NfrArgs) -> Result<()> {
             .chain(&curve.neimark_sacker)
         {
             println!(
-                "{} at {} = {}: amplitude {}; {}",
+                "{} at {} = {} ({}): amplitude {}; {}",
                 match s.kind {
                     detune::periodic::continuation::Located::Fold => "fold",
                     detune::periodic::continuation::Located::PeriodDoubling => "period doubling",
@@ -322,6 +334,7 @@ pub fn run(a: NfrArgs) -> Result<()> {
                 },
                 curve.param,
                 shown(s.value),
+                located_to(s.refined, s.uncertainty, &shown_difference),
                 amp(s),
                 jump_words(&curve, s)
             );
@@ -334,10 +347,11 @@ pub fn run(a: NfrArgs) -> Result<()> {
                 .map(|i| curve.units[i])
                 .unwrap_or("");
             println!(
-                "peak {}: {} = {}, amplitude {:.6e} {unit}",
+                "peak {}: {} = {} ({}), amplitude {:.6e} {unit}",
                 p.response,
                 curve.param,
                 shown(p.value),
+                located_to(p.refined, p.uncertainty, &shown_difference),
                 p.amplitude
             );
         }
@@ -351,10 +365,11 @@ pub fn run(a: NfrArgs) -> Result<()> {
             .into());
         }
         // what stopped it, from the branches' ends (the library's words)
-        let ended = |what: &str| curve.branches.iter().any(|b| b.end.contains(what));
-        let help = if ended("no longer converges") {
+        use detune::periodic::continuation::BranchEnd;
+        let ended = |what: BranchEnd| curve.branches.iter().any(|b| b.ended == what);
+        let help = if ended(BranchEnd::Stalled) {
             "the branch lines above say where: tighten --rtol/--atol, lower --max-step, or end --from/--to before that value (a non-smooth element there may need a wider smoothing)"
-        } else if ended("single shooting") {
+        } else if ended(BranchEnd::Unstable) {
             "the orbit there is too unstable for single shooting: end --from/--to before that value"
         } else {
             "raise --max-points, or narrow --from/--to around what matters"
@@ -370,14 +385,17 @@ pub fn run(a: NfrArgs) -> Result<()> {
     Ok(())
 }
 
-/// How a branch ended (the library's words, `<param> = <value>` with the value as
-/// `f64`'s `Display` writes it), with that value `shown` in the unit asked for.
-fn branch_end(end: &str, param: &str, value: f64, shown: &dyn Fn(f64) -> String) -> String {
-    end.replacen(
-        &format!("{param} = {value}"),
-        &format!("{param} = {}", shown(value)),
-        1,
-    )
+/// How well a located point is known: "± 2.5e-5 rad/s", or, where locating failed,
+/// that it is the continuation's own point.
+fn located_to(refined: bool, uncertainty: f64, shown: &dyn Fn(f64) -> String) -> String {
+    if refined {
+        format!("± {}", shown(uncertainty))
+    } else {
+        format!(
+            "not refined: ± {}, the continuation's step",
+            shown(uncertainty)
+        )
+    }
 }
 
 /// `x` to `digits` significant digits, in plain notation from 1e-4 to 1e7 (`2.968161`,
@@ -397,20 +415,10 @@ fn significant(x: f64, digits: usize) -> String {
 
 #[cfg(test)]
 mod tests {
-    use super::{branch_end, significant};
+    use super::significant;
 
     #[test]
-    fn branch_end_in_the_unit_asked_for() {
-        let hz = |v: f64| format!("{:.6} Hz", v / (2.0 * std::f64::consts::PI));
-        assert_eq!(
-            branch_end(
-                "turned back and left the range at omega = 2.9950710345863336",
-                "omega",
-                2.9950710345863336,
-                &hz
-            ),
-            "turned back and left the range at omega = 0.476680 Hz"
-        );
+    fn significant_digits() {
         assert_eq!(significant(1.371070973412056, 7), "1.371071");
         assert_eq!(significant(-1371.070973412056, 7), "-1371.071");
         assert_eq!(significant(2.5e-7, 3), "2.50e-7");

@@ -134,7 +134,7 @@ pub struct Special {
     /// The continued parameter's direction before it (+1 increasing, −1 decreasing).
     pub direction_before: f64,
     /// How well `value` is known: the last change of the located value (the iteration
-    /// stops below 1e-10 of it); where locating failed, half the continuation step that
+    /// stops below 1e-10 of it), at least 1e-9 of the value; where locating failed, half the continuation step that
     /// brackets the point, which is then given at the bracket's end nearer the zero.
     pub uncertainty: f64,
     /// False when locating failed (the point is the bracket's end).
@@ -293,6 +293,18 @@ pub fn nfr(
                 sx = sx.max(state_norm(&yw, w));
             }
         }
+    } else {
+        // another parameter moves the equilibrium and the forcing: the linear response
+        // across the range (a forcing amplitude from 0.01 to 2 has its largest orbit at
+        // the far end)
+        for j in 1..=10 {
+            let v = opts.from + (opts.to - opts.from) * j as f64 / 10.0;
+            if let Ok(sv) = sys.with_param(param, v)
+                && let Ok(l) = linear_start(&sv, freq, &omega_param)
+            {
+                sx = sx.max(state_norm(&l.y, sv.param(freq)));
+            }
+        }
     }
     let sx = sx.max(1e-12);
     let mut tr = Tracer {
@@ -330,12 +342,13 @@ pub fn nfr(
         )
     };
     let mut complete = covers(one.end) && !interrupted;
-    let reached = one.end == BranchEnd::Reached;
     all.extend(one.nodes.iter().cloned());
     branches.push(one.summary(0, opts));
-    // The far end, unless the first branch got there: another branch may live there,
-    // apart from the first (a resonance whose two sides meet only in a chaotic tangle).
-    if !reached && !interrupted && budget > 0 {
+    // The far end: another branch may live there, apart from the first (a resonance
+    // whose two sides meet only in a chaotic tangle, or the small branch of a softening
+    // resonance when the first came down the large one); skipped when its orbit is on
+    // the first branch.
+    if !interrupted && budget > 0 {
         let sys1 = tr.sh.sys.with_param(param, opts.to)?;
         let guess = linear_start(&sys1, freq, &omega_param)?;
         let guess = (guess.eq, guess.x);
@@ -501,8 +514,9 @@ fn on_branch(n: &Node, nodes: &[Node]) -> bool {
 }
 
 /// How a branch ended.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-enum BranchEnd {
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum BranchEnd {
     /// At the far end of the range.
     Reached,
     /// Back out through the end it started from.
@@ -531,19 +545,19 @@ pub struct BranchSummary {
     pub from: f64,
     pub to: f64,
     pub points: usize,
-    /// How it ended, in words.
+    /// How it ended, in words (`words` with the values as `f64` displays them).
     pub end: String,
+    /// How it ended.
+    pub ended: BranchEnd,
+    /// The largest Floquet multiplier's modulus at its last point.
+    pub floquet_max: f64,
 }
 
-impl Branch {
-    fn summary(&self, index: usize, opts: &NfrOptions) -> BranchSummary {
-        let first = self.nodes.first().map_or(f64::NAN, |n| n.point.value);
-        let last = self.nodes.last().map_or(f64::NAN, |n| n.point.value);
-        let mu = self.nodes.last().map_or(0.0, |n| {
-            n.point.multipliers.first().map_or(0.0, |m| m.norm())
-        });
-        let p = &opts.param;
-        let end = match self.end {
+impl BranchSummary {
+    /// How it ended, in words, with the parameter's values written by `shown`.
+    pub fn words(&self, param: &str, shown: &dyn Fn(f64) -> String) -> String {
+        let (last, mu, p) = (shown(self.to), self.floquet_max, param);
+        match self.ended {
             BranchEnd::Reached => format!("reached {p} = {last}"),
             BranchEnd::Returned => format!("turned back and left the range at {p} = {last}"),
             BranchEnd::Joined => format!("joins the branch traced before at {p} = {last}"),
@@ -554,17 +568,31 @@ impl Branch {
                 "stopped at {p} = {last}: the orbit's largest Floquet multiplier ({mu:.3e}) is beyond what single shooting resolves"
             ),
             BranchEnd::PointLimit => {
-                format!("stopped at {p} = {last} after {} points", self.nodes.len())
+                format!("stopped at {p} = {last} after {} points", self.points)
             }
             BranchEnd::Interrupted => format!("interrupted at {p} = {last}"),
-        };
-        BranchSummary {
+        }
+    }
+}
+
+impl Branch {
+    fn summary(&self, index: usize, opts: &NfrOptions) -> BranchSummary {
+        let first = self.nodes.first().map_or(f64::NAN, |n| n.point.value);
+        let last = self.nodes.last().map_or(f64::NAN, |n| n.point.value);
+        let mu = self.nodes.last().map_or(0.0, |n| {
+            n.point.multipliers.first().map_or(0.0, |m| m.norm())
+        });
+        let mut summary = BranchSummary {
             index,
             from: first,
             to: last,
             points: self.nodes.len(),
-            end,
-        }
+            end: String::new(),
+            ended: self.end,
+            floquet_max: mu,
+        };
+        summary.end = summary.words(&opts.param, &|v| format!("{v}"));
+        summary
     }
 }
 
@@ -799,7 +827,25 @@ impl Tracer<'_> {
                 return finish(nodes, located, BranchEnd::Reached);
             }
             if (v - from) * dir < 0.0 {
-                nodes.push(next);
+                // the point at `from` exactly: the curve stays inside the range (this
+                // side's, not the branch's start across the fold)
+                let dist = |a: &Node, b: &Node| {
+                    a.point
+                        .x
+                        .iter()
+                        .zip(&b.point.x)
+                        .map(|(u, v)| (u - v).powi(2))
+                        .sum::<f64>()
+                };
+                let end = match self.correct(&last, 0.0, Some(from)) {
+                    Ok(Some(mut end)) if dist(&end, &next) < dist(&end, &nodes[0]) => {
+                        end.point.s = last.point.s
+                            + ((from - last.point.value) / (v - last.point.value)) * ds;
+                        end
+                    }
+                    _ => next,
+                };
+                nodes.push(end);
                 return finish(nodes, located, BranchEnd::Returned);
             }
             let joined = !before.is_empty() && on_branch(&next, before);
@@ -1068,12 +1114,14 @@ impl Tracer<'_> {
                 best = Some((g, n));
             }
             // Converged when the test function vanishes, the arclength stops moving, or
-            // the located value does: at a fold the value is stationary in the
-            // arclength, so it settles long before the arclength does.
+            // the located value does near the zero: at a fold the value is stationary in
+            // the arclength, so it settles long before the arclength does
+            // (two trials either side of a fold can also share a value: the test
+            // function must be small too)
             change = (p - p_prev).abs();
             if g.abs() <= small
                 || (s - s_prev).abs() < 1e-10 * ds
-                || change <= 1e-10 * p.abs().max(self.sp)
+                || (change <= 1e-10 * p.abs().max(self.sp) && g.abs() <= 1e-4 * scale)
             {
                 break;
             }
@@ -1097,9 +1145,16 @@ impl Tracer<'_> {
         }
         // the best trial must be a zero of the test function, not just the last one
         // tried before the corrector gave up
-        Ok(best
-            .filter(|(g, _)| g.abs() <= 1e-3 * scale)
-            .map(|(_, n)| (n, if change.is_finite() { change } else { 0.0 })))
+        Ok(best.filter(|(g, _)| g.abs() <= 1e-3 * scale).map(|(_, n)| {
+            // at least 1e-9 of the value: the integration's own tolerance moves it
+            let floor = 1e-9 * n.point.value.abs();
+            let u = if change.is_finite() {
+                change.max(floor)
+            } else {
+                floor
+            };
+            (n, u)
+        }))
     }
 
     /// Locate the peak of response `r`'s amplitude near `all[i]` by successive parabolic
