@@ -515,7 +515,15 @@ impl Ctx<'_> {
             let phase = x[n + r] / omega;
             let size = flow.scale[r].max(a.abs()) + 1e-300;
             let cond = amp.abs().max(phase.abs()) / size;
-            if rel <= self.sh.opts.tol && cond <= 1e-10 {
+            // converged, or stalled at the integration's noise after a Newton step (near
+            // a separatrix the period is sensitive to the amplitude and the noise grows:
+            // the same floor as the forced curve's, `continuation::NOISE_FLOOR`)
+            let converged = rel <= self.sh.opts.tol && cond <= 1e-10;
+            let noise = it > 0
+                && rel <= super::continuation::NOISE_FLOOR
+                && cond <= 1e-8
+                && rel.max(cond) > 0.25 * prev;
+            if converged || noise {
                 let amplitudes = (0..flow.values.first().map_or(0, |v| v.len()))
                     .map(|k| {
                         let s: Vec<f64> = flow.values.iter().map(|v| v[k]).collect();

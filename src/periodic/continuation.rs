@@ -664,7 +664,7 @@ fn test(kind: Located, n: &Node) -> Option<f64> {
 
 /// The largest Newton residual (relative to the orbit's amplitude) accepted as the
 /// integration's noise when the iteration stops converging (`Tracer::correct`).
-const NOISE_FLOOR: f64 = 1e-6;
+pub(crate) const NOISE_FLOOR: f64 = 1e-6;
 
 impl Tracer<'_> {
     /// The first point: Newton at p = from from the linear response; where that fails,
