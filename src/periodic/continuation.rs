@@ -711,7 +711,34 @@ impl Tracer<'_> {
             settle_tol: 1e-6,
             ..Default::default()
         };
-        let s = crate::frequency::steady_state(&self.sh.sys, &state, &[], &steady, self.cancel)?;
+        let hint = "start the curve at another value (a frequency away from resonances and jumps: near an undamped resonance the linear response is unbounded), or raise the damping";
+        let s = match crate::frequency::steady_state(
+            &self.sh.sys,
+            &state,
+            &[],
+            &steady,
+            self.cancel,
+        ) {
+            Ok(s) => s,
+            Err(e) if is_interrupt(&e) => return Err(e),
+            Err(e) => {
+                let why = e.failure().map_or_else(
+                    || {
+                        let text = e.render(false);
+                        let first = text.lines().next().unwrap_or_default();
+                        first.trim_start_matches("error: ").to_string()
+                    },
+                    |f| f.to_string(),
+                );
+                return Err(Error::request(
+                    format!(
+                        "no periodic orbit found at {} = {}: shooting from the linear response does not converge, and the motion started there cannot be settled ({why})",
+                        opts.param, from
+                    ),
+                    hint,
+                ));
+            }
+        };
         state = s.end;
         let x: Vec<f64> = state.q.iter().chain(&state.v).copied().collect();
         let guess = base(&mut self.sh, x)?;
@@ -722,7 +749,7 @@ impl Tracer<'_> {
                     "no periodic orbit found at {} = {}: shooting from the linear response and from a settled response does not converge",
                     opts.param, from
                 ),
-                "start the curve at another value (a frequency away from resonances and jumps), or raise the damping",
+                hint,
             )),
         }
     }
