@@ -247,3 +247,97 @@ fn nfr_against_the_stepped_sine() {
         );
     }
 }
+
+fn inceptor_7mm() -> detune::System {
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/models/inceptor.toml");
+    let sets: Vec<(String, String)> = [("breakout", "1"), ("D0", "7 mm")]
+        .iter()
+        .map(|(a, b)| (a.to_string(), b.to_string()))
+        .collect();
+    let m = detune::Model::load(path)
+        .unwrap()
+        .with_overrides(&sets)
+        .unwrap();
+    detune::System::new(&m).unwrap()
+}
+
+/// The second case: the inceptor's breakout variant at 7 mm over 20–32 rad/s by
+/// `nfr`, against `sweep --mode both --refine 1e-4` on the 0.25 rad/s grid of
+/// docs/nonlinear-elements.md. The curve has no fold or bifurcation there (one stable
+/// branch), so the comparison is the peak: each refined peak of the sweep within 1e-4
+/// rad/s (plus the sweep's own uncertainty) of the one `nfr` locates. Minutes (the
+/// stepped sine's refinement): run once, `--ignored --nocapture`.
+#[test]
+#[ignore = "minutes: the inceptor's row of the speed benchmark (docs/performance.md)"]
+fn nfr_against_the_stepped_sine_inceptor() {
+    let sys = inceptor_7mm();
+    let cancel = AtomicBool::new(false);
+    let response = "stick.phi".to_string();
+
+    let began = Instant::now();
+    let opts = NfrOptions::new("omega", 20.0, 32.0, vec![response.clone()]);
+    let c = nfr(&sys, &opts, &|_, _| {}, &cancel).unwrap();
+    let t_nfr = began.elapsed().as_secs_f64();
+    assert!(c.complete, "{:?}", c.branches);
+    println!(
+        "nfr: {t_nfr:.2} s, {} RHS, {} periods, {} points; {} folds, {} period doublings, {} Neimark-Sacker",
+        c.rhs_evaluations,
+        c.periods,
+        c.points.len(),
+        c.folds.len(),
+        c.period_doublings.len(),
+        c.neimark_sacker.len()
+    );
+    for p in &c.peaks {
+        println!(
+            "  peak at {:.7} ± {:.1e} ({:.6})",
+            p.omega, p.uncertainty, p.amplitude
+        );
+    }
+
+    let began = Instant::now();
+    let sopts = SweepOptions {
+        param: "omega".into(),
+        values: detune::linear::grid(20.0, 32.0, 0.25).unwrap(),
+        mode: SweepMode::Both,
+        responses: vec![response.clone()],
+        refine: Some(RESOLUTION),
+        steady: SteadyOptions::default(),
+    };
+    let sw = sweep(&sys, &sopts, &|_| {}, &cancel).unwrap();
+    let t_sweep = began.elapsed().as_secs_f64();
+    assert!(sw.complete);
+    println!(
+        "sweep --mode both --refine 1e-4 (0.25 grid): {t_sweep:.2} s, {} RHS, {} steady states, {} periods",
+        sw.rhs_evaluations,
+        sw.points.len(),
+        sw.points.iter().map(|p| p.steady.periods).sum::<usize>()
+    );
+    for p in &sw.peaks {
+        println!(
+            "  peak {:?} at {:.7} ± {:.1e} ({:.6})",
+            p.direction, p.omega, p.uncertainty, p.amplitude
+        );
+    }
+    for j in &sw.jumps {
+        println!("  jump {:?} between {} and {}", j.direction, j.from, j.to);
+    }
+    println!(
+        "ratio nfr / stepped sine: RHS {:.3}, wall {:.3}",
+        c.rhs_evaluations as f64 / sw.rhs_evaluations as f64,
+        t_nfr / t_sweep
+    );
+
+    assert!(c.folds.is_empty() && c.period_doublings.is_empty());
+    assert!(sw.jumps.is_empty(), "{:?}", sw.jumps);
+    assert_eq!(c.peaks.len(), 1, "{:?}", c.peaks);
+    for q in &sw.peaks {
+        let d = (q.omega - c.peaks[0].omega).abs();
+        println!("  {:?} sweep's peak - nfr's: {d:.2e}", q.direction);
+        assert!(
+            d < RESOLUTION + q.uncertainty,
+            "the sweep's peak {q:?} vs nfr's {:?}",
+            c.peaks[0]
+        );
+    }
+}
