@@ -3,7 +3,8 @@
 //!
 //! `#[ignore]`d (about a minute): run with
 //! `cargo test --release --test nfr_speed -- --ignored --nocapture`; its printout is the
-//! table of docs/performance.md. It asserts positions only (no timings):
+//! table of docs/performance.md. The inceptor's 7 mm curve (the second case) is
+//! the second ignored test, at the end (about 7 minutes). It asserts positions only (no timings):
 //! * the stepped sine (`sweep --mode both --refine 1e-4` on a 0.1 rad/s grid, as docs/frequency-response.md runs it) refines
 //!   peaks, but places its jumps only between two grid frequencies. To place them to
 //!   1e-4 rad/s as well, each jump's bracket is bisected here the way a sequential sweep
@@ -266,10 +267,11 @@ fn inceptor_7mm() -> detune::System {
 /// docs/nonlinear-elements.md. The curve has no fold or bifurcation there (one stable
 /// branch), so the comparison is the peak: the sweep's refined peaks, up and down, at its
 /// default settling tolerance and at 1e-10, within 1e-3 rad/s of the one `nfr` locates
-/// (printed: how far; docs/performance.md), the amplitudes within 1e-6. About two minutes:
+/// (printed: how far; docs/performance.md), the amplitudes within 1e-6. About 7 minutes
+/// (the 1e-10 sweep takes 6 of them):
 /// `cargo test --release --test nfr_speed -- --ignored --nocapture`.
 #[test]
-#[ignore = "two minutes: the inceptor's row of the speed benchmark (docs/performance.md)"]
+#[ignore = "7 minutes: the inceptor's row of the speed benchmark (docs/performance.md)"]
 fn nfr_against_the_stepped_sine_inceptor() {
     let sys = inceptor_7mm();
     let cancel = AtomicBool::new(false);
