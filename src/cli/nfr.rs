@@ -339,6 +339,17 @@ pub fn run(a: NfrArgs) -> Result<()> {
                 jump_words(&curve, s)
             );
         }
+        if curve.unresolved_events > 0 {
+            println!(
+                "{} sign change{} of the stability tests between orbits whose largest Floquet multiplier exceeds 1e3 not reported: single shooting does not resolve the smaller multipliers there (the curve's points are right; their stability is that of the largest multiplier)",
+                curve.unresolved_events,
+                if curve.unresolved_events == 1 {
+                    ""
+                } else {
+                    "s"
+                }
+            );
+        }
         for p in &curve.peaks {
             let unit = curve
                 .responses

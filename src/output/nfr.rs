@@ -132,6 +132,10 @@ pub struct NfrReport<'a> {
     /// perturbed state evaluated counts 1).
     pub periods: usize,
     pub rhs_evaluations: usize,
+    /// Sign changes of the stability tests on orbits too unstable (largest multiplier
+    /// above 1e3) for the smaller multipliers to be resolved: not reported as folds or
+    /// bifurcations.
+    pub unresolved_events: usize,
     pub provenance: &'a Provenance,
 }
 
@@ -174,6 +178,7 @@ impl<'a> NfrReport<'a> {
             dof: c.dof,
             periods: c.periods,
             rhs_evaluations: c.rhs_evaluations,
+            unresolved_events: c.unresolved_events,
             provenance,
         }
     }

@@ -134,8 +134,9 @@ pub struct Special {
     /// The continued parameter's direction before it (+1 increasing, −1 decreasing).
     pub direction_before: f64,
     /// How well `value` is known: the last change of the located value (the iteration
-    /// stops below 1e-10 of it), at least 1e-9 of the value; where locating failed, half the continuation step that
-    /// brackets the point, which is then given at the bracket's end nearer the zero.
+    /// stops below 1e-10 of it), at least 1e-9 of the value for a fold and 1e-8 for a
+    /// bifurcation; where locating failed, half the continuation step that brackets the
+    /// point, which is then given at the bracket's end nearer the zero.
     pub uncertainty: f64,
     /// False when locating failed (the point is the bracket's end).
     pub refined: bool,
@@ -180,6 +181,10 @@ pub struct Nfr {
     pub dof: usize,
     pub periods: usize,
     pub rhs_evaluations: usize,
+    /// Sign changes of the stability tests between orbits whose largest multiplier
+    /// exceeds 1e3, not reported: single shooting does not resolve the smaller
+    /// multipliers there.
+    pub unresolved_events: usize,
 }
 
 /// A point with what the continuation needs of it.
@@ -220,6 +225,8 @@ struct Tracer<'c> {
     sx: f64,
     sp: f64,
     cancel: &'c AtomicBool,
+    /// Events skipped on unresolved orbits (`RESOLVED`).
+    unresolved: usize,
 }
 
 /// Trace the curve. `progress(points, value)` after every point.
@@ -313,6 +320,7 @@ pub fn nfr(
         sx,
         sp,
         cancel,
+        unresolved: 0,
     };
     let dof = {
         let b = tr.sh.tangent_basis(&x0);
@@ -358,6 +366,7 @@ pub fn nfr(
             sx: tr.sx,
             sp: tr.sp,
             cancel,
+            unresolved: 0,
         };
         if let Ok(start) = end_tr.start(guess.1, opts.to, opts.from, opts)
             && !on_branch(&start, &all)
@@ -381,6 +390,7 @@ pub fn nfr(
             branches.push(two.summary(1, opts));
         }
         tr.sh.flows += end_tr.sh.flows;
+        tr.unresolved += end_tr.unresolved;
         tr.sh.rhs_evaluations += end_tr.sh.rhs_evaluations;
     }
     all.sort_by(|a, b| a.point.s.total_cmp(&b.point.s));
@@ -451,6 +461,7 @@ pub fn nfr(
         dof,
         periods: tr.sh.flows,
         rhs_evaluations: tr.sh.rhs_evaluations,
+        unresolved_events: tr.unresolved,
     })
 }
 
@@ -662,6 +673,13 @@ fn test(kind: Located, n: &Node) -> Option<f64> {
     }
 }
 
+/// The largest multiplier modulus up to which the others are resolved: the monodromy's
+/// relative error (1e-8 to 1e-6 with forward-difference columns and the integration)
+/// times it must stay well below the smaller multipliers' distance from the unit circle.
+/// Beyond it (the overcentre's orbits toward its separatrix reach 7e3), damped orbits
+/// showed smaller multipliers of modulus 1.4, impossible for a damped mechanism.
+const RESOLVED: f64 = 1e3;
+
 /// The largest Newton residual (relative to the orbit's amplitude) accepted as the
 /// integration's noise when the iteration stops converging (`Tracer::correct`).
 pub(crate) const NOISE_FLOOR: f64 = 1e-6;
@@ -807,7 +825,20 @@ impl Tracer<'_> {
                 continue;
             }
             next.point.s = last.point.s + ds;
-            for kind in events(&last, &next) {
+            // where an orbit is too unstable for its smaller multipliers to be resolved,
+            // their sign changes are not bifurcations (and the tangent zig-zags)
+            let resolved = |n: &Node| {
+                n.point
+                    .multipliers
+                    .first()
+                    .is_none_or(|m| m.norm() <= RESOLVED)
+            };
+            let mut found = events(&last, &next);
+            if !(resolved(&last) && resolved(&next)) {
+                self.unresolved += found.len();
+                found.clear();
+            }
+            for kind in found {
                 let special = |nd: &Node, uncertainty: f64, refined: bool| Special {
                     kind,
                     value: nd.point.value,
@@ -1173,8 +1204,12 @@ impl Tracer<'_> {
         // the best trial must be a zero of the test function, not just the last one
         // tried before the corrector gave up
         Ok(best.filter(|(g, _)| g.abs() <= 1e-3 * scale).map(|(_, n)| {
-            // at least 1e-9 of the value: the integration's own tolerance moves it
-            let floor = 1e-9 * n.point.value.abs();
+            // At least what the path to it moves it by (measured: the overcentre's fold
+            // on two ranges 1.5e-9 apart, its period doubling 2.6e-8): 1e-9 of the value
+            // for a fold (the tangent's own zero), 1e-8 for a bifurcation (the
+            // multipliers' errors)
+            let rel = if kind == Located::Fold { 1e-9 } else { 1e-8 };
+            let floor = rel * n.point.value.abs();
             let u = if change.is_finite() {
                 change.max(floor)
             } else {
