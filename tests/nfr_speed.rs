@@ -186,21 +186,7 @@ fn nfr_against_the_stepped_sine() {
     for p in &c.peaks {
         println!("  peak at {:.7} ({:.6})", p.omega, p.amplitude);
     }
-    println!(
-        "sweep --mode both --refine 1e-4 (0.1 grid): {t_sweep:.2} s, {} RHS, {} steady states, {} periods",
-        sw.rhs_evaluations,
-        sw.points.len(),
-        sw.points.iter().map(|p| p.steady.periods).sum::<usize>()
-    );
-    for p in &sw.peaks {
-        println!(
-            "  peak {:?} at {:.7} ± {:.1e} ({:.6})",
-            p.direction, p.omega, p.uncertainty, p.amplitude
-        );
-    }
-    for j in &sw.jumps {
-        println!("  jump {:?} between {} and {}", j.direction, j.from, j.to);
-    }
+    print_sweep("sweep --mode both --refine 1e-4 (0.1 grid)", &sw, t_sweep);
     println!(
         "jump bisection to 1e-4: {t_bisect:.2} s, {rhs_bisect} RHS, {steadies} steady states, {periods} periods"
     );
@@ -319,21 +305,11 @@ fn nfr_against_the_stepped_sine_inceptor() {
         let sw = sweep(&sys, &sopts, &|_| {}, &cancel).unwrap();
         let t_sweep = began.elapsed().as_secs_f64();
         assert!(sw.complete);
-        println!(
-            "sweep --mode both --refine 1e-4 --settle-tol {settle_tol:e} (0.25 grid): {t_sweep:.2} s, {} RHS, {} steady states, {} periods",
-            sw.rhs_evaluations,
-            sw.points.len(),
-            sw.points.iter().map(|p| p.steady.periods).sum::<usize>()
+        print_sweep(
+            &format!("sweep --mode both --refine 1e-4 --settle-tol {settle_tol:e} (0.25 grid)"),
+            &sw,
+            t_sweep,
         );
-        for p in &sw.peaks {
-            println!(
-                "  peak {:?} at {:.7} ± {:.1e} ({:.9})",
-                p.direction, p.omega, p.uncertainty, p.amplitude
-            );
-        }
-        for j in &sw.jumps {
-            println!("  jump {:?} between {} and {}", j.direction, j.from, j.to);
-        }
         println!(
             "  ratio nfr / stepped sine: RHS {:.3}, wall {:.3}",
             c.rhs_evaluations as f64 / sw.rhs_evaluations as f64,
@@ -356,5 +332,24 @@ fn nfr_against_the_stepped_sine_inceptor() {
             assert!((q.amplitude - c.peaks[0].amplitude).abs() < 1e-6 * q.amplitude);
         }
         assert_eq!(sw.peaks.len(), 2, "{:?}", sw.peaks);
+    }
+}
+
+/// The stepped sine's cost, peaks and jumps, as the benchmark prints them.
+fn print_sweep(what: &str, sw: &detune::frequency::Sweep, t_sweep: f64) {
+    println!(
+        "{what}: {t_sweep:.2} s, {} RHS, {} steady states, {} periods",
+        sw.rhs_evaluations,
+        sw.points.len(),
+        sw.points.iter().map(|p| p.steady.periods).sum::<usize>()
+    );
+    for p in &sw.peaks {
+        println!(
+            "  peak {:?} at {:.7} ± {:.1e} ({:.9})",
+            p.direction, p.omega, p.uncertainty, p.amplitude
+        );
+    }
+    for j in &sw.jumps {
+        println!("  jump {:?} between {} and {}", j.direction, j.from, j.to);
     }
 }
