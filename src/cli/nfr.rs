@@ -100,7 +100,7 @@ pub fn run(a: NfrArgs) -> Result<()> {
     }
     // the largest steps cross the range in 1/max_step of them: fewer points cannot make
     // a curve from --from to --to
-    let least = (1.0 / a.max_step).ceil() as usize + 1;
+    let least = (1.0 / a.max_step).ceil().min(1e9) as usize + 1;
     if a.max_points < least {
         return Err(Error::request(
             format!(
@@ -200,6 +200,22 @@ pub fn run(a: NfrArgs) -> Result<()> {
                 .trim_end()
                 .to_string()
         }
+    };
+    // a located value, to the digits its uncertainty supports (at least 7 significant)
+    let shown_to = |v: f64, u: f64| -> String {
+        let digits = if u > 0.0 && v != 0.0 {
+            ((v.abs() / u).log10().ceil() as i64 + 1).clamp(7, 15) as usize
+        } else {
+            7
+        };
+        let (x, unit) = if is_freq {
+            (fu.of(v), fu.symbol())
+        } else {
+            (v, param_unit.as_str())
+        };
+        format!("{} {unit}", significant(x, digits))
+            .trim_end()
+            .to_string()
     };
     // a difference of values (an uncertainty): two significant digits
     let shown_difference = |v: f64| -> String {
@@ -333,7 +349,7 @@ pub fn run(a: NfrArgs) -> Result<()> {
                     _ => "Neimark-Sacker point",
                 },
                 curve.param,
-                shown(s.value),
+                shown_to(s.value, s.uncertainty),
                 located_to(s.refined, s.uncertainty, &shown_difference),
                 amp(s),
                 jump_words(&curve, s)
@@ -361,7 +377,7 @@ pub fn run(a: NfrArgs) -> Result<()> {
                 "peak {}: {} = {} ({}), amplitude {:.6e} {unit}",
                 p.response,
                 curve.param,
-                shown(p.value),
+                shown_to(p.value, p.uncertainty),
                 located_to(p.refined, p.uncertainty, &shown_difference),
                 p.amplitude
             );

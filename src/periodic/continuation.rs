@@ -134,7 +134,7 @@ pub struct Special {
     /// The continued parameter's direction before it (+1 increasing, −1 decreasing).
     pub direction_before: f64,
     /// How well `value` is known: the last change of the located value (the iteration
-    /// stops below 1e-10 of it), at least 1e-9 of the value for a fold and 1e-8 for a
+    /// stops below 1e-10 of it), at least 1e-9 of the value for a fold and 1e-7 for a
     /// bifurcation; where locating failed, half the continuation step that brackets the
     /// point, which is then given at the bracket's end nearer the zero.
     pub uncertainty: f64,
@@ -356,9 +356,24 @@ pub fn nfr(
     // whose two sides meet only in a chaotic tangle, or the small branch of a softening
     // resonance when the first came down the large one); skipped when its orbit is on
     // the first branch.
-    if !interrupted && budget > 0 {
+    // (Optional when the first branch got there: where it cannot start, e.g. no forcing
+    // at the far end, the curve stands without it.)
+    let reached = one.end == BranchEnd::Reached;
+    let far = |_: ()| -> Result<(System, Linear)> {
         let sys1 = tr.sh.sys.with_param(param, opts.to)?;
         let guess = linear_start(&sys1, freq, &omega_param)?;
+        Ok((sys1, guess))
+    };
+    let far = if !interrupted && budget > 0 {
+        match far(()) {
+            Ok(f) => Some(f),
+            Err(_) if reached => None,
+            Err(e) => return Err(e),
+        }
+    } else {
+        None
+    };
+    if let Some((sys1, guess)) = far {
         let guess = (guess.eq, guess.x);
         let mut end_tr = Tracer {
             sh: Shooting::new(&sys1, param, &responses, opts.shooting.clone())?,
@@ -385,7 +400,9 @@ pub fn nfr(
                 progress,
             )?;
             interrupted |= two.end == BranchEnd::Interrupted;
-            complete &= covers(two.end) && !interrupted;
+            // the first branch covered the range: a second that stops short leaves an
+            // isolated branch partly traced, not a gap
+            complete &= (reached || covers(two.end)) && !interrupted;
             all.extend(two.nodes.iter().cloned());
             branches.push(two.summary(1, opts));
         }
@@ -409,7 +426,7 @@ pub fn nfr(
                     && a(i) >= a(i + 1)
                 {
                     match tr.peak(&all, i, r) {
-                        Ok(Some((mut nd, uncertainty))) => {
+                        Ok(Some((mut nd, uncertainty, refined))) => {
                             nd.point.located = Some(Located::Peak);
                             peaks.push(NfrPeak {
                                 response: opts.responses[r].clone(),
@@ -417,7 +434,7 @@ pub fn nfr(
                                 omega: nd.point.omega,
                                 amplitude: nd.point.measures[r].amplitude,
                                 uncertainty,
-                                refined: true,
+                                refined,
                             });
                             found.push(nd);
                         }
@@ -839,6 +856,15 @@ impl Tracer<'_> {
                 found.clear();
             }
             for kind in found {
+                // a count of multipliers can change by two with no crossing (a complex
+                // pair meeting on the real axis outside the circle): only a sign change
+                // of the test function is an event
+                let (Some(ga), Some(gb)) = (test(kind, &last), test(kind, &next)) else {
+                    continue;
+                };
+                if ga * gb > 0.0 {
+                    continue;
+                }
                 let special = |nd: &Node, uncertainty: f64, refined: bool| Special {
                     kind,
                     value: nd.point.value,
@@ -860,12 +886,17 @@ impl Tracer<'_> {
                         return finish(nodes, located, BranchEnd::Interrupted);
                     }
                     // not located: reported at the bracket's end nearer the zero, with
-                    // the bracket as its uncertainty
+                    // the bracket as its uncertainty (for a fold the whole step's extent
+                    // in the parameter: both ends lie on one side of it)
                     _ => {
                         let g = |n: &Node| test(kind, n).map_or(f64::INFINITY, f64::abs);
                         let near = if g(&last) <= g(&next) { &last } else { &next };
-                        let half = 0.5 * (next.point.value - last.point.value).abs();
-                        specials.push(special(near, half, false));
+                        let width = if kind == Located::Fold {
+                            self.sp * ds
+                        } else {
+                            (next.point.value - last.point.value).abs()
+                        };
+                        specials.push(special(near, width, false));
                     }
                 }
             }
@@ -998,7 +1029,11 @@ impl Tracer<'_> {
             // stiff law switches within the period (a breakout), a Newton residual that
             // stops falling has reached that noise. Accepted below NOISE_FLOOR.
             let converged = rel <= tol && arc.abs() <= 1e-10;
-            let noise = fresh && rel <= NOISE_FLOOR && rel > 0.25 * prev && arc.abs() <= 1e-6;
+            let noise = fresh
+                && rel <= NOISE_FLOOR
+                && rel <= prev
+                && rel > 0.25 * prev
+                && arc.abs() <= 1e-6;
             if converged || noise {
                 return Ok(Some(self.node(x, p, tb, flow, base, (it + 1, rel))));
             }
@@ -1153,6 +1188,7 @@ impl Tracer<'_> {
         let mut s_prev = f64::NAN;
         let mut p_prev = f64::NAN;
         let mut change = f64::INFINITY;
+        let mut converged = false;
         for _ in 0..60 {
             let s = (sa * gb - sb * ga) / (gb - ga);
             let s = if s.is_finite() && s > sa && s < sb {
@@ -1181,6 +1217,7 @@ impl Tracer<'_> {
                 || (s - s_prev).abs() < 1e-10 * ds
                 || (change <= 1e-10 * p.abs().max(self.sp) && g.abs() <= 1e-4 * scale)
             {
+                converged = true;
                 break;
             }
             s_prev = s;
@@ -1201,15 +1238,19 @@ impl Tracer<'_> {
                 side = 1;
             }
         }
-        // the best trial must be a zero of the test function, not just the last one
-        // tried before the corrector gave up
+        // located only when the search converged (a corrector that gave up, or 60
+        // trials, leave it unrefined: the caller reports the bracket)
+        if !converged {
+            return Ok(None);
+        }
         Ok(best.filter(|(g, _)| g.abs() <= 1e-3 * scale).map(|(_, n)| {
             // At least what the path to it moves it by (measured: the overcentre's fold
-            // on two ranges 1.5e-9 apart, its period doubling 2.6e-8): 1e-9 of the value
-            // for a fold (the tangent's own zero), 1e-8 for a bifurcation (the
-            // multipliers' errors)
-            let rel = if kind == Located::Fold { 1e-9 } else { 1e-8 };
-            let floor = rel * n.point.value.abs();
+            // on two ranges 1.5e-9 apart, its period doubling up to 3.6e-8 with the
+            // continuation's steps): 1e-9 of the value for a fold (the tangent's own
+            // zero), 1e-7 for a bifurcation (the multipliers' errors), and the orbit's
+            // own Newton residual
+            let rel: f64 = if kind == Located::Fold { 1e-9 } else { 1e-7 };
+            let floor = rel.max(n.residual) * n.point.value.abs();
             let u = if change.is_finite() {
                 change.max(floor)
             } else {
@@ -1222,11 +1263,16 @@ impl Tracer<'_> {
     /// Locate the peak of response `r`'s amplitude near `all[i]` by successive parabolic
     /// interpolation in the arclength (2048 samples a period, the integration 100 times
     /// tighter), with the uncertainty of its frequency (`peak_uncertainty`).
-    fn peak(&mut self, all: &[Node], i: usize, r: usize) -> Result<Option<(Node, f64)>> {
+    fn peak(&mut self, all: &[Node], i: usize, r: usize) -> Result<Option<(Node, f64, bool)>> {
         self.precise(Some(2048), |t| t.peak_inner(all, i, r))
     }
 
-    fn peak_inner(&mut self, all: &[Node], i: usize, r: usize) -> Result<Option<(Node, f64)>> {
+    fn peak_inner(
+        &mut self,
+        all: &[Node],
+        i: usize,
+        r: usize,
+    ) -> Result<Option<(Node, f64, bool)>> {
         let base = &all[i - 1];
         let mut pts: Vec<(f64, f64, Node)> = Vec::new();
         for k in [i - 1, i, i + 1] {
@@ -1240,6 +1286,7 @@ impl Tracer<'_> {
             n.point.s = all[k].point.s;
             pts.push((n.point.s, n.point.measures[r].amplitude, n));
         }
+        let mut converged = false;
         for _ in 0..20 {
             pts.sort_by(|a, b| a.0.total_cmp(&b.0));
             let (s0, a0) = (pts[0].0, pts[0].1);
@@ -1251,7 +1298,11 @@ impl Tracer<'_> {
                 break;
             }
             let s = s1 - 0.5 * num / den;
-            if !(s > s0 && s < s2) || (s - s1).abs() < 1e-10 * (s2 - s0).max(1e-300) {
+            if !(s > s0 && s < s2) {
+                break;
+            }
+            if (s - s1).abs() < 1e-10 * (s2 - s0).max(1e-300) {
+                converged = true;
                 break;
             }
             let Some(mut n) = self.correct(base, s - base.point.s, None)? else {
@@ -1270,18 +1321,29 @@ impl Tracer<'_> {
                 .clamp(1, pts.len() - 2);
             pts = pts.drain(imax - 1..=imax + 1).collect();
             if (w_new - w_old).abs() < 1e-10 * w_new.abs().max(1.0) {
+                converged = true;
                 break;
             }
         }
         pts.sort_by(|a, b| a.0.total_cmp(&b.0));
-        let best = pts.swap_remove(1).2;
+        // refined only when the parabola converged on its middle point, the largest
+        let top = pts[1].1 >= pts[0].1 && pts[1].1 >= pts[2].1;
+        let span = 0.5 * (pts[2].2.point.value - pts[0].2.point.value).abs();
+        let imax = (0..3)
+            .max_by(|&x, &y| pts[x].1.total_cmp(&pts[y].1))
+            .unwrap_or(1);
+        let best = pts.swap_remove(imax).2;
         let noise = best.residual.max(100.0 * self.sh.opts.rtol);
         let u = peak_uncertainty(
             &all[i - 1..=i + 1],
             r,
             noise * best.point.measures[r].amplitude,
         );
-        Ok(best.point.stable.then_some((best, u)))
+        // (a triple narrower than the noise's reach has converged too: the parabola's
+        // vertex then wanders out of it on the amplitudes' noise)
+        let refined = top && (converged || span <= u);
+        let u = if refined { u.max(span) } else { span };
+        Ok(best.point.stable.then_some((best, u, refined)))
     }
 }
 

@@ -27,8 +27,9 @@
 //! The variational equations Ẋ = ∂F/∂y · X (F the right-hand side of the first-order
 //! system y = (q, v)) are integrated with the state, for the 2·DoF tangent directions and,
 //! when asked, the parameter direction (Ẋ_p = ∂F/∂y X_p + ∂F/∂p). Their products
-//! ∂F/∂y · X are directional derivatives of F by central differences along each column
-//! (step 6e-6 relative: error ~1e-11 of the column), evaluated at every stage of the same
+//! ∂F/∂y · X are directional derivatives of F by differences along each column — forward
+//! along the curve (step √ε: error ~1e-8 of the column, 1 evaluation a column), central at
+//! the located points (step 6e-6: ~1e-11, 2 evaluations) — evaluated at every stage of the same
 //! steps as the state: the derivative of the integrated flow, not finite differences of
 //! whole periods (whose error would be the integrator's tolerance over the step). The
 //! multipliers are the eigenvalues of T_xᵀ Φ(T) T_x at a fixed point, the monodromy on
@@ -240,6 +241,12 @@ impl Shooting {
         let period = self.period();
         let p = self.value();
         let dp = 1e-6 * p.abs().max(1e-3);
+        // the parameter column's own step: √ε for a forward difference
+        let dp_column = if self.opts.central {
+            dp
+        } else {
+            FD_STEP_FORWARD * p.abs().max(1e-3)
+        };
         // the start's shift with p: where the projection puts x at p ± dp
         let start_dp = if with_dp {
             let mut up = x.to_vec();
@@ -256,7 +263,7 @@ impl Shooting {
         let perturbed = if with_dp {
             let down = if self.opts.central { p - dp } else { p };
             Some((
-                self.sys.with_param(self.param, p + dp)?,
+                self.sys.with_param(self.param, p + dp_column)?,
                 self.sys.with_param(self.param, down)?,
             ))
         } else {
@@ -265,7 +272,11 @@ impl Shooting {
         let ode = Variational {
             base: ConstrainedOde::new(&self.sys),
             perturbed: perturbed.as_ref().map(|(a, b)| {
-                let width = if self.opts.central { 2.0 * dp } else { dp };
+                let width = if self.opts.central {
+                    2.0 * dp
+                } else {
+                    dp_column
+                };
                 (ConstrainedOde::new(a), ConstrainedOde::new(b), width)
             }),
             n2,
@@ -349,9 +360,14 @@ impl Shooting {
         )?;
         self.rhs_evaluations += ode.evals.get();
         self.flows += 1;
-        self.typical_steps = self
-            .typical_steps
-            .max(stats.accepted_steps + stats.rejected_steps);
+        // a running maximum that at most doubles a flow: one crawling flow (a far Newton
+        // iterate) does not wear the guard away
+        let steps = stats.accepted_steps + stats.rejected_steps;
+        self.typical_steps = if self.typical_steps == 0 {
+            steps
+        } else {
+            self.typical_steps.max(steps.min(2 * self.typical_steps))
+        };
         if cancel.load(Ordering::Relaxed) {
             return Err(Failure::SweepInterrupted.into());
         }
