@@ -311,6 +311,11 @@ fn command_outputs_and_bad_input() {
     }
     assert_eq!(j["units"]["bar1.theta_amplitude"], "rad");
     assert_eq!(j["units"]["omega"], "rad/s");
+    // the located points' uncertainty and the branches' ends are in the parameter's unit
+    assert_eq!(j["units"]["uncertainty"], "rad/s");
+    assert_eq!(j["units"]["from"], "rad/s");
+    assert!(j["folds"][0]["uncertainty"].as_f64().unwrap() < 1e-8);
+    assert_eq!(j["folds"][0]["refined"], true);
     let head = std::fs::read_to_string(&csv).unwrap();
     assert!(
         head.starts_with("omega,branch,bar1.theta_amplitude,"),

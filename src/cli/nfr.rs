@@ -297,6 +297,11 @@ pub fn run(a: NfrArgs) -> Result<()> {
             ("multipliers", "1 (complex: re, im, modulus)"),
             ("periods", "1"),
             ("rhs_evaluations", "1"),
+            ("uncertainty", param_unit.as_str()),
+            ("refined", "1 (true or false)"),
+            ("from", param_unit.as_str()),
+            ("to", param_unit.as_str()),
+            ("unresolved_events", "1"),
         ]);
         print_json(&WithUnits {
             doc: NfrReport::new(&curve, &Provenance::of(&model)),
