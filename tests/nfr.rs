@@ -246,13 +246,7 @@ fn command_outputs_and_bad_input() {
     let dir = std::env::temp_dir().join(format!("detune-nfr-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let csv = dir.join("curve.csv");
-    let (code, out, err) = detune(&[
-        "nfr",
-        "models/overcentre.toml",
-        "--set",
-        "theta1_0=-0.85",
-        "--set",
-        "c=1",
+    let (code, out, err) = overcentre_nfr(&[
         "--set",
         "F0=4",
         "--param",
@@ -261,8 +255,6 @@ fn command_outputs_and_bad_input() {
         "3.6",
         "--to",
         "4.2",
-        "--response",
-        "bar1.theta",
         "--json",
         "-o",
         csv.to_str().unwrap(),
@@ -389,20 +381,7 @@ fn command_outputs_and_bad_input() {
 /// end is printed in the --freq-unit.
 #[test]
 fn command_wording_and_requests() {
-    let oc = |more: &[&str]| {
-        let mut args = vec![
-            "nfr",
-            "models/overcentre.toml",
-            "--set",
-            "theta1_0=-0.85",
-            "--set",
-            "c=1",
-            "--response",
-            "bar1.theta",
-        ];
-        args.extend_from_slice(more);
-        detune(&args)
-    };
+    let oc = overcentre_nfr;
     // F0 = 2..2.2 N at 3 rad/s, given with units, printed with the unit (it was "2.2")
     let (code, out, err) = oc(&[
         "--set", "omega=3", "--param", "F0", "--from", "2 N", "--to", "2.2 N",
@@ -576,4 +555,21 @@ fn either_direction_and_another_parameter() {
         c.branches[0].ended,
         detune::periodic::continuation::BranchEnd::Reached
     );
+}
+
+/// `detune nfr` on the overcentre about its lower well with c = 1 N·s/m and the response
+/// bar1.theta, and `more`.
+fn overcentre_nfr(more: &[&str]) -> (i32, String, String) {
+    let mut args = vec![
+        "nfr",
+        "models/overcentre.toml",
+        "--set",
+        "theta1_0=-0.85",
+        "--set",
+        "c=1",
+        "--response",
+        "bar1.theta",
+    ];
+    args.extend_from_slice(more);
+    detune(&args)
 }

@@ -359,13 +359,13 @@ pub fn nfr(
     // (Optional when the first branch got there: where it cannot start, e.g. no forcing
     // at the far end, the curve stands without it.)
     let reached = one.end == BranchEnd::Reached;
-    let far = |_: ()| -> Result<(System, Linear)> {
+    let far = || -> Result<(System, Linear)> {
         let sys1 = tr.sh.sys.with_param(param, opts.to)?;
         let guess = linear_start(&sys1, freq, &omega_param)?;
         Ok((sys1, guess))
     };
     let far = if !interrupted && budget > 0 {
-        match far(()) {
+        match far() {
             Ok(f) => Some(f),
             Err(_) if reached => None,
             Err(e) => return Err(e),
@@ -902,22 +902,17 @@ impl Tracer<'_> {
             }
             *budget = budget.saturating_sub(1);
             let v = next.point.value;
-            if (v - to) * dir >= 0.0 {
-                // the point at `to` exactly
-                let end = match self.correct(&last, 0.0, Some(to)) {
-                    Ok(Some(mut end)) => {
-                        end.point.s =
-                            last.point.s + ((to - last.point.value) / (v - last.point.value)) * ds;
-                        end
-                    }
-                    _ => next,
-                };
-                nodes.push(end);
-                return finish(nodes, located, BranchEnd::Reached);
-            }
-            if (v - from) * dir < 0.0 {
-                // the point at `from` exactly: the curve stays inside the range (this
-                // side's, not the branch's start across the fold)
+            // out of the range: the point at its end exactly (`to` reached, or `from` for
+            // a branch that turned back: there this side's point, not the branch's start
+            // across the fold)
+            let edge = if (v - to) * dir >= 0.0 {
+                Some((to, BranchEnd::Reached))
+            } else if (v - from) * dir < 0.0 {
+                Some((from, BranchEnd::Returned))
+            } else {
+                None
+            };
+            if let Some((edge, ended)) = edge {
                 let dist = |a: &Node, b: &Node| {
                     a.point
                         .x
@@ -926,16 +921,19 @@ impl Tracer<'_> {
                         .map(|(u, v)| (u - v).powi(2))
                         .sum::<f64>()
                 };
-                let end = match self.correct(&last, 0.0, Some(from)) {
-                    Ok(Some(mut end)) if dist(&end, &next) < dist(&end, &nodes[0]) => {
+                let end = match self.correct(&last, 0.0, Some(edge)) {
+                    Ok(Some(mut end))
+                        if ended == BranchEnd::Reached
+                            || dist(&end, &next) < dist(&end, &nodes[0]) =>
+                    {
                         end.point.s = last.point.s
-                            + ((from - last.point.value) / (v - last.point.value)) * ds;
+                            + ((edge - last.point.value) / (v - last.point.value)) * ds;
                         end
                     }
                     _ => next,
                 };
                 nodes.push(end);
-                return finish(nodes, located, BranchEnd::Returned);
+                return finish(nodes, located, ended);
             }
             let joined = !before.is_empty() && on_branch(&next, before);
             let growth = next.point.multipliers.first().map_or(0.0, |m| m.norm());
