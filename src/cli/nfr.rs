@@ -2,7 +2,7 @@
 //! stable and unstable, with folds, period doublings, Neimark–Sacker points and peaks
 //! located (see `detune::periodic`).
 
-use super::args::{IntegratorChoice, ModelArgs, Tolerances, frequency_value, param_value};
+use super::args::{IntegratorChoice, ModelArgs, frequency_value, param_value};
 use super::{INTERRUPTED, interrupt_on_ctrl_c, print_json};
 use clap::Args;
 use detune::diag::{Error, Result};
@@ -32,10 +32,10 @@ pub struct NfrArgs {
     /// name `sweep --response` takes.
     #[arg(long, value_name = "NAME")]
     pub response: Vec<String>,
-    /// The integration's tolerances and method (as `simulate` and `sweep` take them; the
-    /// shooting needs the explicit `dop853`).
+    /// The integration's tolerances and method (the shooting needs the explicit
+    /// `dop853`).
     #[command(flatten)]
-    pub tol: Tolerances,
+    pub tol: CurveTolerances,
     /// Give up after this many points (the curve is then written, marked incomplete); at
     /// least 1/--max-step + 1, the points of the largest steps across the range.
     #[arg(long, default_value_t = 3000, value_name = "N")]
@@ -66,6 +66,25 @@ pub struct NfrArgs {
     pub plot_size: super::args::PlotSize,
 }
 
+/// The integration's tolerances along the curve: looser than `simulate`'s defaults,
+/// since the located points are computed 10⁴ times tighter whatever these are.
+#[derive(Args)]
+pub struct CurveTolerances {
+    /// Relative error tolerance per step for the curve's points, which are converged to
+    /// about 100 times it (of their amplitude); the folds, bifurcations and peaks are
+    /// integrated 10⁴ times tighter.
+    #[arg(long, default_value_t = detune::periodic::continuation::CURVE_RTOL, value_name = "R", allow_hyphen_values = true)]
+    pub rtol: f64,
+    /// Absolute error tolerance per step (SI units of each coordinate and velocity); the
+    /// located points' is 10⁴ times tighter.
+    #[arg(long, default_value_t = detune::periodic::continuation::CURVE_ATOL, value_name = "A", allow_hyphen_values = true)]
+    pub atol: f64,
+    /// The integrator: only `dop853` (the shooting integrates the variational equations
+    /// with it).
+    #[arg(long, value_enum, default_value_t = IntegratorChoice::Dop853, value_name = "METHOD")]
+    pub integrator: IntegratorChoice,
+}
+
 pub fn run(a: NfrArgs) -> Result<()> {
     // the requests that need no model, refused before any work
     if !a.backbone.is_empty() && a.plot.is_none() {
@@ -94,7 +113,7 @@ pub fn run(a: NfrArgs) -> Result<()> {
                     "{flag} {v}: must be a positive number{}",
                     if flag == "--rtol" { " below 1" } else { "" }
                 ),
-                "use the default, or e.g. --rtol 1e-10 --atol 1e-12 --max-step 0.04",
+                "use the default, or e.g. --rtol 1e-8 --atol 1e-10 --max-step 0.04",
             ));
         }
     }

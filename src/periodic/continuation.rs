@@ -10,7 +10,10 @@
 //! parameter range, σ_x the largest state of the linear response over it), so that the
 //! step ds measures a fraction of the whole picture. The predictor steps along the unit
 //! tangent t (the null vector of the bordered Jacobian [(M − I)σ_x, ∂P/∂p σ_p], M the
-//! monodromy on the manifold); the corrector solves the fixed-point equations with the
+//! monodromy on the manifold), plus the curvature term ½·ds²·(t − t₋)/h from the
+//! tangent's change t₋ → t over the last step h (a second-order predictor: it cuts the
+//! first residual about five times, and the corrections by one Newton step of three);
+//! the corrector solves the fixed-point equations with the
 //! arclength condition tᵀ(u − u₀) = ds by Newton. The step grows after easy corrections
 //! and is halved after failed ones or a turn of the tangent by more than 25°.
 //!
@@ -20,6 +23,10 @@
 //! - fold (saddle-node): the parameter component t_p of the tangent;
 //! - period doubling: μ + 1 for the real multiplier nearest −1;
 //! - Neimark–Sacker: |μ| − 1 for the complex pair nearest the unit circle.
+//!
+//! The curve's points are integrated at rtol 1e-8 (`CURVE_RTOL`) and converged to about
+//! 1e-6 of their amplitude; the located points below are computed at 1e-12, with central
+//! differences in their variational columns.
 //!
 //! Each is located by the Illinois variant of regula falsi on the arclength, every trial
 //! a corrected point of the branch (a bordered solve), to 1e-9 of the step in arclength:
@@ -64,10 +71,12 @@ impl NfrOptions {
             to,
             responses,
             // forward-difference columns along the curve (1 + 2·DoF + 1 right-hand sides a
-            // stage instead of 1 + 2·(2·DoF + 1)); the located points take central
-            // differences (`Tracer::precise`)
+            // stage instead of 1 + 2·(2·DoF + 1)) and the curve's points to 1e-8: the
+            // located points take central differences at 1e-12 (`Tracer::precise`)
             shooting: ShootingOptions {
                 central: false,
+                rtol: CURVE_RTOL,
+                atol: CURVE_ATOL,
                 ..ShootingOptions::default()
             },
             max_points: 3000,
@@ -75,6 +84,15 @@ impl NfrOptions {
         }
     }
 }
+
+/// The integration's tolerances along the curve. A point of the curve is converged to
+/// about 100·rtol of its amplitude (1e-6: `Tracer::correct`), ample for a curve and its
+/// events' brackets; the located points (folds, bifurcations, peaks) are computed
+/// `PRECISE` times tighter (1e-12, 1e-14).
+pub const CURVE_RTOL: f64 = 1e-8;
+pub const CURVE_ATOL: f64 = 1e-10;
+/// How much tighter than the curve's the integration of the located points is.
+const PRECISE: f64 = 1e-4;
 
 /// What a located point is.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
@@ -218,6 +236,13 @@ impl Node {
     }
 }
 
+/// The curve's curvature between two of its points (a before b): the change of the
+/// ambient scaled tangent per unit arclength. None if they are not apart.
+fn curvature(a: &Node, b: &Node) -> Option<DVector<f64>> {
+    let h = b.point.s - a.point.s;
+    (h > 0.0).then(|| (b.ambient() - a.ambient()) / h)
+}
+
 /// The continuation's state.
 struct Tracer<'c> {
     sh: Shooting,
@@ -227,7 +252,14 @@ struct Tracer<'c> {
     cancel: &'c AtomicBool,
     /// Events skipped on unresolved orbits (`RESOLVED`).
     unresolved: usize,
+    /// How closely a corrected point meets the arclength condition (scaled units):
+    /// `ARC_TOL` along the curve, 1e-10 for the located points (`Tracer::precise`).
+    arc_tol: f64,
 }
+
+/// The arclength condition's tolerance along the curve: it only says where on the curve
+/// a point lies (a step of at most `max_step`, 0.04), not how well the point is on it.
+const ARC_TOL: f64 = 1e-7;
 
 /// Trace the curve. `progress(points, value)` after every point.
 pub fn nfr(
@@ -321,6 +353,7 @@ pub fn nfr(
         sp,
         cancel,
         unresolved: 0,
+        arc_tol: ARC_TOL,
     };
     let dof = {
         let b = tr.sh.tangent_basis(&x0);
@@ -382,6 +415,7 @@ pub fn nfr(
             sp: tr.sp,
             cancel,
             unresolved: 0,
+            arc_tol: ARC_TOL,
         };
         if let Ok(start) = end_tr.start(guess.1, opts.to, opts.from, opts)
             && !on_branch(&start, &all)
@@ -731,7 +765,7 @@ impl Tracer<'_> {
             })
         };
         let guess = base(&mut self.sh, x0)?;
-        if let Some(n) = self.correct(&guess, 0.0, Some(from))? {
+        if let Some(n) = self.correct(&guess, None, 0.0, Some(from))? {
             return Ok(self.orient(n, &guess));
         }
         // settle by integration, then Newton
@@ -777,7 +811,7 @@ impl Tracer<'_> {
         state = s.end;
         let x: Vec<f64> = state.q.iter().chain(&state.v).copied().collect();
         let guess = base(&mut self.sh, x)?;
-        match self.correct(&guess, 0.0, Some(from))? {
+        match self.correct(&guess, None, 0.0, Some(from))? {
             Some(n) => Ok(self.orient(n, &guess)),
             None => Err(Error::request(
                 format!(
@@ -822,7 +856,8 @@ impl Tracer<'_> {
                 return finish(nodes, located, BranchEnd::Interrupted);
             }
             let last = nodes.last().expect("a start").clone();
-            let next = match self.correct(&last, ds, None) {
+            let k = (nodes.len() >= 2).then(|| curvature(&nodes[nodes.len() - 2], &last));
+            let next = match self.correct(&last, k.flatten().as_ref(), ds, None) {
                 Ok(n) => n,
                 Err(e) if is_interrupt(&e) => {
                     return finish(nodes, located, BranchEnd::Interrupted);
@@ -921,7 +956,14 @@ impl Tracer<'_> {
                         .map(|(u, v)| (u - v).powi(2))
                         .sum::<f64>()
                 };
-                let end = match self.correct(&last, 0.0, Some(edge)) {
+                // from the nearer of the two (a long fixed-value predictor can land on
+                // another orbit, which the distance check below then refuses)
+                let near = if (next.point.value - edge).abs() < (last.point.value - edge).abs() {
+                    &next
+                } else {
+                    &last
+                };
+                let end = match self.correct(near, None, 0.0, Some(edge)) {
                     Ok(Some(mut end))
                         if ended == BranchEnd::Reached
                             || dist(&end, &next) < dist(&end, &nodes[0]) =>
@@ -965,7 +1007,13 @@ impl Tracer<'_> {
     /// A point of the branch: from `base` a step `ds` along its tangent, corrected (the
     /// arclength condition), or with `fixed` at that parameter value (then `ds` is
     /// ignored). None when Newton does not converge.
-    fn correct(&mut self, base: &Node, ds: f64, fixed: Option<f64>) -> Result<Option<Node>> {
+    fn correct(
+        &mut self,
+        base: &Node,
+        curvature: Option<&DVector<f64>>,
+        ds: f64,
+        fixed: Option<f64>,
+    ) -> Result<Option<Node>> {
         let d = base.basis.ncols();
         let (sx, sp) = (self.sx, self.sp);
         let tx = base.tangent.rows(0, d).into_owned();
@@ -977,7 +1025,17 @@ impl Tracer<'_> {
             Some(v) if tpar.abs() > 1e-12 => ((v - base.point.value) / (sp * tpar), v),
             Some(v) => (0.0, v),
         };
-        let step = &base.basis * &tx * (sx * s);
+        let mut step = &base.basis * &tx * (sx * s);
+        // a second-order predictor: the curve's curvature (in scaled ambient units, per
+        // unit arclength), from the change of the tangent between two points of it
+        if let Some(k) = curvature.filter(|_| fixed.is_none()) {
+            let n = step.len();
+            let h = 0.5 * s * s;
+            for i in 0..n {
+                step[i] += sx * h * k[i];
+            }
+            p += sp * h * k[n];
+        }
         let mut x: Vec<f64> = base
             .point
             .x
@@ -1026,7 +1084,7 @@ impl Tracer<'_> {
             // coordinates are large against a small orbit (a base-driven mechanism) and a
             // stiff law switches within the period (a breakout), a Newton residual that
             // stops falling has reached that noise. Accepted below NOISE_FLOOR.
-            let converged = rel <= tol && arc.abs() <= 1e-10;
+            let converged = rel <= tol && arc.abs() <= self.arc_tol;
             let noise = fresh
                 && rel <= NOISE_FLOOR
                 && rel <= prev
@@ -1148,20 +1206,29 @@ impl Tracer<'_> {
     ) -> Result<Option<(Node, f64)>> {
         // the test functions are computed from the monodromy, whose error is the
         // integration's (and the differences')
-        self.precise(None, |t| t.locate_inner(a, b, ds, kind))
+        self.precise(None, true, |t| t.locate_inner(a, b, ds, kind))
     }
 
-    /// `f` with the integration 100 times tighter (and `samples` a period, if given):
-    /// for the located points, whose test functions or amplitudes are differences of
-    /// nearby orbits.
-    fn precise<T>(&mut self, samples: Option<usize>, f: impl FnOnce(&mut Self) -> T) -> T {
+    /// `f` with the integration `PRECISE` times tighter (and `samples` a period, if
+    /// given; the variational columns by central differences if `central`): for the
+    /// located points, whose test functions or amplitudes are differences of nearby
+    /// orbits. (A peak needs its orbits' amplitudes, not their multipliers: forward
+    /// differences serve its Newton steps.)
+    fn precise<T>(
+        &mut self,
+        samples: Option<usize>,
+        central: bool,
+        f: impl FnOnce(&mut Self) -> T,
+    ) -> T {
         let keep = self.sh.opts.clone();
-        self.sh.opts.central = true;
-        self.sh.opts.rtol = (keep.rtol * 1e-2).max(1e-14);
-        self.sh.opts.atol = keep.atol * 1e-2;
+        self.sh.opts.central = central;
+        self.sh.opts.rtol = (keep.rtol * PRECISE).max(1e-14);
+        self.sh.opts.atol = keep.atol * PRECISE;
         self.sh.opts.samples = samples.unwrap_or(keep.samples);
+        self.arc_tol = 1e-10;
         let out = f(self);
         self.sh.opts = keep;
+        self.arc_tol = ARC_TOL;
         out
     }
 
@@ -1194,7 +1261,7 @@ impl Tracer<'_> {
             } else {
                 0.5 * (sa + sb)
             };
-            let Some(mut n) = self.correct(a, s, None)? else {
+            let Some(mut n) = self.correct(a, None, s, None)? else {
                 break;
             };
             n.point.s = a.point.s + s;
@@ -1259,10 +1326,10 @@ impl Tracer<'_> {
     }
 
     /// Locate the peak of response `r`'s amplitude near `all[i]` by successive parabolic
-    /// interpolation in the arclength (2048 samples a period, the integration 100 times
+    /// interpolation in the arclength (2048 samples a period, the integration `PRECISE` times
     /// tighter), with the uncertainty of its frequency (`peak_uncertainty`).
     fn peak(&mut self, all: &[Node], i: usize, r: usize) -> Result<Option<(Node, f64, bool)>> {
-        self.precise(Some(2048), |t| t.peak_inner(all, i, r))
+        self.precise(Some(2048), false, |t| t.peak_inner(all, i, r))
     }
 
     fn peak_inner(
@@ -1273,17 +1340,24 @@ impl Tracer<'_> {
     ) -> Result<Option<(Node, f64, bool)>> {
         let base = &all[i - 1];
         let mut pts: Vec<(f64, f64, Node)> = Vec::new();
-        for k in [i - 1, i, i + 1] {
-            let ds = all[k].point.s - base.point.s;
-            let n = if k == i - 1 {
-                self.correct(base, 0.0, Some(base.point.value))?
+        for j in [i - 1, i, i + 1] {
+            let ds = all[j].point.s - base.point.s;
+            let n = if j == i - 1 {
+                self.correct(base, None, 0.0, Some(base.point.value))?
             } else {
-                self.correct(base, ds, None)?
+                self.correct(base, None, ds, None)?
             };
             let Some(mut n) = n else { return Ok(None) };
-            n.point.s = all[k].point.s;
+            n.point.s = all[j].point.s;
             pts.push((n.point.s, n.point.measures[r].amplitude, n));
         }
+        // the noise's reach: closer than a tenth of it, the vertex no longer moves for
+        // the better (the amplitudes are no more precise than the integration)
+        let reach = peak_uncertainty(
+            &all[i - 1..=i + 1],
+            r,
+            100.0 * self.sh.opts.rtol * all[i].point.measures[r].amplitude,
+        );
         let mut converged = false;
         for _ in 0..20 {
             pts.sort_by(|a, b| a.0.total_cmp(&b.0));
@@ -1303,7 +1377,13 @@ impl Tracer<'_> {
                 converged = true;
                 break;
             }
-            let Some(mut n) = self.correct(base, s - base.point.s, None)? else {
+            // from the nearest of the three (a short predictor step)
+            let near = pts
+                .iter()
+                .min_by(|x, y| (x.0 - s).abs().total_cmp(&(y.0 - s).abs()))
+                .map(|x| x.2.clone())
+                .unwrap_or_else(|| base.clone());
+            let Some(mut n) = self.correct(&near, None, s - near.point.s, None)? else {
                 break;
             };
             n.point.s = s;
@@ -1318,7 +1398,7 @@ impl Tracer<'_> {
                 .unwrap_or(1)
                 .clamp(1, pts.len() - 2);
             pts = pts.drain(imax - 1..=imax + 1).collect();
-            if (w_new - w_old).abs() < 1e-10 * w_new.abs().max(1.0) {
+            if (w_new - w_old).abs() < (1e-10 * w_new.abs().max(1.0)).max(0.1 * reach) {
                 converged = true;
                 break;
             }
