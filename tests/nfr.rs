@@ -526,7 +526,7 @@ fn command_wording_and_requests() {
 /// The range given downward (4.5 to 3) finds what the upward one finds: the first branch
 /// comes down the large branch to 3, and the far end's start (the small branch) is traced
 /// too, with its fold; every point stays inside the range (a branch that turns back ends
-/// at the range's end exactly). A forcing-amplitude continuation scales its steps by the
+/// at the range's end exactly, or at its last orbit inside). A forcing-amplitude continuation scales its steps by the
 /// largest linear orbit across the range, not the one at its start.
 #[test]
 fn either_direction_and_another_parameter() {
@@ -555,6 +555,18 @@ fn either_direction_and_another_parameter() {
         c.branches[0].ended,
         detune::periodic::continuation::BranchEnd::Reached
     );
+    // down to 0 N at 3 rad/s: the orbit at zero forcing (the equilibrium) cannot be
+    // corrected, and the branch ends at its last orbit inside the range, none beyond it
+    // (it ended at F0 = -0.000344 N)
+    let sys = model(&[("theta1_0", -0.85), ("c", 1.0), ("omega", 3.0)]);
+    let to0 = NfrOptions::new("F0", 1.0, 0.0, vec!["bar1.theta".into()]);
+    let c = nfr(&sys, &to0, &|_, _| {}, &AtomicBool::new(false)).unwrap();
+    assert!(
+        c.points.iter().all(|p| p.value >= 0.0 && p.value <= 1.0),
+        "a point outside 0..1 N: {:?}",
+        c.branches
+    );
+    assert!(c.branches[0].to < 0.05, "{:?}", c.branches);
 }
 
 /// `detune nfr` on the overcentre about its lower well with c = 1 N·s/m and the response

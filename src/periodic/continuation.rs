@@ -963,18 +963,27 @@ impl Tracer<'_> {
                 } else {
                     &last
                 };
-                let end = match self.correct(near, None, 0.0, Some(edge)) {
+                match self.correct(near, None, 0.0, Some(edge)) {
                     Ok(Some(mut end))
                         if ended == BranchEnd::Reached
                             || dist(&end, &next) < dist(&end, &nodes[0]) =>
                     {
                         end.point.s = last.point.s
                             + ((edge - last.point.value) / (v - last.point.value)) * ds;
-                        end
+                        nodes.push(end);
                     }
-                    _ => next,
-                };
-                nodes.push(end);
+                    // the orbit at the end cannot be corrected (a forcing amplitude's
+                    // 0, where the orbit is the equilibrium): the branch ends at its
+                    // last orbit inside the range, none outside it
+                    Err(e) if is_interrupt(&e) => {
+                        return finish(nodes, located, BranchEnd::Interrupted);
+                    }
+                    _ => {}
+                }
+                // nor any located point beyond the range's end
+                let inside = |x: f64| (x - from) * dir >= 0.0 && (x - to) * dir <= 0.0;
+                located.retain(|n| inside(n.point.value));
+                specials.retain(|sp| inside(sp.value));
                 return finish(nodes, located, ended);
             }
             let joined = !before.is_empty() && on_branch(&next, before);
