@@ -179,6 +179,20 @@ impl Error {
         }
     }
 
+    /// What went wrong in one line, without the location or the help: the typed
+    /// failure's physics, or the rendered message's first line (for quoting the error
+    /// inside another, e.g. "cannot be settled (…)").
+    pub fn headline(&self) -> String {
+        match self.failure() {
+            Some(f) => f.to_string(),
+            None => {
+                let text = self.render(false);
+                let first = text.lines().next().unwrap_or_default();
+                first.trim_start_matches("error: ").to_string()
+            }
+        }
+    }
+
     /// The typed invalid request, if this is one.
     pub fn invalid(&self) -> Option<&crate::request::Invalid> {
         match self {

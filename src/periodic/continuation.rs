@@ -791,14 +791,7 @@ impl Tracer<'_> {
             Ok(s) => s,
             Err(e) if is_interrupt(&e) => return Err(e),
             Err(e) => {
-                let why = e.failure().map_or_else(
-                    || {
-                        let text = e.render(false);
-                        let first = text.lines().next().unwrap_or_default();
-                        first.trim_start_matches("error: ").to_string()
-                    },
-                    |f| f.to_string(),
-                );
+                let why = e.headline();
                 return Err(Error::request(
                     format!(
                         "no periodic orbit found at {} = {}: shooting from the linear response does not converge, and the motion started there cannot be settled ({why})",
