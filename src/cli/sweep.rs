@@ -747,9 +747,10 @@ fn refine_from(path: &str, a: &SweepArgs, study: &SweepStudy) -> Result<CsvCases
 
 /// A frequency whose motion cannot be integrated (the step size falls to zero, the
 /// equations give NaN, the constraints are lost): the sweep has no steady state there and
-/// stops; `kept` says what was written of the frequencies finished before it. Worded as what happened to the mechanism and what to try: the
-/// forcing drives it into a singular pose (issue 11: the overcentre at F0 = 80 N reaches
-/// its bars' folded pose, θ1 = −90°, where the constraints lose rank).
+/// stops; `kept` says what was written of the frequencies finished before it. Worded as
+/// what happened to the mechanism and what to try: the forcing drives it into a singular
+/// pose (issue 11: the overcentre at F0 = 80 N reaches its bars' folded pose, θ1 = −90°,
+/// where the constraints lose rank).
 fn no_steady_state(
     e: Error,
     model: &detune::Model,
