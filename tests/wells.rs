@@ -397,9 +397,11 @@ point2 = [0, 0, 0]
 /// Issue 10/11 leftover, "no JSON at all": at F0 = 80 N the overcentre's bars are driven
 /// into their folded pose (bar 1 at −90°, B on A: the constraints lose rank) and the
 /// integration toward a steady state cannot go on. That is an error, not an empty
-/// success: exit 1, nothing on standard output, and the message says where the sweep
-/// stopped, what happens to the mechanism and what to try (a smaller F0, a higher
-/// start, the `simulate` command that shows the motion).
+/// success: exit 1, and the message says where the sweep stopped, what happens to the
+/// mechanism and what to try (a smaller F0, a higher start, the `simulate` command that
+/// shows the motion). Here it fails at its first frequency: nothing was finished, nothing
+/// is written, nothing on standard output (a sweep that fails later keeps what it
+/// finished: tests/failed_sweep.rs).
 #[test]
 fn a_forcing_beyond_the_folded_pose_is_an_error_that_says_so() {
     let (code, out, err) = detune(&[
@@ -410,7 +412,7 @@ fn a_forcing_beyond_the_folded_pose_is_an_error_that_says_so() {
         "--param",
         "omega",
         "--from",
-        "0.5",
+        "1",
         "--to",
         "1.5",
         "--step",

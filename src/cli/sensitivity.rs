@@ -203,11 +203,18 @@ pub fn run(a: SensitivityArgs) -> Result<()> {
         });
         return Ok(());
     }
-    print_tables(&study, &|n| unit(n), a.freq.freq_unit);
+    let value = |n: &str| sys.param_index(n).map_or(f64::NAN, |i| sys.param(i));
+    print_tables(&study, &|n| unit(n), &value, a.freq.freq_unit);
     Ok(())
 }
 
-fn print_tables(s: &Sensitivity, unit: &dyn Fn(&str) -> String, fu: FreqUnit) {
+/// The tables of a study; `value` gives a varied parameter's baseline value (SI).
+fn print_tables(
+    s: &Sensitivity,
+    unit: &dyn Fn(&str) -> String,
+    value: &dyn Fn(&str) -> f64,
+    fu: FreqUnit,
+) {
     let hz = |w: f64| w / (2.0 * std::f64::consts::PI);
     // frequencies in the --freq-unit (rad/s by default, then with Hz beside)
     let f = |w: f64| fu.of(w);
@@ -302,9 +309,42 @@ fn print_tables(s: &Sensitivity, unit: &dyn Fn(&str) -> String, fu: FreqUnit) {
                 d.fd_dzeta_dp
             );
             if !d.agrees {
+                // which one, by how much, against the difference's own error estimate
+                use detune::linear::sensitivity::{Difference, agrees};
+                let p = value(&d.param);
+                let mut gaps = Vec::new();
+                for (what, an, fd, unc, scale) in [
+                    (
+                        "dω_n/dp",
+                        d.domega_n_dp,
+                        d.fd,
+                        d.fd_uncertainty,
+                        m.omega_n_rad_s,
+                    ),
+                    (
+                        "dζ/dp",
+                        d.dzeta_dp,
+                        d.fd_dzeta_dp,
+                        d.fd_dzeta_uncertainty,
+                        1.0,
+                    ),
+                ] {
+                    let diff = Difference {
+                        value: fd,
+                        uncertainty: unc,
+                    };
+                    if !agrees(an, diff, scale, p) {
+                        gaps.push(format!(
+                            "{what} by {:.2e} ({:.1e} relative), beyond the difference's own error estimate {unc:.2e}",
+                            (an - fd).abs(),
+                            ((an - fd) / fd).abs()
+                        ));
+                    }
+                }
                 println!(
-                    "  WARNING: the analytic derivatives with respect to {} disagree with their finite differences: do not trust them (please report this model)",
-                    d.param
+                    "  WARNING: the analytic derivatives with respect to {} disagree with their finite differences ({}): do not trust them (please report this model)",
+                    d.param,
+                    gaps.join("; ")
                 );
             }
         }

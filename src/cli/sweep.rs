@@ -322,22 +322,64 @@ pub fn execute(a: SweepArgs, source: Source) -> Result<()> {
         &|at| watch.found("", at, &bar),
     );
     bar.finish_and_clear();
-    let runs = runs.map_err(|e| no_steady_state(e, &model, &compiled, &a))?;
+    let runs =
+        runs.map_err(|e| no_steady_state(e, &model, &compiled, &a, "nothing was written"))?;
     let complete = runs.iter().all(|r| r.sweep.complete);
+    let points: usize = runs.iter().map(|r| r.sweep.points.len()).sum();
+    // a frequency whose steady state could not be computed stopped the sweep: what was
+    // finished before it is written, marked incomplete as an interrupted sweep's is, and
+    // the run still fails (exit 1), saying what was kept
+    let failed = runs
+        .iter()
+        .find_map(|r| Some((r, r.sweep.failure.clone()?)));
+    let failed_error = |kept: &str| -> Option<Error> {
+        let (run, f) = failed.as_ref()?;
+        let e = no_steady_state(f.error.clone(), &model, &compiled, &a, kept);
+        let e = if let Error::Numerical { .. } = e {
+            e
+        } else {
+            // a failure without its own wording: its message and help, and what was kept
+            let text = e.render_with(false, &super::advice::Cli);
+            let (message, help) = text.split_once("\nhelp: ").unwrap_or((&text, ""));
+            Error::numerical(
+                format!(
+                    "the sweep stopped at {} = {} rad/s: {}; {kept}",
+                    a.grid.param,
+                    detune::diag::num(f.omega),
+                    message.trim_start_matches("error: ").trim_end()
+                ),
+                help.trim_end(),
+            )
+        };
+        Some(match run.values.as_slice() {
+            [] => e,
+            [(name, v)] => e.in_run(name, v),
+            more => e.in_run("--values", detune::frequency::study::values_label(more)),
+        })
+    };
+    if failed.is_some() && points == 0 {
+        return Err(failed_error("nothing was written").expect("a failure"));
+    }
     if let (Some(s), Some(path)) = (shard, &a.checkpoint) {
-        let points: usize = runs.iter().map(|r| r.sweep.points.len()).sum();
         println!(
             "shard {}/{}: {points} frequencies in {:.2} s{}, in the checkpoint {path}; join all {} with `detune merge CHECKPOINT... -o all.csv`",
             s.k,
             s.n,
             began.elapsed().as_secs_f64(),
-            if complete {
+            if failed.is_some() {
+                " (incomplete: stopped by a failing frequency)"
+            } else if complete {
                 ""
             } else {
                 " (incomplete: run the same command again to resume)"
             },
             s.n
         );
+        if let Some(e) = failed_error(&format!(
+            "the {points} frequencies of this shard finished before it are in the checkpoint {path}"
+        )) {
+            return Err(e);
+        }
         if !complete {
             return Err(detune::failure::Failure::SweepInterrupted.into());
         }
@@ -465,10 +507,51 @@ pub fn execute(a: SweepArgs, source: Source) -> Result<()> {
             }
         }
     }
+    if let Some(e) = failed_error(&kept_words(&runs, &a, points)) {
+        return Err(e);
+    }
     if !complete {
         return Err(detune::failure::Failure::SweepInterrupted.into());
     }
     Ok(())
+}
+
+/// What a failed sweep kept, for its error message: `kept the 2 frequencies finished
+/// before it (0.5 to 0.75 rad/s), written marked incomplete: /tmp/x.csv, the plot
+/// /tmp/x.svg, the JSON on standard output`.
+fn kept_words(runs: &[detune::frequency::study::SweepRun], a: &SweepArgs, points: usize) -> String {
+    let omegas = runs
+        .iter()
+        .flat_map(|r| &r.sweep.points)
+        .map(|p| p.steady.omega);
+    let lo = omegas.clone().fold(f64::INFINITY, f64::min);
+    let hi = omegas.fold(f64::NEG_INFINITY, f64::max);
+    let mut to = Vec::new();
+    if let Some(o) = &a.output {
+        to.push(o.clone());
+    }
+    if let Some(p) = &a.plot {
+        to.push(format!("the plot {p}"));
+    }
+    if a.json {
+        to.push("the JSON on standard output".into());
+    }
+    let cases = if runs.len() > 1 {
+        format!(" (in {} --values cases)", runs.len())
+    } else {
+        String::new()
+    };
+    format!(
+        "kept the {points} frequenc{} finished before it{cases} ({} to {} rad/s){}",
+        if points == 1 { "y" } else { "ies" },
+        detune::diag::num(lo),
+        detune::diag::num(hi),
+        if to.is_empty() {
+            ", printed above (give -o, --plot or --json to write them)".to_string()
+        } else {
+            format!(", written marked incomplete: {}", to.join(", "))
+        }
+    )
 }
 
 /// What `--shard` cannot be combined with, refused before any work.
@@ -664,10 +747,17 @@ fn refine_from(path: &str, a: &SweepArgs, study: &SweepStudy) -> Result<CsvCases
 
 /// A frequency whose motion cannot be integrated (the step size falls to zero, the
 /// equations give NaN, the constraints are lost): the sweep has no steady state there and
-/// stops, nothing written. Worded as what happened to the mechanism and what to try: the
-/// forcing drives it into a singular pose (issue 11: the overcentre at F0 = 80 N reaches
-/// its bars' folded pose, θ1 = −90°, where the constraints lose rank).
-fn no_steady_state(e: Error, model: &detune::Model, sys: &detune::System, a: &SweepArgs) -> Error {
+/// stops; `kept` says what was written of the frequencies finished before it. Worded as
+/// what happened to the mechanism and what to try: the forcing drives it into a singular
+/// pose (issue 11: the overcentre at F0 = 80 N reaches its bars' folded pose, θ1 = −90°,
+/// where the constraints lose rank).
+fn no_steady_state(
+    e: Error,
+    model: &detune::Model,
+    sys: &detune::System,
+    a: &SweepArgs,
+    kept: &str,
+) -> Error {
     use detune::failure::Failure::{ConstraintsNotKept, NonFinite, StepSizeUnderflow};
     let Error::Failed { failure, context } = &e else {
         return e;
@@ -711,7 +801,7 @@ fn no_steady_state(e: Error, model: &detune::Model, sys: &detune::System, a: &Sw
     };
     Error::numerical(
         format!(
-            "the sweep stopped at {param} = {at} rad/s, where the motion cannot be integrated: {failure} in the run toward its steady state; nothing was written"
+            "the sweep stopped at {param} = {at} rad/s, where the motion cannot be integrated: {failure} in the run toward its steady state; {kept}"
         ),
         format!(
             "the forcing drives the mechanism into a pose where it cannot move on: a singular pose (its constraints lose rank, as the overcentre's bars do folded at ±90°), or a force that changes abruptly; a stepped sine needs a steady state at every frequency. Try: {forcing}start --from above {at}, or loosen --rtol/--atol if the pose is regular{watch}"

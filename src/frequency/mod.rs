@@ -19,7 +19,7 @@ pub mod measure;
 pub mod study;
 pub mod wells;
 
-use crate::diag::Result;
+use crate::diag::{Error, Result};
 use crate::dynamics::integrator::Stiffness;
 use crate::dynamics::simulate::SimOptions;
 use crate::dynamics::{
@@ -582,8 +582,14 @@ pub struct Sweep {
     pub wells: wells::Wells,
     /// Where up and down differ by more than 1 % (mode `both`).
     pub hysteresis: Vec<Hysteresis>,
-    /// False when interrupted: `points` holds what was computed.
+    /// False when interrupted or stopped by a failure: `points` holds what was computed
+    /// (on a failure, the frequencies before the failing one: see [`Sweep::failure`]).
     pub complete: bool,
+    /// The frequency whose steady state could not be computed, where the sweep stopped
+    /// (None: it did not fail). The sweep keeps what it had finished before it, marked
+    /// incomplete, as an interrupted one does; [`Sweep::into_result`] turns it into the
+    /// error for a caller that wants the whole curve or nothing.
+    pub failure: Option<SweepFailure>,
     /// The first integration of the sweep found stiff (DOP853's steps held by the
     /// model's fastest motion), with its frequency: the sweep is right but slow, and
     /// `--integrator radau` is the remedy. None with Radau, or when nothing was stiff.
@@ -600,6 +606,77 @@ pub struct StiffAt {
     pub omega: f64,
     pub stiffness: Stiffness,
 }
+
+/// A frequency whose steady state could not be computed (the integration toward it
+/// failed: a singular pose, a step size that fell to zero, a non-finite value), where a
+/// sweep stops. What a sweep keeps then is deterministic, whatever the threads did: an
+/// independent sweep keeps every frequency of the grid below the lowest failing one
+/// (frequencies above it that are not started yet are skipped; any finished ones are
+/// dropped from the result, though a checkpoint keeps them), an `up`/`down` sweep the
+/// frequencies before it in its order (a `both` sweep that fails going up does not go
+/// down); a failure in a jump check or a peak refinement keeps the whole coarse grid
+/// (and the peaks refined, the jumps found).
+#[derive(Debug, Clone)]
+pub struct SweepFailure {
+    /// The failing frequency, rad/s.
+    pub omega: f64,
+    pub direction: Direction,
+    /// The coarse grid, a jump check (the step back over a steep edge) or a peak's
+    /// refinement.
+    pub kind: checkpoint::CaseKind,
+    /// What went wrong there (with the frequency in its context).
+    pub error: Error,
+}
+
+impl SweepFailure {
+    /// What went wrong, in one line, without the frequency (the failure's own words).
+    pub fn reason(&self) -> String {
+        match self.error.failure() {
+            Some(f) => f.to_string(),
+            None => {
+                let text = self.error.render(false);
+                let first = text.lines().next().unwrap_or_default();
+                first.strip_prefix("error: ").unwrap_or(first).to_string()
+            }
+        }
+    }
+
+    /// The stage the failing frequency belongs to, in words.
+    pub fn stage(&self) -> &'static str {
+        match self.kind {
+            checkpoint::CaseKind::Coarse => "the coarse grid",
+            checkpoint::CaseKind::Back => "a jump check",
+            checkpoint::CaseKind::Refine => "a peak refinement",
+        }
+    }
+}
+
+impl Sweep {
+    /// The sweep, or the error of the frequency it failed at (a caller that needs the
+    /// whole curve: its peaks, a verdict on them). An interrupted sweep is returned as is.
+    pub fn into_result(self) -> Result<Sweep> {
+        match self.failure {
+            Some(f) => Err(f.error),
+            None => Ok(self),
+        }
+    }
+}
+
+/// How a case of a sweep ended badly: `Stop`, an error that ends the sweep (a checkpoint
+/// that cannot be read or written, an interruption); `Failed`, the frequency's steady
+/// state could not be computed (the sweep keeps what it finished before it).
+enum CaseError {
+    Stop(Error),
+    Failed(SweepFailure),
+}
+
+impl From<Error> for CaseError {
+    fn from(e: Error) -> Self {
+        CaseError::Stop(e)
+    }
+}
+
+type CaseResult = std::result::Result<(SteadyState, isize), CaseError>;
 
 /// Hears of a sweep's first stiff integration (its frequency and the numbers), as soon as
 /// it is found: a front end warns then, not after the sweep.
@@ -658,7 +735,10 @@ pub fn prepare(sys: &System, opts: &SweepOptions) -> Result<(System, Vec<Output>
 
 /// Run a sweep. `progress` is called with the number of frequencies done (coarse grid
 /// and refinement); `cancel` stops it within one integration step, returning what was computed with
-/// `complete = false`.
+/// `complete = false`. A frequency whose steady state cannot be computed stops it too:
+/// it returns what it finished before that frequency with `complete = false` and the
+/// failure in [`Sweep::failure`] (see [`SweepFailure`]; [`Sweep::into_result`] makes it
+/// an error).
 pub fn sweep(
     sys: &System,
     opts: &SweepOptions,
@@ -753,11 +833,7 @@ pub fn sweep_logged(
         Ok(st)
     };
     // one case: from the log if it has it, else computed, classified by well and recorded
-    let case = |kind: CaseKind,
-                dir: Direction,
-                omega: f64,
-                from: &State|
-     -> Result<(SteadyState, isize)> {
+    let case = |kind: CaseKind, dir: Direction, omega: f64, from: &State| -> CaseResult {
         let key = CaseKey {
             run,
             kind,
@@ -767,7 +843,19 @@ pub fn sweep_logged(
         let out = match log.lookup(&key)? {
             Some(known) => known,
             None => {
-                let s = eval(omega, from)?;
+                let s = match eval(omega, from) {
+                    Ok(s) => s,
+                    // an interruption, not a failure of this frequency
+                    Err(e) if cancel.load(Ordering::Relaxed) => return Err(CaseError::Stop(e)),
+                    Err(error) => {
+                        return Err(CaseError::Failed(SweepFailure {
+                            omega,
+                            direction: dir,
+                            kind,
+                            error,
+                        }));
+                    }
+                };
                 let well = wells.classify(&sys0, &s.orbit);
                 log.record(&key, &s, well)?;
                 (s, well)
@@ -784,6 +872,7 @@ pub fn sweep_logged(
     let relative_end = |s: &SteadyState| -> Result<State> { Ok(relative(&at(s.omega)?, &s.end)) };
     let mut points: Vec<SweepPoint> = Vec::new();
     let mut complete = true;
+    let mut failure: Option<SweepFailure> = None;
     // a shard's share of an independent sweep: the curve is not whole
     let mut partial = false;
     let directions: Vec<Direction> = match opts.mode {
@@ -799,11 +888,24 @@ pub fn sweep_logged(
                     .filter(|&i| log.selected(run, i))
                     .collect();
                 partial |= mine.len() < opts.values.len();
-                let results: Vec<Result<(SteadyState, isize)>> = mine
+                // after a failure, the frequencies above the lowest failing one so far are
+                // not started: the result keeps those below the lowest failing one, which
+                // are never skipped (deterministic, whatever the threads do)
+                let lowest_failed = AtomicUsize::new(usize::MAX);
+                let results: Vec<Option<CaseResult>> = mine
                     .par_iter()
-                    .map(|&i| case(CaseKind::Coarse, dir, opts.values[i], &rest))
+                    .map(|&i| {
+                        if i > lowest_failed.load(Ordering::SeqCst) {
+                            return None;
+                        }
+                        let r = case(CaseKind::Coarse, dir, opts.values[i], &rest);
+                        if matches!(r, Err(CaseError::Failed(_))) {
+                            lowest_failed.fetch_min(i, Ordering::SeqCst);
+                        }
+                        Some(r)
+                    })
                     .collect();
-                collect(results, dir)
+                collect(results.into_iter().flatten().collect(), dir)
             }
             Direction::Up | Direction::Down => {
                 let mut order: Vec<f64> = opts.values.clone();
@@ -826,10 +928,15 @@ pub fn sweep_logged(
                 collect(results, dir)
             }
         };
+        let (ok, failed) = ok;
         if let Err(e) = ok {
             if !cancel.load(Ordering::Relaxed) {
                 return Err(e);
             }
+            complete = false;
+        }
+        if failed.is_some() {
+            failure = failed;
             complete = false;
         }
         points.extend(pts);
@@ -844,7 +951,7 @@ pub fn sweep_logged(
     // fold it is another (the branch the sweep jumped to still exists at ω_k): a jump.
     let mut jumps = Vec::new();
     if complete && !partial {
-        for &dir in directions.iter().filter(|d| **d != Direction::Independent) {
+        'jumps: for &dir in directions.iter().filter(|d| **d != Direction::Independent) {
             let mut line: Vec<&SweepPoint> = points
                 .iter()
                 .filter(|p| p.direction == dir && !p.refined)
@@ -859,12 +966,17 @@ pub fn sweep_logged(
                     let jump = well || {
                         let back = match case(CaseKind::Back, dir, p0.omega, &relative_end(p1)?) {
                             Ok((b, _)) => b,
-                            Err(e) if cancel.load(Ordering::Relaxed) => {
+                            Err(CaseError::Stop(e)) if cancel.load(Ordering::Relaxed) => {
                                 complete = false;
                                 let _ = e;
                                 break;
                             }
-                            Err(e) => return Err(e),
+                            Err(CaseError::Stop(e)) => return Err(e),
+                            Err(CaseError::Failed(f)) => {
+                                failure = Some(f);
+                                complete = false;
+                                break 'jumps;
+                            }
                         };
                         let (a, b) = (p0.measures[r].amplitude, back.measures[r].amplitude);
                         (a - b).abs() > JUMP_DIFFER * a.abs().max(b.abs())
@@ -936,7 +1048,7 @@ pub fn sweep_logged(
             refine_expected.store(expected, Ordering::SeqCst);
             report();
         }
-        let refined: Vec<Result<(Peak, Vec<SweepPoint>)>> = jobs
+        let refined: Vec<std::result::Result<(Peak, Vec<SweepPoint>), CaseError>> = jobs
             .into_par_iter()
             .map(|(dir, r, lo, mid, hi, amp, from)| {
                 refine_peak(
@@ -958,10 +1070,16 @@ pub fn sweep_logged(
                     peaks.push(peak);
                     points.extend(extra);
                 }
-                Err(e) => {
+                Err(CaseError::Stop(e)) => {
                     if !cancel.load(Ordering::Relaxed) {
                         return Err(e);
                     }
+                    complete = false;
+                }
+                // the first failing refinement in the order of the peaks (every one runs
+                // to its end: which fails first is deterministic)
+                Err(CaseError::Failed(f)) => {
+                    failure.get_or_insert(f);
                     complete = false;
                 }
             }
@@ -991,6 +1109,7 @@ pub fn sweep_logged(
         wells,
         hysteresis,
         complete,
+        failure,
         stiffness: stiffness.into_inner(),
         rhs_evaluations: rhs_evaluations.into_inner(),
     })
@@ -1060,10 +1179,13 @@ fn bisections(mut width: f64, resolution: f64) -> usize {
     n
 }
 
+/// The points of one direction's coarse grid, in the sweep's order: every one computed,
+/// the first error that stops the sweep (an interruption keeps the points computed around
+/// it), and the first failing frequency, before which the points end.
 fn collect(
-    results: Vec<Result<(SteadyState, isize)>>,
+    results: Vec<CaseResult>,
     dir: Direction,
-) -> (Vec<SweepPoint>, Result<()>) {
+) -> (Vec<SweepPoint>, (Result<()>, Option<SweepFailure>)) {
     let mut pts = Vec::new();
     let mut status = Ok(());
     for r in results {
@@ -1074,14 +1196,15 @@ fn collect(
                 refined: false,
                 well,
             }),
-            Err(e) => {
+            Err(CaseError::Stop(e)) => {
                 if status.is_ok() {
                     status = Err(e);
                 }
             }
+            Err(CaseError::Failed(f)) => return (pts, (status, Some(f))),
         }
     }
-    (pts, status)
+    (pts, (status, None))
 }
 
 /// Bracket search for the amplitude maximum in (lo, hi) around `mid`, down to
@@ -1096,7 +1219,7 @@ fn collect(
 /// finer --refine than that floor refines the noise; --settle-tol lowers the floor.)
 /// Deterministic: the same frequencies for any number of threads.
 /// A steady state at a frequency from a start state, with the well it is in.
-type Evaluate<'a> = dyn Fn(f64, &State) -> Result<(SteadyState, isize)> + Sync + 'a;
+type Evaluate<'a> = dyn Fn(f64, &State) -> CaseResult + Sync + 'a;
 
 #[allow(clippy::too_many_arguments)]
 fn refine_peak(
@@ -1109,7 +1232,7 @@ fn refine_peak(
     amp: f64,
     resolution: Option<f64>,
     settle_tol: f64,
-) -> Result<(Peak, Vec<SweepPoint>)> {
+) -> std::result::Result<(Peak, Vec<SweepPoint>), CaseError> {
     let mut extra = Vec::new();
     let Some(res) = resolution else {
         return Ok((

@@ -340,10 +340,14 @@ pub fn sweep_figures(
         .collect();
     let complete = runs.iter().all(|r| r.sweep.complete);
     let computed: usize = runs.iter().map(|r| r.sweep.points.len()).sum();
-    let incomplete = if complete {
-        String::new()
-    } else {
-        format!(" — INCOMPLETE: interrupted after {computed} frequencies")
+    let failed = runs.iter().find_map(|r| r.sweep.failure.as_ref());
+    let incomplete = match (complete, failed) {
+        (true, _) => String::new(),
+        (false, Some(f)) => format!(
+            " — INCOMPLETE: failed at {} rad/s after {computed} frequencies",
+            crate::diag::num(f.omega)
+        ),
+        (false, None) => format!(" — INCOMPLETE: interrupted after {computed} frequencies"),
     };
     let family = runs[0].tag().map(|(n, _)| n.to_string());
     let normalize = family.is_some() && family.as_deref() == forcing;

@@ -432,6 +432,21 @@ pub struct SweepReport<'a> {
     pub complete: bool,
     pub provenance: &'a Provenance,
     pub equilibria: Vec<Tagged<'a, WellJson<'a>>>,
+    /// Where a sweep that failed stopped (absent when it did not fail): the failing
+    /// frequency (rad/s), its direction, its stage (`coarse`, `back`: a jump check,
+    /// `refine`), the reason, and with `--values` its run's values. `complete` is then
+    /// false and the points are those finished before it.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub failure: Option<Tagged<'a, FailureJson>>,
+}
+
+/// `failure` of `sweep --json`: see [`SweepReport::failure`].
+#[derive(Debug, Clone, Serialize)]
+pub struct FailureJson {
+    pub omega: f64,
+    pub direction: crate::frequency::Direction,
+    pub stage: crate::frequency::checkpoint::CaseKind,
+    pub message: String,
 }
 
 impl<'a> SweepReport<'a> {
@@ -472,6 +487,18 @@ impl<'a> SweepReport<'a> {
                 })
                 .collect(),
             complete: runs.iter().all(|r| r.sweep.complete),
+            failure: runs.iter().find_map(|r| {
+                let f = r.sweep.failure.as_ref()?;
+                Some(Tagged {
+                    item: FailureJson {
+                        omega: f.omega,
+                        direction: f.direction,
+                        stage: f.kind,
+                        message: f.reason(),
+                    },
+                    tag: r.tags(),
+                })
+            }),
             provenance,
             equilibria: runs
                 .iter()

@@ -198,15 +198,49 @@ pub fn sweep_rows(runs: &[SweepRun]) -> Vec<Vec<Cell<'_>>> {
     rows
 }
 
-/// Sweep CSV (see [`sweep_header`]). An incomplete (interrupted) sweep ends with a
-/// comment line `# incomplete: ...`.
+/// Sweep CSV (see [`sweep_header`]). An incomplete sweep ends with a comment line
+/// `# incomplete: ...`: interrupted, or stopped by a failing frequency (which it names,
+/// with the reason: [`incomplete_sweep_line`]).
 pub fn write_sweep_csv(path: &str, runs: &[SweepRun]) -> Result<()> {
-    let footer: &[&str] = if runs.iter().any(|r| !r.sweep.complete) {
-        &["# incomplete: interrupted; the rows above are the frequencies completed"]
-    } else {
-        &[]
-    };
-    write_rows(path, &sweep_header(runs), &sweep_rows(runs), footer)
+    let footer: Vec<String> = incomplete_sweep_line(runs).into_iter().collect();
+    let footer: Vec<&str> = footer.iter().map(String::as_str).collect();
+    write_rows(path, &sweep_header(runs), &sweep_rows(runs), &footer)
+}
+
+/// The last line of an incomplete sweep's CSV (None: complete):
+/// `# incomplete: interrupted; the rows above are the frequencies completed`, or for a
+/// sweep stopped by a failure `# incomplete: failed at omega = 1 rad/s (up, the coarse
+/// grid[, F0 = 80]): <reason>; the rows above are the frequencies completed before it`.
+pub fn incomplete_sweep_line(runs: &[SweepRun]) -> Option<String> {
+    if runs.iter().all(|r| r.sweep.complete) {
+        return None;
+    }
+    Some(
+        match runs
+            .iter()
+            .find_map(|r| Some((r, r.sweep.failure.as_ref()?)))
+        {
+            Some((run, f)) => {
+                let tag = crate::frequency::study::values_label(&run.values);
+                format!(
+                    "# incomplete: failed at {} = {} rad/s ({}, {}{}): {}; the rows above are the frequencies completed before it",
+                    run.sweep.param,
+                    num(f.omega),
+                    f.direction.name(),
+                    f.stage(),
+                    if tag.is_empty() {
+                        String::new()
+                    } else {
+                        format!(", {tag}")
+                    },
+                    f.reason().replace(['\n', '\r'], " ")
+                )
+            }
+            None => {
+                "# incomplete: interrupted; the rows above are the frequencies completed".into()
+            }
+        },
+    )
 }
 
 /// Header of a mode tracking's CSV: `<param>`, then per label `<label>.omega_n_rad_s`,
