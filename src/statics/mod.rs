@@ -24,7 +24,11 @@
 //! the poses of a sweep of it along the assembly branch; with several, Newton from the
 //! start and from 256 Halton points over the box of the fixed coordinates (at most 257
 //! Newton solves whatever their number). The Halton radical inverse is written here (ten
-//! lines; the `halton` crate would add a dependency for them).
+//! lines; the `halton` crate would add a dependency for them). The seeds' solves run in
+//! parallel (rayon) and are kept in the seeds' order, so the result does not depend on the
+//! threads; a seed's solve that stalls at a least-squares point gives up early
+//! ([`STALL_RATIO`]). Σ λ_i ∇²Φ_i takes one hyper-dual pass per group of coordinate pairs
+//! that no constraint element reads together ([`Statics::constraint_curvature`]).
 
 pub mod continuation;
 pub mod trim;
@@ -51,6 +55,8 @@ pub struct Statics<'a> {
     pub rows: Vec<usize>,
     /// Times at which loads are averaged (one period of the forcing, or just t = 0).
     times: Vec<f64>,
+    /// The passes of [`Statics::constraint_curvature`], planned for these rows.
+    curvature: (Vec<usize>, Vec<Vec<CurvaturePair>>),
 }
 
 /// A solved equilibrium.
@@ -74,7 +80,7 @@ impl<'a> Statics<'a> {
     pub fn new(sys: &'a System, q_ref: &[f64]) -> Result<Statics<'a>> {
         let (sys, times) = Statics::at_mean(sys)?;
         let rows = independent_rows(&sys, q_ref);
-        Ok(Statics { sys, rows, times })
+        Ok(Statics::planned(sys, rows, times))
     }
 
     /// The system as statics sees it (a moving ground held at its mean pose over the
@@ -97,7 +103,23 @@ impl<'a> Statics<'a> {
     /// keeps the rows of its start, whatever the model's initial guess at p).
     pub fn with_rows(sys: &'a System, rows: Vec<usize>) -> Result<Statics<'a>> {
         let (sys, times) = Statics::at_mean(sys)?;
-        Ok(Statics { sys, rows, times })
+        Ok(Statics::planned(sys, rows, times))
+    }
+
+    /// The static problem with its curvature passes planned.
+    fn planned(
+        sys: std::borrow::Cow<'a, System>,
+        rows: Vec<usize>,
+        times: Vec<f64>,
+    ) -> Statics<'a> {
+        let mut st = Statics {
+            sys,
+            rows,
+            times,
+            curvature: (Vec::new(), Vec::new()),
+        };
+        st.curvature = (st.rows.clone(), st.curvature_passes());
+        st
     }
 
     /// The times at which time-dependent loads and constraints are averaged: one period
@@ -254,15 +276,17 @@ impl<'a> Statics<'a> {
     /// Ā = ∂Φ̄/∂q (m × n).
     pub fn mean_jacobian(&self, q: &[f64]) -> DMatrix<f64> {
         let times = self.constraint_times();
-        let mut ws = DynWorkspace::new(&self.sys);
+        // the system's scratch buffers only (a DynWorkspace also factors the mass matrix)
+        let mut ws = crate::system::Workspace::new(&self.sys);
+        let mut a = DMatrix::zeros(self.sys.m(), self.sys.nv());
         if times.len() == 1 {
-            self.sys.jacobian(&mut ws.sys, q, times[0], &mut ws.a);
-            return ws.a;
+            self.sys.jacobian(&mut ws, q, times[0], &mut a);
+            return a;
         }
         let mut sum = DMatrix::zeros(self.sys.m(), self.sys.n());
         for &t in times {
-            self.sys.jacobian(&mut ws.sys, q, t, &mut ws.a);
-            sum += &ws.a;
+            self.sys.jacobian(&mut ws, q, t, &mut a);
+            sum += &a;
         }
         sum / times.len() as f64
     }
@@ -285,24 +309,112 @@ impl<'a> Statics<'a> {
     }
 
     /// Σ λ_i ∇²Φ_i over the independent rows (n × n), by hyper-dual passes.
+    ///
+    /// Entry (j, k) is Σ λ_r ∂²Φ_r/∂q_j∂q_k over the rows r of the constraint elements
+    /// that read both q_j and q_k (the blocks of A): every other row's term is exactly
+    /// zero. Pairs whose elements read none of another pair's coordinates share one pass
+    /// (see [`Statics::curvature_passes`]): an element's rows see only their own pair's
+    /// seeds, so each entry has the value, to the bit, of a pass of its own (on the
+    /// inceptor 65 passes instead of 153).
     pub fn constraint_curvature(&self, q: &[f64], lambda: &[f64]) -> DMatrix<f64> {
         let n = self.sys.n();
         let mut h = DMatrix::zeros(n, n);
         let mut qh: Vec<HyperDual64> = q.iter().map(|&x| HyperDual64::from(x)).collect();
         let mut phi = vec![HyperDual64::from(0.0); self.sys.m()];
-        for j in 0..n {
-            for k in j..n {
-                qh[j].eps1 = 1.0;
-                qh[k].eps2 = 1.0;
-                self.static_phi(&qh, &mut phi);
-                qh[j].eps1 = 0.0;
-                qh[k].eps2 = 0.0;
-                let v = self.reaction_mixed(lambda, &phi);
-                h[(j, k)] = v;
-                h[(k, j)] = v;
+        // planned at construction, unless the rows were changed since
+        let fresh;
+        let passes = if self.curvature.0 == self.rows {
+            &self.curvature.1
+        } else {
+            fresh = self.curvature_passes();
+            &fresh
+        };
+        for pass in passes {
+            for p in pass {
+                qh[p.j].eps1 = 1.0;
+                qh[p.k].eps2 = 1.0;
+            }
+            self.static_phi(&qh, &mut phi);
+            for p in pass {
+                qh[p.j].eps1 = 0.0;
+                qh[p.k].eps2 = 0.0;
+            }
+            for p in pass {
+                // in the order of the rows, as a sum over all of them (whose other terms
+                // are zeros)
+                let v = p
+                    .rows
+                    .iter()
+                    .map(|&i| lambda[i] * phi[self.rows[i]].eps1eps2)
+                    .sum();
+                h[(p.j, p.k)] = v;
+                h[(p.k, p.j)] = v;
             }
         }
         h
+    }
+
+    /// The hyper-dual passes of [`Statics::constraint_curvature`]: every pair j ≤ k of
+    /// coordinates that some constraint element with an independent row reads both of,
+    /// with those rows (indices into `rows`), greedily grouped (in the order j, then k)
+    /// so that no element reads coordinates of two pairs of one pass.
+    fn curvature_passes(&self) -> Vec<Vec<CurvaturePair>> {
+        let sys: &System = &self.sys;
+        let n = sys.n();
+        let blocks = sys.blocks();
+        // the elements with an independent row, and the rows of each
+        let mut rows_of: Vec<Vec<usize>> = vec![Vec::new(); blocks.len()];
+        for (i, &r) in self.rows.iter().enumerate() {
+            if let Some(b) = blocks
+                .iter()
+                .position(|b| r >= b.row0 && r < b.row0 + b.rows)
+            {
+                rows_of[b].push(i);
+            }
+        }
+        let live: Vec<usize> = (0..blocks.len())
+            .filter(|&b| !rows_of[b].is_empty())
+            .collect();
+        let words = live.len().div_ceil(64).max(1);
+        // the live elements reading each coordinate, as a bit set
+        let mut reads = vec![vec![0u64; words]; n];
+        for (bit, &b) in live.iter().enumerate() {
+            for &c in &blocks[b].cols {
+                if c < n {
+                    reads[c][bit / 64] |= 1 << (bit % 64);
+                }
+            }
+        }
+        let mut passes: Vec<(Vec<u64>, Vec<CurvaturePair>)> = Vec::new();
+        for j in 0..n {
+            for k in j..n {
+                let both: Vec<u64> = reads[j].iter().zip(&reads[k]).map(|(a, b)| a & b).collect();
+                if both.iter().all(|&w| w == 0) {
+                    continue;
+                }
+                let mut rows: Vec<usize> = (0..live.len())
+                    .filter(|&bit| both[bit / 64] >> (bit % 64) & 1 == 1)
+                    .flat_map(|bit| rows_of[live[bit]].iter().copied())
+                    .collect();
+                rows.sort_unstable();
+                let touched: Vec<u64> =
+                    reads[j].iter().zip(&reads[k]).map(|(a, b)| a | b).collect();
+                let pair = CurvaturePair { j, k, rows };
+                match passes
+                    .iter_mut()
+                    .find(|(used, _)| used.iter().zip(&touched).all(|(u, t)| u & t == 0))
+                {
+                    Some((used, pass)) => {
+                        for (u, t) in used.iter_mut().zip(&touched) {
+                            *u |= t;
+                        }
+                        pass.push(pair);
+                    }
+                    None => passes.push((touched, vec![pair])),
+                }
+            }
+        }
+        passes.into_iter().map(|(_, p)| p).collect()
     }
 
     /// Σ λ_r ∂²Φ_r of a hyper-dual pass over the independent rows: the mixed second
@@ -433,6 +545,37 @@ impl<'a> Statics<'a> {
         })
     }
 
+    /// Newton from a seed of a search ([`Statics::solve`], but a solve that stalls gives
+    /// up, see [`STALL_RATIO`]): the equilibrium without its stability, which
+    /// [`Statics::with_stability`] adds to the solutions a search keeps.
+    fn solve_seed(&self, q0: &[f64]) -> Option<Equilibrium> {
+        let n = self.sys.n();
+        let mut x: Vec<f64> = q0.to_vec();
+        x.extend(self.multipliers(q0));
+        let (x, iterations, residual) = self.newton_with(x, 60, true).ok()?;
+        let (q, lambda) = x.split_at(n);
+        Some(Equilibrium {
+            q: q.to_vec(),
+            lambda: lambda.to_vec(),
+            residual,
+            iterations,
+            stable: false,
+            omega2: Vec::new(),
+        })
+    }
+
+    /// The Newton solves of a search's seeds, in parallel, in the seeds' order.
+    fn solve_seeds(&self, seeds: &[Vec<f64>]) -> Vec<Option<Equilibrium>> {
+        use rayon::prelude::*;
+        seeds.par_iter().map(|s| self.solve_seed(s)).collect()
+    }
+
+    /// `e` with its stability and ω² (as [`Statics::solve`] gives them).
+    fn with_stability(&self, mut e: Equilibrium) -> Equilibrium {
+        (e.stable, e.omega2) = self.stability(&e.q, &e.lambda);
+        e
+    }
+
     /// The equilibrium nearest a start state: Newton from its pose; if that fails, Newton
     /// from every seed of the assembly branch ([`Statics::all`]) and the solution nearest
     /// the start pose.
@@ -484,8 +627,21 @@ impl<'a> Statics<'a> {
     }
 
     /// Newton with backtracking on |R|₂; returns (x, iterations, |R|∞).
-    pub fn newton(&self, mut x: Vec<f64>, max_iter: usize) -> Result<(Vec<f64>, usize, f64)> {
+    pub fn newton(&self, x: Vec<f64>, max_iter: usize) -> Result<(Vec<f64>, usize, f64)> {
+        self.newton_with(x, max_iter, false)
+    }
+
+    /// [`Statics::newton`]; with `give_up`, a solve that has stalled (see [`STALL_RATIO`])
+    /// fails early, without a pose in its message (for a search, which drops it): the
+    /// solves that converge take the same iterations to the bit.
+    fn newton_with(
+        &self,
+        mut x: Vec<f64>,
+        max_iter: usize,
+        give_up: bool,
+    ) -> Result<(Vec<f64>, usize, f64)> {
         let n = self.sys.n();
+        let mut stalled = 0;
         let scale = self.force_scale(&x[..n]);
         if !scale.is_finite() {
             return Err(Error::Numerical {
@@ -525,8 +681,27 @@ impl<'a> Statics<'a> {
             }
             it += 1;
             let j = self.kkt_jacobian_with(&x, &ar);
-            let dx = solve_least_squares(j, &r);
             let norm0 = r.norm();
+            let dx = if give_up {
+                let dx = solve_least_squares(j.clone(), &r);
+                let predicted = (&r - &j * &dx).norm();
+                if predicted > STALL_RATIO * norm0 {
+                    stalled += 1;
+                } else {
+                    stalled = 0;
+                }
+                if stalled == STALL_COUNT {
+                    return Err(Failure::NoEquilibrium {
+                        residual: amax(r.as_slice()),
+                        iterations: it,
+                        pose: String::new(),
+                    }
+                    .into());
+                }
+                dx
+            } else {
+                solve_least_squares(j, &r)
+            };
             // Trust region: no coordinate moves more than 0.2 (rad, or m scaled by the
             // model's size, at most 10) in one iteration, so Newton does not leap to a far
             // equilibrium, yet can travel far when the equilibrium is far.
@@ -590,8 +765,7 @@ impl<'a> Statics<'a> {
         // pose and move away from it).
         let apart = |a: &[f64], b: &[f64]| self.apart(a, b);
         let mut found: Vec<Equilibrium> = Vec::new();
-        for seed in &seeds {
-            let Ok(e) = self.solve(seed) else { continue };
+        for e in self.solve_seeds(&seeds).into_iter().flatten() {
             let inside = ranges
                 .iter()
                 .all(|&(d, lo, hi)| e.q[d] >= lo - 1e-9 && e.q[d] <= hi + 1e-9);
@@ -599,7 +773,7 @@ impl<'a> Statics<'a> {
                 continue;
             }
             if !found.iter().any(|f| apart(&f.q, &e.q) < 1e-7) {
-                found.push(e);
+                found.push(self.with_stability(e));
             }
         }
         if found.is_empty() {
@@ -706,8 +880,7 @@ impl<'a> Statics<'a> {
                 .fold(0.0, f64::max)
         };
         let mut found: Vec<Equilibrium> = Vec::new();
-        for seed in &seeds {
-            let Ok(e) = self.solve(seed) else { continue };
+        for e in self.solve_seeds(&seeds).into_iter().flatten() {
             let inside = drivers.iter().zip(&boxes).all(|(&d, &(lo, hi))| {
                 sys.is_angle(d) || (e.q[d] >= lo - 1e-9 && e.q[d] <= hi + 1e-9)
             });
@@ -715,9 +888,9 @@ impl<'a> Statics<'a> {
                 continue;
             }
             match found.iter_mut().find(|f| self.apart(&f.q, &e.q) < 1e-7) {
-                Some(f) if offset(&e) < offset(f) - 1e-9 => *f = e,
+                Some(f) if offset(&e) < offset(f) - 1e-9 => *f = self.with_stability(e),
                 Some(_) => {}
-                None => found.push(e),
+                None => found.push(self.with_stability(e)),
             }
         }
         if found.is_empty() {
@@ -794,6 +967,27 @@ impl<'a> Statics<'a> {
         last
     }
 }
+
+/// One entry (j ≤ k) of a curvature pass: the independent rows (indices into `rows`)
+/// of the constraint elements that read both coordinates.
+#[derive(Debug, Clone)]
+struct CurvaturePair {
+    j: usize,
+    k: usize,
+    rows: Vec<usize>,
+}
+
+/// A search's Newton solve has stalled when the full step, by the linear model J·dx, would
+/// leave more than this fraction of |R|₂, [`STALL_COUNT`] iterations in a row: the residual
+/// is orthogonal to the range of a singular J, a least-squares point that is no solution,
+/// where the iterates stay (the inceptor's seeds far from its equilibrium end there with
+/// their constraint rows at 1e-2 m after 7 iterations on average, and then spent the 53
+/// others in line searches down to the smallest step). The ratio is bimodal: on the
+/// converging solves of every model in models/ and tests/data/ (and the inceptor with
+/// breakout, k_t = 40, φ0 = 30°) it stays below 0.01 (0.0083 on veering_pendulums, 4e-5
+/// on the inceptor); the stalled ones sit at 0.999–1 from their first stalled iteration.
+const STALL_RATIO: f64 = 0.999;
+const STALL_COUNT: usize = 2;
 
 /// Seeds of [`Statics::all`] with several driving coordinates (see `all_multi`).
 const MULTI_SEEDS: usize = 256;

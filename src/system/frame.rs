@@ -277,6 +277,9 @@ impl Pose<f64> {
 /// Bodies on the stack up to this count when poses are computed for one evaluation.
 const INLINE_BODIES: usize = 16;
 
+/// Spatial bodies on a smaller stack buffer up to this count (see [`with_poses3`]).
+const FEW_BODIES: usize = 4;
+
 /// Compute the poses of all bodies (coordinate offsets `offsets`) from `q` and call `f`
 /// with them, without allocating for up to 16 bodies.
 #[inline]
@@ -298,7 +301,15 @@ pub fn with_poses<D: Scalar, R>(q: &[D], offsets: &[usize], f: impl FnOnce(&[Pos
 #[inline]
 pub fn with_poses3<D: Scalar, R>(q: &[D], geoms: &[Geom3], f: impl FnOnce(&[Pose3<D>]) -> R) -> R {
     let nb = geoms.len();
-    if nb <= INLINE_BODIES {
+    if nb <= FEW_BODIES {
+        // a spatial pose of hyper-dual numbers is 672 bytes: zeroing 16 of them for a
+        // four-body mechanism was most of a constraint pass of statics
+        let buf: [Pose3<D>; FEW_BODIES] = std::array::from_fn(|k| match geoms.get(k) {
+            Some(g) => Pose3::from_q(q, g),
+            None => Pose3::zero(),
+        });
+        f(&buf[..nb])
+    } else if nb <= INLINE_BODIES {
         let mut buf = [Pose3::zero(); INLINE_BODIES];
         for (p, g) in buf.iter_mut().zip(geoms) {
             *p = Pose3::from_q(q, g);
