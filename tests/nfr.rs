@@ -545,6 +545,14 @@ fn either_direction_and_another_parameter() {
             .all(|p| p.omega >= 3.0 - 1e-12 && p.omega <= 4.5 + 1e-12),
         "a point outside the range"
     );
+    // both branches end at the range's ends exactly
+    assert!(
+        c.branches
+            .iter()
+            .all(|b| !b.short_of_end && (b.to == 3.0 || b.to == 4.5)),
+        "{:?}",
+        c.branches
+    );
     // F0 from 0.01 to 2 N at 4 rad/s: the orbit grows 200 times along the range
     let sys = model(&[("theta1_0", -0.85), ("c", 1.0), ("omega", 4.0)]);
     let f0 = NfrOptions::new("F0", 0.01, 2.0, vec!["bar1.theta".into()]);
@@ -567,6 +575,8 @@ fn either_direction_and_another_parameter() {
         c.branches
     );
     assert!(c.branches[0].to < 0.05, "{:?}", c.branches);
+    assert!(c.branches[0].short_of_end, "{:?}", c.branches);
+    assert!(c.branches[0].end.contains("could not be corrected"));
 }
 
 /// `detune nfr` on the overcentre about its lower well with c = 1 N·s/m and the response

@@ -597,6 +597,9 @@ pub enum BranchEnd {
 struct Branch {
     nodes: Vec<Node>,
     end: BranchEnd,
+    /// Reached or returned, but its orbit at the range's end could not be corrected:
+    /// it ends at its last orbit inside.
+    short: bool,
 }
 
 /// What a branch covered and how it ended, for the outputs.
@@ -613,13 +616,17 @@ pub struct BranchSummary {
     pub ended: BranchEnd,
     /// The largest Floquet multiplier's modulus at its last point.
     pub floquet_max: f64,
+    /// It got to the range's end, but the orbit exactly there could not be corrected (a
+    /// forcing amplitude's 0, whose orbit is the equilibrium; a strongly unstable
+    /// orbit): it ends at `to`, its last orbit inside the range.
+    pub short_of_end: bool,
 }
 
 impl BranchSummary {
     /// How it ended, in words, with the parameter's values written by `shown`.
     pub fn words(&self, param: &str, shown: &dyn Fn(f64) -> String) -> String {
         let (last, mu, p) = (shown(self.to), self.floquet_max, param);
-        match self.ended {
+        let mut words = match self.ended {
             BranchEnd::Reached => format!("reached {p} = {last}"),
             BranchEnd::Returned => format!("turned back and left the range at {p} = {last}"),
             BranchEnd::Joined => format!("joins the branch traced before at {p} = {last}"),
@@ -633,7 +640,13 @@ impl BranchSummary {
                 format!("stopped at {p} = {last} after {} points", self.points)
             }
             BranchEnd::Interrupted => format!("interrupted at {p} = {last}"),
+        };
+        if self.short_of_end {
+            words.push_str(
+                " (its last orbit inside the range: the orbit at the range's end could not be corrected)",
+            );
         }
+        words
     }
 }
 
@@ -652,6 +665,7 @@ impl Branch {
             end: String::new(),
             ended: self.end,
             floquet_max: mu,
+            short_of_end: self.short,
         };
         summary.end = summary.words(&opts.param, &|v| format!("{v}"));
         summary
@@ -730,6 +744,11 @@ fn test(kind: Located, n: &Node) -> Option<f64> {
 /// Beyond it (the overcentre's orbits toward its separatrix reach 7e3), damped orbits
 /// showed smaller multipliers of modulus 1.4, impossible for a damped mechanism.
 const RESOLVED: f64 = 1e3;
+
+/// The loosest Newton tolerance an orbit is corrected to (relative to its amplitude):
+/// where an unstable orbit amplifies the integration's error so much that 100·rtol·|μ|
+/// would exceed it, that orbit is integrated more tightly (`Tracer::correct`).
+const NOISE_CAP: f64 = 1e-5;
 
 /// The largest Newton residual (relative to the orbit's amplitude) accepted as the
 /// integration's noise when the iteration stops converging (`Tracer::correct`).
@@ -839,7 +858,11 @@ impl Tracer<'_> {
         let finish = |mut nodes: Vec<Node>, located: Vec<Node>, end| {
             nodes.extend(located);
             nodes.sort_by(|a: &Node, b: &Node| a.point.s.total_cmp(&b.point.s));
-            Ok(Branch { nodes, end })
+            Ok(Branch {
+                nodes,
+                end,
+                short: false,
+            })
         };
         loop {
             if *budget == 0 {
@@ -949,35 +972,44 @@ impl Tracer<'_> {
                         .map(|(u, v)| (u - v).powi(2))
                         .sum::<f64>()
                 };
-                // from the nearer of the two (a long fixed-value predictor can land on
-                // another orbit, which the distance check below then refuses)
-                let near = if (next.point.value - edge).abs() < (last.point.value - edge).abs() {
-                    &next
+                // from the nearer of the two, then the other (a long fixed-value
+                // predictor can land on another orbit, which the distance check below
+                // refuses)
+                let nearer_next = (next.point.value - edge).abs() < (last.point.value - edge).abs();
+                let order = if nearer_next {
+                    [&next, &last]
                 } else {
-                    &last
+                    [&last, &next]
                 };
-                match self.correct(near, None, 0.0, Some(edge)) {
-                    Ok(Some(mut end))
-                        if ended == BranchEnd::Reached
-                            || dist(&end, &next) < dist(&end, &nodes[0]) =>
-                    {
-                        end.point.s = last.point.s
-                            + ((edge - last.point.value) / (v - last.point.value)) * ds;
-                        nodes.push(end);
+                let mut short = true;
+                for near in order {
+                    match self.correct(near, None, 0.0, Some(edge)) {
+                        Ok(Some(mut end))
+                            if ended == BranchEnd::Reached
+                                || dist(&end, &next) < dist(&end, &nodes[0]) =>
+                        {
+                            end.point.s = last.point.s
+                                + ((edge - last.point.value) / (v - last.point.value)) * ds;
+                            nodes.push(end);
+                            short = false;
+                            break;
+                        }
+                        Err(e) if is_interrupt(&e) => {
+                            return finish(nodes, located, BranchEnd::Interrupted);
+                        }
+                        _ => {}
                     }
-                    // the orbit at the end cannot be corrected (a forcing amplitude's
-                    // 0, where the orbit is the equilibrium): the branch ends at its
-                    // last orbit inside the range, none outside it
-                    Err(e) if is_interrupt(&e) => {
-                        return finish(nodes, located, BranchEnd::Interrupted);
-                    }
-                    _ => {}
                 }
+                // where neither converges (a forcing amplitude's 0, where the orbit is
+                // the equilibrium; a strongly unstable orbit), the branch ends at its
+                // last orbit inside the range, none outside it, and says so
                 // nor any located point beyond the range's end
                 let inside = |x: f64| (x - from) * dir >= 0.0 && (x - to) * dir <= 0.0;
                 located.retain(|n| inside(n.point.value));
                 specials.retain(|sp| inside(sp.value));
-                return finish(nodes, located, ended);
+                let mut b = finish(nodes, located, ended)?;
+                b.short = short;
+                return Ok(b);
             }
             let joined = !before.is_empty() && on_branch(&next, before);
             let growth = next.point.multipliers.first().map_or(0.0, |m| m.norm());
@@ -1009,7 +1041,34 @@ impl Tracer<'_> {
     /// A point of the branch: from `base` a step `ds` along its tangent, corrected (the
     /// arclength condition), or with `fixed` at that parameter value (then `ds` is
     /// ignored). None when Newton does not converge.
+    ///
+    /// The integration is tightened where `base` amplifies its error (largest multiplier
+    /// |μ|): the Newton tolerance is 100·rtol·|μ| (`correct_at`), kept at most `NOISE_CAP`.
     fn correct(
+        &mut self,
+        base: &Node,
+        curvature: Option<&DVector<f64>>,
+        ds: f64,
+        fixed: Option<f64>,
+    ) -> Result<Option<Node>> {
+        let growth = base
+            .point
+            .multipliers
+            .iter()
+            .fold(1.0f64, |m, mu| m.max(mu.norm()));
+        let f = (NOISE_CAP / (100.0 * self.sh.opts.rtol * growth)).min(1.0);
+        if !(f < 1.0) {
+            return self.correct_at(base, curvature, ds, fixed);
+        }
+        let keep = (self.sh.opts.rtol, self.sh.opts.atol);
+        self.sh.opts.rtol = (keep.0 * f).max(1e-14);
+        self.sh.opts.atol = (keep.1 * f).max(1e-16);
+        let out = self.correct_at(base, curvature, ds, fixed);
+        (self.sh.opts.rtol, self.sh.opts.atol) = keep;
+        out
+    }
+
+    fn correct_at(
         &mut self,
         base: &Node,
         curvature: Option<&DVector<f64>>,
@@ -1358,9 +1417,11 @@ impl Tracer<'_> {
         let reach = peak_uncertainty(
             &all[i - 1..=i + 1],
             r,
-            100.0 * self.sh.opts.rtol * all[i].point.measures[r].amplitude,
+            (100.0 * self.sh.opts.rtol).max(self.sh.opts.tol) * all[i].point.measures[r].amplitude,
         );
         let mut converged = false;
+        // the vertex's last move
+        let mut moved = f64::INFINITY;
         for _ in 0..20 {
             pts.sort_by(|a, b| a.0.total_cmp(&b.0));
             let (s0, a0) = (pts[0].0, pts[0].1);
@@ -1377,6 +1438,7 @@ impl Tracer<'_> {
             }
             if (s - s1).abs() < 1e-10 * (s2 - s0).max(1e-300) {
                 converged = true;
+                moved = 0.0;
                 break;
             }
             // from the nearest of the three (a short predictor step)
@@ -1400,7 +1462,8 @@ impl Tracer<'_> {
                 .unwrap_or(1)
                 .clamp(1, pts.len() - 2);
             pts = pts.drain(imax - 1..=imax + 1).collect();
-            if (w_new - w_old).abs() < (1e-10 * w_new.abs().max(1.0)).max(0.1 * reach) {
+            moved = (w_new - w_old).abs();
+            if moved < (1e-10 * w_new.abs().max(1.0)).max(0.1 * reach) {
                 converged = true;
                 break;
             }
@@ -1413,7 +1476,12 @@ impl Tracer<'_> {
             .max_by(|&x, &y| pts[x].1.total_cmp(&pts[y].1))
             .unwrap_or(1);
         let best = pts.swap_remove(imax).2;
-        let noise = best.residual.max(100.0 * self.sh.opts.rtol);
+        // the amplitude is known to the orbit's convergence: the Newton tolerance it was
+        // corrected to, at least (a residual far below it is luck, not precision)
+        let noise = best
+            .residual
+            .max(100.0 * self.sh.opts.rtol)
+            .max(self.sh.opts.tol);
         let u = peak_uncertainty(
             &all[i - 1..=i + 1],
             r,
@@ -1422,7 +1490,15 @@ impl Tracer<'_> {
         // (a triple narrower than the noise's reach has converged too: the parabola's
         // vertex then wanders out of it on the amplitudes' noise)
         let refined = top && (converged || span <= u);
-        let u = if refined { u.max(span) } else { span };
+        // converged: the noise's reach, or the vertex's last move if larger; a triple
+        // narrower than the noise: its span; else the bracket
+        let u = if refined && converged {
+            u.max(moved)
+        } else if refined {
+            u.max(span)
+        } else {
+            span
+        };
         Ok(best.point.stable.then_some((best, u, refined)))
     }
 }
