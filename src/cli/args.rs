@@ -73,8 +73,8 @@ fn parse_sets(sets: &[String]) -> Result<Vec<(String, String)>> {
         .collect()
 }
 
-/// The integrator and its error tolerances (`simulate`, `sweep`; `nfr`, which refuses
-/// radau).
+/// The integrator and its error tolerances (`simulate`, `sweep`, `sensitivity`, `tune`;
+/// `nfr` has its own, looser defaults: `cli::nfr::CurveTolerances`).
 #[derive(Args)]
 pub struct Tolerances {
     /// Relative error tolerance per step.

@@ -113,7 +113,7 @@ pub fn run(a: NfrArgs) -> Result<()> {
                     "{flag} {v}: must be a positive number{}",
                     if flag == "--rtol" { " below 1" } else { "" }
                 ),
-                "use the default, or e.g. --rtol 1e-8 --atol 1e-10 --max-step 0.04",
+                "leave it out for the default (--rtol 1e-8, --atol 1e-10, --max-step 0.04), or give e.g. --rtol 1e-10 for a curve converged more tightly",
             ));
         }
     }

@@ -1003,10 +1003,16 @@ impl Tracer<'_> {
                 // where neither converges (a forcing amplitude's 0, where the orbit is
                 // the equilibrium; a strongly unstable orbit), the branch ends at its
                 // last orbit inside the range, none outside it, and says so
-                // nor any located point beyond the range's end
+                // nor any located point beyond the range's end (one that could not be
+                // located stays if the range lies within its bracket)
                 let inside = |x: f64| (x - from) * dir >= 0.0 && (x - to) * dir <= 0.0;
+                let (lo, hi) = (from.min(to), from.max(to));
                 located.retain(|n| inside(n.point.value));
-                specials.retain(|sp| inside(sp.value));
+                specials.retain(|sp| {
+                    inside(sp.value)
+                        || (!sp.refined
+                            && (sp.value - sp.value.clamp(lo, hi)).abs() <= sp.uncertainty)
+                });
                 let mut b = finish(nodes, located, ended)?;
                 b.short = short;
                 return Ok(b);
