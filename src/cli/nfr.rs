@@ -66,18 +66,32 @@ pub struct NfrArgs {
     pub plot_size: super::args::PlotSize,
 }
 
+/// The defaults of `CurveTolerances` as `--help` shows them (the library's
+/// `CURVE_RTOL`, `CURVE_ATOL`: the test below holds them equal).
+const CURVE_RTOL_TEXT: &str = "1e-8";
+const CURVE_ATOL_TEXT: &str = "1e-10";
+
+#[cfg(test)]
+#[test]
+fn curve_tolerance_defaults_are_the_librarys() {
+    use detune::periodic::continuation::{CURVE_ATOL, CURVE_RTOL};
+    assert_eq!(CURVE_RTOL_TEXT.parse::<f64>().unwrap(), CURVE_RTOL);
+    assert_eq!(CURVE_ATOL_TEXT.parse::<f64>().unwrap(), CURVE_ATOL);
+}
+
 /// The integration's tolerances along the curve: looser than `simulate`'s defaults,
 /// since the located points are computed 10⁴ times tighter whatever these are.
 #[derive(Args)]
 pub struct CurveTolerances {
     /// Relative error tolerance per step for the curve's points, which are converged to
-    /// about 100 times it (of their amplitude); the folds, bifurcations and peaks are
-    /// integrated 10⁴ times tighter.
-    #[arg(long, default_value_t = detune::periodic::continuation::CURVE_RTOL, value_name = "R", allow_hyphen_values = true)]
+    /// about 100·rtol·|μ|max of their amplitude (|μ|max the largest Floquet multiplier's
+    /// modulus; an unstable orbit is integrated more tightly to keep this below 1e-5); the
+    /// folds, bifurcations and peaks are integrated 10⁴ times tighter.
+    #[arg(long, default_value = CURVE_RTOL_TEXT, value_name = "R", allow_hyphen_values = true)]
     pub rtol: f64,
     /// Absolute error tolerance per step (SI units of each coordinate and velocity); the
     /// located points' is 10⁴ times tighter.
-    #[arg(long, default_value_t = detune::periodic::continuation::CURVE_ATOL, value_name = "A", allow_hyphen_values = true)]
+    #[arg(long, default_value = CURVE_ATOL_TEXT, value_name = "A", allow_hyphen_values = true)]
     pub atol: f64,
     /// The integrator: only `dop853` (the shooting integrates the variational equations
     /// with it).
