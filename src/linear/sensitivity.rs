@@ -1363,8 +1363,7 @@ pub fn add_sweep_peaks(
             crate::frequency::sweep_logged(&s, &opts, &|_| {}, cancel, log.as_ref(), k, &|at| {
                 stiff(&label, at)
             })
-            // a failing frequency is an error here: a peak needs the whole curve
-            .and_then(|sw| sw.into_result())
+            // (a failing frequency is an error: a peak needs the whole curve)
             .map_err(|e| e.context(&format!("the stepped-sine sweep of {label}")))?;
         if !sw.complete {
             return Err(crate::failure::Failure::StudyInterrupted {
