@@ -1475,15 +1475,22 @@ mod tests {
     const DZETA_DK: f64 = -4.686_328_196_853_206e-5;
 
     fn stiff_sdof_k() -> (f64, Derivative) {
+        stiff_sdof("k", 800.0)
+    }
+
+    /// The block mode's derivative with respect to `name` (at `p`, varied ±10 %) on
+    /// tests/data/stiff_sdof.toml, and `p`.
+    fn stiff_sdof(name: &str, p: f64) -> (f64, Derivative) {
         let path = format!("{}/tests/data/stiff_sdof.toml", env!("CARGO_MANIFEST_DIR"));
         let model = crate::model::Model::load(&path).unwrap();
         let sys = System::new(&model).unwrap();
-        let k = sys.param_index("k").unwrap();
+        let i = sys.param_index(name).unwrap();
+        assert_eq!(sys.param(i), p);
         let vary = Vary {
-            param: k,
-            name: "k".into(),
-            cases: vec![("k+10%".into(), 880.0), ("k-10%".into(), 720.0)],
-            range: (720.0, 880.0),
+            param: i,
+            name: name.into(),
+            cases: vec![("+10%".into(), 1.1 * p), ("-10%".into(), 0.9 * p)],
+            range: (0.9 * p, 1.1 * p),
         };
         let s = sensitivity(&sys, &[vary], None, None).unwrap();
         let m = s
@@ -1491,7 +1498,7 @@ mod tests {
             .iter()
             .find(|m| (m.omega_n_rad_s - OMEGA_N).abs() < 1e-9 * OMEGA_N)
             .expect("the block's mode");
-        (sys.param(k), m.derivatives[0].clone())
+        (p, m.derivatives[0].clone())
     }
 
     /// The analytic derivatives are right (the closed form, to 1e-9); the finite
@@ -1546,23 +1553,7 @@ mod tests {
     /// right): unchecked. The same estimate still flags a derivative wrong by 10 %.
     #[test]
     fn a_difference_too_noisy_to_check_leaves_the_derivative_unchecked() {
-        let path = format!("{}/tests/data/stiff_sdof.toml", env!("CARGO_MANIFEST_DIR"));
-        let model = crate::model::Model::load(&path).unwrap();
-        let sys = System::new(&model).unwrap();
-        let i = sys.param_index("m2").unwrap();
-        let vary = Vary {
-            param: i,
-            name: "m2".into(),
-            cases: vec![("m2+10%".into(), 1.1e-3), ("m2-10%".into(), 0.9e-3)],
-            range: (0.9e-3, 1.1e-3),
-        };
-        let s = sensitivity(&sys, &[vary], None, None).unwrap();
-        let m = s
-            .modes
-            .iter()
-            .find(|m| (m.omega_n_rad_s - OMEGA_N).abs() < 1e-9 * OMEGA_N)
-            .expect("the block's mode");
-        let d = &m.derivatives[0];
+        let (p, d) = stiff_sdof("m2", 1e-3);
         const DOMEGA_DM2: f64 = -4.996_360_906_626_039;
         const DZETA_DM2: f64 = -0.018_728_490_934_809_456;
         let rel = |a: f64, b: f64| (a - b).abs() / b.abs();
@@ -1578,11 +1569,8 @@ mod tests {
             value: d.fd,
             uncertainty: d.fd_uncertainty,
         };
-        assert!(!agrees(d.domega_n_dp, w, m.omega_n_rad_s, sys.param(i)));
-        assert_eq!(
-            check(d.domega_n_dp * 1.1, w, m.omega_n_rad_s, sys.param(i)),
-            Check::Disagrees
-        );
+        assert!(!agrees(d.domega_n_dp, w, OMEGA_N, p));
+        assert_eq!(check(d.domega_n_dp * 1.1, w, OMEGA_N, p), Check::Disagrees);
     }
 
     /// A mode not matched at ±4h (near a crossing): the difference falls back to S_h
