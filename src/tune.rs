@@ -1184,8 +1184,8 @@ pub fn verify_sweep(
     let lo = ws.iter().copied().fold(f64::INFINITY, f64::min);
     let hi = ws.iter().copied().fold(0.0, f64::max);
     let opts = crate::linear::sensitivity::peak_sweep(&s, f, lo, hi, response, steady);
-    // a failing frequency is an error here (no verdict from part of the curve)
-    let sw = crate::frequency::sweep_watched(&s, &opts, &|_| {}, cancel, stiff)?.into_result()?;
+    // a failing frequency is an error (no verdict from part of the curve)
+    let sw = crate::frequency::sweep_watched(&s, &opts, &|_| {}, cancel, stiff)?;
     // an interrupted sweep has no peaks: "every peak clears" would be a false verdict
     if !sw.complete {
         return Err(crate::failure::Failure::SweepInterrupted.into());

@@ -218,7 +218,17 @@ fn a_failing_values_case_keeps_the_cases_before_it() {
     assert_eq!(code, 1, "{err}");
     assert!(err.contains("--values F0=80"), "{err}");
     assert!(
-        err.contains("kept the 7 frequencies finished before it (in 2 --values cases)"),
+        err.contains(
+            "kept the 7 frequencies finished before it (in 2 --values cases, 0.5 to 1.5 rad/s)"
+        ),
+        "{err}"
+    );
+    // the advice is the failing run's (F0 = 80 N, not the model's 0 N), and the command
+    // that shows its motion sets its F0
+    assert!(err.contains("F0 = 80 N in this run"), "{err}");
+    assert!(!err.contains("F0 = 0 N"), "{err}");
+    assert!(
+        err.contains("detune simulate models/overcentre.toml --set F0=80 --set omega=1 "),
         "{err}"
     );
     let (header, got, last) = rows(&csv);
@@ -246,4 +256,63 @@ fn a_failing_values_case_keeps_the_cases_before_it() {
     assert_eq!(code, 0, "{err}");
     let (_, want, _) = rows(&alone);
     assert_eq!(&got[..5], &want[..]);
+}
+
+/// Review of issues 10/13: the library's `sweep` (and `sweep_watched`, `sweep_logged`)
+/// stay strict, as before the partial sweeps: a failing frequency is an error, not a
+/// partial curve returned as Ok. `sweep_logged_partial` (the command's entry) keeps the
+/// frequencies before the failure, with the failure named.
+#[test]
+fn the_library_sweep_stays_strict_and_the_partial_entry_keeps_the_finished_part() {
+    use detune::frequency::{SteadyOptions, SweepMode, SweepOptions, checkpoint::NoLog};
+    use std::sync::atomic::AtomicBool;
+    let m = common::overcentre(&[("F0", "80")]);
+    let sys = detune::System::new(&m).unwrap();
+    let opts = SweepOptions {
+        param: "omega".into(),
+        values: vec![0.5, 0.75, 1.0, 1.25],
+        mode: SweepMode::Independent,
+        responses: vec!["bar1.theta".into()],
+        refine: None,
+        steady: SteadyOptions::default(),
+    };
+    let cancel = AtomicBool::new(false);
+    let e = detune::frequency::sweep(&sys, &opts, &|_| {}, &cancel)
+        .expect_err("a failing frequency is an error");
+    let s =
+        detune::frequency::sweep_logged_partial(&sys, &opts, &|_| {}, &cancel, &NoLog, 0, &|_| {})
+            .unwrap();
+    let f = s.failure.as_ref().expect("the failure is named");
+    assert_eq!(f.omega, 1.0);
+    assert_eq!(f.error.headline(), e.headline());
+    assert!(!s.complete);
+    let kept: Vec<f64> = s.points.iter().map(|p| p.steady.omega).collect();
+    assert_eq!(kept, vec![0.5, 0.75]);
+}
+
+/// A failing --values run that kept nothing is not counted among the cases kept, and the
+/// range is not wrapped in a second pair of parentheses.
+#[test]
+fn a_failing_values_case_that_kept_nothing_is_not_counted() {
+    let (code, _, err) = detune(&[
+        "sweep",
+        "models/overcentre.toml",
+        "--values",
+        "F0=10,80",
+        "--param",
+        "omega",
+        "--from",
+        "1",
+        "--to",
+        "1.5",
+        "--step",
+        "0.25",
+        "--response",
+        "bar1.theta",
+    ]);
+    assert_eq!(code, 1, "{err}");
+    assert!(
+        err.contains("kept the 3 frequencies finished before it (in 1 --values case, 1 to 1.5 rad/s), printed above"),
+        "{err}"
+    );
 }

@@ -295,7 +295,7 @@ pub fn execute(a: SweepArgs, source: Source) -> Result<()> {
     };
     let began = std::time::Instant::now();
     let watch = super::StiffWatch::new(&a.grid.param);
-    let runs = study.run(
+    let runs = study.run_partial(
         &|p: Progress| {
             let refine = p.refine_expected > 0;
             if refine != refining.swap(refine, Ordering::SeqCst) {
@@ -322,8 +322,17 @@ pub fn execute(a: SweepArgs, source: Source) -> Result<()> {
         &|at| watch.found("", at, &bar),
     );
     bar.finish_and_clear();
-    let runs =
-        runs.map_err(|e| no_steady_state(e, &model, &compiled, &a, "nothing was written"))?;
+    let runs = runs.map_err(|e| {
+        no_steady_state(
+            e,
+            &model,
+            &compiled,
+            &[],
+            &a,
+            "nothing was written",
+            checkpoint::CaseKind::Coarse,
+        )
+    })?;
     let complete = runs.iter().all(|r| r.sweep.complete);
     let points: usize = runs.iter().map(|r| r.sweep.points.len()).sum();
     // a frequency whose steady state could not be computed stopped the sweep: what was
@@ -334,21 +343,27 @@ pub fn execute(a: SweepArgs, source: Source) -> Result<()> {
         .find_map(|r| Some((r, r.sweep.failure.clone()?)));
     let failed_error = |kept: &str| -> Option<Error> {
         let (run, f) = failed.as_ref()?;
-        let e = no_steady_state(f.error.clone(), &model, &compiled, &a, kept);
+        // the failing run's own system and values (a --values family's run differs from
+        // the base model: its forcing, the command that shows its motion)
+        let sys = study
+            .runs
+            .iter()
+            .find(|r| r.values == run.values)
+            .map_or(&compiled, |r| &r.system);
+        let e = no_steady_state(f.error.clone(), &model, sys, &run.values, &a, kept, f.kind);
         let e = if let Error::Numerical { .. } = e {
             e
         } else {
             // a failure without its own wording: its message and help, and what was kept
-            let text = e.render_with(false, &super::advice::Cli);
-            let (message, help) = text.split_once("\nhelp: ").unwrap_or((&text, ""));
+            let (message, help) = typed_parts(&e);
             Error::numerical(
                 format!(
-                    "the sweep stopped at {} = {} rad/s: {}; {kept}",
+                    "the sweep stopped at {} = {} rad/s ({}): {message}; {kept}",
                     a.grid.param,
                     detune::diag::num(f.omega),
-                    message.trim_start_matches("error: ").trim_end()
+                    f.stage()
                 ),
-                help.trim_end(),
+                help,
             )
         };
         Some(match run.values.as_slice() {
@@ -358,7 +373,14 @@ pub fn execute(a: SweepArgs, source: Source) -> Result<()> {
         })
     };
     if failed.is_some() && points == 0 {
-        return Err(failed_error("nothing was written").expect("a failure"));
+        let kept = match (shard, &a.checkpoint) {
+            // an independent shard's frequencies above the failure may have finished
+            (Some(_), Some(path)) => format!(
+                "no frequency of this shard below it was finished; the checkpoint {path} keeps any finished above it"
+            ),
+            _ => "nothing was written".to_string(),
+        };
+        return Err(failed_error(&kept).expect("a failure"));
     }
     if let (Some(s), Some(path)) = (shard, &a.checkpoint) {
         println!(
@@ -507,7 +529,10 @@ pub fn execute(a: SweepArgs, source: Source) -> Result<()> {
             }
         }
     }
-    if let Some(e) = failed_error(&kept_words(&runs, &a, points)) {
+    if let Some(e) = failed
+        .as_ref()
+        .and_then(|(_, f)| failed_error(&kept_words(&runs, &a, points, f)))
+    {
         return Err(e);
     }
     if !complete {
@@ -516,10 +541,39 @@ pub fn execute(a: SweepArgs, source: Source) -> Result<()> {
     Ok(())
 }
 
-/// What a failed sweep kept, for its error message: `kept the 2 frequencies finished
-/// before it (0.5 to 0.75 rad/s), written marked incomplete: /tmp/x.csv, the plot
-/// /tmp/x.svg, the JSON on standard output`.
-fn kept_words(runs: &[detune::frequency::study::SweepRun], a: &SweepArgs, points: usize) -> String {
+/// A rendered error's message and help line, from its typed parts (the command line's
+/// advice for a failure or an invalid request), for quoting it inside another.
+fn typed_parts(e: &Error) -> (String, String) {
+    use detune::diag::Advice;
+    let cli = super::advice::Cli;
+    if let Some(f) = e.failure() {
+        return (f.to_string(), cli.failure(f).unwrap_or_else(|| f.hint()));
+    }
+    if let Some(i) = e.invalid() {
+        return cli
+            .invalid(i)
+            .map(|w| (w.message, w.help))
+            .unwrap_or_else(|| (i.to_string(), i.hint()));
+    }
+    match e {
+        Error::Numerical { message, help } | Error::Request { message, help } => {
+            (message.clone(), help.clone().unwrap_or_default())
+        }
+        _ => (e.headline(), String::new()),
+    }
+}
+
+/// What a failed sweep kept, for its error message, by the failing stage: `kept the 2
+/// frequencies finished before it (0.5 to 0.75 rad/s), written marked incomplete:
+/// /tmp/x.csv, the plot /tmp/x.svg, the JSON on standard output`; after a jump check or
+/// a peak refinement, the whole coarse grid (and that the peak is left out).
+fn kept_words(
+    runs: &[detune::frequency::study::SweepRun],
+    a: &SweepArgs,
+    points: usize,
+    failure: &detune::frequency::SweepFailure,
+) -> String {
+    use detune::frequency::checkpoint::CaseKind;
     let omegas = runs
         .iter()
         .flat_map(|r| &r.sweep.points)
@@ -536,14 +590,28 @@ fn kept_words(runs: &[detune::frequency::study::SweepRun], a: &SweepArgs, points
     if a.json {
         to.push("the JSON on standard output".into());
     }
+    // the runs that kept something (a failing run may have kept nothing)
+    let with_points = runs.iter().filter(|r| !r.sweep.points.is_empty()).count();
     let cases = if runs.len() > 1 {
-        format!(" (in {} --values cases)", runs.len())
+        format!(
+            "in {with_points} --values case{}, ",
+            if with_points == 1 { "" } else { "s" }
+        )
     } else {
         String::new()
     };
+    let n = format!("{points} frequenc{}", if points == 1 { "y" } else { "ies" });
+    let what = match failure.kind {
+        CaseKind::Coarse => format!("kept the {n} finished before it"),
+        CaseKind::Back => format!(
+            "kept the whole coarse grid ({n}); the jumps from that edge on were not checked"
+        ),
+        CaseKind::Refine => format!(
+            "kept the whole coarse grid and the other peaks ({n}); the peak being refined there is left out"
+        ),
+    };
     format!(
-        "kept the {points} frequenc{} finished before it{cases} ({} to {} rad/s){}",
-        if points == 1 { "y" } else { "ies" },
+        "{what} ({cases}{} to {} rad/s){}",
         detune::diag::num(lo),
         detune::diag::num(hi),
         if to.is_empty() {
@@ -755,8 +823,10 @@ fn no_steady_state(
     e: Error,
     model: &detune::Model,
     sys: &detune::System,
+    values: &[(String, f64)],
     a: &SweepArgs,
     kept: &str,
+    stage: checkpoint::CaseKind,
 ) -> Error {
     use detune::failure::Failure::{ConstraintsNotKept, NonFinite, StepSizeUnderflow};
     let Error::Failed { failure, context } = &e else {
@@ -779,8 +849,14 @@ fn no_steady_state(
         .forcing_amplitude_param()
         .map(|i| {
             let name = &sys.param_names()[i];
+            let how = if values.iter().any(|(n, _)| n == name) {
+                "in this run: lower it in --values"
+            } else {
+                "now: --set {name}=..."
+            }
+            .replace("{name}", name);
             format!(
-                "lower the forcing ({name} = {} now: --set {name}=...), ",
+                "lower the forcing ({name} = {} {how}), ",
                 format!(
                     "{} {}",
                     detune::diag::num(sys.param(i)),
@@ -791,20 +867,38 @@ fn no_steady_state(
         })
         .unwrap_or_default();
     let watch = if t.is_finite() {
+        // the failing run's --values as --set (SI numbers, as --values gives them)
+        let mut except = vec![param.as_str()];
+        except.extend(values.iter().map(|(n, _)| n.as_str()));
+        let sets: String = values
+            .iter()
+            .map(|(n, v)| format!(" --set {n}={}", detune::diag::num(*v)))
+            .collect();
         format!(
-            "; see the motion with `detune simulate {} --set {param}={at} --t-end {}`",
-            a.model.command_words(&[param.as_str()]),
+            "; see the motion with `detune simulate {}{sets} --set {param}={at} --t-end {}`",
+            a.model.command_words(&except),
             (t + 1.0).ceil()
         )
     } else {
         String::new()
     };
+    let (instead, during) = match stage {
+        checkpoint::CaseKind::Coarse => (format!("start --from above {at}, or "), ""),
+        checkpoint::CaseKind::Back => (
+            "sweep independently (--mode independent: no jump checks), or ".to_string(),
+            " (a jump check)",
+        ),
+        checkpoint::CaseKind::Refine => (
+            "sweep without --refine (the coarse grid finished), or ".to_string(),
+            " (a peak refinement)",
+        ),
+    };
     Error::numerical(
         format!(
-            "the sweep stopped at {param} = {at} rad/s, where the motion cannot be integrated: {failure} in the run toward its steady state; {kept}"
+            "the sweep stopped at {param} = {at} rad/s{during}, where the motion cannot be integrated: {failure} in the run toward its steady state; {kept}"
         ),
         format!(
-            "the forcing drives the mechanism into a pose where it cannot move on: a singular pose (its constraints lose rank, as the overcentre's bars do folded at ±90°), or a force that changes abruptly; a stepped sine needs a steady state at every frequency. Try: {forcing}start --from above {at}, or loosen --rtol/--atol if the pose is regular{watch}"
+            "the forcing drives the mechanism into a pose where it cannot move on: a singular pose (its constraints lose rank, as the overcentre's bars do folded at ±90°), or a force that changes abruptly; a stepped sine needs a steady state at every frequency. Try: {forcing}{instead}loosen --rtol/--atol if the pose is regular{watch}"
         ),
     )
 }

@@ -631,12 +631,21 @@ pub struct SweepFailure {
 impl SweepFailure {
     /// What went wrong, in one line, without the frequency (the failure's own words).
     pub fn reason(&self) -> String {
-        match self.error.failure() {
-            Some(f) => f.to_string(),
-            None => {
-                let text = self.error.render(false);
-                let first = text.lines().next().unwrap_or_default();
-                first.strip_prefix("error: ").unwrap_or(first).to_string()
+        self.error.headline()
+    }
+
+    /// What the sweep kept, in words, by stage: the coarse grid's frequencies before the
+    /// failing one; after a jump check, the whole coarse grid (no jumps from that edge
+    /// on); after a peak refinement, the whole coarse grid and the other peaks (this peak
+    /// left out).
+    pub fn kept(&self) -> &'static str {
+        match self.kind {
+            checkpoint::CaseKind::Coarse => "the frequencies completed before it",
+            checkpoint::CaseKind::Back => {
+                "the whole coarse grid; the jumps from that edge on were not checked"
+            }
+            checkpoint::CaseKind::Refine => {
+                "the whole coarse grid and the other peaks; the peak being refined there is left out"
             }
         }
     }
@@ -735,10 +744,9 @@ pub fn prepare(sys: &System, opts: &SweepOptions) -> Result<(System, Vec<Output>
 
 /// Run a sweep. `progress` is called with the number of frequencies done (coarse grid
 /// and refinement); `cancel` stops it within one integration step, returning what was computed with
-/// `complete = false`. A frequency whose steady state cannot be computed stops it too:
-/// it returns what it finished before that frequency with `complete = false` and the
-/// failure in [`Sweep::failure`] (see [`SweepFailure`]; [`Sweep::into_result`] makes it
-/// an error).
+/// `complete = false`. A frequency whose steady state cannot be computed is an error (its
+/// own, with the frequency in its context): nothing is returned. [`sweep_logged_partial`]
+/// keeps what a failing sweep finished instead (the `detune sweep` command's way).
 pub fn sweep(
     sys: &System,
     opts: &SweepOptions,
@@ -775,8 +783,25 @@ pub struct Progress {
 /// `log` (a checkpoint: see [`checkpoint`]): a case the log knows is not computed again,
 /// each case computed is recorded as soon as it is done, and an independent sweep
 /// computes only the coarse-grid frequencies the log selects (a shard; the sweep is then
-/// partial: no peaks, jumps or hysteresis, which need the whole curve).
+/// partial: no peaks, jumps or hysteresis, which need the whole curve). A failing
+/// frequency is an error, as for [`sweep`] (the log keeps the cases recorded before it).
 pub fn sweep_logged(
+    sys: &System,
+    opts: &SweepOptions,
+    progress: &(dyn Fn(Progress) + Sync),
+    cancel: &AtomicBool,
+    log: &dyn checkpoint::CaseLog,
+    run: usize,
+    stiff: StiffHook,
+) -> Result<Sweep> {
+    sweep_logged_partial(sys, opts, progress, cancel, log, run, stiff)?.into_result()
+}
+
+/// [`sweep_logged`], keeping what a failing sweep finished: a frequency whose steady
+/// state cannot be computed stops the sweep, which is returned with `complete = false`
+/// and the failure in [`Sweep::failure`] (what is kept: see [`SweepFailure`]). A caller
+/// must look at `failure` (or call [`Sweep::into_result`]): the curve may be partial.
+pub fn sweep_logged_partial(
     sys: &System,
     opts: &SweepOptions,
     progress: &(dyn Fn(Progress) + Sync),

@@ -6,7 +6,7 @@
 //! frequencies of the runs for the response plot.
 
 use super::checkpoint::CaseLog;
-use super::{Progress, Sweep, SweepMode, SweepOptions, prepare, sweep_logged};
+use super::{Progress, Sweep, SweepMode, SweepOptions, prepare, sweep_logged_partial};
 use crate::diag::{Error, Result};
 use crate::linear::{at_frequency, modal_analysis};
 use crate::model::Model;
@@ -305,8 +305,26 @@ impl SweepStudy {
     /// done in all runs so far and the refinement of the run in progress; `cancel` stops
     /// the run in progress, which is returned incomplete and is the last. Each case is
     /// looked up in and recorded to `log`; the runs it does not take are left out (a
-    /// shard of a sequential study).
+    /// shard of a sequential study). A failing frequency is an error
+    /// ([`super::sweep_logged`]); [`SweepStudy::run_partial`] keeps what was finished.
     pub fn run(
+        &self,
+        progress: &(dyn Fn(Progress) + Sync),
+        cancel: &AtomicBool,
+        log: &dyn CaseLog,
+        stiff: super::StiffHook,
+    ) -> Result<Vec<SweepRun>> {
+        let runs = self.run_partial(progress, cancel, log, stiff)?;
+        match runs.iter().find_map(|r| r.sweep.failure.clone()) {
+            Some(f) => Err(f.error),
+            None => Ok(runs),
+        }
+    }
+
+    /// [`SweepStudy::run`], keeping what a failing sweep finished
+    /// ([`super::sweep_logged_partial`]): the failing run is the last, with
+    /// `sweep.failure` set.
+    pub fn run_partial(
         &self,
         progress: &(dyn Fn(Progress) + Sync),
         cancel: &AtomicBool,
@@ -320,7 +338,7 @@ impl SweepStudy {
                 continue;
             }
             let base = done.load(Ordering::SeqCst);
-            let s = sweep_logged(
+            let s = sweep_logged_partial(
                 &run.system,
                 &self.options,
                 &|p| {

@@ -447,6 +447,8 @@ pub struct FailureJson {
     pub direction: crate::frequency::Direction,
     pub stage: crate::frequency::checkpoint::CaseKind,
     pub message: String,
+    /// What the sweep kept ([`crate::frequency::SweepFailure::kept`]).
+    pub kept: &'static str,
 }
 
 impl<'a> SweepReport<'a> {
@@ -495,6 +497,7 @@ impl<'a> SweepReport<'a> {
                         direction: f.direction,
                         stage: f.kind,
                         message: f.reason(),
+                        kept: f.kept(),
                     },
                     tag: r.tags(),
                 })

@@ -223,7 +223,7 @@ pub fn incomplete_sweep_line(runs: &[SweepRun]) -> Option<String> {
             Some((run, f)) => {
                 let tag = crate::frequency::study::values_label(&run.values);
                 format!(
-                    "# incomplete: failed at {} = {} rad/s ({}, {}{}): {}; the rows above are the frequencies completed before it",
+                    "# incomplete: failed at {} = {} rad/s ({}, {}{}): {}; the rows above are {}",
                     run.sweep.param,
                     num(f.omega),
                     f.direction.name(),
@@ -233,7 +233,8 @@ pub fn incomplete_sweep_line(runs: &[SweepRun]) -> Option<String> {
                     } else {
                         format!(", {tag}")
                     },
-                    f.reason().replace(['\n', '\r'], " ")
+                    f.reason().replace(['\n', '\r'], " "),
+                    f.kept()
                 )
             }
             None => {
