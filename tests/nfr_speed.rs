@@ -41,18 +41,29 @@ fn overcentre() -> detune::System {
 
 const RESOLUTION: f64 = 1e-4;
 
+/// `nfr` in the forcing frequency from `from` to `to`, measuring `response`, complete, with
+/// its wall time in seconds.
+fn timed_nfr(
+    sys: &detune::System,
+    from: f64,
+    to: f64,
+    response: &str,
+) -> (detune::periodic::continuation::Nfr, f64) {
+    let began = Instant::now();
+    let opts = NfrOptions::new("omega", from, to, vec![response.to_string()]);
+    let c = nfr(sys, &opts, &|_, _| {}, &AtomicBool::new(false)).unwrap();
+    let t = began.elapsed().as_secs_f64();
+    assert!(c.complete, "{:?}", c.branches);
+    (c, t)
+}
+
 #[test]
 #[ignore = "a minute: the speed benchmark's numbers (docs/performance.md)"]
 fn nfr_against_the_stepped_sine() {
     let sys = overcentre();
     let cancel = AtomicBool::new(false);
     let response = "bar1.theta".to_string();
-
-    let began = Instant::now();
-    let opts = NfrOptions::new("omega", 2.5, 5.0, vec![response.clone()]);
-    let c = nfr(&sys, &opts, &|_, _| {}, &cancel).unwrap();
-    let t_nfr = began.elapsed().as_secs_f64();
-    assert!(c.complete, "{:?}", c.branches);
+    let (c, t_nfr) = timed_nfr(&sys, 2.5, 5.0, &response);
 
     let began = Instant::now();
     let sopts = SweepOptions {
@@ -262,12 +273,7 @@ fn nfr_against_the_stepped_sine_inceptor() {
     let sys = inceptor_7mm();
     let cancel = AtomicBool::new(false);
     let response = "stick.phi".to_string();
-
-    let began = Instant::now();
-    let opts = NfrOptions::new("omega", 20.0, 32.0, vec![response.clone()]);
-    let c = nfr(&sys, &opts, &|_, _| {}, &cancel).unwrap();
-    let t_nfr = began.elapsed().as_secs_f64();
-    assert!(c.complete, "{:?}", c.branches);
+    let (c, t_nfr) = timed_nfr(&sys, 20.0, 32.0, &response);
     println!(
         "nfr: {t_nfr:.2} s, {} RHS, {} periods, {} points; {} folds, {} period doublings, {} Neimark-Sacker",
         c.rhs_evaluations,

@@ -231,6 +231,15 @@ impl Node {
         a
     }
 
+    /// How much the orbit amplifies an error over a period: its largest multiplier's
+    /// modulus, at least 1.
+    fn growth(&self) -> f64 {
+        self.point
+            .multipliers
+            .iter()
+            .fold(1.0f64, |m, mu| m.max(mu.norm()))
+    }
+
     fn tp(&self) -> f64 {
         self.tangent[self.tangent.len() - 1]
     }
@@ -1057,20 +1066,29 @@ impl Tracer<'_> {
         ds: f64,
         fixed: Option<f64>,
     ) -> Result<Option<Node>> {
-        let growth = base
-            .point
-            .multipliers
-            .iter()
-            .fold(1.0f64, |m, mu| m.max(mu.norm()));
-        let f = (NOISE_CAP / (100.0 * self.sh.opts.rtol * growth)).min(1.0);
+        let f = (NOISE_CAP / (100.0 * self.sh.opts.rtol * base.growth())).min(1.0);
         if !(f < 1.0) {
             return self.correct_at(base, curvature, ds, fixed);
         }
-        let keep = (self.sh.opts.rtol, self.sh.opts.atol);
-        self.sh.opts.rtol = (keep.0 * f).max(1e-14);
-        self.sh.opts.atol = (keep.1 * f).max(1e-16);
-        let out = self.correct_at(base, curvature, ds, fixed);
-        (self.sh.opts.rtol, self.sh.opts.atol) = keep;
+        self.with_options(
+            |o| {
+                o.rtol = (o.rtol * f).max(1e-14);
+                o.atol = (o.atol * f).max(1e-16);
+            },
+            |t| t.correct_at(base, curvature, ds, fixed),
+        )
+    }
+
+    /// `f` with the shooting's options changed by `adjust`, restored after.
+    fn with_options<T>(
+        &mut self,
+        adjust: impl FnOnce(&mut ShootingOptions),
+        f: impl FnOnce(&mut Self) -> T,
+    ) -> T {
+        let keep = self.sh.opts.clone();
+        adjust(&mut self.sh.opts);
+        let out = f(self);
+        self.sh.opts = keep;
         out
     }
 
@@ -1140,12 +1158,11 @@ impl Tracer<'_> {
             };
             // the integration's error, amplified by the orbit's unstable multipliers,
             // bounds the residual that the fixed point can be found to
-            let growth = base
-                .point
-                .multipliers
-                .iter()
-                .fold(1.0f64, |m, mu| m.max(mu.norm()));
-            let tol = self.sh.opts.tol.max(100.0 * self.sh.opts.rtol * growth);
+            let tol = self
+                .sh
+                .opts
+                .tol
+                .max(100.0 * self.sh.opts.rtol * base.growth());
             // The integration's noise: P is no smoother than its error control, which is
             // relative to the coordinates' size, not to the orbit's amplitude; where the
             // coordinates are large against a small orbit (a base-driven mechanism) and a
@@ -1287,14 +1304,16 @@ impl Tracer<'_> {
         central: bool,
         f: impl FnOnce(&mut Self) -> T,
     ) -> T {
-        let keep = self.sh.opts.clone();
-        self.sh.opts.central = central;
-        self.sh.opts.rtol = (keep.rtol * PRECISE).max(1e-14);
-        self.sh.opts.atol = keep.atol * PRECISE;
-        self.sh.opts.samples = samples.unwrap_or(keep.samples);
         self.arc_tol = 1e-10;
-        let out = f(self);
-        self.sh.opts = keep;
+        let out = self.with_options(
+            |o| {
+                o.central = central;
+                o.rtol = (o.rtol * PRECISE).max(1e-14);
+                o.atol *= PRECISE;
+                o.samples = samples.unwrap_or(o.samples);
+            },
+            f,
+        );
         self.arc_tol = ARC_TOL;
         out
     }
