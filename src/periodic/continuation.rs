@@ -1011,16 +1011,14 @@ impl Tracer<'_> {
                 }
                 // where neither converges (a forcing amplitude's 0, where the orbit is
                 // the equilibrium; a strongly unstable orbit), the branch ends at its
-                // last orbit inside the range, none outside it, and says so
-                // nor any located point beyond the range's end (one that could not be
-                // located stays if the range lies within its bracket)
-                let inside = |x: f64| (x - from) * dir >= 0.0 && (x - to) * dir <= 0.0;
+                // last orbit inside the range, none outside it, and says so (`short`).
+                // No located point beyond the range's end stays either (one that could
+                // not be located does if the range lies within its bracket).
                 let (lo, hi) = (from.min(to), from.max(to));
-                located.retain(|n| inside(n.point.value));
+                let beyond = |x: f64| (x - x.clamp(lo, hi)).abs();
+                located.retain(|n| beyond(n.point.value) == 0.0);
                 specials.retain(|sp| {
-                    inside(sp.value)
-                        || (!sp.refined
-                            && (sp.value - sp.value.clamp(lo, hi)).abs() <= sp.uncertainty)
+                    beyond(sp.value) == 0.0 || (!sp.refined && beyond(sp.value) <= sp.uncertainty)
                 });
                 let mut b = finish(nodes, located, ended)?;
                 b.short = short;
