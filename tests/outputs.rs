@@ -624,3 +624,28 @@ fn a_signal_stops_frf_and_mode_tracking_writing_nothing() {
         assert!(temps(dir.path()).is_empty(), "{:?}", temps(dir.path()));
     }
 }
+
+/// The tests read the JSON's numbers back exactly (serde_json's `float_roundtrip`): without
+/// it, 0.41000000000000003 reads as 0.41, and the interrupted simulation's check of the
+/// final time against the CSV's failed whenever the signal landed on such a sample.
+#[test]
+fn json_times_read_back_to_the_bit() {
+    let dir = tempfile::tempdir().unwrap();
+    let json = dir.path().join("end.json");
+    let t_end = 41.0 * 0.01; // 0.41000000000000003, not 0.41
+    assert_ne!(t_end, 0.41);
+    let (code, _, err) = detune(&[
+        "simulate",
+        "models/overcentre.toml",
+        "--t-end",
+        &format!("{t_end}"),
+        "--dt-out",
+        "0.01",
+        "--json",
+        s(&json),
+    ]);
+    assert_eq!(code, 0, "{err}");
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    assert_eq!(summary["final"]["t"].as_f64(), Some(t_end));
+}
