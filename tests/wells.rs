@@ -455,3 +455,138 @@ fn a_forcing_beyond_the_folded_pose_is_an_error_that_says_so() {
         "bar 1 reaches {lowest} rad"
     );
 }
+
+/// The hysteresis intervals of an up/down sweep cover every grid frequency where the two
+/// sweeps differ, in amplitude by more than 1 % or in well, and no other: at F0 = 10 N,
+/// 5.25 rad/s has up in the lower well and down in the upper one with amplitudes within
+/// 1 % (0.1012 and 0.1020 rad), which the amplitude alone called equal.
+#[test]
+fn hysteresis_counts_a_change_of_well() {
+    let (code, out, err) = detune(&[
+        "sweep",
+        "models/overcentre.toml",
+        "--set",
+        "F0=10",
+        "--param",
+        "omega",
+        "--from",
+        "0.5",
+        "--to",
+        "6",
+        "--step",
+        "0.25",
+        "--response",
+        "bar1.theta",
+        "--mode",
+        "both",
+        "--json",
+    ]);
+    assert_eq!(code, 0, "{err}");
+    let j: Value = serde_json::from_str(&out).unwrap();
+    let points = j["points"].as_array().unwrap();
+    let at = |dir: &str, w: f64| {
+        points
+            .iter()
+            .find(|p| {
+                p["direction"] == dir
+                    && p["refined"] == false
+                    && (p["omega"].as_f64().unwrap() - w).abs() < 1e-12
+            })
+            .map(|p| {
+                (
+                    p["bar1.theta_amplitude"].as_f64().unwrap(),
+                    p["well"].as_i64().unwrap(),
+                )
+            })
+            .unwrap()
+    };
+    let intervals: Vec<(f64, f64)> = j["hysteresis"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|h| (h["from"].as_f64().unwrap(), h["to"].as_f64().unwrap()))
+        .collect();
+    let mut well_only = 0;
+    for k in 0..=22 {
+        let w = 0.5 + 0.25 * k as f64;
+        let ((u, wu), (d, wd)) = (at("up", w), at("down", w));
+        let by_amplitude = (u - d).abs() > 0.01 * u.abs().max(d.abs());
+        let differ = by_amplitude || wu != wd;
+        well_only += usize::from(wu != wd && !by_amplitude);
+        let inside = intervals
+            .iter()
+            .any(|(a, b)| w >= a - 1e-9 && w <= b + 1e-9);
+        assert_eq!(
+            inside, differ,
+            "{w} rad/s: up {u} in {wu}, down {d} in {wd}, {intervals:?}"
+        );
+    }
+    // the case this guards: a frequency told apart by its well only
+    assert!(well_only >= 1);
+}
+
+/// Where the wells alternate from one frequency to the next (F0 = 30 N: orbits about the
+/// lower well and across both), the summary lists each well's runs of consecutive grid
+/// frequencies, as the CSV's `well` column has them, not one range per well (it printed
+/// "1.5–4 rad/s in across wells; 1–5.5 rad/s in well 0").
+#[test]
+fn the_well_summary_lists_runs_of_frequencies() {
+    let dir = tempfile::tempdir().unwrap();
+    let csv = dir.path().join("w.csv");
+    let (code, out, err) = detune(&[
+        "sweep",
+        "models/overcentre.toml",
+        "--set",
+        "F0=30",
+        "--param",
+        "omega",
+        "--from",
+        "1",
+        "--to",
+        "6",
+        "--step",
+        "0.5",
+        "--response",
+        "bar1.theta",
+        "-o",
+        csv.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 0, "{err}");
+    let text = std::fs::read_to_string(&csv).unwrap();
+    let rows: Vec<(String, i64)> = text
+        .lines()
+        .skip(1)
+        .map(|r| {
+            let f: Vec<&str> = r.split(',').collect();
+            (f[0].to_string(), f.last().unwrap().parse().unwrap())
+        })
+        .collect();
+    let runs = |k: i64| {
+        let mut parts: Vec<String> = Vec::new();
+        let mut i = 0;
+        while i < rows.len() {
+            if rows[i].1 != k {
+                i += 1;
+                continue;
+            }
+            let mut j = i;
+            while j + 1 < rows.len() && rows[j + 1].1 == k {
+                j += 1;
+            }
+            parts.push(if i == j {
+                rows[i].0.clone()
+            } else {
+                format!("{}–{}", rows[i].0, rows[j].0)
+            });
+            i = j + 1;
+        }
+        parts.join(", ")
+    };
+    let all = format!("{out}{err}");
+    // both kinds occur, each in more than one run (the case this guards)
+    for (k, words) in [(0, "rad/s in well 0"), (-1, "rad/s across wells")] {
+        let r = runs(k);
+        assert!(r.contains(", "), "{k}: {r}");
+        assert!(all.contains(&format!("{r} {words}")), "{r} {words}\n{all}");
+    }
+}

@@ -1346,20 +1346,24 @@ fn parabola(p: &[(f64, f64)]) -> Option<(f64, f64)> {
     Some((a, -b / (2.0 * a)))
 }
 
-/// Coarse-grid intervals where up and down amplitudes (first response) differ by > 1 %.
+/// Coarse-grid intervals where the up and down sweeps differ: their amplitudes (first
+/// response) by more than 1 %, or their wells (two orbits of nearly one amplitude about
+/// different equilibria are different responses).
 fn hysteresis(points: &[SweepPoint], grid: &[f64]) -> Vec<Hysteresis> {
-    let amp = |dir: Direction, w: f64| {
+    let at = |dir: Direction, w: f64| {
         points
             .iter()
             .find(|p| p.direction == dir && p.steady.omega == w && !p.refined)
-            .map(|p| p.steady.measures[0].amplitude)
+            .map(|p| (p.steady.measures[0].amplitude, p.well))
     };
     let mut out: Vec<Hysteresis> = Vec::new();
     let mut open: Option<f64> = None;
     let mut last = grid[0];
     for &w in grid {
-        let differ = match (amp(Direction::Up, w), amp(Direction::Down, w)) {
-            (Some(u), Some(d)) => (u - d).abs() > 0.01 * u.abs().max(d.abs()),
+        let differ = match (at(Direction::Up, w), at(Direction::Down, w)) {
+            (Some((u, wu)), Some((d, wd))) => {
+                wu != wd || (u - d).abs() > 0.01 * u.abs().max(d.abs())
+            }
             _ => false,
         };
         match (differ, open) {

@@ -721,7 +721,8 @@ pub fn tracking_figure(
 /// The summary lines of a sweep's wells, per direction, when a response leaves the well
 /// the sweep starts from: "the response left its starting well (well 2: bar1.theta =
 /// 0.644 rad) at 15 of 23 frequencies (independent): 0.5–4 rad/s in well 0 (bar1.theta =
-/// -0.866 rad)", the frequencies in `unit` (`--freq-unit`). Coarse-grid points only
+/// -0.866 rad)", the frequencies in `unit` (`--freq-unit`), each well's as runs of
+/// consecutive grid frequencies ("1, 2, 3–3.5 rad/s in well 0"). Coarse-grid points only
 /// (refinement adds none across wells). None when every response stays in the starting
 /// well.
 pub fn well_summary(run: &SweepRun, unit: super::units::FreqUnit) -> Vec<String> {
@@ -739,29 +740,49 @@ pub fn well_summary(run: &SweepRun, unit: super::units::FreqUnit) -> Vec<String>
             continue;
         }
         let mut wells: Vec<isize> = left.iter().map(|p| p.well).collect();
-        wells.sort();
+        // the wells in their order, the orbits across wells last
+        wells.sort_by_key(|&k| (k < 0, k));
         wells.dedup();
         let parts: Vec<String> = wells
             .iter()
             .map(|&k| {
-                let w: Vec<f64> = left
-                    .iter()
-                    .filter(|p| p.well == k)
-                    .map(|p| p.steady.omega)
-                    .collect();
-                let (lo, hi) = (w[0], w[w.len() - 1]);
+                // the runs of consecutive grid frequencies in well k (wells can
+                // alternate from one frequency to the next)
+                let mut runs: Vec<(f64, f64)> = Vec::new();
+                let mut open = false;
+                for p in &pts {
+                    if p.well != k {
+                        open = false;
+                        continue;
+                    }
+                    match runs.last_mut() {
+                        Some(run) if open => run.1 = p.steady.omega,
+                        _ => runs.push((p.steady.omega, p.steady.omega)),
+                    }
+                    open = true;
+                }
                 // a grid frequency as computed in rad/s, else in the unit (`--freq-unit`)
                 let shown = |w: f64| match unit {
                     super::units::FreqUnit::RadPerSecond => w.to_string(),
                     u => format!("{:.6}", u.of(w)),
                 };
                 let sym = unit.symbol();
-                let range = if lo == hi {
-                    format!("{} {sym}", shown(lo))
+                let range = runs
+                    .iter()
+                    .map(|&(lo, hi)| {
+                        if lo == hi {
+                            shown(lo)
+                        } else {
+                            format!("{}–{}", shown(lo), shown(hi))
+                        }
+                    })
+                    .collect::<Vec<_>>()
+                    .join(", ");
+                if k == crate::frequency::wells::SPANS {
+                    format!("{range} {sym} across wells (the orbit spans two)")
                 } else {
-                    format!("{}–{} {sym}", shown(lo), shown(hi))
-                };
-                format!("{range} in {}", well_name(run, k))
+                    format!("{range} {sym} in {}", well_name(run, k))
+                }
             })
             .collect();
         out.push(format!(
