@@ -410,3 +410,22 @@ fn every_joint_type_has_its_marker() {
         assert!(svg.contains(&format!(">{name}</text>")), "{name}");
     }
 }
+
+/// `draw` writes SVG only: `.png`, `.pdf` or `.csv` is refused before any work, no file
+/// written (it wrote SVG under those names, exit 0), with the flag and what to name it.
+#[test]
+fn a_drawing_not_named_svg_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    for name in ["pose.png", "pose.pdf", "pose.csv", "pose"] {
+        let out = dir.path().join(name);
+        let (code, _, err) = detune(&[
+            "draw",
+            "models/overcentre.toml",
+            "-o",
+            out.to_str().unwrap(),
+        ]);
+        assert_eq!(code, 1, "{name}: {err}");
+        assert!(err.contains("-o ") && err.contains(".svg"), "{name}: {err}");
+        assert!(!out.exists(), "{name} was written");
+    }
+}
