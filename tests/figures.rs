@@ -553,3 +553,54 @@ fn report_figures_share_the_style() {
     let s = check(&p, 1);
     assert!(has(&s, "mode 1: ω_n = 13.00 rad/s"));
 }
+
+/// The nonlinear frequency response and the backbone pass the checks every figure does:
+/// text sizes, axes with units, legend samples in their curves' pens (stable solid,
+/// unstable dashed), float coordinates, a caption naming the case; the fold marked.
+#[test]
+fn nfr_and_backbone_figures() {
+    let dir = tempfile::tempdir().unwrap();
+    let nfr = dir.path().join("nfr.svg");
+    let (code, _, err) = detune(&[
+        "nfr",
+        "models/overcentre.toml",
+        "--set",
+        "theta1_0=-0.85",
+        "--set",
+        "c=1",
+        "--set",
+        "F0=4",
+        "--param",
+        "omega",
+        "--from",
+        "3.9",
+        "--to",
+        "4.1",
+        "--response",
+        "bar1.theta",
+        "--plot",
+        nfr.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 0, "{err}");
+    let s = check(&nfr, 2);
+    assert!(has(&s, "omega [rad/s]"), "{:?}", s.texts);
+    assert!(has(&s, "fold"), "{:?}", s.texts);
+    let pens: Vec<&Vec<String>> = s.curves.values().map(|p| &p.0).collect();
+    assert!(pens.iter().any(|p| p[2].is_empty()) && pens.iter().any(|p| !p[2].is_empty()));
+    let bb = dir.path().join("backbone.svg");
+    let (code, _, err) = detune(&[
+        "backbone",
+        "models/overcentre.toml",
+        "--set",
+        "theta1_0=-0.85",
+        "--of-mode",
+        "1",
+        "--to-amplitude",
+        "0.3",
+        "--plot",
+        bb.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 0, "{err}");
+    let s = check(&bb, 1);
+    assert!(has(&s, "[rad/s]"), "{:?}", s.texts);
+}
