@@ -675,5 +675,45 @@ fn grids_and_times_accept_quantities() {
         csv.to_str().unwrap(),
     ]);
     assert_eq!(code, 1);
-    assert!(err.contains("--t-end 2 m"), "{err}");
+    assert!(err.contains("--t-end 2 m"), "{err}"); // sweep takes the same quantities (its grid in Hz is the rad/s grid × 2π), and
+    // --refine is checked like the grid: a frequency step, not a mass
+    let sweep = |refine: &str| {
+        detune(&[
+            "sweep",
+            "models/overcentre.toml",
+            "--set",
+            "F0=1",
+            "--param",
+            "omega",
+            "--from",
+            "0.5 Hz",
+            "--to",
+            "0.6 Hz",
+            "--step",
+            "0.05 Hz",
+            "--refine",
+            refine,
+            "--response",
+            "bar1.theta",
+            "--json",
+        ])
+    };
+    let (code, out, err) = sweep("0.001 Hz");
+    assert_eq!(code, 0, "{err}");
+    let j: serde_json::Value = serde_json::from_str(&out).unwrap();
+    let grid: Vec<f64> = j["points"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|p| p["refined"] == false)
+        .map(|p| p["omega"].as_f64().unwrap())
+        .collect();
+    assert_eq!(grid.len(), 3, "{grid:?}");
+    // (a grid value is rounded to 9 more decimals than its step: 3.1415926536)
+    for (w, f) in grid.iter().zip([0.5, 0.55, 0.6]) {
+        assert!((w - tau * f).abs() < 1e-9 * tau * 0.05, "{w} vs {}", tau * f);
+    }
+    let (code, _, err) = sweep("3 kg");
+    assert_eq!(code, 1);
+    assert!(err.contains("--refine 3 kg"), "{err}");
 }
