@@ -711,7 +711,11 @@ fn grids_and_times_accept_quantities() {
     assert_eq!(grid.len(), 3, "{grid:?}");
     // (a grid value is rounded to 9 more decimals than its step: 3.1415926536)
     for (w, f) in grid.iter().zip([0.5, 0.55, 0.6]) {
-        assert!((w - tau * f).abs() < 1e-9 * tau * 0.05, "{w} vs {}", tau * f);
+        assert!(
+            (w - tau * f).abs() < 1e-9 * tau * 0.05,
+            "{w} vs {}",
+            tau * f
+        );
     }
     let (code, _, err) = sweep("3 kg");
     assert_eq!(code, 1);

@@ -604,3 +604,41 @@ fn nfr_and_backbone_figures() {
     let s = check(&bb, 1);
     assert!(has(&s, "[rad/s]"), "{:?}", s.texts);
 }
+
+/// A PNG's curves are smoothed (drawn 3× larger and reduced by averaging): the pixels
+/// along a curve take intermediate shades between its colour and the white behind it.
+/// Drawn directly, plotters' bitmap backend sets whole pixels: the curves' own colours
+/// and white, with the text's shades the only others.
+#[test]
+fn png_curves_are_anti_aliased() {
+    let dir = tempfile::tempdir().unwrap();
+    let png = dir.path().join("sim.png");
+    let (code, _, err) = detune(&[
+        "simulate",
+        "models/overcentre.toml",
+        "--t-end",
+        "5",
+        "--plot",
+        png.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 0, "{err}");
+    let decoder = png::Decoder::new(std::io::BufReader::new(std::fs::File::open(&png).unwrap()));
+    let mut reader = decoder.read_info().unwrap();
+    let mut buf = vec![0; reader.output_buffer_size().unwrap()];
+    let info = reader.next_frame(&mut buf).unwrap();
+    assert_eq!(info.color_type, png::ColorType::Rgb);
+    // shades of the first curve's blue (0, 114, 178) over white: r/255 = g−114 over
+    // 141 = b−178 over 77, the same coverage in each channel, strictly between 0 and 1
+    let mut partial = 0;
+    for px in buf[..info.buffer_size()].chunks(3) {
+        let (r, g, b) = (px[0] as f64, px[1] as f64, px[2] as f64);
+        let a = 1.0 - r / 255.0;
+        if a > 0.1 && a < 0.9 {
+            let (g0, b0) = (255.0 - a * 141.0, 255.0 - a * 77.0);
+            if (g - g0).abs() <= 3.0 && (b - b0).abs() <= 3.0 {
+                partial += 1;
+            }
+        }
+    }
+    assert!(partial > 500, "{partial} pixels of partial coverage");
+}

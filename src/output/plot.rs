@@ -614,6 +614,46 @@ pub trait Figure {
         root: &DrawingArea<DB, Shift>,
         painter: &mut Painter<'_, DB>,
     ) -> std::result::Result<(), String>;
+    /// The same figure at another size, everything in it scaled with the width (for a
+    /// PNG drawn larger and reduced: smooth lines). None: drawn at its size only.
+    fn resized(&self, _size: (u32, u32)) -> Option<Self>
+    where
+        Self: Sized,
+    {
+        None
+    }
+}
+
+/// A PNG is drawn this many times larger in each direction and reduced by averaging,
+/// where that stays within [`MAX_SUPERSAMPLED`] pixels: plotters' bitmap backend draws
+/// lines and markers without anti-aliasing, whole pixels on or off (stair-stepped
+/// curves); the average of the 3×3 sub-pixels smooths them as a vector renderer would.
+const SUPERSAMPLE: u32 = 3;
+
+/// The most pixels a supersampled drawing may take (3 bytes each): 36 M, about 108 MB.
+const MAX_SUPERSAMPLED: u64 = 36_000_000;
+
+/// An RGB image of `w·k × h·k` reduced to `w × h` by averaging each k × k block.
+fn reduce(big: &[u8], w: u32, h: u32, k: u32) -> Vec<u8> {
+    let (w, h, k) = (w as usize, h as usize, k as usize);
+    let row = w * k * 3;
+    let mut out = vec![0u8; w * h * 3];
+    for y in 0..h {
+        for x in 0..w {
+            for c in 0..3 {
+                let mut sum = 0u32;
+                for dy in 0..k {
+                    let base = (y * k + dy) * row + x * k * 3 + c;
+                    for dx in 0..k {
+                        sum += u32::from(big[base + dx * 3]);
+                    }
+                }
+                let n = (k * k) as u32;
+                out[(y * w + x) * 3 + c] = ((sum + n / 2) / n) as u8;
+            }
+        }
+    }
+    out
 }
 
 /// Render a figure as SVG text or PNG bytes.
@@ -637,14 +677,26 @@ pub fn render<F: Figure>(fig: &F, format: Format) -> std::result::Result<Vec<u8>
             Ok(svg.into_bytes())
         }
         Format::Png => {
-            let mut buf = vec![255u8; w as usize * h as usize * 3];
-            {
-                let root = BitMapBackend::with_buffer(&mut buf, (w, h)).into_drawing_area();
-                root.fill(&WHITE).map_err(err)?;
-                let mut painter = Painter::Raster(&root);
-                fig.draw(&root, &mut painter)?;
-                root.present().map_err(err)?;
-            }
+            let k = SUPERSAMPLE;
+            let big = (u64::from(w) * u64::from(k)) * (u64::from(h) * u64::from(k));
+            let large = (big <= MAX_SUPERSAMPLED)
+                .then(|| fig.resized((w * k, h * k)))
+                .flatten();
+            let draw = |f: &F, (w, h): (u32, u32)| -> std::result::Result<Vec<u8>, String> {
+                let mut buf = vec![255u8; w as usize * h as usize * 3];
+                {
+                    let root = BitMapBackend::with_buffer(&mut buf, (w, h)).into_drawing_area();
+                    root.fill(&WHITE).map_err(err)?;
+                    let mut painter = Painter::Raster(&root);
+                    f.draw(&root, &mut painter)?;
+                    root.present().map_err(err)?;
+                }
+                Ok(buf)
+            };
+            let buf = match &large {
+                Some(l) => reduce(&draw(l, (w * k, h * k))?, w, h, k),
+                None => draw(fig, (w, h))?,
+            };
             let mut png_bytes = Vec::new();
             {
                 let mut enc = png::Encoder::new(&mut png_bytes, w, h);
@@ -675,6 +727,12 @@ pub struct Panels<'a> {
 impl Figure for Panels<'_> {
     fn size(&self) -> (u32, u32) {
         self.size
+    }
+    fn resized(&self, size: (u32, u32)) -> Option<Self> {
+        Some(Panels {
+            plots: self.plots,
+            size,
+        })
     }
     fn draw<DB: DrawingBackend>(
         &self,
