@@ -164,7 +164,7 @@ fn verify_sweep_peaks_equal_the_linear_peaks_at_small_forcing() {
         "sweep",
     ]);
     assert_eq!(code, 1);
-    assert!(err.contains("D0=7 mm"), "{err}");
+    assert!(err.contains("--set \"D0=VALUE m\""), "{err}");
 }
 
 fn spring_chain_k1() -> (System, Environment, Vary) {
