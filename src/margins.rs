@@ -89,7 +89,9 @@ pub struct UnstableMode {
     pub omega_d_rad_s: f64,
 }
 
-/// Every mode of `modal` with Re λ > 0 (beyond round-off: 1e-9 of the largest |λ|), named
+/// Every mode of `modal` with Re λ > 0 beyond round-off (1e-6 of the largest |λ|: a
+/// neutral direction, a double eigenvalue at 0, is computed as ±√ε‖A‖, about 1e-8 of it),
+/// named
 /// as in [`mode_points_named`] (`names` in `modal.modes` order; `mode k` where missing).
 pub fn unstable_modes(modal: &ModalAnalysis, names: &[String]) -> Vec<UnstableMode> {
     let scale = modal
@@ -101,7 +103,7 @@ pub fn unstable_modes(modal: &ModalAnalysis, names: &[String]) -> Vec<UnstableMo
         .modes
         .iter()
         .enumerate()
-        .filter(|(_, m)| m.eigenvalue.re > 1e-9 * scale.max(1e-300))
+        .filter(|(_, m)| m.eigenvalue.re > 1e-6 * scale.max(1e-300))
         .map(|(k, m)| UnstableMode {
             mode: names
                 .get(k)
