@@ -227,7 +227,9 @@ impl Error {
     pub fn render_with(&self, color: bool, advice: &dyn Advice) -> String {
         match self {
             Error::Failed { failure, context } => {
-                let help = advice.failure(failure).unwrap_or_else(|| failure.hint());
+                let help = advice
+                    .failure_in(failure, context)
+                    .unwrap_or_else(|| failure.hint());
                 report(context, &failure.to_string(), &help)
             }
             Error::Invalid { invalid, context } => {
@@ -300,6 +302,11 @@ pub trait Advice {
     /// The help line of a failure.
     fn failure(&self, _failure: &crate::failure::Failure) -> Option<String> {
         None
+    }
+    /// The help line of a failure in its context (the outermost first: `k_fs: the case
+    /// k_fs+10%`); by default [`Advice::failure`].
+    fn failure_in(&self, failure: &crate::failure::Failure, _context: &[String]) -> Option<String> {
+        self.failure(failure)
     }
     /// The message and help line of an invalid request.
     fn invalid(&self, _invalid: &crate::request::Invalid) -> Option<Wording> {

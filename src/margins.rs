@@ -74,6 +74,47 @@ pub struct SkippedMode {
     pub reason: String,
 }
 
+/// A mode that grows: an eigenvalue with Re λ > 0 (a real one: the equilibrium diverges;
+/// a complex pair: an oscillation that grows, negative damping). A design with one fails
+/// the margins check whatever its separations: its frequencies are not resonances about a
+/// steady state, and the mechanism leaves its equilibrium.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct UnstableMode {
+    /// The mode's name, as in the rows (`mode 1` by frequency, or its declared name).
+    pub mode: String,
+    /// Re λ, 1/s: the amplitude grows as e^(Re λ · t).
+    pub growth_rate_1_s: f64,
+    /// |Im λ|, rad/s: 0 for a divergence (a real eigenvalue), else the growing oscillation's
+    /// frequency.
+    pub omega_d_rad_s: f64,
+}
+
+/// Every mode of `modal` with Re λ > 0 beyond round-off (1e-6 of the largest |λ|: a
+/// neutral direction, a double eigenvalue at 0, is computed as ±√ε‖A‖, about 1e-8 of it),
+/// named
+/// as in [`mode_points_named`] (`names` in `modal.modes` order; `mode k` where missing).
+pub fn unstable_modes(modal: &ModalAnalysis, names: &[String]) -> Vec<UnstableMode> {
+    let scale = modal
+        .modes
+        .iter()
+        .map(|m| m.omega_n_rad_s)
+        .fold(0.0, f64::max);
+    modal
+        .modes
+        .iter()
+        .enumerate()
+        .filter(|(_, m)| m.eigenvalue.re > 1e-6 * scale.max(1e-300))
+        .map(|(k, m)| UnstableMode {
+            mode: names
+                .get(k)
+                .cloned()
+                .unwrap_or_else(|| format!("mode {}", k + 1)),
+            growth_rate_1_s: m.eigenvalue.re,
+            omega_d_rad_s: m.omega_d_rad_s,
+        })
+        .collect()
+}
+
 /// The oscillatory modes of a modal analysis, as points named `mode 1`, `mode 2`, … by
 /// frequency (ω_n = |λ|), and the real eigenvalues left out (non-oscillatory: nothing to
 /// resonate with a forcing line).
@@ -205,11 +246,21 @@ pub struct MarginCheck {
     pub requirement: Requirement,
     /// One row per mode × line, modes outer, lines in the environment's order.
     pub rows: Vec<MarginRow>,
-    /// Every row passes.
+    /// Every row passes and no mode is unstable.
     pub pass: bool,
+    /// The modes that grow (Re λ > 0): any fails the check ([`MarginCheck::with_unstable`]).
+    pub unstable: Vec<UnstableMode>,
 }
 
 impl MarginCheck {
+    /// The check with the design's unstable modes ([`unstable_modes`]): any fails it.
+    pub fn with_unstable(mut self, unstable: Vec<UnstableMode>) -> Self {
+        if !unstable.is_empty() {
+            self.pass = false;
+        }
+        self.unstable = unstable;
+        self
+    }
     /// The failing rows, worst (least separated relative to its requirement) first.
     pub fn failures(&self) -> Vec<&MarginRow> {
         let mut f: Vec<&MarginRow> = self.rows.iter().filter(|r| !r.pass).collect();
@@ -260,6 +311,8 @@ pub fn required(margin: f64, damping_ratio: f64, rule: Requirement) -> f64 {
 }
 
 /// Check every mode against every line: `margin` is a fraction (0.1 = 10 %), in (0, 1).
+/// The separations only: a design is checked with its unstable modes too, by
+/// [`MarginCheck::with_unstable`] ([`check_design`] does both).
 ///
 /// ```
 /// use detune::margins::{Requirement, check_margins, mode_points};
@@ -319,5 +372,20 @@ pub fn check_margins(
         requirement: rule,
         rows,
         pass,
+        unstable: Vec::new(),
     })
+}
+
+/// A design's full check: every oscillatory mode of `modal` (named `names`, in its order;
+/// widened by the caller to intervals, or points) against every line, and any unstable
+/// mode of `modal` failing it ([`unstable_modes`]).
+pub fn check_design(
+    modal: &ModalAnalysis,
+    names: &[String],
+    modes: &[ModeInterval],
+    lines: &[ForcingLine],
+    margin: f64,
+    rule: Requirement,
+) -> Result<MarginCheck> {
+    Ok(check_margins(modes, lines, margin, rule)?.with_unstable(unstable_modes(modal, names)))
 }

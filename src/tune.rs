@@ -226,6 +226,8 @@ pub enum Blocked {
     },
     /// The design found could not be verified (the error).
     DoesNotVerify { error: String },
+    /// The design found is unstable: `mode` grows at `growth_rate_1_s` = Re λ > 0 (1/s).
+    Unstable { mode: String, growth_rate_1_s: f64 },
 }
 
 impl Blocked {
@@ -296,6 +298,13 @@ impl Blocked {
             Blocked::DoesNotVerify { error } => {
                 format!("the design found does not verify: {error}")
             }
+            Blocked::Unstable {
+                mode,
+                growth_rate_1_s,
+            } => format!(
+                "the design found is unstable: {mode} grows at Re λ = {} 1/s (the equilibrium is unstable), so it cannot pass",
+                num("growth_rate_1_s", *growth_rate_1_s, 4),
+            ),
         }
     }
 }
@@ -721,15 +730,25 @@ pub fn tune(
             };
             let pass = v.check.pass;
             if !pass && outcome.is_err() {
-                outcome = Err(v.check.failures().first().map(|r| Blocked::FailsCheck {
-                    over_tolerances: !opts.tolerances.is_empty(),
-                    mode: r.mode.clone(),
-                    min_rad_s: r.min_rad_s,
-                    max_rad_s: r.max_rad_s,
-                    separation_pct: r.separation_pct,
-                    line: r.line.clone(),
-                    required_pct: r.required_pct,
-                }));
+                outcome = Err(v
+                    .check
+                    .unstable
+                    .first()
+                    .map(|u| Blocked::Unstable {
+                        mode: u.mode.clone(),
+                        growth_rate_1_s: u.growth_rate_1_s,
+                    })
+                    .or_else(|| {
+                        v.check.failures().first().map(|r| Blocked::FailsCheck {
+                            over_tolerances: !opts.tolerances.is_empty(),
+                            mode: r.mode.clone(),
+                            min_rad_s: r.min_rad_s,
+                            max_rad_s: r.max_rad_s,
+                            separation_pct: r.separation_pct,
+                            line: r.line.clone(),
+                            required_pct: r.required_pct,
+                        })
+                    }));
             }
             if opts.tolerances.is_empty() {
                 if pass {
@@ -1143,7 +1162,9 @@ fn verify_design(
         }
         points = crate::margins::with_intervals(points, &study);
     }
-    let check = check_margins(&points, lines, opts.margin, Requirement::Fixed)?;
+    // an unstable design fails, whatever its separations
+    let check = check_margins(&points, lines, opts.margin, Requirement::Fixed)?
+        .with_unstable(crate::margins::unstable_modes(&modal, &names));
     Ok(Verified {
         check,
         modal,

@@ -555,3 +555,15 @@ fn acceleration_psd_is_converted_to_displacement() {
     let rms = random_rms(&p, |_| 1.0, &[]);
     assert!((rms * rms - exact).abs() < 1e-10 * exact);
 }
+
+/// Two letters swapped (`rmp` for `rpm`) is one typo: suggested, not only listed.
+#[test]
+fn a_swapped_pair_of_letters_gets_a_did_you_mean() {
+    let e = bad(
+        "rpm = 300",
+        "rmp = 300",
+        "unknown field `rmp` in [main_rotor]",
+        "rmp",
+    );
+    assert!(e.contains("did you mean `rpm`?"), "{e}");
+}

@@ -655,3 +655,87 @@ fn non_monotone_and_unverifiable_boxes() {
     assert_eq!(code, 1, "{err}");
     assert!(err.contains("cannot be verified"), "{err}");
 }
+
+/// The growing root of I λ² + c λ + K = 0 of the torsion pendulum (a uniform bar on a
+/// pivot, I = m L²/3, K = k + m g L/2 hanging down): with k = −30 N·m/rad, K < 0 and the
+/// hanging equilibrium diverges at λ = (−c + √(c² − 4 I K)) / (2 I) > 0.
+fn pendulum_growth(k: f64) -> f64 {
+    let (m, l, g, c) = (1.5, 0.8, 9.81, 0.4);
+    let (i, kk) = (m * l * l / 3.0, k + m * g * l / 2.0);
+    (-c + (c * c - 4.0 * i * kk).sqrt()) / (2.0 * i)
+}
+
+/// An unstable design never passes: a divergent mode (Re λ > 0) fails the check, exit 3,
+/// with the mode and its growth rate in the text and the JSON, whatever the separations
+/// (here none: the pendulum's only eigenvalues are real).
+#[test]
+fn an_unstable_equilibrium_fails_the_margins_check() {
+    let path = common::data("torsion_pendulum.toml");
+    let (code, out, err) = repo(&["margins", &path, "--environment", "UH-60", "--set", "k=-30"]);
+    assert_eq!(code, 3, "{out}{err}");
+    let g = pendulum_growth(-30.0);
+    assert!(
+        out.contains(&format!(
+            "mode 1 is UNSTABLE: a divergent mode, growth rate Re λ = {g:.4} 1/s"
+        )) || out.contains(&format!(
+            "mode 2 is UNSTABLE: a divergent mode, growth rate Re λ = {g:.4} 1/s"
+        )),
+        "{out}"
+    );
+    assert!(out.contains("FAIL: the equilibrium is unstable"), "{out}");
+    assert!(!out.contains("PASS"), "{out}");
+    let (code, out, _) = repo(&[
+        "margins",
+        &path,
+        "--environment",
+        "UH-60",
+        "--set",
+        "k=-30",
+        "--json",
+    ]);
+    assert_eq!(code, 3);
+    let j = json(&out);
+    assert_eq!(j["pass"], false);
+    let u = j["unstable"].as_array().unwrap();
+    assert_eq!(u.len(), 1, "{u:?}");
+    let r = u[0]["growth_rate_1_s"].as_f64().unwrap();
+    assert!((r - g).abs() < 1e-9 * g, "{r} vs the closed form {g}");
+    assert_eq!(u[0]["omega_d_rad_s"], 0.0);
+    // a stable pendulum has none, and the key is there
+    let (code, out, _) = repo(&["margins", &path, "--environment", "UH-60", "--json"]);
+    assert_eq!(code, 0);
+    assert_eq!(json(&out)["unstable"].as_array().unwrap().len(), 0);
+
+    // the inceptor with a negative force-sensor stiffness (the audit's case): its third
+    // mode clears every line by 11.6 %, but the equilibrium diverges
+    let (code, out, _) = repo(&[
+        "margins",
+        "models/inceptor.toml",
+        "--environment",
+        "UH-60",
+        "--set",
+        "k_fs=-20000",
+    ]);
+    assert_eq!(code, 3, "{out}");
+    assert!(
+        out.contains("is UNSTABLE: a divergent mode, growth rate Re λ = 5.8357 1/s"),
+        "{out}"
+    );
+    assert!(!out.contains("PASS"), "{out}");
+}
+
+/// The library's check: `with_unstable` fails a passing table.
+#[test]
+fn with_unstable_fails_a_passing_check() {
+    let env = resolve("UH-60").unwrap();
+    let modes = [ModeInterval::point("m", 5.0, 0.05)];
+    let c = check_margins(&modes, &env.forcing_lines(), 0.1, Requirement::Fixed).unwrap();
+    assert!(c.pass && c.unstable.is_empty());
+    let u = detune::margins::UnstableMode {
+        mode: "m".into(),
+        growth_rate_1_s: 1.0,
+        omega_d_rad_s: 0.0,
+    };
+    let c = c.with_unstable(vec![u]);
+    assert!(!c.pass);
+}

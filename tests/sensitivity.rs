@@ -428,7 +428,7 @@ fn sweep_peaks_per_case_match_the_linear_response_at_small_forcing() {
     let err = String::from_utf8_lossy(&out.stderr);
     assert_eq!(out.status.code(), Some(1));
     assert!(
-        err.contains("D0=7 mm") && err.contains("zero forcing"),
+        err.contains("--set \"D0=VALUE m\"") && err.contains("zero forcing"),
         "{err}"
     );
 }
@@ -503,8 +503,18 @@ fn a_case_with_negative_damping_is_warned_of() {
     ]);
     let j: serde_json::Value = serde_json::from_str(&out).unwrap();
     let w = j["warnings"].as_array().expect("warnings");
-    assert_eq!(w.len(), 1, "{w:?}");
+    // the negative damper's case, and (since it grows) that case's unstable equilibrium
+    // and the box's corners reaching it
+    assert_eq!(w.len(), 3, "{w:?}");
     assert_eq!(w[0]["kind"], "negative_damping");
+    assert_eq!(w[1]["kind"], "unstable_case");
+    assert!(
+        w[1]["message"]
+            .as_str()
+            .unwrap()
+            .starts_with("the case c-200%: the equilibrium is unstable (an oscillation growing"),
+        "{w:?}"
+    );
     let text = w[0]["message"].as_str().unwrap();
     assert!(
         text.starts_with(
@@ -524,6 +534,15 @@ fn a_case_with_negative_damping_is_warned_of() {
         .unwrap();
     assert!(z0 > 0.0);
     assert!((case["damping_ratio"].as_f64().unwrap() + z0).abs() < 1e-9);
+    // and its growth rate is the baseline's decay rate, ζ0 ω_n (λ → −λ̄ with c → −c)
+    let decay = z0 * m["omega_n_rad_s"].as_f64().unwrap();
+    assert!(
+        w[1]["message"]
+            .as_str()
+            .unwrap()
+            .contains(&format!("growth rate Re λ = {decay:.4} 1/s")),
+        "{w:?} vs {decay}"
+    );
     // within 100 % nothing is said, and the JSON has no `warnings`
     let (out, err) = run(&[
         "sensitivity",
@@ -642,4 +661,169 @@ fn a_difference_too_noisy_to_check_is_reported_unchecked() {
     assert_eq!(d["agrees"], serde_json::Value::Bool(true));
     let exact = -4.996_360_906_626_039;
     assert!((d["domega_n_dp"].as_f64().unwrap() - exact).abs() < 1e-8 * exact.abs());
+}
+
+/// A case whose equilibrium is unstable is warned about (per case, with its growth rate)
+/// and marked in the JSON: its frequencies are not resonances. The torsion pendulum's
+/// hanging equilibrium diverges for k < −m g L/2 at the growing root of
+/// I λ² + c λ + K = 0 (I = m L²/3, K = k + m g L/2).
+#[test]
+fn an_unstable_case_is_warned_about_and_marked() {
+    let path = common::data("torsion_pendulum.toml");
+    let out = detune(&["sensitivity", &path, "--vary", "k=-30,14", "--json"]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    let (m, l, g, c): (f64, f64, f64, f64) = (1.5, 0.8, 9.81, 0.4);
+    let (i, kk) = (m * l * l / 3.0, -30.0 + m * g * l / 2.0);
+    let growth = (-c + (c * c - 4.0 * i * kk).sqrt()) / (2.0 * i);
+    let want = format!(
+        "the case k=-30: the equilibrium is unstable (a divergent mode, growth rate Re λ = {growth:.4} 1/s); its frequencies are not resonances"
+    );
+    assert!(err.contains(&want), "{err}");
+    assert!(!err.contains("the case k=14"), "{err}");
+    let j: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let u = j["unstable_cases"].as_array().unwrap();
+    assert_eq!(u.len(), 1, "{u:?}");
+    assert_eq!(u[0]["label"], "k=-30");
+    let r = u[0]["growth_rate_1_s"].as_f64().unwrap();
+    assert!((r - growth).abs() < 1e-9 * growth, "{r} vs {growth}");
+    assert!(
+        j["warnings"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .any(|w| w["kind"] == "unstable_case" && w["message"] == want.as_str())
+    );
+    // the stable case is marked stable
+    for mode in j["modes"].as_array().unwrap() {
+        for case in mode["cases"].as_array().unwrap() {
+            assert_eq!(case["unstable"], case["label"] == "k=-30", "{case}");
+        }
+    }
+
+    // the inceptor at a negative force-sensor stiffness: the case is in the table, marked
+    let out = detune(&[
+        "sensitivity",
+        "models/inceptor.toml",
+        "--vary",
+        "k_fs=-70500,129500",
+        "--json",
+    ]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    assert!(
+        err.contains("the case k_fs=-70500: the equilibrium is unstable (a divergent mode"),
+        "{err}"
+    );
+    let j: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let cases = j["modes"][0]["cases"].as_array().unwrap();
+    let bad = cases.iter().find(|c| c["label"] == "k_fs=-70500").unwrap();
+    assert_eq!(bad["unstable"], true);
+    let good = cases.iter().find(|c| c["label"] == "k_fs=129500").unwrap();
+    assert_eq!(good["unstable"], false);
+}
+
+/// The hints name this model's own parameters and units: the overcentre's forcing
+/// amplitude is `F0` (in N), its forcing frequency `omega` is declared in rad/s; a range
+/// that breaks the linkage names the --vary to narrow.
+#[test]
+fn hints_name_the_models_own_parameters_and_units() {
+    let text = |o: &std::process::Output| String::from_utf8_lossy(&o.stderr).into_owned();
+    let o = detune(&[
+        "sensitivity",
+        "models/overcentre.toml",
+        "--vary",
+        "k=±10%",
+        "--method",
+        "both",
+    ]);
+    assert_eq!(o.status.code(), Some(1));
+    let e = text(&o);
+    assert!(e.contains("--set \"F0=VALUE N\""), "{e}");
+    assert!(!e.contains("D0"), "{e}");
+    let o = detune(&[
+        "sensitivity",
+        "models/overcentre.toml",
+        "--vary",
+        "omega=±10%",
+    ]);
+    let e = text(&o);
+    assert!(e.contains("--vary \"omega=±0.1 rad/s\""), "{e}");
+    let o = detune(&[
+        "tune",
+        "models/inceptor.toml",
+        "--environment",
+        "UH-60",
+        "--vary",
+        "l2=50%..200%",
+    ]);
+    let e = text(&o);
+    assert!(e.contains("the initial pose cannot be assembled"), "{e}");
+    assert!(
+        e.contains("narrow the range of --vary l2 (e.g. --vary l2=80%..120%"),
+        "{e}"
+    );
+}
+
+/// The tornado's bar labels stay inside the figure (each label's width taken as 0.6 em a
+/// character, a wide sans-serif's), and the axis's zero tick reads "0", not "-0.0".
+#[test]
+fn tornado_labels_fit_and_zero_is_zero() {
+    let dir = tempfile::tempdir().unwrap();
+    let svg = dir.path().join("t.svg");
+    let o = detune(&[
+        "sensitivity",
+        "models/inceptor.toml",
+        "--vary",
+        "k_fs=±500 N/m",
+        "--plot",
+        svg.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let svg = std::fs::read_to_string(&svg).unwrap();
+    let width: f64 = svg
+        .split_once("width=\"")
+        .unwrap()
+        .1
+        .split_once('"')
+        .unwrap()
+        .0
+        .parse()
+        .unwrap();
+    let attr = |t: &str, a: &str| -> Option<String> {
+        Some(
+            t.split_once(&format!(" {a}=\""))?
+                .1
+                .split_once('"')?
+                .0
+                .to_string(),
+        )
+    };
+    let mut labels = 0;
+    let mut zero = false;
+    for t in svg.split("<text").skip(1) {
+        let (head, rest) = t.split_once('>').unwrap();
+        let body = rest.split_once("</text>").unwrap().0.trim();
+        assert_ne!(body, "-0.0", "a -0.0 tick");
+        zero |= body == "0";
+        if !body.contains(" N/m: ") {
+            continue;
+        }
+        labels += 1;
+        assert!(body.ends_with(" %"), "{body}");
+        let x: f64 = attr(head, "x").unwrap().parse().unwrap();
+        let fs: f64 = attr(head, "font-size").unwrap().parse().unwrap();
+        let w = 0.6 * fs * body.chars().count() as f64;
+        let (from, to) = match attr(head, "text-anchor").as_deref() {
+            Some("end") => (x - w, x),
+            Some("middle") => (x - w / 2.0, x + w / 2.0),
+            _ => (x, x + w),
+        };
+        assert!(
+            from >= 0.0 && to <= width,
+            "`{body}` spans {from}–{to} of {width} px"
+        );
+    }
+    assert_eq!(labels, 4); // two modes, −500 and +500 N/m
+    assert!(zero, "no 0 tick");
 }

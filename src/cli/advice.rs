@@ -14,6 +14,9 @@ impl Advice for Cli {
     fn failure(&self, failure: &Failure) -> Option<String> {
         advice(failure)
     }
+    fn failure_in(&self, failure: &Failure, context: &[String]) -> Option<String> {
+        vary_advice(failure, context).or_else(|| advice(failure))
+    }
     fn invalid(&self, invalid: &Invalid) -> Option<Wording> {
         wording(invalid)
     }
@@ -49,6 +52,29 @@ pub fn advice(f: &Failure) -> Option<String> {
         DeadPoint { .. } => "beyond it the mechanism locks, a link cannot reach, or the branch to follow is ambiguous: end --from/--to before it, or drive another coordinate (--drive)".into(),
         _ => return None,
     })
+}
+
+/// A pose that cannot be assembled at a case of a `--vary` (the context `NAME: the case
+/// LABEL`, as the sensitivity study, `margins --vary`, `tune` and `report` say it): the
+/// range takes the linkage past where it closes. Narrow that flag's range.
+pub fn vary_advice(f: &Failure, context: &[String]) -> Option<String> {
+    use Failure::*;
+    if !matches!(
+        f,
+        NoAssembly { .. } | UndefinedGuess { .. } | UndefinedConstraint { .. }
+    ) {
+        return None;
+    }
+    let name = context
+        .iter()
+        .find_map(|c| c.split_once(": the case ").map(|(n, _)| n.trim()))?;
+    if name.contains(' ') {
+        // a corner of the tolerance box (`the tolerance box's corner: the case a=1, b=2`)
+        return Some("at that corner of the tolerance box the linkage no longer closes: narrow the --vary ranges (e.g. NAME=80%..120%, or ±10%), or check the values with --set and `detune check`".into());
+    }
+    Some(format!(
+        "at that value of `{name}` the linkage no longer closes: narrow the range of --vary {name} (e.g. --vary {name}=80%..120%, or ±10%), or check the value with --set and `detune check`"
+    ))
 }
 
 /// The flag that gives an argument, if one does.

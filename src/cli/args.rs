@@ -359,10 +359,11 @@ pub fn vary(model: &Model, sys: &System, text: &str) -> Result<detune::linear::s
         if p0 == 0.0 {
             return Err(Error::request(
                 format!("--vary {text}: `{name}` is 0, so a relative change of it is 0"),
-                format!(
-                    "give an absolute change, e.g. --vary \"{name}=±0.1 {}\"",
-                    dim_unit(dim)
-                ),
+                format!("give an absolute change, e.g. --vary \"{name}=±0.1 {}\"", {
+                    // the parameter's declared unit (rad/s, not the SI 1/s)
+                    let u = model.param_unit(name);
+                    if u.is_empty() { dim_unit(dim) } else { u }
+                }),
             ));
         }
         Ok(p0 * frac)
@@ -509,6 +510,23 @@ pub fn damping_warnings(
         .iter()
         .map(|w| w.message(&model.param_unit(&w.param)))
         .collect()
+}
+
+/// How to give the model a forcing to sweep, for a hint: its own forcing amplitude
+/// (`[model] forcing_amplitude`) in its declared unit, `set the forcing amplitude F0, e.g.
+/// --set "F0=VALUE N"`, or, for a model that names none, a generic parameter.
+pub fn set_forcing_amplitude(model: &Model, sys: &System) -> String {
+    match sys.forcing_amplitude_param() {
+        Some(i) => {
+            let name = &sys.param_names()[i];
+            let unit = model.param_unit(name);
+            format!(
+                "set the forcing amplitude `{name}`, e.g. --set \"{name}=VALUE{}{unit}\"",
+                if unit.is_empty() { "" } else { " " }
+            )
+        }
+        None => "set the parameter that scales the forcing, e.g. --set \"NAME=VALUE\" (the model names no `forcing_amplitude` in [model])".into(),
+    }
 }
 
 /// An SI unit to suggest for a dimension in a hint.

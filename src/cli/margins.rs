@@ -7,14 +7,14 @@ use clap::Args;
 use detune::diag::{Error, Result};
 use detune::environment::{Environment, ForcingLine, resolve};
 use detune::linear::modal_analysis;
-use detune::margins::{MarginCheck, MarginRow, ModeInterval, Requirement, Side, check_margins};
+use detune::margins::{MarginCheck, MarginRow, ModeInterval, Requirement, Side, UnstableMode};
 use detune::output::Provenance;
 use detune::output::margins::{MarginsReport, write_margins_csv};
 use detune::output::units::FreqUnit;
 use std::f64::consts::TAU;
 
 /// The units of `margins --json` (its rows' keys, the CSV's columns).
-pub const MARGIN_UNITS: [(&str, &str); 18] = [
+pub const MARGIN_UNITS: [(&str, &str); 20] = [
     ("margin_pct", "%"),
     ("omega_n_rad_s", "rad/s"),
     ("min_rad_s", "rad/s"),
@@ -33,6 +33,8 @@ pub const MARGIN_UNITS: [(&str, &str); 18] = [
     ("blades", "1"),
     ("multiple", "1"),
     ("eigenvalue", "1/s"),
+    ("growth_rate_1_s", "1/s"),
+    ("omega_d_rad_s", "rad/s"),
 ];
 
 #[derive(Args)]
@@ -90,7 +92,7 @@ pub fn run(a: MarginsArgs) -> Result<Outcome> {
         Requirement::Fixed
     };
     let lines = env.forcing_lines();
-    let check = check_margins(&modes, &lines, margin, rule)?;
+    let check = detune::margins::check_design(&modal, &names, &modes, &lines, margin, rule)?;
     let fu = a.freq.freq_unit;
     if let Some(o) = &a.output {
         write_margins_csv(o, &check)?;
@@ -169,6 +171,9 @@ fn intervals(
             ),
             "narrow the --vary ranges (detune sensitivity with the same --vary shows the box), or check the failing values with --set",
         ));
+    }
+    for w in super::sensitivity::unstable_warnings(&study) {
+        eprintln!("warning: {w}");
     }
     for m in &study.modes {
         if !m.worst_case.non_monotone.is_empty() {
@@ -390,7 +395,7 @@ fn line_words(r: &MarginRow, env: &Environment, fu: FreqUnit) -> String {
 fn summary(check: &MarginCheck, env: &Environment, fu: FreqUnit) -> Vec<String> {
     let mode_words = |r: &MarginRow| mode_words(r, fu);
     let line_words = |r: &MarginRow, env: &Environment| line_words(r, env, fu);
-    let mut out = Vec::new();
+    let mut out: Vec<String> = check.unstable.iter().map(unstable_words).collect();
     let failures = check.failures();
     for r in &failures {
         let needs = format!("needs {}", pct(r.required_pct));
@@ -405,7 +410,23 @@ fn summary(check: &MarginCheck, env: &Environment, fu: FreqUnit) -> Vec<String> 
             ),
         });
     }
-    if check.rows.is_empty() {
+    if !check.unstable.is_empty() {
+        out.push(format!(
+            "FAIL: the equilibrium is unstable ({} growing mode{}): a design that leaves its equilibrium cannot pass, whatever its separations{}",
+            check.unstable.len(),
+            if check.unstable.len() == 1 { "" } else { "s" },
+            if failures.is_empty() {
+                String::new()
+            } else {
+                format!(
+                    "; and {} of {} mode–line pairs are closer than required (margin {}, your choice, not a standard)",
+                    failures.len(),
+                    check.rows.len(),
+                    pct(check.margin_pct)
+                )
+            }
+        ));
+    } else if check.rows.is_empty() {
         out.push("PASS: no oscillatory mode to check".into());
     } else if failures.is_empty() {
         let mut s = format!(
@@ -435,6 +456,21 @@ fn summary(check: &MarginCheck, env: &Environment, fu: FreqUnit) -> Vec<String> 
         ));
     }
     out
+}
+
+/// An unstable mode in words: which mode grows, and how fast.
+pub fn unstable_words(u: &UnstableMode) -> String {
+    if u.omega_d_rad_s == 0.0 {
+        format!(
+            "{} is UNSTABLE: a divergent mode, growth rate Re λ = {:.4} 1/s (the equilibrium is unstable: it grows as e^({:.4}·t) and does not oscillate)",
+            u.mode, u.growth_rate_1_s, u.growth_rate_1_s
+        )
+    } else {
+        format!(
+            "{} is UNSTABLE: an oscillation that grows, growth rate Re λ = {:.4} 1/s at ω_d = {:.4} rad/s (negative damping: the equilibrium is unstable)",
+            u.mode, u.growth_rate_1_s, u.omega_d_rad_s
+        )
+    }
 }
 
 /// A percentage: whole as given (10 %), else to 0.1 (1.8 %), or 0.01 below 0.1 %.

@@ -149,12 +149,21 @@ pub fn run(a: SensitivityArgs) -> Result<()> {
             if let Error::Numerical { .. } | Error::Failed { .. } = e {
                 e
             } else {
-                e.context("--method sweep (set the forcing amplitude, e.g. --set \"D0=7 mm\", so there is a response to sweep)")
+                e.context(&format!(
+                    "--method sweep ({}, so there is a response to sweep)",
+                    super::args::set_forcing_amplitude(&model, &sys)
+                ))
             }
         })?;
         bar.finish_and_clear();
     }
     let unit = |name: &str| -> String { model.param_unit(name) };
+    // a case whose equilibrium is unstable: warned on standard error (and in the JSON's
+    // warnings), the case marked `"unstable": true`
+    let unstable = unstable_warnings(&study);
+    for w in &unstable {
+        eprintln!("warning: {w}");
+    }
     if let Some(o) = &a.output {
         write_sensitivity_csv(o, &study)?;
     }
@@ -197,6 +206,11 @@ pub fn run(a: SensitivityArgs) -> Result<()> {
         warnings.extend(super::args::damping_warning_values(
             &super::args::damping_warnings(&model, &sys, &vs),
         ));
+        warnings.extend(
+            unstable
+                .iter()
+                .map(|t| serde_json::json!({"kind": "unstable_case", "message": t})),
+        );
         print_json(&super::Warned {
             doc: SensitivityReport::new(&study, &Provenance::of(&model), params),
             warnings,
@@ -205,6 +219,42 @@ pub fn run(a: SensitivityArgs) -> Result<()> {
     }
     print_tables(&study, &|n| unit(n), a.freq.freq_unit);
     Ok(())
+}
+
+/// One sentence per case whose equilibrium is unstable, and one for a tolerance box that
+/// reaches unstable designs.
+pub fn unstable_warnings(study: &Sensitivity) -> Vec<String> {
+    let mut out: Vec<String> = study
+        .unstable_cases
+        .iter()
+        .map(|c| {
+            format!(
+                "the case {}: the equilibrium is unstable ({}, growth rate Re λ = {:.4} 1/s); its frequencies are not resonances",
+                c.label,
+                if c.omega_d_rad_s == 0.0 {
+                    "a divergent mode".to_string()
+                } else {
+                    format!("an oscillation growing at ω_d = {:.4} rad/s", c.omega_d_rad_s)
+                },
+                c.growth_rate_1_s
+            )
+        })
+        .collect();
+    let n = study
+        .modes
+        .iter()
+        .map(|m| m.worst_case.corners_unstable)
+        .max()
+        .unwrap_or(0);
+    if n > 0 {
+        out.push(format!(
+            "{n} corner{} or sample{} of the tolerance box {} an unstable equilibrium (a growing mode): the box reaches designs that leave their equilibrium",
+            if n == 1 { "" } else { "s" },
+            if n == 1 { "" } else { "s" },
+            if n == 1 { "has" } else { "have" }
+        ));
+    }
+    out
 }
 
 /// The tables of a study.
@@ -253,7 +303,7 @@ fn print_tables(s: &Sensitivity, unit: &dyn Fn(&str) -> String, fu: FreqUnit) {
         );
         for c in &m.cases {
             println!(
-                "  {:<22} {:>16} {:>14.6} {:>+8.3}% {:>14} {:>9} {:>9.5}{}",
+                "  {:<22} {:>16} {:>14.6} {:>+8.3}% {:>14} {:>9} {:>9.5}{}{}",
                 c.label,
                 format!("{:.6e} {}", c.value, unit(&c.param)),
                 f(c.omega_n_rad_s),
@@ -274,6 +324,11 @@ fn print_tables(s: &Sensitivity, unit: &dyn Fn(&str) -> String, fu: FreqUnit) {
                     )
                 } else {
                     String::new()
+                },
+                if c.unstable {
+                    "  UNSTABLE equilibrium: not a resonance"
+                } else {
+                    ""
                 }
             );
         }

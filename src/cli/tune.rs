@@ -31,7 +31,8 @@ pub struct TuneArgs {
     #[arg(long = "weight", value_name = "NAME=W")]
     pub weight: Vec<String>,
     /// Verify each design also by a stepped-sine sweep of the nonlinear model at the
-    /// model's forcing (set its amplitude, e.g. --set "D0=7 mm"): `--verify sweep`.
+    /// model's forcing (set its `forcing_amplitude`, e.g. --set "D0=7 mm" for the
+    /// inceptor): `--verify sweep`.
     #[arg(long, value_name = "sweep")]
     pub verify: Option<String>,
     /// The response the sweep measures [default: the first angle coordinate].
@@ -155,23 +156,23 @@ pub fn run(a: TuneArgs) -> Result<super::Outcome> {
             None => sys.coordinates[detune::linear::default_reference(&sys)].clone(),
         };
         for (k, d) in t.designs.iter_mut().enumerate() {
-            let (peaks, clear) =
-                detune::tune::verify_sweep(
-                    &sys,
-                    d,
-                    &lines,
-                    margin,
-                    &response,
-                    &steady,
-                    &super::INTERRUPTED,
-                    &|at| watch.found(&format!("the sweep of design {}", k + 1), at, &bar),
-                )
-                .map_err(|e| {
-                        e.context(&format!(
-                            "--verify sweep of design {} (set the forcing amplitude, e.g. --set \"D0=7 mm\")",
-                            k + 1
-                        ))
-                    })?;
+            let (peaks, clear) = detune::tune::verify_sweep(
+                &sys,
+                d,
+                &lines,
+                margin,
+                &response,
+                &steady,
+                &super::INTERRUPTED,
+                &|at| watch.found(&format!("the sweep of design {}", k + 1), at, &bar),
+            )
+            .map_err(|e| {
+                e.context(&format!(
+                    "--verify sweep of design {} ({})",
+                    k + 1,
+                    super::args::set_forcing_amplitude(&model, &sys)
+                ))
+            })?;
             d.sweep_peaks_rad_s = Some(peaks);
             d.sweep_peaks_clear = Some(clear);
         }

@@ -591,6 +591,23 @@ pub struct CaseResult {
     pub change_pct_undamped: Option<f64>,
     /// Mass-weighted MAC of this case's mode with the baseline mode it was matched to.
     pub mac: f64,
+    /// The case's equilibrium is unstable (a mode with Re λ > 0): its frequencies are
+    /// not resonances about a steady state ([`Sensitivity::unstable_cases`]).
+    pub unstable: bool,
+}
+
+/// A case whose equilibrium is unstable: some mode grows, Re λ > 0.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct UnstableCase {
+    pub param: String,
+    /// The case's label (`k_fs-10%`, `k_fs=-70500`).
+    pub label: String,
+    /// The parameter's value, SI.
+    pub value: f64,
+    /// The largest Re λ, 1/s.
+    pub growth_rate_1_s: f64,
+    /// |Im λ| of that mode, rad/s: 0 for a divergence (a real eigenvalue).
+    pub omega_d_rad_s: f64,
 }
 
 /// The derivatives of one mode with respect to one parameter, with their central
@@ -765,6 +782,9 @@ pub struct WorstCase {
     /// The parameters along whose range ω_n is not monotonic (seen at the samples): its
     /// extremes may lie inside the box, between samples; the interval is then an estimate.
     pub non_monotone: Vec<String>,
+    /// Corners and interior samples whose equilibrium is unstable (a mode with
+    /// Re λ > 0): the box reaches designs that leave their equilibrium.
+    pub corners_unstable: usize,
 }
 
 /// One mode's sensitivity.
@@ -787,19 +807,31 @@ pub struct ModeSensitivity {
 #[derive(Debug, Clone, serde::Serialize)]
 pub struct Sensitivity {
     pub modes: Vec<ModeSensitivity>,
+    /// The cases whose equilibrium is unstable (a growing mode, Re λ > 0), in the order
+    /// of the `--vary` and their cases: their frequencies are not resonances.
+    pub unstable_cases: Vec<UnstableCase>,
 }
 
 /// A modal analysis's frequencies, with their undamped partners.
 pub(crate) struct Evaluated {
     /// ω_n, ζ, undamped ω (when paired) of every mode in `ma.modes` order.
     pub(crate) modes: Vec<(f64, f64, Option<f64>)>,
+    /// The fastest-growing mode's (Re λ, |Im λ|) when some mode grows (Re λ > 0 beyond
+    /// round-off, [`crate::margins::unstable_modes`]): the equilibrium is unstable.
+    pub(crate) growth: Option<(f64, f64)>,
 }
 
 pub(crate) fn evaluate(ma: &ModalAnalysis) -> Evaluated {
     let lin = &ma.linearization;
     let (w2, phi) = undamped_modes(lin);
     let pairs = pair_undamped(lin, &ma.modes, &phi);
+    let names: Vec<String> = Vec::new();
+    let growth = crate::margins::unstable_modes(ma, &names)
+        .into_iter()
+        .map(|u| (u.growth_rate_1_s, u.omega_d_rad_s))
+        .max_by(|a, b| a.0.total_cmp(&b.0));
     Evaluated {
+        growth,
         modes: ma
             .modes
             .iter()
@@ -1130,6 +1162,7 @@ pub fn sensitivity(
     let corners_failed = corner_results.iter().filter(|r| r.is_err()).count();
     let corner_runs: Vec<(Evaluated, Vec<Option<(usize, f64)>>)> =
         corner_results.into_iter().filter_map(|r| r.ok()).collect();
+    let corners_unstable = corner_runs.iter().filter(|r| r.0.growth.is_some()).count();
 
     // interior samples along each parameter's range (the others at the baseline): a
     // frequency that is not monotonic in a parameter has its extreme inside the range,
@@ -1167,6 +1200,24 @@ pub fn sensitivity(
         })
         .collect();
     let axis_failed = axis_results.iter().filter(|r| r.2.is_none()).count();
+    let axis_unstable = axis_results
+        .iter()
+        .filter(|r| r.2.as_ref().is_some_and(|e| e.0.growth.is_some()))
+        .count();
+    let unstable_cases: Vec<UnstableCase> = jobs
+        .iter()
+        .zip(&cases)
+        .filter_map(|(&(v, c), (ev, _))| {
+            let (g, wd) = ev.growth?;
+            Some(UnstableCase {
+                param: varies[v].name.clone(),
+                label: varies[v].cases[c].0.clone(),
+                value: varies[v].cases[c].1,
+                growth_rate_1_s: g,
+                omega_d_rad_s: wd,
+            })
+        })
+        .collect();
 
     let pct = |x: f64, x0: f64| (x - x0) / x0 * 100.0;
     let mut modes = Vec::new();
@@ -1190,6 +1241,7 @@ pub fn sensitivity(
                 change_pct_omega_n: pct(w, w0),
                 change_pct_undamped: u.zip(u0).map(|(u, u0)| pct(u, u0)),
                 mac: macv,
+                unstable: ev.growth.is_some(),
             });
         }
         let mut derivatives = Vec::new();
@@ -1288,10 +1340,14 @@ pub fn sensitivity(
                 corners_failed: corners_failed + axis_failed,
                 interior_samples: axis_results.len(),
                 non_monotone,
+                corners_unstable: corners_unstable + axis_unstable,
             },
         });
     }
-    Ok(Sensitivity { modes })
+    Ok(Sensitivity {
+        modes,
+        unstable_cases,
+    })
 }
 
 /// The stepped-sine peaks of every case (`--method sweep|both`): for the baseline and each

@@ -122,8 +122,9 @@ pub fn suggest<'a>(name: &str, candidates: impl IntoIterator<Item = &'a str>) ->
             let (a, b) = (name.to_lowercase(), c.to_lowercase());
             let score = if a == b {
                 1.0
-            } else if strsim::levenshtein(&a, &b) == 1 {
-                // one typo, also in short names (`Fz` for `Fs`)
+            } else if strsim::osa_distance(&a, &b) == 1 {
+                // one typo, also in short names (`Fz` for `Fs`), or two letters swapped
+                // (`rmp` for `rpm`: Jaro–Winkler scores a swap in a short name low)
                 0.95
             } else {
                 strsim::jaro_winkler(&a, &b)

@@ -4,7 +4,7 @@
 use super::{Provenance, num, write_atomic};
 use crate::diag::Result;
 use crate::environment::{Environment, ForcingLine, Profile, Rotor};
-use crate::margins::{MarginCheck, MarginRow, Requirement, SkippedMode};
+use crate::margins::{MarginCheck, MarginRow, Requirement, SkippedMode, UnstableMode};
 use serde::Serialize;
 
 /// The environment as a report shows it: what the file says and the lines it implies.
@@ -54,10 +54,13 @@ pub struct MarginsReport<'a> {
     /// `fixed`, or `damping_aware` (a heuristic, API 684-style).
     pub requirement: Requirement,
     pub rows: &'a [MarginRow],
-    /// Every row passes.
+    /// Every row passes and no mode is unstable.
     pub pass: bool,
     /// Real eigenvalues: not oscillatory, left out of the check.
     pub skipped_modes: &'a [SkippedMode],
+    /// The modes with Re λ > 0 (`mode`, `growth_rate_1_s` = Re λ, `omega_d_rad_s` = 0 for
+    /// a divergence): any fails the check.
+    pub unstable: &'a [UnstableMode],
 }
 
 impl<'a> MarginsReport<'a> {
@@ -75,6 +78,7 @@ impl<'a> MarginsReport<'a> {
             rows: &check.rows,
             pass: check.pass,
             skipped_modes: skipped,
+            unstable: &check.unstable,
         }
     }
 }

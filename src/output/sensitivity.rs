@@ -192,12 +192,38 @@ impl Figure for Tornado<'_> {
                 }
             }
             bars.sort_by(|a, b| (b.2 - b.1).total_cmp(&(a.2 - a.1)));
-            let span = bars
+            // the bar labels, beside each bar's end
+            let label = |l: &str, x: f64| format!("{l}: {x:+.2} %");
+            let margin_px = 12.0 * sc;
+            let y_area_px = 150.0 * sc;
+            // half the plot's width, px: the x axis runs from −span to +span about its middle
+            let half =
+                ((area.dim_in_pixel().0 as f64 - y_area_px - 2.0 * margin_px) / 2.0).max(1.0);
+            // a label's width, px: the font's estimate, and no less than 0.62 em a
+            // character (a wide sans-serif's digits) where the viewer's font is wider
+            let width = |t: &str| -> f64 {
+                let est = area
+                    .estimate_text_size(t, &style::font(f.note).into())
+                    .map(|(w, _)| w as f64)
+                    .unwrap_or(0.0);
+                est.max(t.chars().count() as f64 * f.note * 0.62)
+            };
+            // the span: 1.6 × the longest bar, wider where a label beside its bar's end
+            // (a gap of 2 % of the span, and 6 px to spare) would leave the figure
+            let mut span = bars
                 .iter()
                 .map(|b| b.1.abs().max(b.2.abs()))
                 .fold(0.0, f64::max)
                 .max(1e-9)
                 * 1.6;
+            for b in &bars {
+                for (x, l) in [(b.1, &b.3), (b.2, &b.4)] {
+                    if x != 0.0 {
+                        let room = 0.98 - (width(&label(l, x)) + 6.0 * sc) / half;
+                        span = span.max(x.abs() / room.max(0.05));
+                    }
+                }
+            }
             let n = bars.len().max(1);
             let mut chart = ChartBuilder::on(area)
                 .caption(
@@ -209,9 +235,9 @@ impl Figure for Tornado<'_> {
                     ),
                     style::font(f.label),
                 )
-                .margin((12.0 * sc) as u32)
+                .margin(margin_px as u32)
                 .x_label_area_size((f.tick * 1.6 + f.label * 1.7) as u32)
-                .y_label_area_size((150.0 * sc) as u32)
+                .y_label_area_size(y_area_px as u32)
                 .build_cartesian_2d(-span..span, 0.0..n as f64)
                 .map_err(|e| e.to_string())?;
             let names: Vec<String> = bars.iter().map(|b| b.0.clone()).collect();
@@ -219,6 +245,14 @@ impl Figure for Tornado<'_> {
                 .configure_mesh()
                 .disable_y_mesh()
                 .x_desc("change of ω_n [%]")
+                // plotters writes a tick at a rounding error from 0 as "-0.0": 0 is "0"
+                .x_label_formatter(&|x| {
+                    if x.abs() <= 1e-9 * span {
+                        "0".to_string()
+                    } else {
+                        <plotters::coord::types::RangedCoordf64 as plotters::coord::ranged1d::ValueFormatter<f64>>::format(x)
+                    }
+                })
                 .y_labels(n * 2 + 1)
                 .y_label_formatter(&|y| {
                     let k = (n as f64 - y - 0.5).round();
@@ -242,17 +276,24 @@ impl Figure for Tornado<'_> {
                         Rectangle::new([(0.0, y + 0.2), (b.2, y + 0.8)], up.filled()),
                     ])
                     .map_err(|e| e.to_string())?;
-                for (x, anchor, label) in [(b.1, -1.0, &b.3), (b.2, 1.0, &b.4)] {
+                for (x, anchor, l) in [(b.1, -1.0, &b.3), (b.2, 1.0, &b.4)] {
                     if x != 0.0 {
+                        // beside the bar's end: ending there (left), starting there (right)
+                        let h = if anchor < 0.0 {
+                            plotters::style::text_anchor::HPos::Right
+                        } else {
+                            plotters::style::text_anchor::HPos::Left
+                        };
                         chart
                             .draw_series(std::iter::once(Text::new(
-                                format!("{label}: {x:+.2} %"),
-                                (
-                                    x + anchor * span * 0.02
-                                        - if anchor < 0.0 { span * 0.30 } else { 0.0 },
-                                    y + 0.62,
+                                label(l, x),
+                                (x + anchor * span * 0.02, y + 0.62),
+                                TextStyle::from(style::font(f.note)).pos(
+                                    plotters::style::text_anchor::Pos::new(
+                                        h,
+                                        plotters::style::text_anchor::VPos::Top,
+                                    ),
                                 ),
-                                style::font(f.note),
                             )))
                             .map_err(|e| e.to_string())?;
                     }

@@ -147,12 +147,14 @@ pub fn add_studies(report: &mut Report, s: &Studies) -> Result<()> {
     };
     let lines = env.forcing_lines();
     let ma = crate::linear::modal_analysis(s.sys, None)?;
-    let (mut points, _) =
-        mode_points_named(&ma, &crate::linear::sensitivity::mode_names(s.sys, &ma));
+    let names = crate::linear::sensitivity::mode_names(s.sys, &ma);
+    let (mut points, _) = mode_points_named(&ma, &names);
     if let (true, Some(study)) = (s.given, &study) {
         points = crate::margins::with_intervals(points, study);
     }
-    let check = check_margins(&points, &lines, s.margin, Requirement::Fixed)?;
+    // an unstable design fails, whatever its separations
+    let check = check_margins(&points, &lines, s.margin, Requirement::Fixed)?
+        .with_unstable(crate::margins::unstable_modes(&ma, &names));
     report.add_data("margins", &check)?;
     if let Some(profile) = &env.profile {
         let section = profile_section(report, s, env, profile, &ma)?;
@@ -200,7 +202,32 @@ pub fn add_studies(report: &mut Report, s: &Studies) -> Result<()> {
         })
         .collect();
     let margin = d.inline("margins/margin_pct", Digits::Fixed(1));
-    let verdict = if check.pass {
+    let unstable: Vec<String> = (0..check.unstable.len())
+        .map(|k| {
+            format!(
+                "{} grows at Re λ = {} 1/s",
+                check.unstable[k].mode,
+                d.inline(
+                    format!("margins/unstable/{k}/growth_rate_1_s"),
+                    Digits::Fixed(4)
+                )
+            )
+        })
+        .collect();
+    let verdict = if !unstable.is_empty() {
+        format!(
+            "FAIL: the equilibrium is UNSTABLE ({}): a design that leaves its equilibrium cannot pass, whatever its separations{}",
+            unstable.join("; "),
+            if failures.is_empty() {
+                ".".to_string()
+            } else {
+                format!(
+                    "; and at a {margin} % margin (a choice, not a standard): {}.",
+                    failures.join("; ")
+                )
+            }
+        )
+    } else if check.pass {
         format!(
             "PASS: every mode clears every forcing line of {} by {margin} % (the margin is a choice, not a standard).",
             env.name,
