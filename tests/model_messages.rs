@@ -119,8 +119,10 @@ fn inconsistent_initial_velocities_name_the_body_the_velocity_and_where_it_is_gi
 /// and body families, planar and spatial; an unknown field elsewhere is still reported.
 #[test]
 fn an_unknown_type_is_reported_before_the_fields_it_would_not_know() {
+    // (from, to: with a field the type does not know, message, help); the file's reading
+    // stops at that field; without it the type is looked up among the loaded elements:
+    // the same message either way
     let cases = [
-        // (from, to, message, help)
         (
             "type = \"torsion\"\n",
             "type = \"torsionn\"\nstifness = 3\n",
@@ -140,8 +142,17 @@ fn an_unknown_type_is_reported_before_the_fields_it_would_not_know() {
             "did you mean `planar`?",
         ),
     ];
+    let without_field = cases.map(|(from, to, m, h)| {
+        let mut lines: Vec<&str> = to.lines().collect();
+        lines.pop();
+        (from, lines.join("\n") + "\n", m, h)
+    });
+    let cases = cases
+        .map(|(from, to, m, h)| (from, to.to_string(), m, h))
+        .into_iter()
+        .chain(without_field);
     for (from, to, message, help) in cases {
-        let text = edit(PENDULUM, from, to);
+        let text = edit(PENDULUM, from, &to);
         let bad = to.split('\n').find(|l| l.starts_with("type")).unwrap();
         let (line, col) = line_col(&text, bad);
         let value_col = col + "type = ".len();
@@ -201,8 +212,10 @@ fn a_misspelt_velocity_in_a_load_is_suggested_as_a_velocity() {
 }
 
 /// Coordinates and velocities carry their dimensions in a load: x, y in m, θ in rad
-/// (none), their rates per second. A wrong product is refused where it is written; the
-/// right one (a damping torque −c·θ̇, c in N·m·s/rad) loads.
+/// (none), their rates per second, in an expression that has a dimension of its own (a
+/// quantity or a parameter with a unit). A wrong product is refused where it is written;
+/// the right one (a damping torque −c·θ̇, c in N·m·s/rad) loads, and so does one whose
+/// coefficients are plain (SI) numbers.
 #[test]
 fn loads_with_coordinates_and_velocities_are_dimension_checked() {
     let refused = [
@@ -243,6 +256,8 @@ fn loads_with_coordinates_and_velocities_are_dimension_checked() {
         "-c*bar.theta_dot",
         "-k*(bar.theta + pi/2) + T",
         "m*g*L/2*sin(bar.theta)",
+        // without a unit of its own, a plain-number coefficient is SI: N·m·s/rad here
+        "-0.4*bar.theta_dot - 12*(bar.theta + pi/2)",
     ] {
         let text = edit(PENDULUM, "torque = \"T\"", &format!("torque = \"{ok}\""));
         let sys = Model::from_str("ok.toml", &text).and_then(|m| System::new(&m));

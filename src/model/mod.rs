@@ -825,6 +825,9 @@ impl Model {
     }
 }
 
+/// A body's `type`s.
+const BODY_TYPES: [&str; 2] = ["planar", "spatial"];
+
 /// The bodies', joints' and forces' `type`s that name no type, each reported as the
 /// loader does ("unknown force type `torsionn`", with a "did you mean"), and the spans of
 /// their tables. Read leniently (other fields ignored): for a file that the full reading
@@ -842,7 +845,7 @@ fn unknown_types(text: &str) -> (Vec<Diagnostic>, Vec<Range<usize>>) {
     let joints: Vec<&str> = joints.kinds.iter().map(|k| k.name).collect();
     let forces: Vec<&str> = forces.kinds.iter().map(|k| k.name).collect();
     let families: [(&str, &[toml::Spanned<file::RawTyped>], Vec<&str>); 3] = [
-        ("body", &raw.bodies, vec!["planar", "spatial"]),
+        ("body", &raw.bodies, BODY_TYPES.to_vec()),
         ("joint", &raw.joints, joints),
         ("force", &raw.forces, forces),
     ];
@@ -1157,16 +1160,20 @@ impl Builder<'_> {
             let want = if spatial { "spatial" } else { "planar" };
             let other = k.get_ref().as_str();
             if other != want {
-                let help = if other == "spatial" || other == "planar" {
-                    "a model's bodies are all planar or all spatial: a spatial body has `rotation = [[\"z\", \"theta\"]]` (and z); a planar body has none".to_string()
+                // as the unknown types of a file with unknown fields are (`unknown_types`)
+                let (message, help) = if other == "spatial" || other == "planar" {
+                    (format!("body type `{other}` in a {want} model"), "a model's bodies are all planar or all spatial: a spatial body has `rotation = [[\"z\", \"theta\"]]` (and z); a planar body has none".to_string())
                 } else {
-                    "body types: planar, spatial (a body with `rotation` is spatial)".to_string()
+                    (
+                        format!("unknown body type `{other}`"),
+                        suggest(other, BODY_TYPES).unwrap_or_else(|| {
+                            "body types: planar, spatial (a body with `rotation` is spatial)"
+                                .to_string()
+                        }),
+                    )
                 };
-                self.diags.push(
-                    Diagnostic::new(format!("body type `{other}` in a {want} model"))
-                        .at(k.span())
-                        .help(help),
-                );
+                self.diags
+                    .push(Diagnostic::new(message).at(k.span()).help(help));
                 return None;
             }
         }

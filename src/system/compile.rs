@@ -284,8 +284,24 @@ impl Compiler<'_> {
         None
     }
 
+    /// Whether `f`'s coordinates and velocities take part in its dimension check: when
+    /// the expression has a dimension of its own, from a quantity literal or a parameter
+    /// of known dimension. Otherwise its plain numbers are SI and carry what is needed
+    /// (`"-5.6*crank.theta_dot"` is a torque of 5.6 N·m·s/rad), as a lone plain number
+    /// does.
+    fn coords_have_dims(&self, f: &Field, coords: bool) -> bool {
+        let params = &self.model.parameters;
+        coords
+            && (f.expr.has_units()
+                || f.expr
+                    .variables()
+                    .iter()
+                    .any(|(n, _)| params.index(n).and_then(|i| params.dims[i]).is_some()))
+    }
+
     fn compile_field(&mut self, f: &Field, coords: bool, time: bool) -> Option<Compiled> {
-        let var_dim = |n: &str| self.var_dim(n, coords);
+        let with_coords = self.coords_have_dims(f, coords);
+        let var_dim = |n: &str| self.var_dim(n, with_coords);
         let mut uses: Vec<(usize, Span)> = Vec::new();
         let r = f.expr.check_dims(&var_dim).and_then(|_| {
             f.expr.compile(&mut |name, span| {
@@ -341,7 +357,8 @@ impl Compiler<'_> {
     /// [`Compiler::check_dim`]; `coords`: the field may read coordinates (see
     /// [`Compiler::var_dim`]).
     fn check_dim_in(&mut self, f: &Field, expected: Dim, what: &str, coords: bool) -> bool {
-        let var_dim = |n: &str| self.var_dim(n, coords);
+        let with_coords = self.coords_have_dims(f, coords);
+        let var_dim = |n: &str| self.var_dim(n, with_coords);
         match f.expr.dim(&var_dim) {
             Some(d) if d != expected => {
                 self.diags.push(
