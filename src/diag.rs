@@ -92,6 +92,9 @@ pub enum Error {
     Failed {
         failure: crate::failure::Failure,
         context: Vec<String>,
+        /// Where in the model file the failure comes from, when one value is to blame (the
+        /// initial velocity that breaks a constraint): rendered like a [`Diagnostic`].
+        at: Option<Box<Location>>,
     },
     /// An invalid request (an argument out of its range, a name the model does not have),
     /// with what was asked (typed, naming the argument as the library's API does), and
@@ -127,6 +130,35 @@ impl From<crate::failure::Failure> for Error {
         Error::Failed {
             failure,
             context: Vec::new(),
+            at: None,
+        }
+    }
+}
+
+/// A span of a model file that a failure is located at, with the label shown under it.
+#[derive(Debug, Clone)]
+pub struct Location {
+    pub source: SourceFile,
+    pub span: Range<usize>,
+    pub label: String,
+}
+
+impl Error {
+    /// The failure located at `at` in its model file (see [`Error::Failed`]'s `at`).
+    pub fn failed_at(failure: crate::failure::Failure, at: Option<Location>) -> Self {
+        Error::Failed {
+            failure,
+            context: Vec::new(),
+            at: at.map(Box::new),
+        }
+    }
+
+    /// The model-file location of a failure, if it has one.
+    pub fn location(&self) -> Option<&Location> {
+        match self {
+            Error::Failed { at, .. } => at.as_deref(),
+            Error::Run { error, .. } => error.location(),
+            _ => None,
         }
     }
 }
@@ -226,11 +258,31 @@ impl Error {
     /// help line of an invalid request; where it gives none, the library's own.
     pub fn render_with(&self, color: bool, advice: &dyn Advice) -> String {
         match self {
-            Error::Failed { failure, context } => {
+            Error::Failed {
+                failure,
+                context,
+                at,
+            } => {
                 let help = advice
                     .failure_in(failure, context)
                     .unwrap_or_else(|| failure.hint());
-                report(context, &failure.to_string(), &help)
+                match at {
+                    // as a located problem of the model file: file:line:col and the line
+                    Some(at) => {
+                        let mut message = String::new();
+                        for c in context {
+                            message.push_str(c);
+                            message.push_str(": ");
+                        }
+                        message.push_str(&failure.to_string());
+                        let d = Diagnostic::new(message)
+                            .at(at.span.clone())
+                            .label(at.label.clone())
+                            .help(help);
+                        render_diagnostic(&at.source, &d, color)
+                    }
+                    None => report(context, &failure.to_string(), &help),
+                }
             }
             Error::Invalid { invalid, context } => {
                 let Wording { message, help } =

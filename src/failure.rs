@@ -3,6 +3,27 @@
 //! with the command line's flags is the CLI's business (`cli::advice`), and
 //! [`Failure::hint`] is the flag-free hint a library user gets.
 
+/// An initial velocity given in the model: body `body`'s `velocity` (a coordinate's
+/// name, or a free body's `vx` … `wz`) at `value` (SI: m/s or rad/s).
+#[derive(Debug, Clone, PartialEq)]
+pub struct GivenVelocity {
+    pub body: String,
+    pub velocity: String,
+    pub value: f64,
+}
+
+fn given_velocity(given: &Option<GivenVelocity>) -> String {
+    match given {
+        Some(g) => format!(
+            ": body `{}`'s given velocity {} = {} breaks it",
+            g.body,
+            g.velocity,
+            crate::diag::num(g.value)
+        ),
+        None => String::new(),
+    }
+}
+
 /// A computation that could not be completed.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum Failure {
@@ -61,10 +82,19 @@ pub enum Failure {
         /// The coordinates held during assembly and their values.
         fixed: Vec<(String, f64)>,
     },
+    /// The velocities the model gives cannot all be kept: the velocity constraint
+    /// `constraint` stays violated by `residual` (m/s or rad/s) however the others are
+    /// chosen; `given`: the given velocity that contributes most to it (none when the
+    /// model gives none: a moving ground the coordinates cannot follow).
     #[error(
-        "the initial velocities are inconsistent with the constraints (residual {residual:.3e})"
+        "the initial velocities are inconsistent with the constraints (residual {residual:.3e} in `{constraint}`){}",
+        given_velocity(given)
     )]
-    InconsistentVelocities { residual: f64 },
+    InconsistentVelocities {
+        residual: f64,
+        constraint: String,
+        given: Option<GivenVelocity>,
+    },
     #[error(
         "the constraints could not be kept: the largest constraint residual reached {residual:.3e}"
     )]
@@ -248,7 +278,8 @@ impl Failure {
                         .join(", ")
                 }
             ),
-            InconsistentVelocities { .. } => "give fewer initial velocities, or velocities the joints allow; with none given, the moving ground drives the joints in a way the bodies' coordinates cannot follow (a body turning about one axis on a ground that turns about another): give the body the angles to follow it, or move the ground differently".into(),
+            InconsistentVelocities { given: Some(g), .. } => format!("give fewer initial velocities, or velocities the joints allow: remove `{}` from body `{}`'s `velocity` (a velocity not given is solved from the constraints), or change it to one they allow", g.velocity, g.body),
+            InconsistentVelocities { given: None, .. } => "give fewer initial velocities, or velocities the joints allow; with none given, the moving ground drives the joints in a way the bodies' coordinates cannot follow (a body turning about one axis on a ground that turns about another): give the body the angles to follow it, or move the ground differently".into(),
             ConstraintsNotKept { .. } => "tighten the integration tolerances; if that does not help, the mechanism may pass a singular pose".into(),
             ContinuationStalled { .. } => "the branch may end here (a singular pose or no equilibrium), or the step is far too large for this model: try a smaller one".into(),
             BranchTurns { .. } => "the branch may end here (a singular pose); try a smaller step".into(),
@@ -313,7 +344,15 @@ mod tests {
                 worst: "J.x".into(),
                 fixed: vec![("bar1.theta".into(), 0.7)],
             },
-            Failure::InconsistentVelocities { residual: 1.0 },
+            Failure::InconsistentVelocities {
+                residual: 1.0,
+                constraint: "pivot.y".into(),
+                given: Some(GivenVelocity {
+                    body: "bar".into(),
+                    velocity: "y".into(),
+                    value: 0.5,
+                }),
+            },
             Failure::ConstraintsNotKept { residual: 1e-3 },
             Failure::ContinuationStalled {
                 param: "Fs".into(),

@@ -108,6 +108,7 @@ pub fn run(a: SensitivityArgs) -> Result<()> {
         Error::Failed {
             failure: f @ detune::failure::Failure::NoEquilibrium { .. },
             context,
+            ..
         } => Error::numerical(
             format!("{}: {f}", context.join(": ")),
             "narrow the range of that --vary: each case starts from the baseline's equilibrium, and none near it means the change takes the mechanism past a fold (the equilibrium vanishes); `detune continue --param NAME` shows where",

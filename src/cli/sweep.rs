@@ -829,7 +829,10 @@ fn no_steady_state(
     stage: checkpoint::CaseKind,
 ) -> Error {
     use detune::failure::Failure::{ConstraintsNotKept, NonFinite, StepSizeUnderflow};
-    let Error::Failed { failure, context } = &e else {
+    let Error::Failed {
+        failure, context, ..
+    } = &e
+    else {
         return e;
     };
     let t = match failure {

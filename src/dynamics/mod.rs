@@ -605,12 +605,48 @@ pub fn assemble(sys: &System) -> Result<State> {
         for (k, &i) in vfree.iter().enumerate() {
             v[i] -= dv[k];
         }
-        let after = velocity_residual(sys, &mut ws, &q, &v, t).amax();
+        let psi = velocity_residual(sys, &mut ws, &q, &v, t);
+        let after = psi.amax();
         if after > 1e-8 * (1.0 + v.iter().fold(0.0f64, |a, x| a.max(x.abs()))) {
-            return Err(Failure::InconsistentVelocities { residual: after }.into());
+            return Err(inconsistent_velocities(sys, &ws.a, &psi, &v));
         }
     }
     Ok(State { t, q, v })
+}
+
+/// The initial velocities break the velocity constraints: the worst row of the residual
+/// `psi`, and the given velocity that contributes most to it (|A_ri v_i|), located at its
+/// entry in the model file.
+fn inconsistent_velocities(
+    sys: &System,
+    a: &nalgebra::DMatrix<f64>,
+    psi: &DVector<f64>,
+    v: &[f64],
+) -> crate::diag::Error {
+    let row = psi.iamax();
+    let blamed = (0..sys.nv())
+        .filter(|&i| sys.initial.v_given[i])
+        .map(|i| (i, (a[(row, i)] * v[i]).abs()))
+        .filter(|&(_, c)| c > 0.0)
+        .max_by(|x, y| x.1.total_cmp(&y.1))
+        .map(|(i, _)| i);
+    let given = blamed.map(|i| {
+        let name = &sys.velocities[i];
+        let (body, velocity) = name.split_once('.').unwrap_or(("", name));
+        crate::failure::GivenVelocity {
+            body: body.to_string(),
+            velocity: velocity.to_string(),
+            value: v[i],
+        }
+    });
+    crate::diag::Error::failed_at(
+        Failure::InconsistentVelocities {
+            residual: psi[row].abs(),
+            constraint: sys.constraint_names[row].clone(),
+            given,
+        },
+        blamed.and_then(|i| sys.initial_velocity_location(i)),
+    )
 }
 
 /// The assembled initial pose at rest (velocities zero): what statics start from. A

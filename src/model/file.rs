@@ -539,6 +539,28 @@ pub struct RawModel {
     pub modes: Vec<Spanned<RawMode>>,
 }
 
+/// The `type` of each body, joint and force, read whatever the other fields are (no
+/// `deny_unknown_fields`): so that an unknown type is reported before the fields it would
+/// not know (`type = "torsionn"` with `stifness = 3` is a misspelt type first).
+#[derive(Debug, Clone, Default, Deserialize)]
+pub struct RawTypes {
+    #[serde(default)]
+    pub bodies: Vec<Spanned<RawTyped>>,
+    #[serde(default)]
+    pub joints: Vec<Spanned<RawTyped>>,
+    #[serde(default)]
+    pub forces: Vec<Spanned<RawTyped>>,
+}
+
+/// One table's `type` (any TOML value: only a string is checked), and whether it has a
+/// `rotation` (a body's: the model is spatial).
+#[derive(Debug, Clone, Deserialize)]
+pub struct RawTyped {
+    #[serde(rename = "type")]
+    pub kind: Option<Spanned<toml::Value>>,
+    pub rotation: Option<de::IgnoredAny>,
+}
+
 impl RawModel {
     /// Give the values read without their own span (see [`RawValueOrVector`]) the span
     /// of their field.

@@ -473,15 +473,26 @@ impl Model {
                 r
             }
             Err(e) => {
+                // an unknown `type` first: the fields the table's type would not know are
+                // not the problem (serde reports only the first of those)
+                let (mut diagnostics, bad) = unknown_types(text);
                 let mut d = Diagnostic::new(toml_message(&e)).help(
                     "the model file is TOML: see docs/model-format.md for the sections and fields",
                 );
                 if let Some(span) = e.span() {
                     d = d.at(span).label("here");
                 }
+                let in_bad = |d: &Diagnostic| {
+                    d.span
+                        .as_ref()
+                        .is_some_and(|s| bad.iter().any(|b| b.start <= s.start && s.end <= b.end))
+                };
+                if !in_bad(&d) {
+                    diagnostics.push(d);
+                }
                 return Err(Error::Model {
                     source,
-                    diagnostics: vec![d],
+                    diagnostics,
                 });
             }
         };
@@ -815,6 +826,85 @@ impl Model {
     }
 }
 
+/// A body's `type`s.
+const BODY_TYPES: [&str; 2] = ["planar", "spatial"];
+
+/// The bodies', joints' and forces' `type`s that name no type, each reported as the
+/// loader does ("unknown force type `torsionn`", with a "did you mean"), and the spans of
+/// their tables. Read leniently (other fields ignored): for a file that the full reading
+/// refuses, so that a misspelt type is reported rather than the fields it would not know.
+fn unknown_types(text: &str) -> (Vec<Diagnostic>, Vec<Range<usize>>) {
+    let Ok(raw) = toml::from_str::<file::RawTypes>(text) else {
+        return (Vec::new(), Vec::new());
+    };
+    let spatial = raw.bodies.iter().any(|b| b.get_ref().rotation.is_some());
+    let (joints, forces) = if spatial {
+        (&kinds::JOINTS3, &kinds::FORCES3)
+    } else {
+        (&kinds::JOINTS, &kinds::FORCES)
+    };
+    let joints: Vec<&str> = joints.kinds.iter().map(|k| k.name).collect();
+    let forces: Vec<&str> = forces.kinds.iter().map(|k| k.name).collect();
+    let families: [(&str, &[toml::Spanned<file::RawTyped>], Vec<&str>); 3] = [
+        ("body", &raw.bodies, BODY_TYPES.to_vec()),
+        ("joint", &raw.joints, joints),
+        ("force", &raw.forces, forces),
+    ];
+    let mut diags = Vec::new();
+    let mut spans = Vec::new();
+    for (what, tables, known) in families {
+        for t in tables {
+            let Some(kind) = &t.get_ref().kind else {
+                continue;
+            };
+            let Some(name) = kind.get_ref().as_str() else {
+                continue;
+            };
+            if known.contains(&name) {
+                continue;
+            }
+            let help = suggest(name, known.iter().copied())
+                .unwrap_or_else(|| format!("{what} types: {}", known.join(", ")));
+            diags.push(
+                Diagnostic::new(format!("unknown {what} type `{name}`"))
+                    .at(kind.span())
+                    .help(help),
+            );
+            let start = t.span().start;
+            spans.push(start..table_end(text, start));
+        }
+    }
+    (diags, spans)
+}
+
+/// Where the table whose header is at `start` ends: at the next table header (a line
+/// `[name]` or `[[name]]` of bare keys), or at the end of the text.
+fn table_end(text: &str, start: usize) -> usize {
+    let is_header = |line: &str| {
+        let l = line.split('#').next().unwrap_or("").trim();
+        let inner = l
+            .strip_prefix('[')
+            .and_then(|l| l.strip_suffix(']'))
+            .map(|l| l.trim_start_matches('[').trim_end_matches(']').trim());
+        inner.is_some_and(|k| {
+            !k.is_empty()
+                && k.chars()
+                    .all(|c| c.is_ascii_alphanumeric() || matches!(c, '_' | '-' | '.' | ' '))
+        })
+    };
+    let mut at = start;
+    let mut first = true;
+    for line in text[start.min(text.len())..].split_inclusive('\n') {
+        // the table's own header (the span may start at it or in its body)
+        if !first && is_header(line) {
+            return at;
+        }
+        first = false;
+        at += line.len();
+    }
+    text.len()
+}
+
 /// `toml`'s message without its own location excerpt (we print ours).
 fn toml_message(e: &toml::de::Error) -> String {
     e.message().trim().to_string()
@@ -1071,16 +1161,20 @@ impl Builder<'_> {
             let want = if spatial { "spatial" } else { "planar" };
             let other = k.get_ref().as_str();
             if other != want {
-                let help = if other == "spatial" || other == "planar" {
-                    "a model's bodies are all planar or all spatial: a spatial body has `rotation = [[\"z\", \"theta\"]]` (and z); a planar body has none".to_string()
+                // as the unknown types of a file with unknown fields are (`unknown_types`)
+                let (message, help) = if other == "spatial" || other == "planar" {
+                    (format!("body type `{other}` in a {want} model"), "a model's bodies are all planar or all spatial: a spatial body has `rotation = [[\"z\", \"theta\"]]` (and z); a planar body has none".to_string())
                 } else {
-                    "body types: planar, spatial (a body with `rotation` is spatial)".to_string()
+                    (
+                        format!("unknown body type `{other}`"),
+                        suggest(other, BODY_TYPES).unwrap_or_else(|| {
+                            "body types: planar, spatial (a body with `rotation` is spatial)"
+                                .to_string()
+                        }),
+                    )
                 };
-                self.diags.push(
-                    Diagnostic::new(format!("body type `{other}` in a {want} model"))
-                        .at(k.span())
-                        .help(help),
-                );
+                self.diags
+                    .push(Diagnostic::new(message).at(k.span()).help(help));
                 return None;
             }
         }

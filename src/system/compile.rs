@@ -41,6 +41,8 @@ impl System {
         let mut c = Compiler {
             model,
             coordinates: model.coordinate_names(),
+            coordinate_dims: model.bodies.iter().flat_map(|b| b.dims.clone()).collect(),
+            velocity_dims: model.bodies.iter().flat_map(|b| b.vdims.clone()).collect(),
             velocity_names,
             allow_velocities: false,
             diags: Vec::new(),
@@ -107,6 +109,10 @@ struct Compiler<'a> {
     /// The velocities' names as expressions read them: `<coordinate>_dot` for a
     /// coordinate's rate, `b.wx` etc. for a free body's.
     velocity_names: Vec<String>,
+    /// The dimension of each coordinate (m; angles and quaternion components: none) and
+    /// of each velocity (per second of those; a free body's: m/s and 1/s).
+    coordinate_dims: Vec<Dim>,
+    velocity_dims: Vec<Dim>,
     /// Whether the field being compiled may read velocities (applied forces and torques):
     /// velocity j is slot `Coord(nq + j)`, evaluated over (q, v) concatenated.
     allow_velocities: bool,
@@ -204,6 +210,11 @@ impl Compiler<'_> {
         if coords {
             cands.extend(self.coordinates.iter().map(|s| s.as_str()));
         }
+        // where velocities may be read, a misspelt one is suggested as itself
+        // (`bar.theta_dto`: `bar.theta_dot`, not `bar.theta`)
+        if coords && self.allow_velocities {
+            cands.extend(self.velocity_names.iter().map(|s| s.as_str()));
+        }
         let body = name.split('.').next().unwrap_or("");
         let message = if name.contains('.') {
             if self.model.bodies.iter().any(|b| b.name == body) {
@@ -215,7 +226,14 @@ impl Compiler<'_> {
             format!("unknown parameter `{name}`")
         };
         let help = suggest(name, cands.iter().copied()).unwrap_or_else(|| {
-            if coords {
+            if coords && self.allow_velocities {
+                format!(
+                    "names here: parameters ({}), coordinates ({}), velocities ({}) and time `t`",
+                    params.names().collect::<Vec<_>>().join(", "),
+                    self.coordinates.join(", "),
+                    self.velocity_names.join(", ")
+                )
+            } else if coords {
                 format!(
                     "names here: parameters ({}), coordinates ({}) and time `t`",
                     params.names().collect::<Vec<_>>().join(", "),
@@ -244,9 +262,46 @@ impl Compiler<'_> {
         c
     }
 
-    fn compile_field(&mut self, f: &Field, coords: bool, time: bool) -> Option<Compiled> {
+    /// The dimension of a name in an expression, where known: a parameter's (from its
+    /// unit or value); where the field may read them (`coords`), a coordinate's and, in a
+    /// load, a velocity's.
+    fn var_dim(&self, name: &str, coords: bool) -> Option<Dim> {
         let params = &self.model.parameters;
-        let var_dim = |n: &str| params.index(n).and_then(|i| params.dims[i]);
+        if let Some(i) = params.index(name) {
+            return params.dims[i];
+        }
+        if !coords {
+            return None;
+        }
+        if let Some(i) = self.coordinates.iter().position(|c| c == name) {
+            return self.coordinate_dims.get(i).copied();
+        }
+        if self.allow_velocities
+            && let Some(j) = self.velocity_names.iter().position(|c| c == name)
+        {
+            return self.velocity_dims.get(j).copied();
+        }
+        None
+    }
+
+    /// Whether `f`'s coordinates and velocities take part in its dimension check: when
+    /// the expression has a dimension of its own, from a quantity literal or a parameter
+    /// of known dimension. Otherwise its plain numbers are SI and carry what is needed
+    /// (`"-5.6*crank.theta_dot"` is a torque of 5.6 N·m·s/rad), as a lone plain number
+    /// does.
+    fn coords_have_dims(&self, f: &Field, coords: bool) -> bool {
+        let params = &self.model.parameters;
+        coords
+            && (f.expr.has_units()
+                || f.expr
+                    .variables()
+                    .iter()
+                    .any(|(n, _)| params.index(n).and_then(|i| params.dims[i]).is_some()))
+    }
+
+    fn compile_field(&mut self, f: &Field, coords: bool, time: bool) -> Option<Compiled> {
+        let with_coords = self.coords_have_dims(f, coords);
+        let var_dim = |n: &str| self.var_dim(n, with_coords);
         let mut uses: Vec<(usize, Span)> = Vec::new();
         let r = f.expr.check_dims(&var_dim).and_then(|_| {
             f.expr.compile(&mut |name, span| {
@@ -287,8 +342,23 @@ impl Compiler<'_> {
     /// Dimension check where decidable (a quantity literal or a parameter of known
     /// dimension).
     fn check_dim(&mut self, f: &Field, expected: Dim, what: &str) -> bool {
-        let params = &self.model.parameters;
-        let var_dim = |n: &str| params.index(n).and_then(|i| params.dims[i]);
+        self.check_dim_in(f, expected, what, false)
+    }
+
+    /// [`Compiler::check_dim`] for a load (a force or torque component), whose coordinates
+    /// and velocities have their dimensions.
+    fn check_load_dim(&mut self, f: &Field, expected: Dim, what: &str) -> bool {
+        self.allow_velocities = true;
+        let ok = self.check_dim_in(f, expected, what, true);
+        self.allow_velocities = false;
+        ok
+    }
+
+    /// [`Compiler::check_dim`]; `coords`: the field may read coordinates (see
+    /// [`Compiler::var_dim`]).
+    fn check_dim_in(&mut self, f: &Field, expected: Dim, what: &str, coords: bool) -> bool {
+        let with_coords = self.coords_have_dims(f, coords);
+        let var_dim = |n: &str| self.var_dim(n, with_coords);
         match f.expr.dim(&var_dim) {
             Some(d) if d != expected => {
                 self.diags.push(
@@ -588,6 +658,7 @@ impl Compiler<'_> {
         };
         let mut initial_coefs = Vec::new();
         let mut velocity_coefs = Vec::new();
+        let mut velocity_spans = Vec::new();
         let mut coordinate_dims = Vec::new();
         let mut angle_coords = Vec::new();
         let mut velocity_is_rate = Vec::new();
@@ -678,10 +749,12 @@ impl Compiler<'_> {
                         };
                         velocity_coefs.push(self.constant(f, *d, &what));
                         initial.v_given.push(true);
+                        velocity_spans.push(Some(f.span.clone()));
                     }
                     None => {
                         velocity_coefs.push(None);
                         initial.v_given.push(false);
+                        velocity_spans.push(None);
                     }
                 }
                 initial.v.push(0.0);
@@ -874,7 +947,7 @@ impl Compiler<'_> {
                         let at3 = model.spatial.then(|| self.point3(at, &what, &cgs));
                         let at2 = (!model.spatial).then(|| self.point(at, &what));
                         for c in force {
-                            self.check_dim(c, Dim::FORCE, "a force");
+                            self.check_load_dim(c, Dim::FORCE, "a force");
                         }
                         // every component compiled (and its problems reported) before giving up
                         let fs: Vec<Option<Compiled>> =
@@ -986,7 +1059,7 @@ impl Compiler<'_> {
                         let ts: Vec<Option<Compiled>> = torque
                             .iter()
                             .map(|c| {
-                                self.check_dim(c, Dim::TORQUE, "a torque");
+                                self.check_load_dim(c, Dim::TORQUE, "a torque");
                                 self.compile_load(c)
                             })
                             .collect();
@@ -1140,6 +1213,7 @@ impl Compiler<'_> {
             initial,
             initial_coefs,
             velocity_coefs,
+            velocity_spans,
             rheonomic,
             forcing: model
                 .forcing_frequency

@@ -163,6 +163,8 @@ pub struct System {
     /// Coefficients of the initial coordinates and of the given velocities.
     initial_coefs: Vec<usize>,
     velocity_coefs: Vec<Option<usize>>,
+    /// Where each given initial velocity is written in the model file (by velocity).
+    velocity_spans: Vec<Option<std::ops::Range<usize>>>,
     /// Whether any constraint depends on time explicitly (a custom constraint in `t`, or
     /// a moving ground).
     pub rheonomic: bool,
@@ -579,6 +581,17 @@ impl System {
     pub fn initial_dp(&self, i: usize) -> Vec<f64> {
         let (_, c) = self.seeded(i, Dual64::new(self.param(i), 1.0));
         self.initial_coefs.iter().map(|&k| c[k].eps).collect()
+    }
+
+    /// Where the model file gives velocity `i`'s initial value (its `velocity` field's
+    /// entry), for a message that blames it; `None` when the model does not give it.
+    pub fn initial_velocity_location(&self, i: usize) -> Option<crate::diag::Location> {
+        let span = self.velocity_spans.get(i)?.clone()?;
+        Some(crate::diag::Location {
+            source: self.source.clone(),
+            span,
+            label: "this initial velocity".into(),
+        })
     }
 
     /// The parameter given by the user that turned the `[trim]` off, if any.
