@@ -22,6 +22,9 @@ pub struct CheckedParameter {
     /// `N*m/rad`), else the SI unit of the dimension (`rad` for a dimensionless one
     /// declared as an angle).
     pub unit: String,
+    /// The declared unit and the value in it, when that unit is not SI (`rpm`, `deg`,
+    /// `mm`).
+    pub declared: Option<(String, f64)>,
 }
 
 /// The initial pose, assembled.
@@ -108,20 +111,44 @@ fn element_ranks(model: &Model, sys: &System, q: &[f64]) -> Vec<CheckedElement> 
     out
 }
 
-/// The unit a parameter's SI value is shown in (see [`CheckedParameter::unit`]).
-fn shown_unit(declared: Option<&(String, Dim)>, dim: Option<Dim>) -> String {
+/// The unit a parameter's SI value is shown in (see [`CheckedParameter::unit`]): the
+/// declared unit when it is SI-coherent (`N*m/rad` as written), else the SI unit of the
+/// dimension with the angle the declared unit carries (`deg` → `rad`, `rpm` and `Hz` →
+/// `rad/s`, `lbf*in/deg` → `N·m/rad`). Undeclared, the angle of its quantity literals of
+/// the same dimension (`45 deg` → `rad`, `2 Hz` → `rad/s`); a frequency is rad/s anyway
+/// (all frequencies in detune are angular).
+fn shown_unit(
+    declared: Option<&(String, Dim)>,
+    dim: Option<Dim>,
+    expr: &crate::model::expr::Expr,
+) -> String {
+    use crate::model::units::{angle_power, parse_unit, si_unit_with_angle};
     if let Some((text, d)) = declared
-        && let Ok((factor, _)) = crate::model::units::parse_unit(text)
+        && let Ok((factor, _)) = parse_unit(text)
     {
-        if factor == 1.0 {
+        if factor == 1.0 && !text.trim().is_empty() && text.trim() != "1" {
             return text.clone();
         }
-        if *d == Dim::NONE {
-            // an angle declared in degrees or revolutions: its SI value is in rad
-            return "rad".into();
-        }
+        return si_unit_with_angle(*d, angle_power(text));
     }
-    dim.map(|d| d.to_string()).unwrap_or_default()
+    let Some(dim) = dim else {
+        return String::new();
+    };
+    let angle = expr
+        .quantity_units()
+        .into_iter()
+        .find(|u| parse_unit(u).is_ok_and(|(_, d)| d == dim) && angle_power(u) != 0)
+        .map(angle_power)
+        .unwrap_or(if dim == Dim::FREQUENCY { 1 } else { 0 });
+    si_unit_with_angle(dim, angle)
+}
+
+/// The declared unit and the value in it, when it is not the SI unit shown (`rpm`, `deg`,
+/// `mm`): shown beside the SI value.
+fn in_declared(declared: Option<&(String, Dim)>, value: f64) -> Option<(String, f64)> {
+    let (text, _) = declared?;
+    let (factor, _) = crate::model::units::parse_unit(text).ok()?;
+    (factor != 1.0).then(|| (text.trim().to_string(), value / factor))
 }
 
 /// What `detune check` reports; [`fmt::Display`] gives its text.
@@ -157,7 +184,8 @@ impl CheckReport {
                 value: p.values[i],
                 dim: p.dims[i],
                 set: p.overridden[i].clone(),
-                unit: shown_unit(par.unit.as_ref(), p.dims[i]),
+                unit: shown_unit(par.unit.as_ref(), p.dims[i], &par.field.expr),
+                declared: in_declared(par.unit.as_ref(), p.values[i]),
             })
             .collect();
         let assembly = assemble(sys).map(|s| {
@@ -216,10 +244,16 @@ impl fmt::Display for CheckReport {
         for par in &self.parameters {
             // an angle's value in degrees beside its radians (the unit says which
             // parameters are angles)
+            // and a value declared in another unit (rpm, mm) in it too
             let dim = if par.unit.is_empty() {
                 String::new()
             } else if par.unit == "rad" {
                 format!(" rad ({:.6}°)", par.value.to_degrees())
+            } else if let Some((u, v)) = &par.declared {
+                // to 9 decimals, trailing zeros dropped (120 rpm, not 120.00000000000001)
+                let v = format!("{v:.9}");
+                let v = v.trim_end_matches('0').trim_end_matches('.');
+                format!(" {} ({v} {u})", par.unit)
             } else {
                 format!(" {}", par.unit)
             };

@@ -269,3 +269,90 @@ fn a_divergent_mode_is_shown_as_a_growth_rate() {
         "{line}"
     );
 }
+
+/// Issue 10, point 4: in `modes --json` a divergent mode (a real positive eigenvalue) is
+/// flagged and given its growth rate and time constant; its ω_n, f and ζ (= −1), which
+/// would describe a frequency it does not have, are null. Undamped (c = 0) the rate is
+/// √(−ω²) of the stiffness's negative eigenvalue, a second formulation (the undamped
+/// K_r, M_r eigenproblem against the state-space eigenvalue). The decaying real mode
+/// beside it keeps its numbers and is not divergent.
+#[test]
+fn a_divergent_mode_in_json_has_a_growth_rate_and_no_frequency() {
+    let out = Command::new(env!("CARGO_BIN_EXE_detune"))
+        .args([
+            "modes",
+            "models/overcentre.toml",
+            "--set",
+            "theta1_0=0.26",
+            "--set",
+            "c=0",
+            "--json",
+        ])
+        .output()
+        .unwrap();
+    assert!(out.status.success());
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let rate = (-v["undamped_omega2"][0].as_f64().unwrap()).sqrt();
+    let modes = v["modes"].as_array().unwrap();
+    let div: Vec<&serde_json::Value> = modes.iter().filter(|m| m["divergent"] == true).collect();
+    assert_eq!(div.len(), 1, "{modes:#?}");
+    let d = div[0];
+    assert!((d["growth_rate_1_s"].as_f64().unwrap() - rate).abs() < 1e-9 * rate);
+    assert!((d["time_constant_s"].as_f64().unwrap() - 1.0 / rate).abs() < 1e-9 / rate);
+    assert_eq!(
+        d["eigenvalue"]["re"].as_f64(),
+        d["growth_rate_1_s"].as_f64()
+    );
+    for key in ["omega_n_rad_s", "freq_hz", "damping_ratio"] {
+        assert!(d[key].is_null(), "{key} of a divergent mode: {}", d[key]);
+    }
+    assert_eq!(d["omega_d_rad_s"].as_f64(), Some(0.0));
+    assert_eq!(v["units"]["growth_rate_1_s"], "1/s");
+    assert_eq!(v["units"]["time_constant_s"], "s");
+    // the other mode decays at the same rate (undamped: λ = ±√(−ω²)) and is not divergent
+    let other = modes.iter().find(|m| m["divergent"] == false).unwrap();
+    assert!((other["omega_n_rad_s"].as_f64().unwrap() - rate).abs() < 1e-9 * rate);
+    assert!(other["growth_rate_1_s"].is_null() && other["time_constant_s"].is_null());
+}
+
+/// Issue 10, point 2: a driven model whose every coordinate is fixed by its constraints
+/// (tests/data/driven_pendulum.toml: a pendulum whose angle is prescribed in time) has no
+/// degrees of freedom, so no stability: `modes` says so instead of "equilibrium
+/// (stable)", and the JSON of `modes`, `equilibrium` and `equilibrium --all` has
+/// `"stable": null` (the key kept).
+#[test]
+fn a_driven_model_without_degrees_of_freedom_is_not_called_stable() {
+    let file = "tests/data/driven_pendulum.toml";
+    let run = |args: &[&str]| {
+        let out = Command::new(env!("CARGO_BIN_EXE_detune"))
+            .args(args)
+            .output()
+            .unwrap();
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        String::from_utf8(out.stdout).unwrap()
+    };
+    let text = run(&["modes", file]);
+    assert!(
+        text.starts_with("equilibrium (no degrees of freedom):\n"),
+        "{text}"
+    );
+    assert!(!text.contains("stable"), "{text}");
+    let json = |args: &[&str]| -> serde_json::Value { serde_json::from_str(&run(args)).unwrap() };
+    let m = json(&["modes", file, "--json"]);
+    assert!(m.get("stable").is_some_and(|s| s.is_null()), "{m}");
+    assert_eq!(m["modes"].as_array().map(Vec::len), Some(0));
+    // the pose is the prescribed one at t = 0: θ = 0.2 rad
+    assert!((m["equilibrium"]["b.theta"].as_f64().unwrap() - 0.2).abs() < 1e-12);
+    let e = json(&["equilibrium", file, "--json"]);
+    assert!(e.get("stable").is_some_and(|s| s.is_null()), "{e}");
+    let all = all_equilibria(file);
+    assert_eq!(all.len(), 1);
+    assert!(all[0].get("stable").is_some_and(|s| s.is_null()));
+    // a model that can move keeps its boolean
+    let s = json(&["equilibrium", "models/overcentre.toml", "--json"]);
+    assert_eq!(s["stable"], true);
+}

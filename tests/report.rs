@@ -1039,3 +1039,32 @@ fn warnings_and_the_environments_source_on_the_page() {
         r#"main rotor <span class="num" data-key="environment/source_rad_s/0">27</span> rad/s with 4 blades"#
     ));
 }
+
+/// Issue 10, point 4: the report's mode table shows a divergent mode (the overcentre about
+/// its unstable middle equilibrium, undamped) as a growth rate and time constant, not as
+/// a frequency with ζ = −1; the sidecar has them, with null ω_n, f, rpm and ζ. Undamped,
+/// the rate is √(−ω²) of the equilibrium's negative undamped eigenvalue.
+#[test]
+fn a_divergent_mode_is_a_growth_rate_in_the_report() {
+    let (_dir, _, page, json) = report("overcentre", &["--set", "theta1_0=0.26", "--set", "c=0"]);
+    let rate = (-json["equilibrium"]["undamped_omega2"][0].as_f64().unwrap()).sqrt();
+    let modes = json["modes"].as_array().unwrap();
+    let k = modes.iter().position(|m| m["divergent"] == true).unwrap();
+    let d = &modes[k];
+    assert!((d["growth_rate_1_s"].as_f64().unwrap() - rate).abs() < 1e-9 * rate);
+    assert!((d["time_constant_s"].as_f64().unwrap() - 1.0 / rate).abs() < 1e-9 / rate);
+    for key in ["omega_n_rad_s", "freq_hz", "rpm", "damping_ratio"] {
+        assert!(d[key].is_null(), "{key}: {}", d[key]);
+        assert!(
+            !page.contains(&format!("data-key=\"modes/{k}/{key}\"")),
+            "{key} shown"
+        );
+    }
+    let row = format!(
+        "<td>divergent: grows as e^(+<span class=\"num\" data-key=\"modes/{k}/growth_rate_1_s\">{rate:.3}</span> t) (1/s), time constant <span class=\"num\" data-key=\"modes/{k}/time_constant_s\">{:.4}</span> s</td>",
+        1.0 / rate
+    );
+    assert!(page.contains(&row), "no {row} in the page");
+    let bad = mismatches(&page, &json);
+    assert!(bad.is_empty(), "{}", bad.join("\n"));
+}

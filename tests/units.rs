@@ -148,7 +148,9 @@ fn freq_unit_rescales_the_frf_table_and_plot_but_not_the_csv() {
         .collect();
     assert!(texts.contains(&"omega [Hz]"), "{texts:?}");
     assert!(!texts.iter().any(|t| t.contains("rad/s")), "{texts:?}");
-    assert!(texts.contains(&"ω_n = |λ| = 0.4732 Hz"), "{texts:?}");
+    // (issue 10, point 5: a natural frequency in Hz is f_n, not ω_n)
+    assert!(texts.contains(&"f_n = |λ|/2π = 0.4732 Hz"), "{texts:?}");
+    assert!(!texts.iter().any(|t| t.contains("ω_n")), "{texts:?}");
 }
 
 /// The plot method on its own: x, vertical lines and marks rescaled, numbers in rad/s
@@ -188,7 +190,7 @@ fn a_line_plot_is_redrawn_in_another_frequency_unit() {
     // (the label's rounded 6.2832 rad/s converted: 60.0001 rpm)
     assert_eq!(plot.series[0].label, "peak 60.0001 rpm");
     assert!((plot.vertical[0].0 - 60.0).abs() < 1e-12);
-    assert_eq!(plot.vertical[0].1, "undamped ω_n = 60.0001 rpm");
+    assert_eq!(plot.vertical[0].1, "undamped f_n = 60.0001 rpm");
     assert!((plot.marks[0].0 - 180.0).abs() < 1e-12);
     assert_eq!(plot.marks[0].1, "1P (180.00 rpm)");
 }
@@ -600,4 +602,217 @@ fn the_sweeps_well_summary_follows_freq_unit() {
     );
     assert!(hz.contains(&expect), "{hz}");
     assert!(!hz.contains("rad/s in well"), "{hz}");
+}
+
+/// Issue 10, point 4: `check` echoes each parameter's unit: a frequency in rad/s (not 1/s)
+/// whether declared in Hz or rpm or written as "2 Hz" undeclared, an angle in rad with its
+/// degrees (not 1) whether declared in deg or written as "45 deg", an angular stiffness in
+/// lbf·in/deg as N·m/rad; a value declared in a unit other than SI beside, in it. The
+/// SI values are the closed forms (2 Hz = 120 rpm = 4π rad/s, 45° = π/4 rad, 1 lbf·in/deg
+/// = 4.4482216152605 · 0.0254 · 180/π N·m/rad). The messages about angles name rad and
+/// N·m/rad too.
+#[test]
+fn check_shows_each_parameters_angular_unit() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("units.toml");
+    let params = r#"[parameters]
+w = { value = "120 rpm", unit = "rpm" }
+f = { value = "2 Hz", unit = "Hz" }
+v = "2 Hz"
+u = "45 deg"
+d = { value = "30 deg", unit = "deg" }
+ks = { value = "3 lbf*in/deg", unit = "lbf*in/deg" }
+r = { value = "1 mm", unit = "mm" }
+"#;
+    // (the compound pendulum's bodies and its own parameters, k = 12 N*m/rad among them)
+    let torsion = std::fs::read_to_string(common::data("torsion_pendulum.toml")).unwrap();
+    assert!(torsion.contains("[parameters]\n") && torsion.contains("unit = \"N*m/rad\""));
+    std::fs::write(&file, torsion.replacen("[parameters]\n", params, 1)).unwrap();
+    let out = ok(&["check", file.to_str().unwrap()]);
+    let line = |name: &str| -> &str {
+        out.lines()
+            .find(|l| l.trim_start().starts_with(&format!("{name} ")))
+            .unwrap_or_else(|| panic!("no {name} in\n{out}"))
+    };
+    let four_pi = 2.0 * TAU;
+    let ks = 3.0 * 4.4482216152605 * 0.0254 * 180.0 / std::f64::consts::PI;
+    for (name, value, tail) in [
+        ("w", four_pi, "rad/s (120 rpm)"),
+        ("f", four_pi, "rad/s (2 Hz)"),
+        ("v", four_pi, "rad/s"),
+        ("u", std::f64::consts::FRAC_PI_4, "rad (45.000000°)"),
+        ("d", std::f64::consts::PI / 6.0, "rad (30.000000°)"),
+        ("ks", ks, "N·m/rad (3 lbf*in/deg)"),
+        ("r", 0.001, "m (1 mm)"),
+        ("k", 12.0, "N*m/rad"),
+    ] {
+        let l = line(name);
+        let shown: f64 = l
+            .split('=')
+            .nth(1)
+            .unwrap()
+            .split_whitespace()
+            .next()
+            .unwrap()
+            .parse()
+            .unwrap();
+        assert!((shown - value).abs() <= 1e-12 * value, "{l}: want {value}");
+        assert!(
+            l.trim_end().ends_with(tail),
+            "{l}: want it to end with {tail}"
+        );
+    }
+    assert!(!out.contains(" 1/s"), "{out}");
+    // the messages: a plain number declared in deg is SI, rad; a torsional stiffness and
+    // a free angle of the wrong dimension are named in N·m/rad and rad
+    let bad = |text: &str| -> String {
+        std::fs::write(&file, text).unwrap();
+        let (code, _, err) = detune(&["check", file.to_str().unwrap()]);
+        assert_ne!(code, 0, "{text}");
+        err
+    };
+    let err = bad("[parameters]\na = { value = 0.5, unit = \"deg\" }\n");
+    assert!(err.contains("which detune reads as SI (rad)"), "{err}");
+    let err = bad("[parameters]\na = { value = \"3 m\", unit = \"deg\" }\n");
+    assert!(
+        err.contains("`a` is declared in deg (rad) but its value is in m"),
+        "{err}"
+    );
+    assert!(torsion.contains("stiffness = \"k\"") && torsion.contains("free_angle = \"-pi/2\""));
+    let err = bad(&torsion.replace("stiffness = \"k\"", "stiffness = \"3 N\""));
+    assert!(
+        err.contains("the torsional stiffness is a quantity in N·m/rad; this value is in N"),
+        "{err}"
+    );
+    let err = bad(&torsion.replace("free_angle = \"-pi/2\"", "free_angle = \"2 m\""));
+    assert!(
+        err.contains("the free angle is a quantity in rad; this value is in m"),
+        "{err}"
+    );
+}
+
+/// The texts of an SVG file.
+fn svg_texts(path: &std::path::Path) -> Vec<String> {
+    let text = std::fs::read_to_string(path).unwrap();
+    let doc = roxmltree::Document::parse(&text).unwrap();
+    doc.descendants()
+        .filter(|n| n.has_tag_name("text"))
+        .filter_map(|n| n.text())
+        .map(|t| t.trim().to_string())
+        .collect()
+}
+
+/// Issue 10, point 5: a sweep's peak markers are "refined peaks" only when `--refine`
+/// refined them, "peaks" (the grid's maxima) otherwise; in Hz the linear natural frequency
+/// is labelled f_n (tests/data/sdof.toml: ω_n = √(k/m) = 20 rad/s, f_n = 10/π Hz =
+/// 3.1831 Hz).
+#[test]
+fn sweep_peaks_are_refined_only_when_refined_and_f_n_is_in_hz() {
+    let dir = tempfile::tempdir().unwrap();
+    let sdof = common::data("sdof.toml");
+    let run = |name: &str, extra: &[&str]| -> Vec<String> {
+        let svg = dir.path().join(name);
+        let mut args = vec![
+            "sweep",
+            &sdof,
+            "--set",
+            "F0=1",
+            "--param",
+            "omega",
+            "--from",
+            "15",
+            "--to",
+            "25",
+            "--step",
+            "1",
+            "--response",
+            "block.x",
+            "--plot",
+            svg.to_str().unwrap(),
+        ];
+        args.extend_from_slice(extra);
+        ok(&args);
+        svg_texts(&svg)
+    };
+    let plain = run("plain.svg", &[]);
+    assert!(plain.iter().any(|t| t == "peaks"), "{plain:?}");
+    assert!(!plain.iter().any(|t| t.contains("refined")), "{plain:?}");
+    assert!(
+        plain.iter().any(|t| t == "linear ω_n = 20.0000 rad/s"),
+        "{plain:?}"
+    );
+    let refined = run("refined.svg", &["--refine", "0.01", "--freq-unit", "Hz"]);
+    assert!(refined.iter().any(|t| t == "refined peaks"), "{refined:?}");
+    assert_eq!(format!("{:.4}", 10.0 / std::f64::consts::PI), "3.1831");
+    assert!(
+        refined.iter().any(|t| t == "linear f_n = 3.1831 Hz"),
+        "{refined:?}"
+    );
+    assert!(!refined.iter().any(|t| t.contains("ω_n")), "{refined:?}");
+}
+
+/// Issue 10, point 4: `backbone --freq-unit Hz` prints its table and draws its axis in Hz
+/// (f = ω/2π; the Duffing oscillator of tests/data/duffing.toml has the linear ω_n = 2
+/// rad/s, f_n = 1/π Hz), while its CSV and JSON stay in rad/s, identical to a run in rad/s.
+#[test]
+fn backbone_shows_its_frequencies_in_the_freq_unit() {
+    let dir = tempfile::tempdir().unwrap();
+    let duffing = common::data("duffing.toml");
+    let base = [
+        "backbone",
+        duffing.as_str(),
+        "--of-mode",
+        "1",
+        "--to-amplitude",
+        "100 mm",
+    ];
+    let csv_rad = dir.path().join("rad.csv");
+    let csv_hz = dir.path().join("hz.csv");
+    let svg = dir.path().join("hz.svg");
+    ok(&[&base[..], &["-o", csv_rad.to_str().unwrap()]].concat());
+    ok(&[
+        &base[..],
+        &[
+            "--freq-unit",
+            "Hz",
+            "-o",
+            csv_hz.to_str().unwrap(),
+            "--plot",
+            svg.to_str().unwrap(),
+        ],
+    ]
+    .concat());
+    assert_eq!(
+        std::fs::read_to_string(&csv_rad).unwrap(),
+        std::fs::read_to_string(&csv_hz).unwrap()
+    );
+    let j = json(&[&base[..], &["--freq-unit", "Hz", "--json"]].concat());
+    assert!((j["omega_linear"].as_f64().unwrap() - 2.0).abs() < 1e-9);
+    assert_eq!(j["units"]["omega"], "rad/s");
+    let texts = svg_texts(&svg);
+    assert!(texts.iter().any(|t| t == "f [Hz]"), "{texts:?}");
+    assert!(
+        texts.iter().any(|t| t == "linear f_n = 0.3183 Hz"),
+        "{texts:?}"
+    );
+    assert!(!texts.iter().any(|t| t.contains("rad/s")), "{texts:?}");
+    // the printed table: each row's frequency is the JSON's ω/2π
+    let out = ok(&[&base[..], &["--freq-unit", "Hz"]].concat());
+    assert!(
+        out.lines()
+            .next()
+            .unwrap()
+            .contains("linear f_n = 0.31830989 Hz (2.00000000 rad/s)"),
+        "{out}"
+    );
+    let head = out.lines().nth(1).unwrap();
+    assert!(head.contains("f [Hz]") && !head.contains("rad/s"), "{head}");
+    let points = j["points"].as_array().unwrap();
+    let rows: Vec<&str> = out.lines().skip(2).collect();
+    assert_eq!(rows.len(), points.len());
+    for (row, p) in rows.iter().zip(points) {
+        let f: f64 = row.split_whitespace().nth(1).unwrap().parse().unwrap();
+        let want = p["omega"].as_f64().unwrap() / TAU;
+        assert!((f - want).abs() < 1e-9, "{row}: want {want}");
+    }
 }

@@ -50,6 +50,8 @@ pub struct BackboneArgs {
     #[arg(long, value_name = "OUT.svg")]
     pub plot: Option<String>,
     #[command(flatten)]
+    pub freq: super::args::FreqUnitArg,
+    #[command(flatten)]
     pub plot_size: super::args::PlotSize,
 }
 
@@ -123,7 +125,10 @@ pub fn run(a: BackboneArgs) -> Result<()> {
         write_csv(o, &bb)?;
     }
     if let Some(p) = &a.plot {
-        let figs = figures(&model, &bb, ref_unit);
+        let figs: Vec<LinePlot> = figures(&model, &bb, ref_unit)
+            .into_iter()
+            .map(|f| f.in_frequency_unit(a.freq.freq_unit))
+            .collect();
         detune::output::plot::write_panels_sized(p, &figs, size)?;
     }
     outputs.commit()?;
@@ -147,9 +152,21 @@ pub fn run(a: BackboneArgs) -> Result<()> {
             units: &units,
         });
     } else if a.output.is_none() {
+        // the printed table in --freq-unit (the CSV and JSON stay in rad/s)
+        let fu = a.freq.freq_unit;
+        let linear = if fu == detune::output::units::FreqUnit::RadPerSecond {
+            format!("linear ω_n = {:.8} rad/s", bb.omega_linear)
+        } else {
+            format!(
+                "linear f_n = {:.8} {} ({:.8} rad/s)",
+                fu.of(bb.omega_linear),
+                fu.symbol(),
+                bb.omega_linear
+            )
+        };
         println!(
-            "backbone of {label} (undamped, unforced): linear ω_n = {:.8} rad/s; amplitude = {} at the turning point, from the equilibrium",
-            bb.omega_linear, bb.reference_name
+            "backbone of {label} (undamped, unforced): {linear}; amplitude = {} at the turning point, from the equilibrium",
+            bb.reference_name
         );
         let head: Vec<String> = bb
             .responses
@@ -160,7 +177,11 @@ pub fn run(a: BackboneArgs) -> Result<()> {
         println!(
             "{:>16} {:>16}  {}",
             format!("amplitude [{ref_unit}]"),
-            "ω [rad/s]",
+            if fu == detune::output::units::FreqUnit::RadPerSecond {
+                "ω [rad/s]".to_string()
+            } else {
+                format!("f [{}]", fu.symbol())
+            },
             head.join(" ")
         );
         for p in &bb.points {
@@ -172,7 +193,7 @@ pub fn run(a: BackboneArgs) -> Result<()> {
             println!(
                 "{:>16.8e} {:>16.10}  {}",
                 p.amplitude,
-                p.omega,
+                fu.of(p.omega),
                 cols.join(" ")
             );
         }

@@ -14,12 +14,14 @@ use detune::output::json::{ModesReport, TrackingReport};
 use detune::output::units::{FreqUnit, Units, WithUnits};
 
 /// The units of `modes --json` besides the coordinates'.
-const MODE_UNITS: [(&str, &str); 8] = [
+const MODE_UNITS: [(&str, &str); 10] = [
     ("omega_n_rad_s", "rad/s"),
     ("omega_d_rad_s", "rad/s"),
     ("freq_hz", "Hz"),
     ("damping_ratio", "1"),
     ("eigenvalue", "1/s"),
+    ("growth_rate_1_s", "1/s"),
+    ("time_constant_s", "s"),
     ("undamped_omega2", "rad^2/s^2"),
     (
         "shape",
@@ -91,7 +93,10 @@ pub fn run(a: ModesArgs) -> Result<()> {
     let sym = fu.symbol();
     println!(
         "equilibrium ({}):",
-        if m.equilibrium.stable {
+        if m.linearization.dof() == 0 {
+            // nothing can move (every coordinate fixed or driven): no stability to claim
+            "no degrees of freedom"
+        } else if m.equilibrium.stable {
             "stable"
         } else {
             "UNSTABLE"

@@ -157,8 +157,11 @@ pub fn run(a: ReportArgs) -> Result<()> {
         .and_then(|m| m.as_array())
         .map(|m| {
             m.iter()
-                .filter_map(|x| x.get("omega_n_rad_s").and_then(|w| w.as_f64()))
-                .map(|w| format!("{w:.3}"))
+                .map(|x| match x.get("omega_n_rad_s").and_then(|w| w.as_f64()) {
+                    Some(w) => format!("{w:.3}"),
+                    // a divergent mode has no ω_n
+                    None => "divergent".to_string(),
+                })
                 .collect::<Vec<_>>()
         })
         .unwrap_or_default();

@@ -86,6 +86,19 @@ pub struct Mode {
     pub normalized_to: usize,
 }
 
+impl Mode {
+    /// A real positive eigenvalue: the mode does not oscillate but grows as e^(+λt)
+    /// (about an unstable equilibrium). Its ω_n, f and ζ (= −1) describe no frequency.
+    pub fn is_divergent(&self) -> bool {
+        self.omega_d_rad_s == 0.0 && self.eigenvalue.re > 0.0
+    }
+
+    /// The growth rate λ (1/s) of a divergent mode, `None` otherwise.
+    pub fn growth_rate(&self) -> Option<f64> {
+        self.is_divergent().then_some(self.eigenvalue.re)
+    }
+}
+
 /// A complex number as `{re, im}`.
 #[derive(Debug, Clone, Copy, serde::Serialize, PartialEq)]
 pub struct C64 {

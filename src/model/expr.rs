@@ -306,6 +306,26 @@ impl Expr {
         out
     }
 
+    /// The units of its quantity literals, normalised, in source order (`["deg"]` for
+    /// `45 deg`).
+    pub fn quantity_units(&self) -> Vec<&str> {
+        fn walk<'e>(e: &'e Expr, out: &mut Vec<&'e str>) {
+            match e {
+                Expr::Quantity { unit, .. } => out.push(unit),
+                Expr::Number { .. } | Expr::Pi { .. } | Expr::Var { .. } => {}
+                Expr::Neg { arg, .. } => walk(arg, out),
+                Expr::Binary { lhs, rhs, .. } => {
+                    walk(lhs, out);
+                    walk(rhs, out);
+                }
+                Expr::Call { args, .. } => args.iter().for_each(|a| walk(a, out)),
+            }
+        }
+        let mut out = Vec::new();
+        walk(self, &mut out);
+        out
+    }
+
     /// True if the expression contains any quantity literal with a unit.
     pub fn has_units(&self) -> bool {
         match self {

@@ -105,8 +105,10 @@ impl Parameters {
                         if plain && (factor - 1.0).abs() > 1e-12 {
                             diags.push(
                                 Diagnostic::new(format!(
-                                    "`{name}` is declared in {} but its value is a plain number, which detune reads as SI ({dim})",
-                                    u.get_ref()
+                                    "`{name}` is declared in {} but its value is a plain number, which detune reads as SI ({})",
+                                    u.get_ref(),
+                                    // rad for deg, rad/s for rpm, N·m/rad for lbf*in/deg
+                                    units::si_unit_with_angle(dim, units::angle_power(u.get_ref()))
                                 ))
                                 .at(field.span.clone())
                                 .label("a plain number: SI")
@@ -404,13 +406,15 @@ impl<'a> Evaluator<'a> {
                 if let (Some((unit, declared)), Some(found), false) = (&p.unit, found, from_set)
                     && *declared != found
                 {
+                    // rad for deg, N·m/rad for lbf*in/deg
+                    let si = units::si_unit_with_angle(*declared, units::angle_power(unit));
                     self.problems.push(Problem::File(
                         Diagnostic::new(format!(
-                            "`{}` is declared in {unit} ({declared}) but its value is in {found}",
-                            p.name
+                            "`{}` is declared in {unit} ({si}) but its value is in {found}",
+                            p.name,
                         ))
                         .at(p.field.span.clone())
-                        .help(format!("give the value in {declared}, or change `unit`")),
+                        .help(format!("give the value in {si}, or change `unit`")),
                     ));
                     self.state[i] = State::Failed;
                     return None;

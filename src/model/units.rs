@@ -336,6 +336,56 @@ pub fn units() -> &'static [Unit] {
     UNITS
 }
 
+/// The power of the angle in a unit string that [`parse_unit`] accepts: angles are
+/// dimensionless, so `N*m/deg` and `N*m` have the same [`Dim`]; this says which one is
+/// meant (−1 for `N*m/deg`, +1 for `deg`, `rpm` and `Hz`, which are angles per time,
+/// 0 for `N*m`). Angle units: `rad mrad deg arcmin arcsec rev cycle turn`; frequency
+/// units: `Hz kHz rpm rps`. Operators apply left to right, as in [`parse_unit`].
+pub fn angle_power(s: &str) -> i32 {
+    let mut total = 0;
+    let mut sign = 1;
+    for token in s.replace('·', "*").split_inclusive(['*', '/']) {
+        let (body, next_sign) = match token.strip_suffix('/') {
+            Some(b) => (b, -1),
+            None => (token.strip_suffix('*').unwrap_or(token), 1),
+        };
+        let (name, power) = match body.split_once('^') {
+            Some((n, p)) => (n.trim(), p.trim().parse::<i32>().unwrap_or(1)),
+            None => (body.trim(), 1),
+        };
+        let angle = match name {
+            "rad" | "mrad" | "deg" | "arcmin" | "arcsec" | "rev" | "cycle" | "turn" => 1,
+            "Hz" | "kHz" | "rpm" | "rps" => 1,
+            _ => 0,
+        };
+        total += sign * power * angle;
+        sign = next_sign;
+    }
+    total
+}
+
+/// The SI unit of a quantity of dimension `dim` with `angle` powers of the angle
+/// ([`angle_power`]): `rad`, `rad/s`, `N·m/rad`, `N·m·s/rad`, or `dim`'s own for none.
+pub fn si_unit_with_angle(dim: Dim, angle: i32) -> String {
+    let d = dim.to_string();
+    match angle {
+        0 => d,
+        _ if dim == Dim::NONE => {
+            if angle == 1 {
+                "rad".into()
+            } else {
+                format!("rad^{angle}")
+            }
+        }
+        1 => match d.strip_prefix('1') {
+            Some(rest) if rest.starts_with('/') => format!("rad{rest}"),
+            _ => format!("{d}·rad"),
+        },
+        -1 => format!("{d}/rad"),
+        _ => format!("{d}·rad^{angle}"),
+    }
+}
+
 /// The table entry for a single unit name (case-sensitive), if any.
 pub fn lookup(name: &str) -> Option<&'static Unit> {
     UNITS.iter().find(|u| u.name == name)
@@ -617,6 +667,30 @@ pub(crate) fn edit_distance(a: &str, b: &str) -> usize {
 
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn angle_powers_and_their_si_units() {
+        for (unit, power, si) in [
+            ("deg", 1, "rad"),
+            ("rev", 1, "rad"),
+            ("1", 0, "1"),
+            ("Hz", 1, "rad/s"),
+            ("rpm", 1, "rad/s"),
+            ("1/s", 0, "1/s"),
+            ("N*m/deg", -1, "N·m/rad"),
+            ("lbf*in/rad", -1, "N·m/rad"),
+            ("N·m·s/rad", -1, "N·m·s/rad"),
+            ("lbf*in*s/rad", -1, "N·m·s/rad"),
+            ("deg/s^2", 1, "rad/s^2"),
+            ("rad^2", 2, "rad^2"),
+            ("N*m", 0, "N·m"),
+            ("mm", 0, "m"),
+        ] {
+            let (_, dim) = parse_unit(unit).unwrap();
+            assert_eq!(angle_power(unit), power, "{unit}");
+            assert_eq!(si_unit_with_angle(dim, power), si, "{unit}");
+        }
+    }
+
     use super::*;
 
     fn close(a: f64, b: f64, rel: f64) -> bool {

@@ -465,8 +465,12 @@ pub fn sweep_figures(
             }
         }
         if !peaks.0.is_empty() {
+            // refined only when the sweep refined them (`--refine`): else the grid's maxima
+            let refined = runs
+                .iter()
+                .any(|run| run.sweep.points.iter().any(|p| p.refined));
             out.push(Series::new(
-                "refined peaks",
+                if refined { "refined peaks" } else { "peaks" },
                 peaks.0,
                 peaks.1,
                 Style::Markers,

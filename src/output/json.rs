@@ -163,7 +163,9 @@ impl<'a> SimulationSummary<'a> {
 #[derive(Debug, Clone, Serialize)]
 pub struct EquilibriumJson<'a> {
     pub coordinates: Named<'a, f64>,
-    pub stable: bool,
+    /// `null` when nothing can move (no degrees of freedom: every coordinate fixed or
+    /// driven), so there is no stability to speak of; see [`stability`].
+    pub stable: Option<bool>,
     pub residual: f64,
     pub iterations: usize,
     pub undamped_omega2: &'a [f64],
@@ -173,7 +175,7 @@ impl<'a> EquilibriumJson<'a> {
     pub fn new(names: &'a [String], e: &'a Equilibrium) -> Self {
         EquilibriumJson {
             coordinates: Named::new(names, &e.q),
-            stable: e.stable,
+            stable: stability(e),
             residual: e.residual,
             iterations: e.iterations,
             undamped_omega2: &e.omega2,
@@ -294,14 +296,22 @@ impl<'a> BranchReport<'a> {
     }
 }
 
-/// One mode, its shape by coordinate name.
+/// One mode, its shape by coordinate name. A divergent mode (a real positive eigenvalue,
+/// about an unstable equilibrium) has `divergent` true, its growth rate λ and time
+/// constant 1/λ, and `null` for ω_n, f and ζ, which would describe a frequency it does
+/// not have (its ω_d is 0: it does not oscillate).
 #[derive(Debug, Clone, Serialize)]
 pub struct ModeJson<'a> {
-    pub omega_n_rad_s: f64,
+    pub omega_n_rad_s: Option<f64>,
     pub omega_d_rad_s: f64,
-    pub freq_hz: f64,
-    pub damping_ratio: f64,
+    pub freq_hz: Option<f64>,
+    pub damping_ratio: Option<f64>,
     pub eigenvalue: C64,
+    pub divergent: bool,
+    /// λ of a divergent mode (1/s): it grows as e^(+λt); `null` otherwise.
+    pub growth_rate_1_s: Option<f64>,
+    /// 1/λ of a divergent mode (s); `null` otherwise.
+    pub time_constant_s: Option<f64>,
     pub shape: Named<'a, C64>,
     pub normalized_to: &'a str,
     /// The mode's name (`[[modes]]`, or `mode k` by frequency): with [`ModesReport::named`].
@@ -315,11 +325,19 @@ pub struct ModeJson<'a> {
     pub strain_energy_share: Option<&'a crate::linear::tracking::Shares>,
 }
 
+/// An equilibrium's stability for JSON: `None` (`null`) when it has no degrees of
+/// freedom (no ω²: the constraints, perhaps driven in time, fix every coordinate), where
+/// "stable" would claim what nothing was tested for.
+pub fn stability(e: &Equilibrium) -> Option<bool> {
+    (!e.omega2.is_empty()).then_some(e.stable)
+}
+
 /// `modes --json`.
 #[derive(Debug, Clone, Serialize)]
 pub struct ModesReport<'a> {
     pub equilibrium: Named<'a, f64>,
-    pub stable: bool,
+    /// `null` with no degrees of freedom (see [`stability`]).
+    pub stable: Option<bool>,
     pub modes: Vec<ModeJson<'a>>,
     pub undamped_omega2: &'a [f64],
     pub normalized_to: &'a str,
@@ -330,21 +348,28 @@ impl<'a> ModesReport<'a> {
     pub fn new(a: &'a ModalAnalysis, provenance: &'a Provenance) -> Self {
         ModesReport {
             equilibrium: Named::new(&a.coordinates, &a.equilibrium.q),
-            stable: a.equilibrium.stable,
+            stable: stability(&a.equilibrium),
             modes: a
                 .modes
                 .iter()
-                .map(|m| ModeJson {
-                    omega_n_rad_s: m.omega_n_rad_s,
-                    omega_d_rad_s: m.omega_d_rad_s,
-                    freq_hz: m.freq_hz,
-                    damping_ratio: m.damping_ratio,
-                    eigenvalue: m.eigenvalue,
-                    shape: Named::new(&a.coordinates, &m.shape),
-                    normalized_to: &a.coordinates[m.normalized_to],
-                    name: None,
-                    kinetic_energy_share: None,
-                    strain_energy_share: None,
+                .map(|m| {
+                    let divergent = m.is_divergent();
+                    let unless_divergent = |x: f64| (!divergent).then_some(x);
+                    ModeJson {
+                        omega_n_rad_s: unless_divergent(m.omega_n_rad_s),
+                        omega_d_rad_s: m.omega_d_rad_s,
+                        freq_hz: unless_divergent(m.freq_hz),
+                        damping_ratio: unless_divergent(m.damping_ratio),
+                        eigenvalue: m.eigenvalue,
+                        divergent,
+                        growth_rate_1_s: m.growth_rate(),
+                        time_constant_s: m.growth_rate().map(|r| 1.0 / r),
+                        shape: Named::new(&a.coordinates, &m.shape),
+                        normalized_to: &a.coordinates[m.normalized_to],
+                        name: None,
+                        kinetic_energy_share: None,
+                        strain_energy_share: None,
+                    }
                 })
                 .collect(),
             undamped_omega2: &a.undamped_omega2,

@@ -82,8 +82,11 @@ pub struct Note {
 impl LinePlot {
     /// The plot of a frequency axis in rad/s redrawn in `unit` (`--freq-unit`): the
     /// series' x, the vertical lines and the marks rescaled, `[rad/s]` in the x label and
-    /// every `<number> rad/s` in the labels rewritten in the unit. Only the picture
-    /// changes: the data written to CSV/JSON stay in rad/s.
+    /// every `<number> rad/s` in the labels rewritten in the unit. A cyclic unit's
+    /// natural frequency is f_n, not ω_n: `ω_n = 0.4732 Hz` would read as an angular
+    /// frequency, so `ω_n` becomes `f_n` (`ω_n = |λ|` becomes `f_n = |λ|/2π`) in Hz and in
+    /// rpm alike, and an axis `ω [rad/s]` becomes `f [Hz]`. Only the picture changes: the
+    /// data written to CSV/JSON stay in rad/s.
     pub fn in_frequency_unit(mut self, unit: super::units::FreqUnit) -> Self {
         if unit == super::units::FreqUnit::RadPerSecond {
             return self;
@@ -112,7 +115,8 @@ impl LinePlot {
                 rest = &after[" rad/s".len()..];
             }
             out.push_str(rest);
-            out
+            out.replace("ω_n = |λ|", "f_n = |λ|/2π")
+                .replace("ω_n", "f_n")
         };
         for s in &mut self.series {
             s.x.iter_mut().for_each(|x| *x = unit.of(*x));
@@ -129,6 +133,7 @@ impl LinePlot {
         self.caption = relabel(&self.caption);
         self.x_label = self
             .x_label
+            .replace("ω [rad/s]", &format!("f [{}]", unit.symbol()))
             .replace("[rad/s]", &format!("[{}]", unit.symbol()));
         self.title = relabel(&self.title);
         self

@@ -111,7 +111,8 @@ struct CoordinateJson {
 
 #[derive(Serialize)]
 struct EquilibriumJson {
-    stable: bool,
+    /// `null` with no degrees of freedom (as in `equilibrium --json`).
+    stable: Option<bool>,
     /// |R|∞ of the static equations.
     residual: f64,
     coordinates: Vec<CoordinateJson>,
@@ -123,12 +124,17 @@ struct ModeJson {
     mode: usize,
     #[serde(skip_serializing_if = "Option::is_none")]
     name: Option<String>,
-    omega_n_rad_s: f64,
+    /// `null` for a divergent mode (as in `modes --json`), and so f, rpm and ζ.
+    omega_n_rad_s: Option<f64>,
     omega_d_rad_s: f64,
-    freq_hz: f64,
-    rpm: f64,
-    damping_ratio: f64,
+    freq_hz: Option<f64>,
+    rpm: Option<f64>,
+    damping_ratio: Option<f64>,
     eigenvalue: C64,
+    /// A real positive eigenvalue: grows as e^(+λt), λ = `growth_rate_1_s`.
+    divergent: bool,
+    growth_rate_1_s: Option<f64>,
+    time_constant_s: Option<f64>,
     /// By coordinate name, normalized to `normalized_to` = 1.
     shape: BTreeMap<String, C64>,
     normalized_to: String,
@@ -137,6 +143,11 @@ struct ModeJson {
 }
 
 impl ModeJson {
+    /// ω_n (rad/s), NaN for a divergent mode.
+    fn omega_n(&self) -> f64 {
+        self.omega_n_rad_s.unwrap_or(f64::NAN)
+    }
+
     /// The mode's name (the model's `[[modes]]`), or `mode N`.
     fn label(&self) -> String {
         self.name
@@ -472,7 +483,7 @@ pub fn build(inp: &ReportInputs) -> Result<Report> {
     // the equilibrium and the modes about it
     let m: ModalAnalysis = modal_analysis(sys, None)?;
     let eq = EquilibriumJson {
-        stable: m.equilibrium.stable,
+        stable: crate::output::json::stability(&m.equilibrium),
         residual: m.equilibrium.residual,
         coordinates: m
             .coordinates
@@ -492,10 +503,10 @@ pub fn build(inp: &ReportInputs) -> Result<Report> {
         Section::new("equilibrium", "Equilibrium")
             .prose(format!(
                 "The static equilibrium nearest the initial pose, loads at their mean over a period: {}. Static residual {} (N and m mixed).",
-                if eq.stable {
-                    "stable (every undamped ω² positive)"
-                } else {
-                    "UNSTABLE (a negative undamped ω²)"
+                match eq.stable {
+                    None => "no degrees of freedom (the constraints fix every coordinate)",
+                    Some(true) => "stable (every undamped ω² positive)",
+                    Some(false) => "UNSTABLE (a negative undamped ω²)",
                 },
                 data.inline("equilibrium/residual", Digits::Sci(1))
             ))
@@ -528,25 +539,32 @@ pub fn build(inp: &ReportInputs) -> Result<Report> {
         .modes
         .iter()
         .enumerate()
-        .map(|(k, md)| ModeJson {
-            mode: k + 1,
-            name: extras.and_then(|x| x.names.get(k).cloned().flatten()),
-            omega_n_rad_s: md.omega_n_rad_s,
-            omega_d_rad_s: md.omega_d_rad_s,
-            freq_hz: md.freq_hz,
-            rpm: rpm(md.omega_n_rad_s),
-            damping_ratio: md.damping_ratio,
-            eigenvalue: md.eigenvalue,
-            shape: m
-                .coordinates
-                .iter()
-                .cloned()
-                .zip(md.shape.iter().copied())
-                .collect(),
-            normalized_to: m.coordinates[md.normalized_to].clone(),
-            energy_share: extras
-                .and_then(|x| x.energy_shares.get(k))
-                .map(|s| s.iter().cloned().collect()),
+        .map(|(k, md)| {
+            let divergent = md.is_divergent();
+            let unless_divergent = |x: f64| (!divergent).then_some(x);
+            ModeJson {
+                mode: k + 1,
+                name: extras.and_then(|x| x.names.get(k).cloned().flatten()),
+                omega_n_rad_s: unless_divergent(md.omega_n_rad_s),
+                omega_d_rad_s: md.omega_d_rad_s,
+                freq_hz: unless_divergent(md.freq_hz),
+                rpm: unless_divergent(rpm(md.omega_n_rad_s)),
+                damping_ratio: unless_divergent(md.damping_ratio),
+                eigenvalue: md.eigenvalue,
+                divergent,
+                growth_rate_1_s: md.growth_rate(),
+                time_constant_s: md.growth_rate().map(|r| 1.0 / r),
+                shape: m
+                    .coordinates
+                    .iter()
+                    .cloned()
+                    .zip(md.shape.iter().copied())
+                    .collect(),
+                normalized_to: m.coordinates[md.normalized_to].clone(),
+                energy_share: extras
+                    .and_then(|x| x.energy_shares.get(k))
+                    .map(|s| s.iter().cloned().collect()),
+            }
         })
         .collect();
     data.insert("modes", &modes)?;
@@ -578,6 +596,21 @@ pub fn build(inp: &ReportInputs) -> Result<Report> {
                     let mut row = vec![Cell::text(format!("{}", x.mode))];
                     if named {
                         row.push(Cell::text(x.name.clone().unwrap_or_default()));
+                    }
+                    if x.divergent {
+                        // no frequency or damping ratio: it grows without oscillating
+                        row.extend([
+                            Cell::text(format!(
+                                "divergent: grows as e^(+{} t) (1/s), time constant {} s",
+                                data.inline(format!("modes/{k}/growth_rate_1_s"), Digits::Fixed(3)),
+                                data.inline(format!("modes/{k}/time_constant_s"), Digits::Fixed(4)),
+                            )),
+                            Cell::text("—"),
+                            Cell::text("—"),
+                            Cell::text("—"),
+                            data.num(format!("modes/{k}/omega_d_rad_s"), Digits::Fixed(3)),
+                        ]);
+                        return row;
                     }
                     row.extend([
                         data.num(format!("modes/{k}/omega_n_rad_s"), Digits::Fixed(3)),
@@ -654,8 +687,8 @@ pub fn build(inp: &ReportInputs) -> Result<Report> {
     let oscillating: Vec<(usize, f64)> = modes
         .iter()
         .enumerate()
-        .filter(|(_, x)| x.omega_d_rad_s > 0.0 && x.omega_n_rad_s.is_finite())
-        .map(|(k, x)| (k, x.omega_n_rad_s))
+        .filter(|(_, x)| x.omega_d_rad_s > 0.0 && x.omega_n().is_finite())
+        .map(|(k, x)| (k, x.omega_n()))
         .collect();
     let mut frf_section = Section::new("frf", "Linear frequency response");
     if let (Some(lo), Some(hi)) = (
@@ -978,7 +1011,7 @@ fn campbell(
     let mut crossings = Vec::new();
     for m in &osc {
         for l in &lines {
-            let at = m.omega_n_rad_s / l.slope;
+            let at = m.omega_n() / l.slope;
             if at > 0.0 && at <= rpm_end {
                 crossings.push(CrossingJson {
                     mode: m.mode,
@@ -986,13 +1019,13 @@ fn campbell(
                     line: l.label.clone(),
                     rotor_rpm: at,
                     percent_nominal: 100.0 * at / main.rpm,
-                    omega_rad_s: m.omega_n_rad_s,
+                    omega_rad_s: m.omega_n(),
                     in_operating_range: main.rpm_range.map(|[lo, hi]| at >= lo && at <= hi),
                 });
             }
         }
     }
-    let wmax = osc.iter().map(|m| m.omega_n_rad_s).fold(0.0, f64::max);
+    let wmax = osc.iter().map(|m| m.omega_n()).fold(0.0, f64::max);
     let lowest_line = lines
         .iter()
         .map(|l| l.slope * main.rpm)
@@ -1010,7 +1043,7 @@ fn campbell(
         rotor: main.name.clone(),
         rpm_nominal: main.rpm,
         rpm_range: main.rpm_range,
-        modes: osc.iter().map(|m| (m.label(), m.omega_n_rad_s)).collect(),
+        modes: osc.iter().map(|m| (m.label(), m.omega_n())).collect(),
         lines,
         crossings: crossings
             .iter()

@@ -342,25 +342,40 @@ impl Compiler<'_> {
     /// Dimension check where decidable (a quantity literal or a parameter of known
     /// dimension).
     fn check_dim(&mut self, f: &Field, expected: Dim, what: &str) -> bool {
-        self.check_dim_in(f, expected, what, false)
+        self.check_dim_in(f, expected, 0, what, false)
     }
 
     /// [`Compiler::check_dim`] for a load (a force or torque component), whose coordinates
     /// and velocities have their dimensions.
     fn check_load_dim(&mut self, f: &Field, expected: Dim, what: &str) -> bool {
         self.allow_velocities = true;
-        let ok = self.check_dim_in(f, expected, what, true);
+        let ok = self.check_dim_in(f, expected, 0, what, true);
         self.allow_velocities = false;
         ok
     }
 
-    /// [`Compiler::check_dim`]; `coords`: the field may read coordinates (see
+    /// [`Self::check_dim`] of a quantity with `angle` powers of the angle, named so in its
+    /// message (`rad`, `N·m/rad`: angles are dimensionless, so `expected` alone would say
+    /// `1` or `N·m`).
+    fn check_dim_angular(&mut self, f: &Field, expected: Dim, angle: i32, what: &str) -> bool {
+        self.check_dim_in(f, expected, angle, what, false)
+    }
+
+    /// [`Compiler::check_dim_angular`]; `coords`: the field may read coordinates (see
     /// [`Compiler::var_dim`]).
-    fn check_dim_in(&mut self, f: &Field, expected: Dim, what: &str, coords: bool) -> bool {
+    fn check_dim_in(
+        &mut self,
+        f: &Field,
+        expected: Dim,
+        angle: i32,
+        what: &str,
+        coords: bool,
+    ) -> bool {
         let with_coords = self.coords_have_dims(f, coords);
         let var_dim = |n: &str| self.var_dim(n, with_coords);
         match f.expr.dim(&var_dim) {
             Some(d) if d != expected => {
+                let expected = crate::model::units::si_unit_with_angle(expected, angle);
                 self.diags.push(
                     Diagnostic::new(format!(
                         "{what} is a quantity in {expected}; this value is in {d}"
@@ -377,7 +392,20 @@ impl Compiler<'_> {
 
     /// A coefficient (parameters only), dimension-checked, with a value check.
     fn checked(&mut self, f: &Field, expected: Dim, what: &str, kind: CheckKind) -> Option<usize> {
-        if !self.check_dim(f, expected, what) {
+        self.checked_angular(f, expected, 0, what, kind)
+    }
+
+    /// [`Self::checked`] of a quantity with `angle` powers of the angle (see
+    /// [`Self::check_dim_angular`]).
+    fn checked_angular(
+        &mut self,
+        f: &Field,
+        expected: Dim,
+        angle: i32,
+        what: &str,
+        kind: CheckKind,
+    ) -> Option<usize> {
+        if !self.check_dim_angular(f, expected, angle, what) {
             return None;
         }
         let c = self.compile_field(f, false, false)?;
@@ -427,7 +455,12 @@ impl Compiler<'_> {
                     });
                 }
                 let t0 = self.checked(preload, Dim::TORQUE, &of("preload"), CheckKind::Positive);
-                let k2 = self.constant(stiffness2, Dim::ANGULAR_STIFFNESS, &of("stiffness2"));
+                let k2 = self.constant_angular(
+                    stiffness2,
+                    Dim::ANGULAR_STIFFNESS,
+                    -1,
+                    &of("stiffness2"),
+                );
                 let eps = self.checked(smoothing, Dim::NONE, &of("smoothing"), CheckKind::Positive);
                 Law::Breakout {
                     k2: k2?,
@@ -553,6 +586,18 @@ impl Compiler<'_> {
     /// A finite coefficient.
     fn constant(&mut self, f: &Field, expected: Dim, what: &str) -> Option<usize> {
         self.checked(f, expected, what, CheckKind::Finite)
+    }
+
+    /// A finite coefficient with `angle` powers of the angle: an angle (1, rad), a
+    /// torsional stiffness (−1, N·m/rad).
+    fn constant_angular(
+        &mut self,
+        f: &Field,
+        expected: Dim,
+        angle: i32,
+        what: &str,
+    ) -> Option<usize> {
+        self.checked_angular(f, expected, angle, what, CheckKind::Finite)
     }
 
     /// A point of a spatial model: three coefficients, and its body's CG.
@@ -842,7 +887,8 @@ impl Compiler<'_> {
                     }
                     match &j.kind {
                         JointKind::Prismatic { angle, .. } => {
-                            let Some(angle) = self.constant(angle, Dim::NONE, "the joint angle")
+                            let Some(angle) =
+                                self.constant_angular(angle, Dim::NONE, 1, "the joint angle")
                             else {
                                 continue;
                             };
@@ -852,7 +898,8 @@ impl Compiler<'_> {
                     }
                 }
                 JointKind::Fixed { angle } => {
-                    let Some(angle) = self.constant(angle, Dim::NONE, "the joint angle") else {
+                    let Some(angle) = self.constant_angular(angle, Dim::NONE, 1, "the joint angle")
+                    else {
                         continue;
                     };
                     Joint::fixed(a, b, angle)
@@ -1006,17 +1053,20 @@ impl Compiler<'_> {
                         } else {
                             None
                         };
-                        let k = self.constant(
+                        let k = self.constant_angular(
                             stiffness,
                             Dim::ANGULAR_STIFFNESS,
+                            -1,
                             "the torsional stiffness",
                         );
-                        let c = self.constant(
+                        let c = self.constant_angular(
                             damping,
                             Dim::ANGULAR_DAMPING,
+                            -1,
                             &format!("the torsional damping of `{}`", f.name),
                         );
-                        let free = self.constant(free_angle, Dim::NONE, "the free angle");
+                        let free =
+                            self.constant_angular(free_angle, Dim::NONE, 1, "the free angle");
                         let law = self.law(law, true, &f.name, stiffness, k);
                         let (Some(k), Some(c), Some(free), Some(law)) = (k, c, free, law) else {
                             break 'element;
