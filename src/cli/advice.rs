@@ -33,6 +33,10 @@ pub fn advice(f: &Failure) -> Option<String> {
         }
         StepSizeUnderflow { .. } => "the mechanism may be at a singular pose (a rank loss of the constraints) or the forces change abruptly; check the model, or loosen --rtol/--atol".into(),
         TooManySteps { .. } => "loosen --rtol/--atol or shorten the run; for a stiff model (a very stiff spring or damper on a light body) use --integrator radau".into(),
+        ForcingUnresolved { omega, max_steps, .. } => format!(
+            "shorten --t-end to below {} s ({max_steps} forcing periods), or --set the forcing frequency to a physical value",
+            detune::diag::num(*max_steps as f64 * std::f64::consts::TAU / omega)
+        ),
         Stiff { .. } => "a very stiff spring or damper makes the explicit DOP853 crawl: use --integrator radau (implicit, stable at any step), or soften it".into(),
         Integrator { bad_input: true, .. } => "check --t-end, --rtol and --atol".into(),
         ConstraintsNotKept { .. } => "tighten --rtol/--atol (the defaults are 1e-10 and 1e-12); if that does not help, the mechanism may pass a singular pose".into(),
