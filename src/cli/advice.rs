@@ -159,7 +159,7 @@ pub fn wording(invalid: &Invalid) -> Option<Wording> {
             argument,
             value,
             points,
-            ..
+            limit,
         } => match argument {
             Argument::OutputInterval => said(
                 not_valid(*argument, *value)?,
@@ -172,8 +172,38 @@ pub fn wording(invalid: &Invalid) -> Option<Wording> {
                 ),
                 "shorten --t-end, or use a larger --dt-out",
             ),
+            Argument::ArclengthStep => said(
+                format!(
+                    "--step {} needs at least {} steps to cross the range, more than --max-steps {limit}",
+                    detune::diag::num(*value),
+                    detune::diag::num(points.ceil())
+                ),
+                &format!(
+                    "give --step of at least {} (the range / --max-steps), or raise --max-steps",
+                    detune::diag::num(*value * *points / *limit as f64)
+                ),
+            ),
+            Argument::MaxPeriods | Argument::FixedPeriods => said(
+                format!(
+                    "{} {} gives about {} samples, more than {limit} ({} a period)",
+                    flag(*argument)?,
+                    detune::diag::num(*value),
+                    detune::diag::num(*points),
+                    detune::diag::num(*points / *value)
+                ),
+                &format!(
+                    "give {} up to {}",
+                    flag(*argument)?,
+                    limit / (*points / *value).max(1.0) as usize
+                ),
+            ),
             _ => said(
-                format!("{} {value} gives {points} points", flag(*argument)?),
+                format!(
+                    "{} {} gives about {} points, more than {limit}",
+                    flag(*argument)?,
+                    detune::diag::num(*value),
+                    detune::diag::num(*points)
+                ),
                 &hint,
             ),
         },

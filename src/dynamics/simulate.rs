@@ -400,7 +400,7 @@ fn check_options(o: &SimOptions) -> Result<()> {
         Invalid::TooManyPoints {
             argument,
             value,
-            points: (o.t_end / o.dt_out) as usize,
+            points: o.t_end / o.dt_out,
             limit: MAX_SAMPLES,
         }
     } else {
@@ -410,4 +410,4 @@ fn check_options(o: &SimOptions) -> Result<()> {
 }
 
 /// The most output samples of a simulation (t_end / dt_out).
-const MAX_SAMPLES: usize = 50_000_000;
+pub(crate) const MAX_SAMPLES: usize = 50_000_000;
