@@ -54,6 +54,20 @@ pub enum Failure {
     /// The step size fell below the integrator's floor (`h`, s; 0 when unknown).
     #[error("the step size fell to zero at t = {t:.6} s{}", step_size(*.h))]
     StepSizeUnderflow { t: f64, h: f64 },
+    /// A run of more forcing periods than the integrator may take steps (it resolves the
+    /// forcing only with at least one step per period).
+    #[error(
+        "the forcing at {} rad/s turns {} times in the run of {} s, more than the {max_steps} steps the integrator may take: it needs at least one step per forcing period to resolve it",
+        crate::diag::num(*.omega),
+        crate::diag::num(*.periods),
+        crate::diag::num(*.t_end)
+    )]
+    ForcingUnresolved {
+        omega: f64,
+        t_end: f64,
+        periods: f64,
+        max_steps: usize,
+    },
     #[error("too many steps at t = {t:.6} s")]
     TooManySteps { t: f64 },
     #[error("the problem became stiff at t = {t:.6} s")]
@@ -254,6 +268,10 @@ impl Failure {
                 "loosen the integration tolerances or shorten the run; a very small step points to a singular pose".into()
             }
             Interrupted { .. } => "the run was cancelled".into(),
+            ForcingUnresolved { omega, max_steps, .. } => format!(
+                "shorten the run to below {} s ({max_steps} forcing periods), or lower the forcing frequency to a physical value",
+                crate::diag::num(*max_steps as f64 * std::f64::consts::TAU / omega)
+            ),
             SweepInterrupted => "the sweep was interrupted".into(),
             StudyInterrupted { kept: true, .. } => "the part computed until then is kept, marked incomplete".into(),
             StudyInterrupted { kept: false, .. } => "the run was cancelled".into(),
@@ -325,6 +343,12 @@ mod tests {
                 rcond: 1e-9,
             },
             Failure::TooManySteps { t: 1.0 },
+            Failure::ForcingUnresolved {
+                omega: 1e150,
+                t_end: 1.0,
+                periods: 1.6e149,
+                max_steps: 10_000_000,
+            },
             Failure::Stiff { t: 1.0 },
             Failure::Integrator {
                 message: "x".into(),

@@ -127,11 +127,7 @@ pub fn drive_grid(from: f64, to: f64, step: f64) -> Result<Vec<f64>> {
         return Err(Invalid::TooManyPoints {
             argument: Argument::DriveStep,
             value: step,
-            points: if n.is_finite() {
-                n as usize
-            } else {
-                usize::MAX
-            },
+            points: n,
             limit: MAX_POINTS,
         }
         .into());

@@ -84,6 +84,31 @@ pub fn svd<T: ComplexField<RealField = f64>>(
     Ok(svd)
 }
 
+/// The pseudoinverse of a finite matrix (singular values below `eps` count as zero), the
+/// SVD's iterations capped: the same numbers as nalgebra's `Matrix::pseudo_inverse` (its
+/// unordered SVD at 5 ε), which iterates without a cap.
+pub fn pseudo_inverse(m: DMatrix<f64>, eps: f64, what: &str) -> Result<DMatrix<f64>, Failure> {
+    check_finite(&m, what)?;
+    let cap = max_iter(m.nrows(), m.ncols());
+    let svd = SVD::try_new_unordered(m, true, true, 5.0 * f64::EPSILON, cap).ok_or_else(|| {
+        Failure::NoConvergence {
+            what: format!("SVD of the {what}"),
+            iterations: cap,
+        }
+    })?;
+    if let Some(s) = svd.singular_values.iter().find(|s| !s.is_finite()) {
+        return Err(Failure::NonFiniteResult {
+            quantity: format!("a singular value of the {what}"),
+            value: *s,
+        });
+    }
+    svd.pseudo_inverse(eps)
+        .map_err(|message| Failure::NonFiniteResult {
+            quantity: format!("the pseudoinverse of the {what} ({message})"),
+            value: f64::NAN,
+        })
+}
+
 /// [`svd`] where the caller has no error path (a Jacobian's rank, a null vector): on
 /// failure an SVD of NaNs of the right shapes, so that the NaN reaches the result and the
 /// finiteness check of what is reported ([`crate::diag::check_finite_result`]).
@@ -440,6 +465,40 @@ impl Envelope {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Issue 13 audit A1: the capped pseudoinverse gives nalgebra's uncapped numbers to the
+    /// bit on a finite rank-deficient matrix, and a typed error (not an endless iteration)
+    /// on a NaN; the monodromy's multipliers of a NaN matrix are NaN, returned.
+    #[test]
+    fn capped_pseudo_inverse_and_multipliers_match_nalgebra_and_refuse_nan() {
+        let a = DMatrix::from_row_slice(2, 3, &[1.0, 2.0, 3.0, 2.0, 4.0, 6.000001]);
+        let ours = pseudo_inverse(a.clone(), 1e-14, "test matrix").unwrap();
+        let theirs = a.clone().pseudo_inverse(1e-14).unwrap();
+        assert_eq!(ours.as_slice(), theirs.as_slice());
+        // A A⁺ A = A (a second property, independent of nalgebra's numbers)
+        assert!((&a * &ours * &a - &a).amax() < 1e-6);
+        let mut bad = a.clone();
+        bad[(1, 2)] = f64::NAN;
+        assert!(matches!(
+            pseudo_inverse(bad, 1e-14, "test matrix"),
+            Err(Failure::NonFiniteMatrix { row: 1, col: 2, .. })
+        ));
+        let m = DMatrix::from_row_slice(2, 2, &[0.0, 1.0, -2.0, -0.1]);
+        let mut mu = crate::periodic::multipliers(&m);
+        let mut theirs: Vec<Complex<f64>> = m.complex_eigenvalues().iter().copied().collect();
+        let key = |a: &Complex<f64>, b: &Complex<f64>| {
+            b.norm().total_cmp(&a.norm()).then(b.im.total_cmp(&a.im))
+        };
+        mu.sort_by(key);
+        theirs.sort_by(key);
+        assert_eq!(mu, theirs);
+        let nan = DMatrix::from_element(2, 2, f64::NAN);
+        assert!(
+            crate::periodic::multipliers(&nan)
+                .iter()
+                .all(|z| z.re.is_nan())
+        );
+    }
 
     #[test]
     fn envelope_cholesky_solves_a_banded_system_like_nalgebra() {

@@ -157,11 +157,17 @@ pub enum Invalid {
         _ => "nothing would be computed",
     })]
     Zero { argument: Argument },
-    #[error("{argument} {value} gives {points} points, more than {limit}")]
+    /// `points`: how many the request gives, as a float (a step of 1e-300 gives about
+    /// 1e300, which no integer holds).
+    #[error(
+        "{argument} {} gives about {} points, more than {limit}",
+        crate::diag::num(*.value),
+        crate::diag::num(*.points)
+    )]
     TooManyPoints {
         argument: Argument,
         value: f64,
-        points: usize,
+        points: f64,
         limit: usize,
     },
     /// A transmission ratio asked of a coordinate that no constraint couples to the
@@ -408,7 +414,7 @@ mod tests {
                 TooManyPoints {
                     argument,
                     value: 1e-9,
-                    points: 100_000_000_000,
+                    points: 1e11,
                     limit: 10_000_000,
                 },
             ]);

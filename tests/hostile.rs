@@ -244,3 +244,118 @@ fn values_nan_keeps_its_context() {
     );
     refused(&o, &["--values F0=nan"]);
 }
+
+// Issue 13 audit (6a, C1, C3, B3): numbers in messages in short form, counts beyond any
+// integer as floats, and each refusal naming the flag that sets it.
+
+#[test]
+fn a_step_of_1e_300_is_refused_with_a_short_count() {
+    // (2 − 1) / 1e-300 points: about 1e300, not a saturated 18446744073709551615
+    for (cmd, limit) in [
+        ("sweep", "10000000"),
+        ("frf", "10000000"),
+        ("modes", "100000"),
+    ] {
+        let o = run(
+            &[
+                cmd, "oc.toml", "--param", "omega", "--from", "1", "--to", "2", "--step", "1e-300",
+                "-o", "out.csv",
+            ],
+            &[],
+        );
+        refused(
+            &o,
+            &[&format!(
+                "--step 1e-300 gives about 9.999999999999999e299 points, more than {limit}"
+            )],
+        );
+        assert!(!o.stderr.contains("0.0000"), "{}", o.stderr);
+        assert!(!o.stderr.contains("18446744073709551615"), "{}", o.stderr);
+    }
+}
+
+#[test]
+fn a_tune_range_of_extreme_levels_is_echoed_short() {
+    let o = run(
+        &[
+            "tune",
+            "inc.toml",
+            "--environment",
+            "UH-60",
+            "--vary",
+            "k_fs=1e-300%..1e300%",
+        ],
+        &[],
+    );
+    // the case that fails is named as given, not as 300 digits
+    refused(&o, &["the case k_fs=1e300%: the trim does not converge"]);
+    assert!(!o.stderr.contains("0.000000000"), "{}", o.stderr);
+}
+
+#[test]
+fn a_tiny_simulated_time_is_printed_short() {
+    let o = run(
+        &["simulate", "oc.toml", "--t-end", "1e-300", "-o", "out.csv"],
+        &[],
+    );
+    assert_eq!(o.code, Some(0), "{}", o.stderr);
+    assert!(
+        o.stdout.starts_with("simulated 1e-300 s in "),
+        "{}",
+        o.stdout
+    );
+}
+
+#[test]
+fn a_continuation_step_too_small_for_max_steps_is_refused_naming_both() {
+    // 10 N / 1e-11 N = 1e12 steps against --max-steps 5000 (formerly: 5001 points to
+    // Fs = 4.98e-8 N, exit 0, not marked incomplete); the least step is 10 / 5000
+    let o = run(
+        &[
+            "continue", "oc.toml", "--param", "Fs", "--from", "0", "--to", "10", "--step", "1e-11",
+            "-o", "out.csv",
+        ],
+        &[],
+    );
+    refused(
+        &o,
+        &[
+            "--step 1e-11 needs at least 1000000000000 steps to cross the range, more than --max-steps 5000",
+            "give --step of at least 0.002",
+        ],
+    );
+}
+
+#[test]
+fn a_sweep_of_too_many_periods_names_max_periods() {
+    // 1e9 periods × 128 samples a period against 50 million samples
+    let o = run(
+        &[
+            "sweep",
+            "oc.toml",
+            "--set",
+            "F0=1",
+            "--param",
+            "omega",
+            "--from",
+            "1",
+            "--to",
+            "2",
+            "--step",
+            "0.5",
+            "--max-periods",
+            "1000000000",
+            "-o",
+            "out.csv",
+        ],
+        &[],
+    );
+    refused(
+        &o,
+        &[
+            "--max-periods 1000000000 gives about 128000000000 samples, more than 50000000 (128 a period)",
+            "give --max-periods up to 390625",
+        ],
+    );
+    assert!(!o.stderr.contains("--t-end"), "{}", o.stderr);
+}

@@ -649,3 +649,130 @@ fn json_times_read_back_to_the_bit() {
         serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
     assert_eq!(summary["final"]["t"].as_f64(), Some(t_end));
 }
+
+/// Run `detune args` (stderr piped), send `signal` after `after` (unless `None`), and wait
+/// at most `deadline` for it to end by itself: killed there, the test fails saying so
+/// rather than hanging in the harness.
+fn run_within(
+    args: &[&str],
+    signal: Option<(libc::c_int, Duration)>,
+    deadline: Duration,
+) -> std::process::Output {
+    let mut child = Command::new(env!("CARGO_BIN_EXE_detune"))
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .args(args)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let began = std::time::Instant::now();
+    if let Some((signal, after)) = signal {
+        std::thread::sleep(after);
+        // SAFETY: sending a signal to our own child.
+        assert_eq!(unsafe { libc::kill(child.id() as libc::pid_t, signal) }, 0);
+    }
+    while child.try_wait().unwrap().is_none() {
+        if began.elapsed() > deadline {
+            child.kill().unwrap();
+            child.wait().unwrap();
+            panic!("detune {args:?} still ran after {deadline:?}: killed");
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    child.wait_with_output().unwrap()
+}
+
+/// Issue 13 audit B1: a simulation whose steps are far shorter than its output interval
+/// (a fast forcing: ω = 1e5 rad/s, samples only at 0 and 100 s, millions of steps between)
+/// hears SIGTERM after the integrator's current step, not at the next sample minutes
+/// later: it ends with 143, the sample at t = 0 kept and marked incomplete, the JSON
+/// saying `complete: false` with the steps taken.
+#[test]
+fn a_signal_between_samples_stops_a_simulation_at_once() {
+    let dir = tempfile::tempdir().unwrap();
+    let csv = dir.path().join("fast.csv");
+    let json = dir.path().join("fast.json");
+    let out = run_within(
+        &[
+            "simulate",
+            "models/overcentre.toml",
+            "--set",
+            "theta1_0=-0.85",
+            "--set",
+            "F0=1",
+            "--set",
+            "omega=1e5",
+            "--t-end",
+            "100",
+            "--dt-out",
+            "100",
+            "-o",
+            s(&csv),
+            "--json",
+            s(&json),
+        ],
+        Some((libc::SIGTERM, Duration::from_millis(1500))),
+        Duration::from_secs(60),
+    );
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(143), "{err}");
+    let text = std::fs::read_to_string(&csv).unwrap();
+    let lines: Vec<&str> = text.lines().collect();
+    assert_eq!(lines.len(), 3, "{text}");
+    assert!(lines[1].starts_with("0,0.9333571158482028,"), "{text}");
+    assert!(
+        lines[2].starts_with("# incomplete: interrupted at t = 0 s"),
+        "{text}"
+    );
+    assert!(
+        err.contains("interrupted at model time t = 0.000000 s"),
+        "{err}"
+    );
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    assert_eq!(summary["complete"], false);
+    // the steps taken before the signal are counted (the run had not reached a sample)
+    let steps = summary["stats"]["accepted_steps"].as_u64().unwrap();
+    assert!(steps > 0 && steps < 10_000_000, "{steps}");
+    assert!(temps(dir.path()).is_empty(), "{:?}", temps(dir.path()));
+}
+
+/// Issue 13 audit B1: a forcing far faster than the run can resolve (ω = 1e150 rad/s over
+/// 1 s: 1.6e149 periods against 10 million steps, at least one step a period) is refused
+/// at once with the numbers and the flags, not integrated for minutes to the step limit.
+#[test]
+fn a_forcing_faster_than_the_steps_can_resolve_is_refused_at_once() {
+    let dir = tempfile::tempdir().unwrap();
+    let csv = dir.path().join("s.csv");
+    let out = run_within(
+        &[
+            "simulate",
+            "models/overcentre.toml",
+            "--set",
+            "theta1_0=-0.85",
+            "--set",
+            "F0=1",
+            "--set",
+            "omega=1e150",
+            "--t-end",
+            "1",
+            "-o",
+            s(&csv),
+        ],
+        None,
+        Duration::from_secs(30),
+    );
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    // 1e150 × 1 / 2π periods; shorten to 1e7 periods = 2π·1e7 / 1e150 s
+    assert!(
+        err.contains("the forcing at 1e150 rad/s turns 1.5915494309189534e149 times in the run of 1 s, more than the 10000000 steps"),
+        "{err}"
+    );
+    assert!(
+        err.contains("shorten --t-end to below 6.283185307179586e-143 s"),
+        "{err}"
+    );
+    assert!(!csv.exists());
+    assert!(temps(dir.path()).is_empty(), "{:?}", temps(dir.path()));
+}

@@ -36,6 +36,10 @@ pub fn advice(f: &Failure) -> Option<String> {
         }
         StepSizeUnderflow { .. } => "the mechanism may be at a singular pose (a rank loss of the constraints) or the forces change abruptly; check the model, or loosen --rtol/--atol".into(),
         TooManySteps { .. } => "loosen --rtol/--atol or shorten the run; for a stiff model (a very stiff spring or damper on a light body) use --integrator radau".into(),
+        ForcingUnresolved { omega, max_steps, .. } => format!(
+            "shorten --t-end to below {} s ({max_steps} forcing periods), or --set the forcing frequency to a physical value",
+            detune::diag::num(*max_steps as f64 * std::f64::consts::TAU / omega)
+        ),
         Stiff { .. } => "a very stiff spring or damper makes the explicit DOP853 crawl: use --integrator radau (implicit, stable at any step), or soften it".into(),
         Integrator { bad_input: true, .. } => "check --t-end, --rtol and --atol".into(),
         ConstraintsNotKept { .. } => "tighten --rtol/--atol (the defaults are 1e-10 and 1e-12); if that does not help, the mechanism may pass a singular pose".into(),
@@ -181,7 +185,7 @@ pub fn wording(invalid: &Invalid) -> Option<Wording> {
             argument,
             value,
             points,
-            ..
+            limit,
         } => match argument {
             Argument::OutputInterval => said(
                 not_valid(*argument, *value)?,
@@ -194,8 +198,38 @@ pub fn wording(invalid: &Invalid) -> Option<Wording> {
                 ),
                 "shorten --t-end, or use a larger --dt-out",
             ),
+            Argument::ArclengthStep => said(
+                format!(
+                    "--step {} needs at least {} steps to cross the range, more than --max-steps {limit}",
+                    detune::diag::num(*value),
+                    detune::diag::num(points.ceil())
+                ),
+                &format!(
+                    "give --step of at least {} (the range / --max-steps), or raise --max-steps",
+                    detune::diag::num(*value * *points / *limit as f64)
+                ),
+            ),
+            Argument::MaxPeriods | Argument::FixedPeriods => said(
+                format!(
+                    "{} {} gives about {} samples, more than {limit} ({} a period)",
+                    flag(*argument)?,
+                    detune::diag::num(*value),
+                    detune::diag::num(*points),
+                    detune::diag::num(*points / *value)
+                ),
+                &format!(
+                    "give {} up to {}",
+                    flag(*argument)?,
+                    limit / (*points / *value).max(1.0) as usize
+                ),
+            ),
             _ => said(
-                format!("{} {value} gives {points} points", flag(*argument)?),
+                format!(
+                    "{} {} gives about {} points, more than {limit}",
+                    flag(*argument)?,
+                    detune::diag::num(*value),
+                    detune::diag::num(*points)
+                ),
                 &hint,
             ),
         },

@@ -414,8 +414,14 @@ pub fn vary(model: &Model, sys: &System, text: &str) -> Result<detune::linear::s
                 "a level of {a}% makes `{name}` zero or of the opposite sign: levels are percentages of its value, e.g. 50%..200%"
             )));
         }
-        cases.push((format!("{name}={a}%"), relative(a / 100.0)?));
-        cases.push((format!("{name}={b}%"), relative(b / 100.0)?));
+        cases.push((
+            format!("{name}={}%", detune::diag::num(a)),
+            relative(a / 100.0)?,
+        ));
+        cases.push((
+            format!("{name}={}%", detune::diag::num(b)),
+            relative(b / 100.0)?,
+        ));
     } else if (change.starts_with('+') || change.starts_with('-')) && percent(change).is_some() {
         let pc = percent(change).unwrap_or(0.0);
         cases.push((format!("{name}{change}"), p0 + relative(pc / 100.0)?));

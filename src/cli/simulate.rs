@@ -6,7 +6,7 @@ use super::progress_bar;
 use clap::Args;
 use detune::diag::Result;
 use detune::dynamics::assemble;
-use detune::dynamics::simulate::{SimOptions, Trajectory, simulate_watched};
+use detune::dynamics::simulate::{SimOptions, Trajectory, simulate_stoppable};
 use detune::output::figures::{Case, trajectory_figures};
 use detune::output::json::SimulationSummary;
 use detune::output::plot::write_panels_sized;
@@ -89,8 +89,8 @@ pub fn run(a: SimulateArgs) -> Result<()> {
         &model.source.path,
         &[a.output.as_deref(), a.plot.as_deref(), a.json.as_deref()],
     )?;
-    // a signal stops the run at the next output sample: the samples computed are kept,
-    // marked incomplete (the CSV's last line, the JSON's `complete`)
+    // a signal stops the run after the integrator's current step: the samples computed
+    // are kept, marked incomplete (the CSV's last line, the JSON's `complete`)
     super::interrupt_on_ctrl_c();
     let mut probe = Probe::new(&sys, sys.outputs(&a.response)?);
     let mut values = vec![0.0; a.response.len()];
@@ -126,11 +126,12 @@ pub fn run(a: SimulateArgs) -> Result<()> {
     let interrupted = || super::INTERRUPTED.load(std::sync::atomic::Ordering::SeqCst);
     // the model time of the last sample written when a signal stopped the run
     let mut stopped_at: Option<f64> = None;
+    let mut last_sample: Option<f64> = None;
     let mut fill = |w: &mut dyn std::io::Write| {
         let columns = a.velocities.then(|| sys.velocity_columns());
         trajectory_header(w, &sys.coordinates, columns.as_deref(), &a.response)?;
         let mut io_error = None;
-        let run = simulate_watched(
+        let run = simulate_stoppable(
             &sys,
             &start,
             &opts,
@@ -152,6 +153,7 @@ pub fn run(a: SimulateArgs) -> Result<()> {
                 traj.t.push(t);
                 traj.q.push(q.to_vec());
                 traj.v.push(v.to_vec());
+                last_sample = Some(t);
                 // a signal ends the run here, after this sample (the integrator returns
                 // what it computed, cleanly)
                 if interrupted() {
@@ -160,17 +162,25 @@ pub fn run(a: SimulateArgs) -> Result<()> {
                 }
                 true
             },
-            // the progress never cancels: a cancelled step would lose the run's
-            // statistics; the sink stops at the next sample instead
+            // a signal also ends the run after any integrator step, so that a run whose
+            // steps are far shorter than --dt-out hears it at once: the samples written
+            // so far are kept, and the stats say where it stopped
             &mut |f| {
                 if began.elapsed().as_millis() > 300 {
                     bar.set_position((f * 1000.0) as u64);
                 }
-                true
+                !interrupted()
             },
             &mut |s| bar.suspend(|| eprintln!("{}", stiffness_warning(s, began.elapsed()))),
         );
         let failed = run.is_err();
+        if let Ok(stats) = &run
+            && stats.cancelled_at.is_some()
+            && stopped_at.is_none()
+        {
+            // cancelled between samples: the last sample written is where the file ends
+            stopped_at = last_sample.or(Some(0.0));
+        }
         outcome = Some(run);
         match io_error {
             Some(e) => Err(e),
@@ -251,7 +261,7 @@ pub fn run(a: SimulateArgs) -> Result<()> {
     }
     println!(
         "simulated {} s in {:.3} s: {} steps ({} rejected), {} right-hand sides, {} projections; largest constraint residual {:.2e} m or rad (drift before projection {:.2e} m or rad)",
-        opts.t_end,
+        detune::diag::num(opts.t_end),
         began.elapsed().as_secs_f64(),
         st.accepted_steps,
         st.rejected_steps,

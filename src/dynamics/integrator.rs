@@ -142,6 +142,10 @@ pub struct IntegratorStats {
     /// The sample sink ended the run before its end time.
     #[serde(skip)]
     pub stopped: bool,
+    /// [`integrate_stoppable`] only: `progress` cancelled the run at the end of the step
+    /// reaching this time, s (also `stopped`). [`integrate_with`] fails as interrupted there.
+    #[serde(skip)]
+    pub cancelled_at: Option<f64>,
     /// Set when DOP853 found the run stiff (see the module docs).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub stiffness: Option<Stiffness>,
@@ -509,6 +513,26 @@ pub fn integrate_with<F: ODE<f64, Vec<f64>>>(
     progress: &mut dyn FnMut(f64) -> bool,
     stiff: &mut dyn FnMut(&Stiffness),
 ) -> Result<IntegratorStats> {
+    let stats = integrate_stoppable(ode, y0, opts, sample, after_step, progress, stiff)?;
+    match stats.cancelled_at {
+        Some(t) => Err(Failure::Interrupted { t }.into()),
+        None => Ok(stats),
+    }
+}
+
+/// [`integrate_with`], where a cancel by `progress` (checked after every accepted step)
+/// ends the run cleanly, as the sample sink's stop does: the stats say `stopped` and
+/// `cancelled_at` (the model time reached), and keep their counts. A front end that
+/// writes its samples as they come keeps them, marked incomplete, with the run's numbers.
+pub fn integrate_stoppable<F: ODE<f64, Vec<f64>>>(
+    ode: &F,
+    y0: &[f64],
+    opts: &IntegratorOptions,
+    sample: &mut dyn FnMut(f64, &[f64]) -> bool,
+    after_step: &mut dyn FnMut(f64, &mut Vec<f64>) -> bool,
+    progress: &mut dyn FnMut(f64) -> bool,
+    stiff: &mut dyn FnMut(&Stiffness),
+) -> Result<IntegratorStats> {
     let mut stats = IntegratorStats::default();
     if !sample(opts.t0, y0) {
         stats.stopped = true;
@@ -757,7 +781,10 @@ impl Run<'_> {
                 deriv_cache = Some((t_new, f1));
             }
             if !progress((t_new - t0) / span) {
-                return Err(Failure::Interrupted { t: t_new }.into());
+                stats.stopped = true;
+                stats.cancelled_at = Some(t_new);
+                stats.rhs_evaluations = guarded.evals.get();
+                return Ok(stats);
             }
             if next_k > last_k {
                 break;

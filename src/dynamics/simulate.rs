@@ -4,7 +4,7 @@
 //! manifold after accepted steps whose residual exceeds the projection tolerance (the
 //! integrator then restarts from the projected state with its current step size).
 
-use super::integrator::{Integrator, IntegratorOptions, Stiffness, integrate_with};
+use super::integrator::{Integrator, IntegratorOptions, Stiffness, integrate_stoppable};
 use super::{
     DynWorkspace, MIN_RCOND, State, accelerations, project_position, project_velocity,
     residual_norm, velocity_residual_blocks,
@@ -69,6 +69,10 @@ pub struct SimStats {
     /// Set when DOP853 found the run stiff: its steps held by stability, not accuracy.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub stiffness: Option<Stiffness>,
+    /// [`simulate_stoppable`] only: `progress` cancelled the run at this model time, s
+    /// (the samples up to it were written).
+    #[serde(skip)]
+    pub cancelled_at: Option<f64>,
 }
 
 /// Sampled solution.
@@ -218,7 +222,27 @@ pub fn simulate_watched(
     progress: &mut dyn FnMut(f64) -> bool,
     stiff: &mut dyn FnMut(&Stiffness),
 ) -> Result<SimStats> {
+    let stats = simulate_stoppable(sys, start, opts, sink, progress, stiff)?;
+    match stats.cancelled_at {
+        Some(t) => Err(Failure::Interrupted { t }.into()),
+        None => Ok(stats),
+    }
+}
+
+/// [`simulate_watched`], where a cancel by `progress` (asked after every integrator step,
+/// so a signal is heard within one step, not one output sample) ends the run cleanly: the
+/// samples up to then went to `sink`, and the stats say `cancelled_at` with the run's
+/// counts so far.
+pub fn simulate_stoppable(
+    sys: &System,
+    start: &State,
+    opts: &SimOptions,
+    sink: &mut dyn FnMut(f64, &[f64], &[f64]) -> bool,
+    progress: &mut dyn FnMut(f64) -> bool,
+    stiff: &mut dyn FnMut(&Stiffness),
+) -> Result<SimStats> {
     check_options(opts)?;
+    check_forcing(sys, opts)?;
     let n = sys.nq();
     let ode = ConstrainedOde::new(sys);
     let proj_ws = RefCell::new(DynWorkspace::new(sys));
@@ -236,7 +260,7 @@ pub fn simulate_watched(
         method: opts.integrator,
     };
     let (mut q, mut v) = (vec![0.0; n], vec![0.0; y0.len() - n]);
-    let istats = integrate_with(
+    let istats = integrate_stoppable(
         &ode,
         &y0,
         &iopts,
@@ -314,7 +338,34 @@ pub fn simulate_watched(
         max_constraint_residual: max_residual.get(),
         max_drift: drift.get(),
         stiffness: istats.stiffness,
+        cancelled_at: istats.cancelled_at,
     })
+}
+
+/// Refuse a run whose forcing turns more times than the integrator may take steps.
+///
+/// An explicit or implicit Runge–Kutta method sees the forcing only at its stages: a step
+/// of a forcing period or longer aliases it (its error estimate then measures a sampled
+/// sine, not the motion), so a run that resolves the forcing takes at least one step per
+/// forcing period (DOP853 takes a dozen or more). A run of more periods than `max_steps`
+/// would spend all its steps and stop at the step limit after minutes without a word
+/// (ω = 1e150 rad/s over 1 s: 10 million steps, 300 s, t = 2.8e-5 s reached): refused at
+/// once instead, with the numbers.
+fn check_forcing(sys: &System, opts: &SimOptions) -> Result<()> {
+    let Some(omega) = sys.forcing_frequency().filter(|w| *w > 0.0) else {
+        return Ok(());
+    };
+    let periods = opts.t_end * omega / std::f64::consts::TAU;
+    if periods > opts.max_steps as f64 {
+        return Err(Failure::ForcingUnresolved {
+            omega,
+            t_end: opts.t_end,
+            periods,
+            max_steps: opts.max_steps,
+        }
+        .into());
+    }
+    Ok(())
 }
 
 fn check_options(o: &SimOptions) -> Result<()> {
@@ -349,7 +400,7 @@ fn check_options(o: &SimOptions) -> Result<()> {
         Invalid::TooManyPoints {
             argument,
             value,
-            points: (o.t_end / o.dt_out) as usize,
+            points: o.t_end / o.dt_out,
             limit: MAX_SAMPLES,
         }
     } else {
@@ -359,4 +410,4 @@ fn check_options(o: &SimOptions) -> Result<()> {
 }
 
 /// The most output samples of a simulation (t_end / dt_out).
-const MAX_SAMPLES: usize = 50_000_000;
+pub(crate) const MAX_SAMPLES: usize = 50_000_000;

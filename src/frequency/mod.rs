@@ -724,6 +724,23 @@ fn check_request(sys: &System, opts: &SweepOptions) -> Result<usize> {
         }
         .into());
     }
+    // a frequency's simulation writes `samples` a period: refuse here, naming the
+    // periods, what its own check would blame on a duration the sweep has no flag for
+    let (argument, periods) = match opts.steady.fixed_periods {
+        Some(n) => (Argument::FixedPeriods, n),
+        None => (Argument::MaxPeriods, opts.steady.max_periods),
+    };
+    let samples = periods as f64 * opts.steady.samples as f64;
+    let limit = crate::dynamics::simulate::MAX_SAMPLES;
+    if samples > limit as f64 {
+        return Err(Invalid::TooManyPoints {
+            argument,
+            value: periods as f64,
+            points: samples,
+            limit,
+        }
+        .into());
+    }
     Ok(index)
 }
 

@@ -836,8 +836,8 @@ pub fn grid(from: f64, to: f64, step: f64) -> Result<Vec<f64>> {
         }
         .into());
     }
-    let n = ((to - from) / step + 1e-9).floor() as usize;
-    if n > MAX_POINTS {
+    let n = ((to - from) / step + 1e-9).floor();
+    if n > MAX_POINTS as f64 {
         return Err(Invalid::TooManyPoints {
             argument: Argument::FrequencyStep,
             value: step,
@@ -853,6 +853,7 @@ pub fn grid(from: f64, to: f64, step: f64) -> Result<Vec<f64>> {
     } else {
         step.min(from.abs())
     };
+    let n = n as usize;
     Ok((0..=n)
         .map(|k| round_to_step(from + k as f64 * step, size))
         .collect())

@@ -374,10 +374,11 @@ pub fn mode_derivatives(
     let dn = if ar.nrows() == 0 {
         DMatrix::zeros(n0.nrows(), n0.ncols())
     } else {
-        let pinv = ar
-            .clone()
-            .pseudo_inverse(1e-14 * ar.amax().max(f64::MIN_POSITIVE))
-            .unwrap_or_else(|_| DMatrix::zeros(ar.ncols(), ar.nrows()));
+        let pinv = crate::linalg::pseudo_inverse(
+            ar.clone(),
+            1e-14 * ar.amax().max(f64::MIN_POSITIVE),
+            "constraint Jacobian",
+        )?;
         -(pinv * &dm.jacobian_rows * n0)
     };
     let red = |full: &DMatrix<f64>, dfull: &DMatrix<f64>| -> DMatrix<f64> {

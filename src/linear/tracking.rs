@@ -1077,8 +1077,8 @@ pub fn values(from: f64, to: f64, step: Option<f64>, points: Option<usize>) -> R
             }
             .into());
         }
-        let n = ((to - from).abs() / s + 1e-9).floor() as usize;
-        if n > 100_000 {
+        let n = ((to - from).abs() / s + 1e-9).floor();
+        if n > 100_000.0 {
             return Err(Invalid::TooManyPoints {
                 argument: Argument::TrackedStep,
                 value: s,
@@ -1089,6 +1089,7 @@ pub fn values(from: f64, to: f64, step: Option<f64>, points: Option<usize>) -> R
         }
         let dir = (to - from).signum();
         let size = if from == 0.0 { s } else { s.min(from.abs()) };
+        let n = n as usize;
         let mut v: Vec<f64> = (0..=n)
             .map(|k| super::round_to_step(from + dir * k as f64 * s, size))
             .collect();
@@ -1111,7 +1112,7 @@ pub fn values(from: f64, to: f64, step: Option<f64>, points: Option<usize>) -> R
         return Err(Invalid::TooManyPoints {
             argument: Argument::TrackedPoints,
             value: n as f64,
-            points: n,
+            points: n as f64,
             limit: 100_000,
         }
         .into());

@@ -1241,7 +1241,9 @@ impl Tracer<'_> {
         k.view_mut((0, 0), (d, d)).copy_from(&(mi * self.sx));
         k.view_mut((0, d), (d, 1)).copy_from(&(fp * self.sp));
         let ktk = k.transpose() * &k;
-        let eig = nalgebra::SymmetricEigen::new(ktk);
+        // NaNs (reaching the node's checks) rather than an uncapped iteration on a
+        // non-finite matrix; the same numbers as SymmetricEigen::new otherwise
+        let eig = crate::linalg::symmetric_eigen_or_nan(ktk);
         let imin = (0..=d)
             .min_by(|&i, &j| eig.eigenvalues[i].total_cmp(&eig.eigenvalues[j]))
             .unwrap_or(d);

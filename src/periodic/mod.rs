@@ -434,13 +434,15 @@ impl Shooting {
 
 /// Floquet multipliers: the eigenvalues of the monodromy on the manifold, sorted by
 /// modulus, largest first.
+///
+/// The Schur iteration is capped and its input checked finite
+/// ([`crate::linalg::complex_eigenvalues`]: the same numbers as nalgebra's uncapped
+/// `complex_eigenvalues`); where it fails, NaN multipliers, which no stability test passes.
 pub fn multipliers(monodromy: &DMatrix<f64>) -> Vec<Complex<f64>> {
-    let mut mu: Vec<Complex<f64>> = monodromy
-        .clone()
-        .complex_eigenvalues()
-        .iter()
-        .copied()
-        .collect();
+    let n = monodromy.nrows();
+    let mut mu: Vec<Complex<f64>> =
+        crate::linalg::complex_eigenvalues(monodromy.clone(), "monodromy matrix")
+            .unwrap_or_else(|_| vec![Complex::new(f64::NAN, f64::NAN); n]);
     mu.sort_by(|a, b| b.norm().total_cmp(&a.norm()).then(b.im.total_cmp(&a.im)));
     mu
 }

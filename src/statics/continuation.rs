@@ -750,5 +750,17 @@ fn check(sys: &System, opts: &ContinuationOptions) -> Result<usize> {
         }
         .into());
     }
+    // every step moves the parameter by at most `step`: a range of more steps than
+    // `max_steps` cannot be reached, and would stop short after all its steps
+    let points = (opts.to - opts.from).abs() / opts.step;
+    if points > opts.max_steps as f64 {
+        return Err(Invalid::TooManyPoints {
+            argument: Argument::ArclengthStep,
+            value: opts.step,
+            points,
+            limit: opts.max_steps,
+        }
+        .into());
+    }
     Ok(index)
 }
