@@ -136,6 +136,13 @@ impl Figure for Tornado<'_> {
     fn size(&self) -> (u32, u32) {
         self.size
     }
+    fn resized(&self, size: (u32, u32)) -> Option<Self> {
+        Some(Tornado {
+            s: self.s,
+            title: self.title,
+            size,
+        })
+    }
     fn draw<DB: DrawingBackend>(
         &self,
         root: &DrawingArea<DB, Shift>,
