@@ -66,13 +66,27 @@ pub fn svd<T: ComplexField<RealField = f64>>(
     compute_v: bool,
     what: &str,
 ) -> Result<SVD<T, Dyn, Dyn>, Failure> {
+    let mut svd = svd_unordered(m, compute_u, compute_v, what)?;
+    svd.sort_by_singular_values();
+    Ok(svd)
+}
+
+/// [`svd`] with the singular values in the order the iteration leaves them (nalgebra's
+/// `SVD::new_unordered` at 5 ε, capped).
+fn svd_unordered<T: ComplexField<RealField = f64>>(
+    m: DMatrix<T>,
+    compute_u: bool,
+    compute_v: bool,
+    what: &str,
+) -> Result<SVD<T, Dyn, Dyn>, Failure> {
     check_finite(&m, what)?;
     let cap = max_iter(m.nrows(), m.ncols());
-    let mut svd = SVD::try_new_unordered(m, compute_u, compute_v, 5.0 * f64::EPSILON, cap)
-        .ok_or_else(|| Failure::NoConvergence {
+    let svd = SVD::try_new_unordered(m, compute_u, compute_v, 5.0 * f64::EPSILON, cap).ok_or_else(
+        || Failure::NoConvergence {
             what: format!("SVD of the {what}"),
             iterations: cap,
-        })?;
+        },
+    )?;
     // finite input can still overflow inside (entries near 1e308)
     if let Some(s) = svd.singular_values.iter().find(|s| !s.is_finite()) {
         return Err(Failure::NonFiniteResult {
@@ -80,7 +94,6 @@ pub fn svd<T: ComplexField<RealField = f64>>(
             value: *s,
         });
     }
-    svd.sort_by_singular_values();
     Ok(svd)
 }
 
@@ -88,20 +101,7 @@ pub fn svd<T: ComplexField<RealField = f64>>(
 /// SVD's iterations capped: the same numbers as nalgebra's `Matrix::pseudo_inverse` (its
 /// unordered SVD at 5 ε), which iterates without a cap.
 pub fn pseudo_inverse(m: DMatrix<f64>, eps: f64, what: &str) -> Result<DMatrix<f64>, Failure> {
-    check_finite(&m, what)?;
-    let cap = max_iter(m.nrows(), m.ncols());
-    let svd = SVD::try_new_unordered(m, true, true, 5.0 * f64::EPSILON, cap).ok_or_else(|| {
-        Failure::NoConvergence {
-            what: format!("SVD of the {what}"),
-            iterations: cap,
-        }
-    })?;
-    if let Some(s) = svd.singular_values.iter().find(|s| !s.is_finite()) {
-        return Err(Failure::NonFiniteResult {
-            quantity: format!("a singular value of the {what}"),
-            value: *s,
-        });
-    }
+    let svd = svd_unordered(m, true, true, what)?;
     svd.pseudo_inverse(eps)
         .map_err(|message| Failure::NonFiniteResult {
             quantity: format!("the pseudoinverse of the {what} ({message})"),

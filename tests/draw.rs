@@ -429,3 +429,18 @@ fn a_drawing_not_named_svg_is_refused() {
         assert!(!out.exists(), "{name} was written");
     }
 }
+
+/// `draw -o /dev/stdout` writes the drawing alone to standard output (whatever it is
+/// redirected to: a file, here), the "wrote" line on standard error.
+#[test]
+fn a_drawing_to_standard_output_is_the_svg_alone() {
+    let (code, out, err) = detune(&["draw", "models/overcentre.toml", "-o", "/dev/stdout"]);
+    assert_eq!(code, 0, "{err}");
+    let t = out.trim();
+    assert!(
+        t.starts_with("<svg") && t.ends_with("</svg>"),
+        "{}",
+        &t[t.len().saturating_sub(200)..]
+    );
+    assert!(err.contains("wrote /dev/stdout"), "{err}");
+}

@@ -22,7 +22,8 @@ pub fn run(a: DrawArgs) -> Result<()> {
     let outputs = check_outputs(&model.source.path, &[Some(&a.output)])?;
     // the drawing is SVG only: a `.png` (or any other name) is refused before any work,
     // never written as SVG under another name; a device or a pipe (/dev/stdout) takes it
-    let special = std::fs::metadata(&a.output).is_ok_and(|m| !m.is_file());
+    let special =
+        a.output.starts_with("/dev/") || std::fs::metadata(&a.output).is_ok_and(|m| !m.is_file());
     let svg = std::path::Path::new(&a.output)
         .extension()
         .is_some_and(|e| e.eq_ignore_ascii_case("svg"));
@@ -35,6 +36,11 @@ pub fn run(a: DrawArgs) -> Result<()> {
     let start = detune::dynamics::assemble_at_rest(&sys)?;
     write_pose_svg(&a.output, &sys, &start.q, &model.name, &sys.force_names)?;
     outputs.commit()?;
-    println!("wrote {}", a.output);
+    // not into the drawing itself when it goes to standard output
+    if a.output == "/dev/stdout" {
+        eprintln!("wrote {}", a.output);
+    } else {
+        println!("wrote {}", a.output);
+    }
     Ok(())
 }

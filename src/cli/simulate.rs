@@ -126,6 +126,8 @@ pub fn run(a: SimulateArgs) -> Result<()> {
     let interrupted = || super::INTERRUPTED.load(std::sync::atomic::Ordering::SeqCst);
     // the model time of the last sample written when a signal stopped the run
     let mut stopped_at: Option<f64> = None;
+    // the model time reached when a signal stopped the run between two samples
+    let mut reached: Option<f64> = None;
     let mut last_sample: Option<f64> = None;
     let mut fill = |w: &mut dyn std::io::Write| {
         let columns = a.velocities.then(|| sys.velocity_columns());
@@ -178,21 +180,29 @@ pub fn run(a: SimulateArgs) -> Result<()> {
             && stats.cancelled_at.is_some()
             && stopped_at.is_none()
         {
-            // cancelled between samples: the last sample written is where the file ends
+            // cancelled between samples: the last sample written is where the file ends;
+            // the model time the run had reached is what the messages say
             stopped_at = last_sample.or(Some(0.0));
+            reached = stats.cancelled_at;
         }
         outcome = Some(run);
         match io_error {
             Some(e) => Err(e),
             // no file is kept for a failed run
             None if failed => Err(std::io::Error::other("the simulation failed")),
-            None => match stopped_at {
-                Some(t) => writeln!(
+            None => match (stopped_at, reached) {
+                (Some(t), Some(r)) => writeln!(
+                    w,
+                    "# incomplete: interrupted at t = {} s; the rows above are the samples computed, up to t = {} s",
+                    detune::output::num(r),
+                    detune::output::num(t)
+                ),
+                (Some(t), None) => writeln!(
                     w,
                     "# incomplete: interrupted at t = {} s; the rows above are the samples computed",
                     detune::output::num(t)
                 ),
-                None => Ok(()),
+                (None, _) => Ok(()),
             },
         }
     };
@@ -257,7 +267,10 @@ pub fn run(a: SimulateArgs) -> Result<()> {
         for f in a.output.iter().chain(&a.plot).chain(&a.json) {
             eprintln!("wrote {f} (incomplete: up to t = {} s)", shown(t));
         }
-        return Err(detune::failure::Failure::SimulationInterrupted { t }.into());
+        return Err(detune::failure::Failure::SimulationInterrupted {
+            t: reached.unwrap_or(t),
+        }
+        .into());
     }
     println!(
         "simulated {} s in {:.3} s: {} steps ({} rejected), {} right-hand sides, {} projections; largest constraint residual {:.2e} m or rad (drift before projection {:.2e} m or rad)",
