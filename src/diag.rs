@@ -487,3 +487,13 @@ pub fn num(x: f64) -> String {
         format!("{x:e}")
     }
 }
+
+/// An estimate for a message ("about 1e300 points"): [`num`] of `x` rounded to three
+/// significant digits, so that 1e-300's 9.999999999999999e299 reads `1e300` and
+/// 128000000000 stays whole.
+pub fn about(x: f64) -> String {
+    if x == 0.0 || !x.is_finite() {
+        return num(x);
+    }
+    num(format!("{x:.2e}").parse().unwrap_or(x))
+}

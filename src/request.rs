@@ -162,7 +162,7 @@ pub enum Invalid {
     #[error(
         "{argument} {} gives about {} points, more than {limit}",
         crate::diag::num(*.value),
-        crate::diag::num(*.points)
+        crate::diag::about(*.points)
     )]
     TooManyPoints {
         argument: Argument,

@@ -228,7 +228,7 @@ pub fn wording(invalid: &Invalid) -> Option<Wording> {
                     "{} {} gives about {} points, more than {limit}",
                     flag(*argument)?,
                     detune::diag::num(*value),
-                    detune::diag::num(*points)
+                    detune::diag::about(*points)
                 ),
                 &hint,
             ),
