@@ -28,7 +28,7 @@ use crate::linear::sensitivity::{
 };
 use crate::linear::tracking::Solved;
 use crate::linear::{ModalAnalysis, modal_analysis};
-use crate::margins::{MarginRow, Requirement, check_margins, mode_points_named};
+use crate::margins::{MarginRow, Requirement, mode_points_named};
 use crate::system::System;
 use std::cell::RefCell;
 
@@ -1163,8 +1163,14 @@ fn verify_design(
         points = crate::margins::with_intervals(points, &study);
     }
     // an unstable design fails, whatever its separations
-    let check = check_margins(&points, lines, opts.margin, Requirement::Fixed)?
-        .with_unstable(crate::margins::unstable_modes(&modal, &names));
+    let check = crate::margins::check_design(
+        &modal,
+        &names,
+        &points,
+        lines,
+        opts.margin,
+        Requirement::Fixed,
+    )?;
     Ok(Verified {
         check,
         modal,

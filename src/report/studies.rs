@@ -8,7 +8,7 @@ use super::{Cell, Column, Digits, Report, Section, Table};
 use crate::diag::Result;
 use crate::environment::Environment;
 use crate::linear::sensitivity::{Sensitivity, Vary, sensitivity};
-use crate::margins::{Requirement, check_margins, mode_points_named};
+use crate::margins::{Requirement, mode_points_named};
 use crate::output::command::shell_word;
 use crate::system::System;
 
@@ -153,8 +153,8 @@ pub fn add_studies(report: &mut Report, s: &Studies) -> Result<()> {
         points = crate::margins::with_intervals(points, study);
     }
     // an unstable design fails, whatever its separations
-    let check = check_margins(&points, &lines, s.margin, Requirement::Fixed)?
-        .with_unstable(crate::margins::unstable_modes(&ma, &names));
+    let check =
+        crate::margins::check_design(&ma, &names, &points, &lines, s.margin, Requirement::Fixed)?;
     report.add_data("margins", &check)?;
     if let Some(profile) = &env.profile {
         let section = profile_section(report, s, env, profile, &ma)?;
