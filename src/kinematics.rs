@@ -217,7 +217,7 @@ pub fn kinematics(sys: &System, opts: &KinematicsOptions) -> Result<KinematicPat
     let mut q = Vec::with_capacity(values.len());
     let mut ratios = Vec::with_capacity(values.len());
     for (qk, tk) in points.into_iter().flatten() {
-        ratios.push(ratio_indices.iter().map(|&i| 1.0 / tk[i]).collect());
+        ratios.push(ratio_indices.iter().map(|&i| ratio(&tk, i)).collect());
         q.push(qk);
     }
     Ok(KinematicPath {
@@ -234,6 +234,23 @@ pub fn kinematics(sys: &System, opts: &KinematicsOptions) -> Result<KinematicPat
         ratios,
     })
 }
+
+/// `d<drive>/d<coordinate i>` from the tangent `t` (dq/d<drive>, so t[drive] = 1):
+/// 1/t[i], or +∞ where coordinate i is stationary (|t[i]| within round-off,
+/// [`STATIONARY`] of the tangent's largest entry: a dead point of that coordinate, where
+/// 1/t[i] would be a number of order 1e15 made of rounding errors).
+fn ratio(t: &[f64], i: usize) -> f64 {
+    let scale = t.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+    if t[i].abs() <= STATIONARY * scale {
+        f64::INFINITY
+    } else {
+        1.0 / t[i]
+    }
+}
+
+/// A tangent entry below this fraction of the tangent's largest is round-off: its
+/// coordinate does not move with the drive there (the ratio is infinite).
+pub const STATIONARY: f64 = 1e-12;
 
 /// The coordinates that the constraint blocks connect to `drive` (itself included).
 fn component(sys: &System, drive: usize) -> Vec<bool> {
@@ -523,7 +540,7 @@ impl KinematicPath {
     }
 
     /// The unit of the ratio `d<drive>/d<coordinate i>` (SI).
-    fn ratio_unit(&self, i: usize) -> &'static str {
+    pub fn ratio_unit(&self, i: usize) -> &'static str {
         match (self.angles[self.drive_index], self.angles[i]) {
             (true, true) => "rad/rad",
             (true, false) => "rad/m",

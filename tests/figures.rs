@@ -642,3 +642,51 @@ fn png_curves_are_anti_aliased() {
     }
     assert!(partial > 500, "{partial} pixels of partial coverage");
 }
+
+/// With two `--values` every peak note names both values of its run (`F0 = 1 N` alone
+/// names two curves), and in Hz the parameter's axis is `omega/2π [Hz]`: the sweep's
+/// peak of F0 = 1 N, c = 5 N·s/m sits at 3 rad/s = 0.477 Hz on the 0.5 rad/s grid.
+#[test]
+fn grid_peaks_name_every_value_and_the_hz_axis_is_omega_over_two_pi() {
+    let dir = tempfile::tempdir().unwrap();
+    let svg = dir.path().join("grid.svg");
+    let (code, out, err) = detune(&[
+        "sweep",
+        "models/overcentre.toml",
+        "--param",
+        "omega",
+        "--from",
+        "2.5",
+        "--to",
+        "4",
+        "--step",
+        "0.5",
+        "--values",
+        "F0=1,2",
+        "--values",
+        "c=5,8",
+        "--response",
+        "bar1.theta",
+        "--freq-unit",
+        "Hz",
+        "--plot",
+        svg.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 0, "{err}");
+    assert!(
+        out.contains(
+            "peak [F0 = 1, c = 5] bar1.theta (independent): omega/2π = 0.477465 ± 8.0e-2 Hz"
+        ),
+        "{out}"
+    );
+    let s = check(&svg, 4);
+    assert!(has(&s, "omega/2π [Hz]"), "{:?}", s.texts);
+    assert!(has(&s, "(F0 = 1 N, c = 5 N·s/m)"), "{:?}", s.texts);
+    assert!(
+        !s.texts
+            .iter()
+            .any(|(t, _)| t.starts_with("peak") && t.ends_with("(F0 = 1 N)")),
+        "{:?}",
+        s.texts
+    );
+}

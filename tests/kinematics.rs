@@ -497,3 +497,48 @@ fn a_length_drive_and_the_table_without_an_output() {
         assert!((cells[2] - theta).abs() < 1e-8, "{line}: θ1 {theta}");
     }
 }
+
+/// Where the ratio's coordinate is stationary (the overcentre's bar 2 at θ1 = 0: x2 =
+/// 1.5 L1 cos θ1 is extremal) the ratio is infinite, not 1/round-off; elsewhere it is
+/// dθ1/dx2 = −1/(1.5 L1 sin θ1). The table gives each ratio its unit.
+#[test]
+fn a_stationary_coordinate_has_an_infinite_ratio_and_the_table_units() {
+    let l1 = 2.0 * 2f64.sqrt();
+    let sys = overcentre(&[]);
+    let o = opts(
+        "bar1.theta",
+        0.0,
+        40f64.to_radians(),
+        20f64.to_radians(),
+        &["bar2.x"],
+    );
+    let path = kinematics(&sys, &o).unwrap();
+    assert_eq!(path.ratios[0][0], f64::INFINITY);
+    for k in 1..3 {
+        let th = path.values[k];
+        let want = -1.0 / (1.5 * l1 * th.sin());
+        assert!((path.ratios[k][0] - want).abs() <= 1e-9 * want.abs());
+    }
+    let (code, out, err) = detune(&[
+        "kinematics",
+        "models/overcentre.toml",
+        "--drive",
+        "bar1.theta",
+        "--from",
+        "0 deg",
+        "--to",
+        "40 deg",
+        "--step",
+        "20 deg",
+        "--ratio",
+        "bar2.x",
+    ]);
+    assert_eq!(code, 0, "{err}");
+    let lines: Vec<&str> = out.lines().collect();
+    assert!(lines[0].contains("dbar1.theta/dbar2.x [rad/m]"), "{out}");
+    assert!(lines[1].trim_end().ends_with("inf"), "{out}");
+    assert!(
+        err.contains("dbar1.theta/dbar2.x is infinite at bar1.theta = 0.000000°"),
+        "{err}"
+    );
+}

@@ -114,7 +114,8 @@ fn freq_unit_rescales_the_frf_table_and_plot_but_not_the_csv() {
         "bar1.theta",
     ];
     let table = ok(&[&grid[..], &["--freq-unit", "Hz"]].concat());
-    assert!(table.contains("omega [Hz]"), "{table}");
+    // (in Hz the axis is ω/2π: "omega [Hz]" would read as an angular frequency)
+    assert!(table.contains("omega/2π [Hz]"), "{table}");
     let rows: Vec<Vec<f64>> = table.lines().skip(1).map(numbers).collect();
     for (k, r) in rows.iter().enumerate() {
         let w = (k + 1) as f64;
@@ -146,7 +147,7 @@ fn freq_unit_rescales_the_frf_table_and_plot_but_not_the_csv() {
         .filter_map(|n| n.text())
         .map(str::trim)
         .collect();
-    assert!(texts.contains(&"omega [Hz]"), "{texts:?}");
+    assert!(texts.contains(&"omega/2π [Hz]"), "{texts:?}");
     assert!(!texts.iter().any(|t| t.contains("rad/s")), "{texts:?}");
     // (issue 10, point 5: a natural frequency in Hz is f_n, not ω_n)
     assert!(texts.contains(&"f_n = |λ|/2π = 0.4732 Hz"), "{texts:?}");
@@ -184,7 +185,7 @@ fn a_line_plot_is_redrawn_in_another_frequency_unit() {
     assert!((plot.notes[0].x - 120.0).abs() < 1e-12);
     assert_eq!(plot.notes[0].text, "peak 120.0003 rpm");
     assert_eq!(plot.caption, "at 60.0001 rpm");
-    assert_eq!(plot.x_label, "omega [rpm]");
+    assert_eq!(plot.x_label, "omega/2π [rpm]");
     assert!((plot.series[0].x[1] - 120.0).abs() < 1e-12);
     assert_eq!(plot.series[0].y, vec![1.0, 2.0]);
     // (the label's rounded 6.2832 rad/s converted: 60.0001 rpm)
@@ -528,20 +529,24 @@ fn freq_unit_prints_and_plots_a_continued_frequency() {
         ]
         .concat();
         let out = ok(&args);
-        let fl = line(&out, "fold at spin =");
+        // in Hz and rpm the frequency is spin/2π (cycles), in the lines and on the axis
+        let fl = line(&out, "fold at spin/2π =");
         assert!(fl.contains(&format!(" {unit}: ")), "{fl}");
         assert!((numbers(fl)[0] - fold * scale).abs() < 1e-8, "{fl}");
-        let first = line(&out, "83 points from spin = 0.000000");
+        let first = line(&out, "83 points from spin/2π = 0.000000");
         assert!(
             first.contains(&format!(
-                "turned at the fold at spin = {:.6} {unit}",
+                "turned at the fold at spin/2π = {:.6} {unit}",
                 fold * scale
             )),
             "{first}"
         );
         // the plot's axis and fold label in the unit; the CSV stays in rad/s
         let text = std::fs::read_to_string(&svg).unwrap();
-        assert!(text.contains(&format!("spin [{unit}]")), "axis in {unit}");
+        assert!(
+            text.contains(&format!("spin/2π [{unit}]")),
+            "axis in {unit}"
+        );
         assert!(!text.contains("rad/s"));
         let (h, rows) = common::read_csv(&csv);
         assert_eq!(h[0], "spin");

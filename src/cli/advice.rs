@@ -162,6 +162,10 @@ pub fn wording(invalid: &Invalid) -> Option<Wording> {
             format!("--from {from} --to {to}: not finite"),
             "give finite values, e.g. --from \"-15 deg\" --to \"35 deg\"",
         ),
+        Range { from, to, .. } if !(from.is_finite() && to.is_finite()) => said(
+            format!("--from {from} --to {to}: not finite"),
+            "give finite numbers for --from and --to",
+        ),
         Range { what, from, to } => said(
             format!("empty range: --from {from} --to {to}"),
             match what {

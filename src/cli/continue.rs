@@ -164,6 +164,13 @@ pub fn run(a: ContinueArgs) -> Result<()> {
         // the requested ends as given; a run that turned back at a fold says so
         let end = branch.points.last().map_or(from, |p| p.value);
         let param = &branch.param;
+        // the parameter as named in the lines: `spin/2π` when a frequency is shown in Hz
+        // or rpm (cycles: `spin = 0.3 Hz` would read as an angular frequency)
+        let pn = if is_freq(param) {
+            fu.quantity(param)
+        } else {
+            param.clone()
+        };
         // the parameter's unit after each of its values (` N`; none when dimensionless)
         let pu = {
             let u = model.param_unit(param);
@@ -181,7 +188,7 @@ pub fn run(a: ContinueArgs) -> Result<()> {
             format!("to {}", given(&a.to))
         } else if let Some(f) = branch.folds.first() {
             format!(
-                "turned at the fold at {param} = {}; ends at {param} = {}",
+                "turned at the fold at {pn} = {}; ends at {pn} = {}",
                 show(param, f.value, Some(6)),
                 show(param, end, None)
             )
@@ -192,13 +199,13 @@ pub fn run(a: ContinueArgs) -> Result<()> {
         {
             // a pitchfork reached along a side branch: it turns there, onto the other side
             format!(
-                "turned at the branch point at {param} = {}; ends at {param} = {}",
+                "turned at the branch point at {pn} = {}; ends at {pn} = {}",
                 show(param, b.value, Some(6)),
                 show(param, end, None)
             )
         } else {
             format!(
-                "ends at {param} = {} (before {})",
+                "ends at {pn} = {} (before {})",
                 show(param, end, None),
                 given(&a.to)
             )
@@ -226,7 +233,7 @@ pub fn run(a: ContinueArgs) -> Result<()> {
             );
         }
         println!(
-            "{}{} points from {param} = {} {how}{}",
+            "{}{} points from {pn} = {} {how}{}",
             if branch.switched.is_empty() {
                 ""
             } else {
@@ -255,8 +262,7 @@ pub fn run(a: ContinueArgs) -> Result<()> {
         ] {
             for p in points {
                 println!(
-                    "{kind} at {} = {}: {}",
-                    branch.param,
+                    "{kind} at {pn} = {}: {}",
                     show(param, p.value, Some(10)),
                     pose(&sys, &p.q)
                 );
@@ -276,7 +282,7 @@ pub fn run(a: ContinueArgs) -> Result<()> {
                 _ => "stable in part",
             };
             println!(
-                "branch {} from the branch point at {param} = {} ({} = {:.8}{} first): {} points to {param} = {}, {stability}{}{}",
+                "branch {} from the branch point at {pn} = {} ({} = {:.8}{} first): {} points to {pn} = {}, {stability}{}{}",
                 k + 1,
                 show(param, branch.branch_points[s.branch_point].value, Some(10)),
                 sys.coordinates[idx],

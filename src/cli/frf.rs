@@ -181,7 +181,7 @@ pub fn run(a: FrfArgs) -> Result<()> {
             .collect();
         println!(
             "{:>10}  {}",
-            format!("{} [{sym}]", fr.param),
+            format!("{} [{sym}]", fu.quantity(&fr.param)),
             head.join("  ")
         );
         for (k, w) in fr.omega.iter().enumerate() {
@@ -197,7 +197,7 @@ pub fn run(a: FrfArgs) -> Result<()> {
             eprintln!(
                 "peak {}: {} = {:.6} ± {:.1e} {sym}, amplitude {:.6e} {}",
                 p.response,
-                fr.param,
+                fu.quantity(&fr.param),
                 fu.of(p.omega),
                 fu.of(p.uncertainty),
                 p.amplitude,

@@ -70,6 +70,7 @@ pub fn run(a: KinematicsArgs) -> Result<()> {
     if a.output.is_none() {
         print_table(&path);
     } else {
+        note_dead_points(&path);
         let last = path.values.len() - 1;
         println!(
             "{} points, {} from {} to {}",
@@ -112,7 +113,8 @@ fn print_table(path: &KinematicPath) {
         head.extend(
             path.ratio_names
                 .iter()
-                .map(|n| format!("d{}/d{n}", path.drive)),
+                .zip(&path.ratio_indices)
+                .map(|(n, &i)| format!("d{}/d{n} [{}]", path.drive, path.ratio_unit(i))),
         );
     }
     let width = head
@@ -141,5 +143,24 @@ fn print_table(path: &KinematicPath) {
             cells.extend(path.ratios[k].iter().map(|r| format!("{r:.9}")));
         }
         println!("{}", line(cells));
+    }
+    note_dead_points(path);
+}
+
+/// Where a ratio is infinite, say why (on stderr): the coordinate is stationary there.
+fn note_dead_points(path: &KinematicPath) {
+    for (r, name) in path.ratio_names.iter().enumerate() {
+        let at: Vec<String> = (0..path.values.len())
+            .filter(|&k| path.ratios[k][r].is_infinite())
+            .map(|k| shown(path, path.drive_index, path.values[k]))
+            .collect();
+        if !at.is_empty() {
+            eprintln!(
+                "note: d{}/d{name} is infinite at {} = {}: {name} is stationary there (it does not move with the drive)",
+                path.drive,
+                path.drive,
+                at.join(", ")
+            );
+        }
     }
 }

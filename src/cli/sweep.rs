@@ -514,7 +514,7 @@ pub fn execute(a: SweepArgs, source: Source) -> Result<()> {
                     "peak{tag} {} ({}): {} = {:.6} ± {:.1e} {sym}, amplitude {:.6e} {unit}",
                     pk.response,
                     pk.direction.name(),
-                    a.grid.param,
+                    fu.quantity(&a.grid.param),
                     fu.of(pk.omega),
                     fu.of(pk.uncertainty),
                     pk.amplitude

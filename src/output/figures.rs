@@ -429,10 +429,12 @@ pub fn sweep_figures(
             } else {
                 unit.to_string()
             };
+            // every varied parameter of the run (with two `--values`, `F0 = 2 N` alone
+            // would name two curves)
             let tag = run
-                .tag()
+                .label()
                 .filter(|_| runs.len() > 1)
-                .map(|(n, v)| format!(" ({n} = {v} {})", run.unit).replace(" )", ")"))
+                .map(|l| format!(" ({l})"))
                 .unwrap_or_default();
             for pk in run.sweep.peaks.iter().filter(|p| &p.response == name) {
                 peaks.0.push(pk.omega);

@@ -85,7 +85,8 @@ impl LinePlot {
     /// every `<number> rad/s` in the labels rewritten in the unit. A cyclic unit's
     /// natural frequency is f_n, not ω_n: `ω_n = 0.4732 Hz` would read as an angular
     /// frequency, so `ω_n` becomes `f_n` (`ω_n = |λ|` becomes `f_n = |λ|/2π`) in Hz and in
-    /// rpm alike, and an axis `ω [rad/s]` becomes `f [Hz]`. Only the picture changes: the
+    /// rpm alike, an axis `ω [rad/s]` becomes `f [Hz]` and one named after a parameter,
+    /// `omega [rad/s]`, becomes `omega/2π [Hz]`. Only the picture changes: the
     /// data written to CSV/JSON stay in rad/s.
     pub fn in_frequency_unit(mut self, unit: super::units::FreqUnit) -> Self {
         if unit == super::units::FreqUnit::RadPerSecond {
@@ -131,10 +132,13 @@ impl LinePlot {
             n.text = relabel(&n.text);
         }
         self.caption = relabel(&self.caption);
-        self.x_label = self
-            .x_label
-            .replace("ω [rad/s]", &format!("f [{}]", unit.symbol()))
-            .replace("[rad/s]", &format!("[{}]", unit.symbol()));
+        self.x_label = match self.x_label.strip_suffix(" [rad/s]") {
+            Some("ω") => format!("f [{}]", unit.symbol()),
+            Some(name) => format!("{} [{}]", unit.quantity(name), unit.symbol()),
+            None => self
+                .x_label
+                .replace("[rad/s]", &format!("[{}]", unit.symbol())),
+        };
         self.title = relabel(&self.title);
         self
     }

@@ -57,6 +57,16 @@ impl FreqUnit {
         }
     }
 
+    /// What a frequency parameter `param` (an angular frequency, rad/s) is called once
+    /// shown in this unit: `omega` in rad/s, `omega/2π` in Hz and rpm (cycles, not
+    /// radians: "omega = 0.4 Hz" would read as an angular frequency).
+    pub fn quantity(self, param: &str) -> String {
+        match self {
+            FreqUnit::RadPerSecond => param.to_string(),
+            FreqUnit::Hertz | FreqUnit::Rpm => format!("{param}/2π"),
+        }
+    }
+
     /// `rad_s` in this unit with `decimals` decimals and the symbol: `4.1234 Hz`.
     pub fn show(self, rad_s: f64, decimals: usize) -> String {
         format!("{:.decimals$} {}", self.of(rad_s), self.symbol())
