@@ -328,6 +328,24 @@ fn bad_analysis_requests_are_refused() {
             "empty range",
         ),
         (
+            // not finite is not "empty" (was: "empty range: --from NaN --to 3")
+            &[
+                "sweep",
+                "models/overcentre.toml",
+                "--set",
+                "F0=1",
+                "--param",
+                "omega",
+                "--from",
+                "nan",
+                "--to",
+                "3",
+                "--step",
+                "0.5",
+            ],
+            "--from NaN --to 3: not finite",
+        ),
+        (
             &[
                 "frf",
                 "models/overcentre.toml",
