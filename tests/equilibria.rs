@@ -224,6 +224,47 @@ fn a_revolving_crank_has_each_equilibrium_once() {
     }
 }
 
+/// A start beyond a turn (th0 = 10 rad, 573°) finds the same two equilibria, shown with
+/// their angles in (−π, π] (they were 450° and 630°): the crank's elements see its angle
+/// only through sin and cos. A torsion spring sees the raw angle: the torsion pendulum
+/// (tests/data/torsion_pendulum.toml) with T = 60 N·m rests at θ = 3.8132 rad (218°),
+/// T = k (θ + π/2) + m g (L/2) cos θ, and keeps it (θ − 2π is no equilibrium).
+#[test]
+fn angles_are_shown_in_the_first_turn_unless_an_element_sees_the_raw_angle() {
+    let run = |args: &[&str]| -> Vec<serde_json::Value> {
+        let out = Command::new(env!("CARGO_BIN_EXE_detune"))
+            .args(["equilibrium", "--all", "--json"])
+            .args(args)
+            .output()
+            .unwrap();
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+        v["equilibria"].as_array().unwrap().clone()
+    };
+    let list = run(&["tests/data/slider_crank.toml", "--set", "th0=10"]);
+    assert_eq!(list.len(), 2, "{list:#?}");
+    for (e, (want, stable)) in list.iter().zip([(-FRAC_PI_2, true), (FRAC_PI_2, false)]) {
+        let th = coord(e, "crank.theta");
+        assert!((th - want).abs() < 1e-10, "crank.theta = {th}, want {want}");
+        assert!(coord(e, "rod.theta").abs() <= PI);
+        assert_eq!(e["stable"].as_bool(), Some(stable));
+    }
+    let list = run(&["tests/data/torsion_pendulum.toml", "--set", "T=60"]);
+    assert_eq!(list.len(), 1, "{list:#?}");
+    let th = coord(&list[0], "bar.theta");
+    let (m, l, g, k) = (1.5, 0.8, 9.81, 12.0);
+    let torque = |t: f64| 60.0 - k * (t + FRAC_PI_2) - m * g * l / 2.0 * t.cos();
+    assert!(
+        th > PI && torque(th).abs() < 1e-9,
+        "θ = {th}: {}",
+        torque(th)
+    );
+}
+
 /// An unstable equilibrium's divergent mode is shown as a growth rate and time constant,
 /// not as a frequency with ζ = −1: undamped, its rate is √(−ω²) of the stiffness's negative
 /// eigenvalue.

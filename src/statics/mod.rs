@@ -773,7 +773,7 @@ impl<'a> Statics<'a> {
                 continue;
             }
             if !found.iter().any(|f| apart(&f.q, &e.q) < 1e-7) {
-                found.push(self.with_stability(e));
+                found.push(self.with_stability(self.in_first_turn(e)));
             }
         }
         if found.is_empty() {
@@ -782,6 +782,36 @@ impl<'a> Statics<'a> {
         let d0 = drivers[0];
         found.sort_by(|a, b| a.q[d0].total_cmp(&b.q[d0]));
         Ok(found)
+    }
+
+    /// `e` with every angle taken in (−π, π] (450° found from a start at 573° is shown as
+    /// 90°), where that pose is the same equilibrium: its residual, with the same
+    /// multipliers, passes the Newton test. That holds when the elements see the angles
+    /// only through their sines and cosines; a torsion spring on a raw angle, k (θ − θ0),
+    /// does not, and its equilibrium keeps the angles found.
+    fn in_first_turn(&self, e: Equilibrium) -> Equilibrium {
+        let angles = self.sys.angles();
+        let mut q = e.q.clone();
+        for (x, &angle) in q.iter_mut().zip(&angles) {
+            if angle && x.abs() > std::f64::consts::PI {
+                *x = wrap_angle(*x);
+            }
+        }
+        if q == e.q {
+            return e;
+        }
+        let mut x = q.clone();
+        x.extend_from_slice(&e.lambda);
+        let r = self.residual(&x);
+        let scale = self.force_scale(&q);
+        if !(scale.is_finite() && self.converged(&r, &x, scale)) {
+            return e;
+        }
+        Equilibrium {
+            q,
+            residual: r.amax(),
+            ..e
+        }
     }
 
     /// The largest difference between two poses, angles compared modulo 2π.
@@ -888,9 +918,11 @@ impl<'a> Statics<'a> {
                 continue;
             }
             match found.iter_mut().find(|f| self.apart(&f.q, &e.q) < 1e-7) {
-                Some(f) if offset(&e) < offset(f) - 1e-9 => *f = self.with_stability(e),
+                Some(f) if offset(&e) < offset(f) - 1e-9 => {
+                    *f = self.with_stability(self.in_first_turn(e))
+                }
                 Some(_) => {}
-                None => found.push(self.with_stability(e)),
+                None => found.push(self.with_stability(self.in_first_turn(e))),
             }
         }
         if found.is_empty() {
