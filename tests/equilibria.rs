@@ -15,8 +15,14 @@ use std::process::Command;
 
 /// `detune equilibrium FILE --all --json`'s list of equilibria.
 fn all_equilibria(file: &str) -> Vec<serde_json::Value> {
+    all_equilibria_of(&[file])
+}
+
+/// `detune equilibrium --all --json ARGS...`'s list of equilibria.
+fn all_equilibria_of(args: &[&str]) -> Vec<serde_json::Value> {
     let out = Command::new(env!("CARGO_BIN_EXE_detune"))
-        .args(["equilibrium", file, "--all", "--json"])
+        .args(["equilibrium", "--all", "--json"])
+        .args(args)
         .output()
         .unwrap();
     assert!(
@@ -231,21 +237,7 @@ fn a_revolving_crank_has_each_equilibrium_once() {
 /// T = k (θ + π/2) + m g (L/2) cos θ, and keeps it (θ − 2π is no equilibrium).
 #[test]
 fn angles_are_shown_in_the_first_turn_unless_an_element_sees_the_raw_angle() {
-    let run = |args: &[&str]| -> Vec<serde_json::Value> {
-        let out = Command::new(env!("CARGO_BIN_EXE_detune"))
-            .args(["equilibrium", "--all", "--json"])
-            .args(args)
-            .output()
-            .unwrap();
-        assert!(
-            out.status.success(),
-            "{}",
-            String::from_utf8_lossy(&out.stderr)
-        );
-        let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
-        v["equilibria"].as_array().unwrap().clone()
-    };
-    let list = run(&["tests/data/slider_crank.toml", "--set", "th0=10"]);
+    let list = all_equilibria_of(&["tests/data/slider_crank.toml", "--set", "th0=10"]);
     assert_eq!(list.len(), 2, "{list:#?}");
     for (e, (want, stable)) in list.iter().zip([(-FRAC_PI_2, true), (FRAC_PI_2, false)]) {
         let th = coord(e, "crank.theta");
@@ -253,7 +245,7 @@ fn angles_are_shown_in_the_first_turn_unless_an_element_sees_the_raw_angle() {
         assert!(coord(e, "rod.theta").abs() <= PI);
         assert_eq!(e["stable"].as_bool(), Some(stable));
     }
-    let list = run(&["tests/data/torsion_pendulum.toml", "--set", "T=60"]);
+    let list = all_equilibria_of(&["tests/data/torsion_pendulum.toml", "--set", "T=60"]);
     assert_eq!(list.len(), 1, "{list:#?}");
     let th = coord(&list[0], "bar.theta");
     let (m, l, g, k) = (1.5, 0.8, 9.81, 12.0);
