@@ -32,7 +32,7 @@
 
 use crate::diag::Result;
 use crate::environment::ForcingLine;
-use crate::linear::ModalAnalysis;
+use crate::linear::{ModalAnalysis, Motion};
 use crate::request::{Argument, Invalid};
 use serde::Serialize;
 
@@ -89,28 +89,23 @@ pub struct UnstableMode {
     pub omega_d_rad_s: f64,
 }
 
-/// Every mode of `modal` with Re λ > 0 beyond round-off (1e-6 of the largest |λ|: a
-/// neutral direction, a double eigenvalue at 0, is computed as ±√ε‖A‖, about 1e-8 of it),
-/// named
-/// as in [`mode_points_named`] (`names` in `modal.modes` order; `mode k` where missing).
+/// Every mode of `modal` that grows ([`ModalAnalysis::growing`]: Re λ above round-off,
+/// 1e-6 of the largest |λ|, real or complex), named as in [`mode_points_named`] (`names`
+/// in `modal.modes` order; `mode k` where missing).
 pub fn unstable_modes(modal: &ModalAnalysis, names: &[String]) -> Vec<UnstableMode> {
-    let scale = modal
-        .modes
-        .iter()
-        .map(|m| m.omega_n_rad_s)
-        .fold(0.0, f64::max);
     modal
-        .modes
-        .iter()
-        .enumerate()
-        .filter(|(_, m)| m.eigenvalue.re > 1e-6 * scale.max(1e-300))
-        .map(|(k, m)| UnstableMode {
-            mode: names
-                .get(k)
-                .cloned()
-                .unwrap_or_else(|| format!("mode {}", k + 1)),
-            growth_rate_1_s: m.eigenvalue.re,
-            omega_d_rad_s: m.omega_d_rad_s,
+        .growing()
+        .into_iter()
+        .map(|k| {
+            let m = &modal.modes[k];
+            UnstableMode {
+                mode: names
+                    .get(k)
+                    .cloned()
+                    .unwrap_or_else(|| format!("mode {}", k + 1)),
+                growth_rate_1_s: m.eigenvalue.re,
+                omega_d_rad_s: m.omega_d_rad_s,
+            }
         })
         .collect()
 }
@@ -134,16 +129,17 @@ pub fn mode_points_named(
     let mut modes = Vec::new();
     let mut skipped = Vec::new();
     for (k, m) in modal.modes.iter().enumerate() {
-        if m.omega_d_rad_s == 0.0 {
+        let motion = modal.motion(k);
+        if motion.is_real() {
             let l = m.eigenvalue.re;
             skipped.push(SkippedMode {
                 eigenvalue: l,
-                reason: if l > 0.0 {
-                    "real eigenvalue, divergent: the equilibrium is unstable, it does not oscillate"
-                        .into()
-                } else {
-                    "real eigenvalue: non-oscillatory (an overdamped decay, or a neutral direction at λ = 0), no resonance".into()
-                },
+                reason: match motion {
+                    Motion::Divergent => "real eigenvalue, divergent: the equilibrium is unstable, it does not oscillate",
+                    Motion::Decaying => "real eigenvalue: non-oscillatory (an overdamped decay, or the decaying partner of a divergence), no resonance",
+                    _ => "real eigenvalue: non-oscillatory (a neutral direction at λ = 0), no resonance",
+                }
+                .into(),
             });
         } else {
             modes.push(ModeInterval::point(
@@ -246,10 +242,14 @@ pub struct MarginCheck {
     pub requirement: Requirement,
     /// One row per mode × line, modes outer, lines in the environment's order.
     pub rows: Vec<MarginRow>,
-    /// Every row passes and no mode is unstable.
+    /// Every row passes, no mode is unstable, and no point of the tolerance box is.
     pub pass: bool,
     /// The modes that grow (Re λ > 0): any fails the check ([`MarginCheck::with_unstable`]).
     pub unstable: Vec<UnstableMode>,
+    /// With tolerances: the points of the tolerance box whose equilibrium is unstable;
+    /// any fails the check, as an unstable nominal design does
+    /// ([`MarginCheck::with_unstable_corners`]).
+    pub unstable_corners: Vec<crate::linear::sensitivity::UnstableCorner>,
 }
 
 impl MarginCheck {
@@ -259,6 +259,18 @@ impl MarginCheck {
             self.pass = false;
         }
         self.unstable = unstable;
+        self
+    }
+    /// The check with the tolerance box's unstable points (a sensitivity study's
+    /// `unstable_corners`): any fails it, as an unstable nominal design does.
+    pub fn with_unstable_corners(
+        mut self,
+        corners: Vec<crate::linear::sensitivity::UnstableCorner>,
+    ) -> Self {
+        if !corners.is_empty() {
+            self.pass = false;
+        }
+        self.unstable_corners = corners;
         self
     }
     /// The failing rows, worst (least separated relative to its requirement) first.
@@ -373,6 +385,7 @@ pub fn check_margins(
         rows,
         pass,
         unstable: Vec::new(),
+        unstable_corners: Vec::new(),
     })
 }
 

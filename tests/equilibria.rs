@@ -342,9 +342,18 @@ fn a_divergent_mode_in_json_has_a_growth_rate_and_no_frequency() {
     assert_eq!(d["omega_d_rad_s"].as_f64(), Some(0.0));
     assert_eq!(v["units"]["growth_rate_1_s"], "1/s");
     assert_eq!(v["units"]["time_constant_s"], "s");
-    // the other mode decays at the same rate (undamped: λ = ±√(−ω²)) and is not divergent
+    // the other mode decays at the same rate (undamped: λ = ±√(−ω²)) and is not divergent;
+    // non-oscillatory, it has no frequency either (as the text says), but its decay rate
     let other = modes.iter().find(|m| m["divergent"] == false).unwrap();
-    assert!((other["omega_n_rad_s"].as_f64().unwrap() - rate).abs() < 1e-9 * rate);
+    assert!((other["decay_rate_1_s"].as_f64().unwrap() - rate).abs() < 1e-9 * rate);
+    assert_eq!(other["non_oscillatory"], true);
+    for key in ["omega_n_rad_s", "freq_hz", "damping_ratio"] {
+        assert!(
+            other[key].is_null(),
+            "{key} of a decaying real mode: {}",
+            other[key]
+        );
+    }
     assert!(other["growth_rate_1_s"].is_null() && other["time_constant_s"].is_null());
 }
 

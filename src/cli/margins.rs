@@ -7,6 +7,7 @@ use clap::Args;
 use detune::diag::{Error, Result};
 use detune::environment::{Environment, ForcingLine, resolve};
 use detune::linear::modal_analysis;
+use detune::linear::sensitivity::UnstableCorner;
 use detune::margins::{MarginCheck, MarginRow, ModeInterval, Requirement, Side, UnstableMode};
 use detune::output::Provenance;
 use detune::output::margins::{MarginsReport, write_margins_csv};
@@ -85,14 +86,17 @@ pub fn run(a: MarginsArgs) -> Result<Outcome> {
     let modal = modal_analysis(&sys, None)?;
     let names = detune::linear::sensitivity::mode_names(&sys, &modal);
     let (points, skipped) = detune::margins::mode_points_named(&modal, &names);
-    let modes = intervals(&model, &sys, &a.vary, points)?;
+    let (modes, unstable_corners) = intervals(&model, &sys, &a.vary, points)?;
     let rule = if a.damping_aware {
         Requirement::DampingAware
     } else {
         Requirement::Fixed
     };
     let lines = env.forcing_lines();
-    let check = detune::margins::check_design(&modal, &names, &modes, &lines, margin, rule)?;
+    // an unstable point of the tolerance box fails the check, as an unstable nominal
+    // design does
+    let check = detune::margins::check_design(&modal, &names, &modes, &lines, margin, rule)?
+        .with_unstable_corners(unstable_corners);
     let fu = a.freq.freq_unit;
     if let Some(o) = &a.output {
         write_margins_csv(o, &check)?;
@@ -121,7 +125,11 @@ pub fn run(a: MarginsArgs) -> Result<Outcome> {
         }
     } else {
         print_environment(&env, &lines, fu);
-        if modes.is_empty() {
+        if modal.linearization.dof() == 0 {
+            println!(
+                "\nno degrees of freedom (the constraints fix or drive every coordinate): no modes, nothing can resonate with a forcing line"
+            );
+        } else if modes.is_empty() {
             println!("\nno oscillatory modes: nothing can resonate with a forcing line");
         }
         for s in &skipped {
@@ -149,14 +157,17 @@ pub fn run(a: MarginsArgs) -> Result<Outcome> {
 /// The modes as checked: points (the nominal design), or with `--vary` each mode's
 /// interval over the whole tolerance box (the sensitivity study's worst case: corners
 /// evaluated by full modal analyses, see `detune sensitivity`).
+///
+/// With the points of the box whose equilibrium is unstable (corners, interior samples,
+/// and the cases inside the box): each fails the check.
 fn intervals(
     model: &detune::Model,
     sys: &detune::System,
     vary: &[String],
     points: Vec<ModeInterval>,
-) -> Result<Vec<ModeInterval>> {
+) -> Result<(Vec<ModeInterval>, Vec<UnstableCorner>)> {
     if vary.is_empty() {
-        return Ok(points);
+        return Ok((points, Vec::new()));
     }
     let vs = super::args::varies(model, sys, vary)?;
     let study = detune::linear::sensitivity::sensitivity(sys, &vs, None, None)?;
@@ -172,8 +183,22 @@ fn intervals(
             "narrow the --vary ranges (detune sensitivity with the same --vary shows the box), or check the failing values with --set",
         ));
     }
-    for w in super::sensitivity::unstable_warnings(&study) {
-        eprintln!("warning: {w}");
+    // the unstable points fail the check (named in its summary), no longer only a warning
+    let mut unstable = study.unstable_corners.clone();
+    for c in &study.unstable_cases {
+        // a case at an end of a single parameter's range is a corner already listed
+        let at_end = vs.len() == 1
+            && vs
+                .iter()
+                .any(|v| v.name == c.param && (c.value == v.range.0 || c.value == v.range.1));
+        if !at_end {
+            unstable.push(UnstableCorner {
+                label: c.label.clone(),
+                corner: false,
+                growth_rate_1_s: c.growth_rate_1_s,
+                omega_d_rad_s: c.omega_d_rad_s,
+            });
+        }
     }
     for m in &study.modes {
         if !m.worst_case.non_monotone.is_empty() {
@@ -184,7 +209,7 @@ fn intervals(
             );
         }
     }
-    Ok(detune::margins::with_intervals(points, &study))
+    Ok((detune::margins::with_intervals(points, &study), unstable))
 }
 
 /// `--margin`: "10%", "10 %" or a fraction 0.1; above 0 and below 100 %.
@@ -396,6 +421,7 @@ fn summary(check: &MarginCheck, env: &Environment, fu: FreqUnit) -> Vec<String> 
     let mode_words = |r: &MarginRow| mode_words(r, fu);
     let line_words = |r: &MarginRow, env: &Environment| line_words(r, env, fu);
     let mut out: Vec<String> = check.unstable.iter().map(unstable_words).collect();
+    out.extend(check.unstable_corners.iter().map(corner_words));
     let failures = check.failures();
     for r in &failures {
         let needs = format!("needs {}", pct(r.required_pct));
@@ -415,6 +441,22 @@ fn summary(check: &MarginCheck, env: &Environment, fu: FreqUnit) -> Vec<String> 
             "FAIL: the equilibrium is unstable ({} growing mode{}): a design that leaves its equilibrium cannot pass, whatever its separations{}",
             check.unstable.len(),
             if check.unstable.len() == 1 { "" } else { "s" },
+            if failures.is_empty() {
+                String::new()
+            } else {
+                format!(
+                    "; and {} of {} mode–line pairs are closer than required (margin {}, your choice, not a standard)",
+                    failures.len(),
+                    check.rows.len(),
+                    pct(check.margin_pct)
+                )
+            }
+        ));
+    } else if !check.unstable_corners.is_empty() {
+        let n = check.unstable_corners.len();
+        out.push(format!(
+            "FAIL: the tolerance box reaches unstable designs ({n} point{} of it, named above): a part within tolerance can leave its equilibrium, whatever the separations{}",
+            if n == 1 { "" } else { "s" },
             if failures.is_empty() {
                 String::new()
             } else {
@@ -471,6 +513,26 @@ pub fn unstable_words(u: &UnstableMode) -> String {
             u.mode, u.growth_rate_1_s, u.omega_d_rad_s
         )
     }
+}
+
+/// An unstable point of the tolerance box in words: where, and how fast it grows.
+pub fn corner_words(c: &UnstableCorner) -> String {
+    format!(
+        "the tolerance box's {} {} is UNSTABLE: {}",
+        if c.corner { "corner" } else { "point" },
+        c.label,
+        if c.omega_d_rad_s > 0.0 {
+            format!(
+                "an oscillation grows as e^({:+.4}·t) at ω_d = {:.4} rad/s",
+                c.growth_rate_1_s, c.omega_d_rad_s
+            )
+        } else {
+            format!(
+                "a mode diverges as e^({:+.4}·t) without oscillating",
+                c.growth_rate_1_s
+            )
+        }
+    )
 }
 
 /// A percentage: whole as given (10 %), else to 0.1 (1.8 %), or 0.01 below 0.1 %.

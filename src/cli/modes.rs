@@ -6,15 +6,17 @@ use super::args::ModelArgs;
 use super::print_json;
 use clap::Args;
 use detune::diag::Result;
-use detune::linear::modal_analysis;
-use detune::linear::tracking::{ModeTracking, TrackOptions, describe_modes, track_modes, values};
+use detune::linear::tracking::{
+    ModeTracking, TrackOptions, describe_modes_or_numbered, track_modes, values,
+};
+use detune::linear::{Motion, modal_analysis};
 use detune::output::Provenance;
 use detune::output::check_outputs;
 use detune::output::json::{ModesReport, TrackingReport};
 use detune::output::units::{FreqUnit, Units, WithUnits};
 
 /// The units of `modes --json` besides the coordinates'.
-const MODE_UNITS: [(&str, &str); 10] = [
+const MODE_UNITS: [(&str, &str); 12] = [
     ("omega_n_rad_s", "rad/s"),
     ("omega_d_rad_s", "rad/s"),
     ("freq_hz", "Hz"),
@@ -22,6 +24,8 @@ const MODE_UNITS: [(&str, &str); 10] = [
     ("eigenvalue", "1/s"),
     ("growth_rate_1_s", "1/s"),
     ("time_constant_s", "s"),
+    ("decay_rate_1_s", "1/s"),
+    ("decay_time_constant_s", "s"),
     ("undamped_omega2", "rad^2/s^2"),
     (
         "shape",
@@ -80,7 +84,21 @@ pub fn run(a: ModesArgs) -> Result<()> {
     }
     let (model, sys) = a.model.load()?;
     let m = modal_analysis(&sys, a.normalize.as_deref())?;
-    let named = describe_modes(&sys, &m)?;
+    // a design far from the one the model's [[modes]] describe (an unstable one) may not
+    // tell its modes apart by them: numbered by frequency instead, as `margins` does
+    let (named, naming) = describe_modes_or_numbered(&sys, &m)?;
+    if let Some(why) = &naming {
+        eprintln!(
+            "note: the model's [[modes]] names do not apply to this design ({why}): the modes are numbered by frequency instead"
+        );
+    }
+    let growing = detune::margins::unstable_modes(
+        &m,
+        &named
+            .iter()
+            .map(|n| n.name.name.clone())
+            .collect::<Vec<_>>(),
+    );
     if a.json {
         let units = Units::new().coordinates(&sys).with_all(MODE_UNITS);
         print_json(&WithUnits {
@@ -91,17 +109,18 @@ pub fn run(a: ModesArgs) -> Result<()> {
     }
     let fu = a.freq.freq_unit;
     let sym = fu.symbol();
-    println!(
-        "equilibrium ({}):",
-        if m.linearization.dof() == 0 {
-            // nothing can move (every coordinate fixed or driven): no stability to claim
-            "no degrees of freedom"
-        } else if m.equilibrium.stable {
-            "stable"
-        } else {
-            "UNSTABLE"
-        }
+    // both truths: static (the potential's minimum) and dynamic (no mode grows)
+    let words = detune::linear::stability_words(
+        detune::output::json::stability(&m.equilibrium),
+        m.dynamically_stable(),
+        &growing,
     );
+    if words.contains('(') {
+        // the unstable cases carry their own parentheses: which mode grows, how fast
+        println!("equilibrium: {words}");
+    } else {
+        println!("equilibrium ({words}):");
+    }
     for (c, v) in m.coordinates.iter().zip(&m.equilibrium.q) {
         println!(
             "  {c:<16} {v:>22.12}{}",
@@ -146,10 +165,20 @@ pub fn run(a: ModesArgs) -> Result<()> {
         "eigenvalue [1/s]"
     );
     for (k, md) in m.modes.iter().enumerate() {
-        if md.omega_d_rad_s == 0.0 {
+        let motion = m.motion(k);
+        if motion.is_real() {
             // a real eigenvalue: no oscillation, so no frequency or damping ratio to show
             let lambda = md.eigenvalue.re;
-            let (what, rate) = if lambda > 0.0 {
+            if motion == Motion::Neutral {
+                println!(
+                    "{:>4} non-oscillatory: neutral (λ = 0 to round-off){:>13.8} {:+13.8}i",
+                    k + 1,
+                    md.eigenvalue.re,
+                    md.eigenvalue.im
+                );
+                continue;
+            }
+            let (what, rate) = if motion == Motion::Divergent {
                 ("DIVERGENT: grows", lambda)
             } else {
                 ("non-oscillatory: decays", -lambda)
@@ -164,14 +193,23 @@ pub fn run(a: ModesArgs) -> Result<()> {
             continue;
         }
         println!(
-            "{:>4} {:>14.8} {:>14.8} {:>12.6} {:>10.6} {:>13.8} {:+13.8}i",
+            "{:>4} {:>14.8} {:>14.8} {:>12.6} {:>10.6} {:>13.8} {:+13.8}i{}",
             k + 1,
             fu.of(md.omega_n_rad_s),
             fu.of(md.omega_d_rad_s),
             fu.companion().of(md.omega_n_rad_s),
             md.damping_ratio,
             md.eigenvalue.re,
-            md.eigenvalue.im
+            md.eigenvalue.im,
+            if motion == Motion::GrowingOscillation {
+                format!(
+                    "  GROWING: e^({:+.6} t), time constant {:.6} s",
+                    md.eigenvalue.re,
+                    1.0 / md.eigenvalue.re
+                )
+            } else {
+                String::new()
+            }
         );
     }
     println!(

@@ -159,8 +159,19 @@ pub fn run(a: ReportArgs) -> Result<()> {
             m.iter()
                 .map(|x| match x.get("omega_n_rad_s").and_then(|w| w.as_f64()) {
                     Some(w) => format!("{w:.3}"),
-                    // a divergent mode has no ω_n
-                    None => "divergent".to_string(),
+                    // a real eigenvalue has no ω_n: say which kind (`motion`)
+                    None => x
+                        .get("motion")
+                        .and_then(|m| m.as_str())
+                        .map(|m| {
+                            if m == "divergent" {
+                                "divergent"
+                            } else {
+                                "non-oscillatory"
+                            }
+                        })
+                        .unwrap_or("divergent")
+                        .to_string(),
                 })
                 .collect::<Vec<_>>()
         })

@@ -115,6 +115,15 @@ pub fn run(a: SensitivityArgs) -> Result<()> {
         ),
         _ => e,
     })?;
+    // the nominal design first: an unstable baseline makes every case's change a change
+    // of frequencies that are not resonances (JSON: `baseline_unstable`)
+    let baseline = baseline_warning(&study);
+    if let Some(w) = &baseline {
+        eprintln!("warning: {w}");
+    }
+    if study.modes.is_empty() {
+        return Err(nothing_to_vary(&sys, &study));
+    }
     let watch = super::StiffWatch::new(
         &sys.forcing_param()
             .map(|f| sys.param_names()[f].clone())
@@ -208,6 +217,11 @@ pub fn run(a: SensitivityArgs) -> Result<()> {
             &super::args::damping_warnings(&model, &sys, &vs),
         ));
         warnings.extend(
+            baseline
+                .iter()
+                .map(|t| serde_json::json!({"kind": "unstable_baseline", "message": t})),
+        );
+        warnings.extend(
             unstable
                 .iter()
                 .map(|t| serde_json::json!({"kind": "unstable_case", "message": t})),
@@ -220,6 +234,31 @@ pub fn run(a: SensitivityArgs) -> Result<()> {
     }
     print_tables(&study, &|n| unit(n), a.freq.freq_unit);
     Ok(())
+}
+
+/// The warning for an unstable nominal design (the baseline: some mode grows), if it is.
+pub fn baseline_warning(study: &Sensitivity) -> Option<String> {
+    if !study.baseline_unstable {
+        return None;
+    }
+    let how: Vec<String> = study
+        .baseline_growing_modes
+        .iter()
+        .map(|u| {
+            if u.omega_d_rad_s > 0.0 {
+                format!(
+                    "{} grows as e^({:+.4} t), oscillating at {:.4} rad/s",
+                    u.mode, u.growth_rate_1_s, u.omega_d_rad_s
+                )
+            } else {
+                format!("{} diverges as e^({:+.4} t)", u.mode, u.growth_rate_1_s)
+            }
+        })
+        .collect();
+    Some(format!(
+        "the nominal design (the baseline) is UNSTABLE: {}; its equilibrium is left at once, so its frequencies and the cases' changes from them are not resonances about a steady state",
+        how.join("; ")
+    ))
 }
 
 /// One sentence per case whose equilibrium is unstable, and one for a tolerance box that
@@ -271,6 +310,9 @@ fn print_tables(s: &Sensitivity, unit: &dyn Fn(&str) -> String, fu: FreqUnit) {
             String::new()
         }
     };
+    if let Some(w) = baseline_warning(s) {
+        println!("WARNING: {w}\n");
+    }
     for m in &s.modes {
         println!(
             "{}: ω_n = {:.6} {sym}{}, ζ = {:.5}{}",
@@ -531,4 +573,31 @@ fn open_checkpoint(
         );
     }
     Ok(Box::new(c))
+}
+
+/// The error of a study with no oscillatory mode: nothing to compute (a model with no
+/// degrees of freedom, or whose modes are all real: divergent, overdamped or neutral).
+fn nothing_to_vary(sys: &detune::System, study: &Sensitivity) -> Error {
+    let dof = detune::linear::modal_analysis(sys, None)
+        .map(|m| m.linearization.dof())
+        .unwrap_or(0);
+    if dof == 0 {
+        Error::request(
+            "nothing to compute: the model has no degrees of freedom (its constraints fix or drive every coordinate), so it has no modes whose frequencies could move",
+            "sensitivity studies a mechanism that can move: free a coordinate (a driven constraint fixes it), or use `detune simulate` for a driven mechanism; `detune check MODEL` shows the degrees of freedom",
+        )
+    } else {
+        Error::request(
+            format!(
+                "nothing to compute: none of the model's {dof} degree{} of freedom oscillates (every eigenvalue is real: overdamped, neutral{}), so no mode has a frequency to vary",
+                if dof == 1 { "" } else { "s" },
+                if study.baseline_unstable {
+                    ", or divergent: the nominal design is UNSTABLE"
+                } else {
+                    ""
+                }
+            ),
+            "`detune modes MODEL` shows the eigenvalues; a resonance needs a stiffness and less than critical damping",
+        )
+    }
 }

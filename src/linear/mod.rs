@@ -86,17 +86,108 @@ pub struct Mode {
     pub normalized_to: usize,
 }
 
+/// How a mode moves, from its eigenvalue λ and the round-off threshold of its analysis
+/// ([`ModalAnalysis::threshold`]): the one verdict every command gives.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Motion {
+    /// A complex pair with Re λ ≤ threshold: a (damped, or undamped) oscillation.
+    Oscillating,
+    /// A complex pair with Re λ > threshold: an oscillation that grows (negative damping,
+    /// flutter); its ω_n, f and ζ (< 0) still describe its frequency.
+    GrowingOscillation,
+    /// A real λ > threshold: grows as e^(+λt) without oscillating (a divergence, about a
+    /// statically unstable equilibrium).
+    Divergent,
+    /// A real λ < −threshold: decays as e^(λt) without oscillating (an overdamped mode, or
+    /// the decaying partner of a saddle's divergence).
+    Decaying,
+    /// A real λ within round-off of 0: a neutral direction (a mechanism free to drift).
+    Neutral,
+}
+
+impl Motion {
+    /// Re λ > threshold: the mode grows and its equilibrium is dynamically unstable.
+    pub fn grows(self) -> bool {
+        matches!(self, Motion::GrowingOscillation | Motion::Divergent)
+    }
+    /// A real eigenvalue: no frequency, no damping ratio.
+    pub fn is_real(self) -> bool {
+        matches!(self, Motion::Divergent | Motion::Decaying | Motion::Neutral)
+    }
+}
+
 impl Mode {
-    /// A real positive eigenvalue: the mode does not oscillate but grows as e^(+λt)
-    /// (about an unstable equilibrium). Its ω_n, f and ζ (= −1) describe no frequency.
-    pub fn is_divergent(&self) -> bool {
-        self.omega_d_rad_s == 0.0 && self.eigenvalue.re > 0.0
+    /// How the mode moves, with `threshold` (1/s) the round-off below which a real part is
+    /// zero ([`ModalAnalysis::threshold`]; [`ModalAnalysis::motion`] passes it).
+    pub fn motion(&self, threshold: f64) -> Motion {
+        let re = self.eigenvalue.re;
+        match (self.omega_d_rad_s > 0.0, re > threshold, re < -threshold) {
+            (true, true, _) => Motion::GrowingOscillation,
+            (true, false, _) => Motion::Oscillating,
+            (false, true, _) => Motion::Divergent,
+            (false, false, true) => Motion::Decaying,
+            (false, false, false) => Motion::Neutral,
+        }
     }
 
-    /// The growth rate λ (1/s) of a divergent mode, `None` otherwise.
-    pub fn growth_rate(&self) -> Option<f64> {
-        self.is_divergent().then_some(self.eigenvalue.re)
+    /// The mode's numbers as `modes --json` and the report's sidecar give them
+    /// ([`ModeFields`]); `threshold` as in [`Mode::motion`].
+    pub fn fields(&self, threshold: f64) -> ModeFields {
+        let motion = self.motion(threshold);
+        // a real eigenvalue has no frequency: ω_n = |λ| and ζ = ∓1 would describe one
+        let oscillating = |x: f64| (!motion.is_real()).then_some(x);
+        let growth = motion.grows().then_some(self.eigenvalue.re);
+        let decay = (motion == Motion::Decaying).then_some(-self.eigenvalue.re);
+        ModeFields {
+            omega_n_rad_s: oscillating(self.omega_n_rad_s),
+            omega_d_rad_s: self.omega_d_rad_s,
+            freq_hz: oscillating(self.freq_hz),
+            damping_ratio: oscillating(self.damping_ratio),
+            eigenvalue: self.eigenvalue,
+            divergent: motion == Motion::Divergent,
+            growth_rate_1_s: growth,
+            time_constant_s: growth.map(|r| 1.0 / r),
+            motion,
+            growing: motion.grows(),
+            non_oscillatory: motion.is_real(),
+            decay_rate_1_s: decay,
+            decay_time_constant_s: decay.map(|r| 1.0 / r),
+        }
     }
+}
+
+/// A mode's numbers in JSON (`modes --json`'s modes and the report's sidecar, one
+/// constructor: [`Mode::fields`]). A real eigenvalue (divergent, decaying or neutral) has
+/// `null` ω_n, f and ζ: it does not oscillate. A growing oscillation keeps them (ζ < 0).
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct ModeFields {
+    /// |λ|, rad/s; `null` for a real eigenvalue.
+    pub omega_n_rad_s: Option<f64>,
+    /// |Im λ|, rad/s (0 for a real eigenvalue).
+    pub omega_d_rad_s: f64,
+    /// ω_n / 2π, Hz; `null` for a real eigenvalue.
+    pub freq_hz: Option<f64>,
+    /// −Re λ / |λ|; `null` for a real eigenvalue, negative for a growing oscillation.
+    pub damping_ratio: Option<f64>,
+    pub eigenvalue: C64,
+    /// A real eigenvalue above round-off: grows as e^(+λt) without oscillating.
+    pub divergent: bool,
+    /// Re λ of a growing mode (divergent, or a growing oscillation), 1/s; `null` otherwise.
+    pub growth_rate_1_s: Option<f64>,
+    /// 1/Re λ of a growing mode, s; `null` otherwise.
+    pub time_constant_s: Option<f64>,
+    /// `oscillating`, `growing_oscillation`, `divergent`, `decaying` or `neutral`.
+    pub motion: Motion,
+    /// Re λ above round-off (divergent or a growing oscillation): the equilibrium is
+    /// dynamically unstable.
+    pub growing: bool,
+    /// A real eigenvalue: no frequency (divergent, decaying or neutral).
+    pub non_oscillatory: bool,
+    /// −λ of a decaying real mode, 1/s; `null` otherwise.
+    pub decay_rate_1_s: Option<f64>,
+    /// 1/(−λ) of a decaying real mode, s; `null` otherwise.
+    pub decay_time_constant_s: Option<f64>,
 }
 
 /// A complex number as `{re, im}`.
@@ -394,6 +485,104 @@ pub struct ModalAnalysis {
     pub reference: usize,
     /// The independent constraint rows of the equilibrium (its multipliers' rows).
     pub rows: Vec<usize>,
+}
+
+/// Round-off of a real part relative to the largest |λ|: a neutral direction (a double
+/// eigenvalue at 0) is computed as ±√ε‖A‖, about 1e-8 of it.
+pub const GROWTH_ROUND_OFF: f64 = 1e-6;
+
+impl ModalAnalysis {
+    /// The real part (1/s) below which a mode neither grows nor decays:
+    /// [`GROWTH_ROUND_OFF`] × the largest |λ|.
+    pub fn threshold(&self) -> f64 {
+        let scale = self
+            .modes
+            .iter()
+            .map(|m| m.omega_n_rad_s)
+            .fold(0.0, f64::max);
+        GROWTH_ROUND_OFF * scale.max(1e-300)
+    }
+
+    /// How mode `k` moves ([`Mode::motion`] at this analysis's threshold).
+    pub fn motion(&self, k: usize) -> Motion {
+        self.modes[k].motion(self.threshold())
+    }
+
+    /// Mode `k`'s JSON numbers ([`Mode::fields`] at this analysis's threshold).
+    pub fn fields(&self, k: usize) -> ModeFields {
+        self.modes[k].fields(self.threshold())
+    }
+
+    /// The modes that grow (Re λ above round-off), by index in `modes`: the one
+    /// predicate of "unstable" for `modes`, `margins`, `sensitivity`, `tune` and the report.
+    pub fn growing(&self) -> Vec<usize> {
+        let t = self.threshold();
+        (0..self.modes.len())
+            .filter(|&k| self.modes[k].motion(t).grows())
+            .collect()
+    }
+
+    /// Dynamic stability: no mode grows. `None` with no degrees of freedom (nothing
+    /// moves, nothing to claim). Static stability (every undamped ω² > 0) is
+    /// `equilibrium.stable`: with negative damping an equilibrium is statically stable
+    /// and dynamically unstable.
+    pub fn dynamically_stable(&self) -> Option<bool> {
+        (self.linearization.dof() > 0).then(|| self.growing().is_empty())
+    }
+
+    /// The fastest-growing mode's index, if any grows.
+    pub fn fastest_growing(&self) -> Option<usize> {
+        self.growing().into_iter().max_by(|&a, &b| {
+            self.modes[a]
+                .eigenvalue
+                .re
+                .total_cmp(&self.modes[b].eigenvalue.re)
+        })
+    }
+}
+
+/// An equilibrium's stability in words, both truths: static (`stable`: every undamped
+/// ω² positive) and dynamic (`dynamic`: no mode grows; `growing` the growing modes, as
+/// [`crate::margins::unstable_modes`] gives them). `None` for either: no degrees of
+/// freedom. E.g. `statically stable, dynamically UNSTABLE (mode 1 grows as e^(+0.130 t),
+/// oscillating at 2.970 rad/s)`; plain `stable` when both hold.
+pub fn stability_words(
+    stable: Option<bool>,
+    dynamic: Option<bool>,
+    growing: &[crate::margins::UnstableMode],
+) -> String {
+    let how = || {
+        growing
+            .iter()
+            .map(|u| {
+                if u.omega_d_rad_s > 0.0 {
+                    format!(
+                        "{} grows as e^({:+.4} t), oscillating at {:.4} rad/s",
+                        u.mode, u.growth_rate_1_s, u.omega_d_rad_s
+                    )
+                } else {
+                    format!(
+                        "{} diverges as e^({:+.4} t) without oscillating",
+                        u.mode, u.growth_rate_1_s
+                    )
+                }
+            })
+            .collect::<Vec<_>>()
+            .join("; ")
+    };
+    match (stable, dynamic) {
+        (None, _) | (_, None) => "no degrees of freedom".into(),
+        (Some(true), Some(true)) => "stable".into(),
+        (Some(true), Some(false)) => {
+            format!("statically stable, dynamically UNSTABLE ({})", how())
+        }
+        (Some(false), Some(false)) => {
+            format!("UNSTABLE, statically and dynamically ({})", how())
+        }
+        (Some(false), Some(true)) => {
+            "statically UNSTABLE or neutral (an undamped ω² ≤ 0), dynamically: no mode grows".into()
+        }
+    }
 }
 
 /// Index of a coordinate by name, or the invalid request: `argument` names no coordinate.

@@ -811,6 +811,30 @@ pub struct Sensitivity {
     /// The cases whose equilibrium is unstable (a growing mode, Re λ > 0), in the order
     /// of the `--vary` and their cases: their frequencies are not resonances.
     pub unstable_cases: Vec<UnstableCase>,
+    /// The nominal design (the baseline) is dynamically unstable: some mode grows
+    /// ([`ModalAnalysis::growing`]); its frequencies, and the cases' changes from them,
+    /// are not resonances about a steady state.
+    pub baseline_unstable: bool,
+    /// The baseline's growing modes (named as the modes), empty when it is stable.
+    pub baseline_growing_modes: Vec<crate::margins::UnstableMode>,
+    /// The corners and interior samples of the tolerance box whose equilibrium is
+    /// unstable (counted in each mode's `worst_case.corners_unstable`), by their values.
+    pub unstable_corners: Vec<UnstableCorner>,
+}
+
+/// A point of the tolerance box (a corner, or an interior sample along one parameter)
+/// whose equilibrium is unstable.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct UnstableCorner {
+    /// The parameters' values there, `k_fs=110000, gearbox_scale=0.95` (SI).
+    pub label: String,
+    /// A corner of the box (all parameters at an end of their range), else an interior
+    /// sample (one parameter inside its range, the others at the baseline).
+    pub corner: bool,
+    /// The largest Re λ, 1/s.
+    pub growth_rate_1_s: f64,
+    /// |Im λ| of that mode, rad/s: 0 for a divergence.
+    pub omega_d_rad_s: f64,
 }
 
 /// A modal analysis's frequencies, with their undamped partners.
@@ -818,7 +842,7 @@ pub(crate) struct Evaluated {
     /// ω_n, ζ, undamped ω (when paired) of every mode in `ma.modes` order.
     pub(crate) modes: Vec<(f64, f64, Option<f64>)>,
     /// The fastest-growing mode's (Re λ, |Im λ|) when some mode grows (Re λ > 0 beyond
-    /// round-off, [`crate::margins::unstable_modes`]): the equilibrium is unstable.
+    /// round-off, [`ModalAnalysis::growing`]): the equilibrium is unstable.
     pub(crate) growth: Option<(f64, f64)>,
 }
 
@@ -826,11 +850,10 @@ pub(crate) fn evaluate(ma: &ModalAnalysis) -> Evaluated {
     let lin = &ma.linearization;
     let (w2, phi) = undamped_modes(lin);
     let pairs = pair_undamped(lin, &ma.modes, &phi);
-    let names: Vec<String> = Vec::new();
-    let growth = crate::margins::unstable_modes(ma, &names)
-        .into_iter()
-        .map(|u| (u.growth_rate_1_s, u.omega_d_rad_s))
-        .max_by(|a, b| a.0.total_cmp(&b.0));
+    let growth = ma.fastest_growing().map(|k| {
+        let m = &ma.modes[k];
+        (m.eigenvalue.re, m.omega_d_rad_s)
+    });
     Evaluated {
         growth,
         modes: ma
@@ -1139,6 +1162,14 @@ pub fn sensitivity(
     };
     // a corner that cannot be solved (no equilibrium near the baseline's there: the box
     // reaches past a fold, or a linkage that no longer closes) is counted, not fatal
+    let corner_label = |hi: &[bool]| {
+        varies
+            .iter()
+            .zip(hi)
+            .map(|(v, &h)| format!("{}={}", v.name, if h { v.range.1 } else { v.range.0 }))
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
     let corner_results: Vec<Result<(Evaluated, Vec<Option<(usize, f64)>>)>> = if k == 0 {
         Vec::new()
     } else {
@@ -1150,17 +1181,24 @@ pub fn sensitivity(
                     .zip(hi)
                     .map(|(v, &h)| (v.param, if h { v.range.1 } else { v.range.0 }))
                     .collect();
-                let label = varies
-                    .iter()
-                    .zip(hi)
-                    .map(|(v, &h)| format!("{}={}", v.name, if h { v.range.1 } else { v.range.0 }))
-                    .collect::<Vec<_>>()
-                    .join(", ");
-                run(&label, "the tolerance box's corner", &values)
+                run(&corner_label(hi), "the tolerance box's corner", &values)
             })
             .collect()
     };
     let corners_failed = corner_results.iter().filter(|r| r.is_err()).count();
+    let mut unstable_corners: Vec<UnstableCorner> = corners
+        .iter()
+        .zip(&corner_results)
+        .filter_map(|(hi, r)| {
+            let (g, wd) = r.as_ref().ok()?.0.growth?;
+            Some(UnstableCorner {
+                label: corner_label(hi),
+                corner: true,
+                growth_rate_1_s: g,
+                omega_d_rad_s: wd,
+            })
+        })
+        .collect();
     let corner_runs: Vec<(Evaluated, Vec<Option<(usize, f64)>>)> =
         corner_results.into_iter().filter_map(|r| r.ok()).collect();
     let corners_unstable = corner_runs.iter().filter(|r| r.0.growth.is_some()).count();
@@ -1205,6 +1243,15 @@ pub fn sensitivity(
         .iter()
         .filter(|r| r.2.as_ref().is_some_and(|e| e.0.growth.is_some()))
         .count();
+    unstable_corners.extend(axis_results.iter().filter_map(|(v, x, r)| {
+        let (g, wd) = r.as_ref()?.0.growth?;
+        Some(UnstableCorner {
+            label: format!("{}={x}", varies[*v].name),
+            corner: false,
+            growth_rate_1_s: g,
+            omega_d_rad_s: wd,
+        })
+    }));
     let unstable_cases: Vec<UnstableCase> = jobs
         .iter()
         .zip(&cases)
@@ -1345,9 +1392,14 @@ pub fn sensitivity(
             },
         });
     }
+    let all_names: Vec<String> = (0..ma.modes.len()).map(name_of).collect();
+    let baseline_growing_modes = crate::margins::unstable_modes(&ma, &all_names);
     Ok(Sensitivity {
         modes,
         unstable_cases,
+        baseline_unstable: !baseline_growing_modes.is_empty(),
+        baseline_growing_modes,
+        unstable_corners,
     })
 }
 

@@ -401,6 +401,47 @@ pub fn describe_modes(sys: &System, modal: &ModalAnalysis) -> Result<Vec<NamedMo
         .collect())
 }
 
+/// [`describe_modes`], falling back to numbering the modes by frequency when the model's
+/// declared `[[modes]]` cannot be matched (a design far from the one they describe, e.g.
+/// an unstable one: a shape that matches two modes, or none): as `margins` and
+/// `sensitivity` do ([`super::sensitivity::mode_names`]). The second value says why,
+/// when it fell back.
+pub fn describe_modes_or_numbered(
+    sys: &System,
+    modal: &ModalAnalysis,
+) -> Result<(Vec<NamedMode>, Option<String>)> {
+    let (names, note) = match name_modes(sys, modal) {
+        Ok(n) => (n, None),
+        Err(e) => (
+            (0..modal.modes.len())
+                .map(|k| ModeName {
+                    name: format!("mode {}", k + 1),
+                    declared_mac: None,
+                })
+                .collect(),
+            Some(
+                e.failure()
+                    .map(|f| f.to_string())
+                    .unwrap_or_else(|| e.to_string()),
+            ),
+        ),
+    };
+    let shares = energy_shares(sys, modal)?;
+    let named = names
+        .into_iter()
+        .zip(shares)
+        .map(|(name, energy)| NamedMode {
+            dominant_body: energy.kinetic.largest().map(|(b, x)| BodyShare {
+                body: b.to_string(),
+                share: x,
+            }),
+            name,
+            energy,
+        })
+        .collect();
+    Ok((named, note))
+}
+
 /// Options of [`track_modes`].
 #[derive(Debug, Clone)]
 pub struct TrackOptions {

@@ -10,7 +10,7 @@ use super::results::{Cell, frf_header, frf_rows, sweep_header, sweep_rows};
 use crate::dynamics::simulate::{SimOptions, SimStats, Trajectory};
 use crate::frequency::study::SweepRun;
 use crate::frequency::{Hysteresis, Jump, Peak};
-use crate::linear::{C64, FrequencyResponse, ModalAnalysis};
+use crate::linear::{C64, FrequencyResponse, ModalAnalysis, ModeFields};
 use crate::statics::Equilibrium;
 use crate::statics::continuation::{Branch, BranchPoint};
 use serde::Serialize;
@@ -296,22 +296,17 @@ impl<'a> BranchReport<'a> {
     }
 }
 
-/// One mode, its shape by coordinate name. A divergent mode (a real positive eigenvalue,
-/// about an unstable equilibrium) has `divergent` true, its growth rate λ and time
-/// constant 1/λ, and `null` for ω_n, f and ζ, which would describe a frequency it does
-/// not have (its ω_d is 0: it does not oscillate).
+/// One mode, its shape by coordinate name. Its numbers are [`ModeFields`] (built once,
+/// by [`crate::linear::Mode::fields`], for this and the report's sidecar): a real
+/// eigenvalue (a divergence, a non-oscillatory decay, a neutral direction) has `null`
+/// ω_n, f and ζ, which would describe a frequency it does not have; a growing mode
+/// (`growing`: divergent, or an oscillation with negative damping, which keeps its ω_n, f
+/// and ζ < 0) has its growth rate Re λ and time constant 1/Re λ; a decaying real mode its
+/// decay rate −λ and time constant.
 #[derive(Debug, Clone, Serialize)]
 pub struct ModeJson<'a> {
-    pub omega_n_rad_s: Option<f64>,
-    pub omega_d_rad_s: f64,
-    pub freq_hz: Option<f64>,
-    pub damping_ratio: Option<f64>,
-    pub eigenvalue: C64,
-    pub divergent: bool,
-    /// λ of a divergent mode (1/s): it grows as e^(+λt); `null` otherwise.
-    pub growth_rate_1_s: Option<f64>,
-    /// 1/λ of a divergent mode (s); `null` otherwise.
-    pub time_constant_s: Option<f64>,
+    #[serde(flatten)]
+    pub fields: ModeFields,
     pub shape: Named<'a, C64>,
     pub normalized_to: &'a str,
     /// The mode's name (`[[modes]]`, or `mode k` by frequency): with [`ModesReport::named`].
@@ -336,8 +331,16 @@ pub fn stability(e: &Equilibrium) -> Option<bool> {
 #[derive(Debug, Clone, Serialize)]
 pub struct ModesReport<'a> {
     pub equilibrium: Named<'a, f64>,
-    /// `null` with no degrees of freedom (see [`stability`]).
+    /// STATIC stability of the equilibrium: every undamped ω² of (K_r, M_r) positive (a
+    /// minimum of the potential). `null` with no degrees of freedom (see [`stability`]).
     pub stable: Option<bool>,
+    /// DYNAMIC stability: no mode grows (no Re λ above round-off,
+    /// [`ModalAnalysis::growing`]). Negative damping makes a statically stable equilibrium
+    /// dynamically unstable. `null` with no degrees of freedom.
+    pub dynamically_stable: Option<bool>,
+    /// The growing modes (`mode`: name, `growth_rate_1_s` = Re λ, `omega_d_rad_s`: 0 for
+    /// a divergence), in the modes' order; empty when dynamically stable.
+    pub growing_modes: Vec<crate::margins::UnstableMode>,
     pub modes: Vec<ModeJson<'a>>,
     pub undamped_omega2: &'a [f64],
     pub normalized_to: &'a str,
@@ -349,27 +352,19 @@ impl<'a> ModesReport<'a> {
         ModesReport {
             equilibrium: Named::new(&a.coordinates, &a.equilibrium.q),
             stable: stability(&a.equilibrium),
+            dynamically_stable: a.dynamically_stable(),
+            growing_modes: crate::margins::unstable_modes(a, &[]),
             modes: a
                 .modes
                 .iter()
-                .map(|m| {
-                    let divergent = m.is_divergent();
-                    let unless_divergent = |x: f64| (!divergent).then_some(x);
-                    ModeJson {
-                        omega_n_rad_s: unless_divergent(m.omega_n_rad_s),
-                        omega_d_rad_s: m.omega_d_rad_s,
-                        freq_hz: unless_divergent(m.freq_hz),
-                        damping_ratio: unless_divergent(m.damping_ratio),
-                        eigenvalue: m.eigenvalue,
-                        divergent,
-                        growth_rate_1_s: m.growth_rate(),
-                        time_constant_s: m.growth_rate().map(|r| 1.0 / r),
-                        shape: Named::new(&a.coordinates, &m.shape),
-                        normalized_to: &a.coordinates[m.normalized_to],
-                        name: None,
-                        kinetic_energy_share: None,
-                        strain_energy_share: None,
-                    }
+                .enumerate()
+                .map(|(k, m)| ModeJson {
+                    fields: a.fields(k),
+                    shape: Named::new(&a.coordinates, &m.shape),
+                    normalized_to: &a.coordinates[m.normalized_to],
+                    name: None,
+                    kinetic_energy_share: None,
+                    strain_energy_share: None,
                 })
                 .collect(),
             undamped_omega2: &a.undamped_omega2,
@@ -386,6 +381,8 @@ impl<'a> ModesReport<'a> {
         provenance: &'a Provenance,
     ) -> Self {
         let mut r = ModesReport::new(a, provenance);
+        let names: Vec<String> = named.iter().map(|n| n.name.name.clone()).collect();
+        r.growing_modes = crate::margins::unstable_modes(a, &names);
         for (m, n) in r.modes.iter_mut().zip(named) {
             m.name = Some(&n.name.name);
             m.kinetic_energy_share = Some(&n.energy.kinetic);

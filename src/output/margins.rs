@@ -61,6 +61,10 @@ pub struct MarginsReport<'a> {
     /// The modes with Re λ > 0 (`mode`, `growth_rate_1_s` = Re λ, `omega_d_rad_s` = 0 for
     /// a divergence): any fails the check.
     pub unstable: &'a [UnstableMode],
+    /// With `--vary`: the corners (and interior samples) of the tolerance box whose
+    /// equilibrium is unstable (`label` = their values, `growth_rate_1_s`,
+    /// `omega_d_rad_s`): any fails the check.
+    pub unstable_corners: &'a [crate::linear::sensitivity::UnstableCorner],
 }
 
 impl<'a> MarginsReport<'a> {
@@ -79,6 +83,7 @@ impl<'a> MarginsReport<'a> {
             pass: check.pass,
             skipped_modes: skipped,
             unstable: &check.unstable,
+            unstable_corners: &check.unstable_corners,
         }
     }
 }

@@ -11,7 +11,7 @@ use super::figures::{Band, CampbellLine, CampbellPlot, FrfPlot, campbell_svg, fr
 use super::{Cell, Column, Digits, Document, Report, Section, Sidecar, Table, escape_key};
 use crate::check::CheckReport;
 use crate::diag::{Error, Result};
-use crate::linear::{C64, FrequencyResponse, LinearPeak, ModalAnalysis, modal_analysis};
+use crate::linear::{C64, FrequencyResponse, LinearPeak, ModalAnalysis, Motion, modal_analysis};
 use crate::model::Model;
 use crate::model::units::Dim;
 use crate::output::Provenance;
@@ -111,8 +111,14 @@ struct CoordinateJson {
 
 #[derive(Serialize)]
 struct EquilibriumJson {
-    /// `null` with no degrees of freedom (as in `equilibrium --json`).
+    /// STATIC stability (every undamped ω² positive); `null` with no degrees of freedom
+    /// (as in `equilibrium --json`).
     stable: Option<bool>,
+    /// DYNAMIC stability: no mode grows (as in `modes --json`); `null` with no degrees of
+    /// freedom.
+    dynamically_stable: Option<bool>,
+    /// The growing modes (as in `modes --json`'s `growing_modes`).
+    growing_modes: Vec<crate::margins::UnstableMode>,
     /// |R|∞ of the static equations.
     residual: f64,
     coordinates: Vec<CoordinateJson>,
@@ -124,17 +130,12 @@ struct ModeJson {
     mode: usize,
     #[serde(skip_serializing_if = "Option::is_none")]
     name: Option<String>,
-    /// `null` for a divergent mode (as in `modes --json`), and so f, rpm and ζ.
-    omega_n_rad_s: Option<f64>,
-    omega_d_rad_s: f64,
-    freq_hz: Option<f64>,
+    /// The numbers of `modes --json`'s modes, from the same constructor
+    /// ([`crate::linear::Mode::fields`]): `null` ω_n, f and ζ for a real eigenvalue.
+    #[serde(flatten)]
+    fields: crate::linear::ModeFields,
+    /// ω_n in rpm; `null` for a real eigenvalue, as ω_n.
     rpm: Option<f64>,
-    damping_ratio: Option<f64>,
-    eigenvalue: C64,
-    /// A real positive eigenvalue: grows as e^(+λt), λ = `growth_rate_1_s`.
-    divergent: bool,
-    growth_rate_1_s: Option<f64>,
-    time_constant_s: Option<f64>,
     /// By coordinate name, normalized to `normalized_to` = 1.
     shape: BTreeMap<String, C64>,
     normalized_to: String,
@@ -145,7 +146,7 @@ struct ModeJson {
 impl ModeJson {
     /// ω_n (rad/s), NaN for a divergent mode.
     fn omega_n(&self) -> f64 {
-        self.omega_n_rad_s.unwrap_or(f64::NAN)
+        self.fields.omega_n_rad_s.unwrap_or(f64::NAN)
     }
 
     /// The mode's name (the model's `[[modes]]`), or `mode N`.
@@ -484,6 +485,11 @@ pub fn build(inp: &ReportInputs) -> Result<Report> {
     let m: ModalAnalysis = modal_analysis(sys, None)?;
     let eq = EquilibriumJson {
         stable: crate::output::json::stability(&m.equilibrium),
+        dynamically_stable: m.dynamically_stable(),
+        growing_modes: crate::margins::unstable_modes(
+            &m,
+            &extras_names(inp.mode_extras, m.modes.len()),
+        ),
         residual: m.equilibrium.residual,
         coordinates: m
             .coordinates
@@ -503,10 +509,10 @@ pub fn build(inp: &ReportInputs) -> Result<Report> {
         Section::new("equilibrium", "Equilibrium")
             .prose(format!(
                 "The static equilibrium nearest the initial pose, loads at their mean over a period: {}. Static residual {} (N and m mixed).",
-                match eq.stable {
-                    None => "no degrees of freedom (the constraints fix every coordinate)",
-                    Some(true) => "stable (every undamped ω² positive)",
-                    Some(false) => "UNSTABLE (a negative undamped ω²)",
+                match (eq.stable, eq.dynamically_stable) {
+                    (None, _) => "no degrees of freedom (the constraints fix every coordinate)".to_string(),
+                    (Some(true), Some(true)) => "stable (every undamped ω² positive, and no mode grows)".to_string(),
+                    _ => crate::linear::stability_words(eq.stable, eq.dynamically_stable, &eq.growing_modes),
                 },
                 data.inline("equilibrium/residual", Digits::Sci(1))
             ))
@@ -540,20 +546,12 @@ pub fn build(inp: &ReportInputs) -> Result<Report> {
         .iter()
         .enumerate()
         .map(|(k, md)| {
-            let divergent = md.is_divergent();
-            let unless_divergent = |x: f64| (!divergent).then_some(x);
+            let fields = m.fields(k);
             ModeJson {
                 mode: k + 1,
                 name: extras.and_then(|x| x.names.get(k).cloned().flatten()),
-                omega_n_rad_s: unless_divergent(md.omega_n_rad_s),
-                omega_d_rad_s: md.omega_d_rad_s,
-                freq_hz: unless_divergent(md.freq_hz),
-                rpm: unless_divergent(rpm(md.omega_n_rad_s)),
-                damping_ratio: unless_divergent(md.damping_ratio),
-                eigenvalue: md.eigenvalue,
-                divergent,
-                growth_rate_1_s: md.growth_rate(),
-                time_constant_s: md.growth_rate().map(|r| 1.0 / r),
+                rpm: fields.omega_n_rad_s.map(rpm),
+                fields,
                 shape: m
                     .coordinates
                     .iter()
@@ -597,14 +595,26 @@ pub fn build(inp: &ReportInputs) -> Result<Report> {
                     if named {
                         row.push(Cell::text(x.name.clone().unwrap_or_default()));
                     }
-                    if x.divergent {
-                        // no frequency or damping ratio: it grows without oscillating
-                        row.extend([
-                            Cell::text(format!(
+                    if x.fields.non_oscillatory {
+                        // a real eigenvalue: no frequency or damping ratio (as `modes` says)
+                        let what = match x.fields.motion {
+                            Motion::Divergent => format!(
                                 "divergent: grows as e^(+{} t) (1/s), time constant {} s",
                                 data.inline(format!("modes/{k}/growth_rate_1_s"), Digits::Fixed(3)),
                                 data.inline(format!("modes/{k}/time_constant_s"), Digits::Fixed(4)),
-                            )),
+                            ),
+                            Motion::Decaying => format!(
+                                "non-oscillatory: decays as e^(−{} t) (1/s), time constant {} s",
+                                data.inline(format!("modes/{k}/decay_rate_1_s"), Digits::Fixed(3)),
+                                data.inline(
+                                    format!("modes/{k}/decay_time_constant_s"),
+                                    Digits::Fixed(4)
+                                ),
+                            ),
+                            _ => "non-oscillatory: neutral (λ = 0 to round-off)".to_string(),
+                        };
+                        row.extend([
+                            Cell::text(what),
                             Cell::text("—"),
                             Cell::text("—"),
                             Cell::text("—"),
@@ -687,7 +697,7 @@ pub fn build(inp: &ReportInputs) -> Result<Report> {
     let oscillating: Vec<(usize, f64)> = modes
         .iter()
         .enumerate()
-        .filter(|(_, x)| x.omega_d_rad_s > 0.0 && x.omega_n().is_finite())
+        .filter(|(_, x)| x.fields.omega_d_rad_s > 0.0 && x.omega_n().is_finite())
         .map(|(k, x)| (k, x.omega_n()))
         .collect();
     let mut frf_section = Section::new("frf", "Linear frequency response");
@@ -1007,7 +1017,10 @@ fn campbell(
         })
         .filter(|l| l.slope > 0.0 && l.slope.is_finite())
         .collect();
-    let osc: Vec<&ModeJson> = modes.iter().filter(|m| m.omega_d_rad_s > 0.0).collect();
+    let osc: Vec<&ModeJson> = modes
+        .iter()
+        .filter(|m| m.fields.omega_d_rad_s > 0.0)
+        .collect();
     let mut crossings = Vec::new();
     for m in &osc {
         for l in &lines {
@@ -1270,4 +1283,15 @@ mod tests {
         assert!((g[0] - 2.0).abs() < 1e-12 && (g[1] - 20.0).abs() < 1e-12);
         assert!((g[2] - 200.0).abs() < 1e-10);
     }
+}
+
+/// The modes' names for the report (the model's `[[modes]]` where given, else `mode k`).
+fn extras_names(extras: Option<&ModeExtras>, n: usize) -> Vec<String> {
+    (0..n)
+        .map(|k| {
+            extras
+                .and_then(|x| x.names.get(k).cloned().flatten())
+                .unwrap_or_else(|| format!("mode {}", k + 1))
+        })
+        .collect()
 }

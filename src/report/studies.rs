@@ -153,8 +153,13 @@ pub fn add_studies(report: &mut Report, s: &Studies) -> Result<()> {
         points = crate::margins::with_intervals(points, study);
     }
     // an unstable design fails, whatever its separations
-    let check =
+    let mut check =
         crate::margins::check_design(&ma, &names, &points, &lines, s.margin, Requirement::Fixed)?;
+    // with the user's tolerances, an unstable point of the box fails it too (as `margins
+    // --vary` does)
+    if let (true, Some(study)) = (s.given, &study) {
+        check = check.with_unstable_corners(study.unstable_corners.clone());
+    }
     report.add_data("margins", &check)?;
     if let Some(profile) = &env.profile {
         let section = profile_section(report, s, env, profile, &ma)?;
@@ -218,6 +223,31 @@ pub fn add_studies(report: &mut Report, s: &Studies) -> Result<()> {
         format!(
             "FAIL: the equilibrium is UNSTABLE ({}): a design that leaves its equilibrium cannot pass, whatever its separations{}",
             unstable.join("; "),
+            if failures.is_empty() {
+                ".".to_string()
+            } else {
+                format!(
+                    "; and at a {margin} % margin (a choice, not a standard): {}.",
+                    failures.join("; ")
+                )
+            }
+        )
+    } else if !check.unstable_corners.is_empty() {
+        let corners: Vec<String> = (0..check.unstable_corners.len())
+            .map(|k| {
+                format!(
+                    "{} (grows at Re λ = {} 1/s)",
+                    check.unstable_corners[k].label,
+                    d.inline(
+                        format!("margins/unstable_corners/{k}/growth_rate_1_s"),
+                        Digits::Fixed(4)
+                    )
+                )
+            })
+            .collect();
+        format!(
+            "FAIL: the tolerance box reaches UNSTABLE designs, at {}: a part within tolerance can leave its equilibrium, whatever the separations{}",
+            corners.join("; "),
             if failures.is_empty() {
                 ".".to_string()
             } else {

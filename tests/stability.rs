@@ -1,0 +1,434 @@
+//! One stability verdict everywhere (issues 10 and 11): the one "growing" predicate
+//! (`ModalAnalysis::growing`, Re λ above 1e-6 of the largest |λ|), static and dynamic
+//! stability said apart, real eigenvalues without a frequency in `modes --json` and the
+//! report, the unstable nominal design and tolerance corners in `sensitivity` and
+//! `margins`. Each number against a closed form:
+//!
+//! * the 1-DoF block of tests/data/sdof.toml (m = 2 kg, k = 800 N/m, damper c):
+//!   λ = (−c ± √(c² − 4km)) / 2m;
+//! * the compound pendulum of tests/data/torsion_pendulum.toml turned upside down
+//!   (g = −9.81: the hanging pose is inverted; k = c = 0): λ = ±√(m g (L/2) / I_O) with
+//!   I_O = m L²/3.
+
+use detune::linear::{C64, Mode, Motion};
+use serde_json::Value;
+use std::process::{Command, Output};
+
+const BIN: &str = env!("CARGO_BIN_EXE_detune");
+const SDOF: &str = "tests/data/sdof.toml";
+const PENDULUM: &str = "tests/data/torsion_pendulum.toml";
+const M: f64 = 2.0;
+const K: f64 = 800.0;
+
+fn run(args: &[&str]) -> Output {
+    Command::new(BIN)
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .args(args)
+        .output()
+        .unwrap()
+}
+
+fn json(args: &[&str]) -> Value {
+    let out = run(args);
+    assert!(
+        out.status.success(),
+        "{args:?}: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    serde_json::from_slice(&out.stdout).unwrap()
+}
+
+fn f(v: &Value) -> f64 {
+    v.as_f64().unwrap_or_else(|| panic!("not a number: {v}"))
+}
+
+fn close(got: f64, want: f64, rel: f64) {
+    assert!(
+        (got - want).abs() <= rel * want.abs().max(1e-300),
+        "{got} vs {want}"
+    );
+}
+
+/// λ = (−c ± √(c² − 4km)) / 2m of the block: (re, |im|) of the upper root, or the two real
+/// roots.
+fn sdof_roots(c: f64) -> (f64, f64) {
+    let d = c * c - 4.0 * K * M;
+    if d < 0.0 {
+        (-c / (2.0 * M), (-d).sqrt() / (2.0 * M))
+    } else {
+        ((-c - d.sqrt()) / (2.0 * M), (-c + d.sqrt()) / (2.0 * M))
+    }
+}
+
+/// Negative damping (c = −6 N·s/m): statically stable (k > 0), dynamically UNSTABLE, an
+/// oscillation growing as e^(+c/2m t) = e^(+1.5 t) at ω_d = √(4km − c²)/2m. JSON keeps
+/// `stable` (static) and adds `dynamically_stable` and the growing modes; the mode keeps
+/// its ω_n = √(k/m) = 20 rad/s and ζ = c/(2√(km)) = −0.075, flagged `growing`.
+#[test]
+fn negative_damping_is_statically_stable_and_dynamically_unstable() {
+    let (re, im) = sdof_roots(-6.0);
+    assert_eq!(re, 1.5);
+    let v = json(&["modes", SDOF, "--set", "c=-6", "--json"]);
+    assert_eq!(v["stable"], true);
+    assert_eq!(v["dynamically_stable"], false);
+    let g = v["growing_modes"].as_array().unwrap();
+    assert_eq!(g.len(), 1, "{g:?}");
+    close(f(&g[0]["growth_rate_1_s"]), re, 1e-10);
+    close(f(&g[0]["omega_d_rad_s"]), im, 1e-10);
+    let m = &v["modes"][0];
+    assert_eq!(m["growing"], true);
+    assert_eq!(m["divergent"], false);
+    assert_eq!(m["non_oscillatory"], false);
+    assert_eq!(m["motion"], "growing_oscillation");
+    close(f(&m["growth_rate_1_s"]), re, 1e-10);
+    close(f(&m["time_constant_s"]), 1.0 / re, 1e-10);
+    close(f(&m["omega_n_rad_s"]), (K / M).sqrt(), 1e-10);
+    close(f(&m["damping_ratio"]), -6.0 / (2.0 * (K * M).sqrt()), 1e-9);
+    close(
+        f(&m["freq_hz"]),
+        (K / M).sqrt() / std::f64::consts::TAU,
+        1e-10,
+    );
+    // the text says both truths, with the growth and the frequency
+    let out = run(&["modes", SDOF, "--set", "c=-6"]);
+    let text = String::from_utf8_lossy(&out.stdout);
+    let first = text.lines().next().unwrap();
+    assert_eq!(
+        first,
+        format!(
+            "equilibrium: statically stable, dynamically UNSTABLE (mode 1 grows as e^({re:+.4} t), oscillating at {im:.4} rad/s)"
+        )
+    );
+    assert!(text.contains("GROWING: e^(+1.500000 t)"), "{text}");
+    // positive damping: both stable, nothing growing
+    let v = json(&["modes", SDOF, "--json"]);
+    assert_eq!(
+        (&v["stable"], &v["dynamically_stable"]),
+        (&Value::Bool(true), &Value::Bool(true))
+    );
+    assert_eq!(v["growing_modes"], serde_json::json!([]));
+    assert_eq!(v["modes"][0]["growing"], false);
+}
+
+/// Negative damping beyond critical (c = −100): two real roots (100 ± 60)/4 = 10 and
+/// 40 1/s, both divergent although k > 0: still statically stable.
+#[test]
+fn strong_negative_damping_diverges_without_oscillating() {
+    let (a, b) = sdof_roots(-100.0);
+    assert_eq!((a, b), (10.0, 40.0));
+    let v = json(&["modes", SDOF, "--set", "c=-100", "--json"]);
+    assert_eq!(v["stable"], true);
+    assert_eq!(v["dynamically_stable"], false);
+    let rates: Vec<f64> = v["growing_modes"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|g| f(&g["growth_rate_1_s"]))
+        .collect();
+    assert_eq!(rates.len(), 2);
+    close(rates[0], a, 1e-10);
+    close(rates[1], b, 1e-10);
+    for m in v["modes"].as_array().unwrap() {
+        assert_eq!(m["divergent"], true);
+        assert_eq!(m["omega_n_rad_s"], Value::Null);
+    }
+}
+
+/// An overdamped mode (c = 100 N·s/m: λ = −10 and −40 1/s) and the saddle's decaying
+/// partner are non-oscillatory: `modes --json` gives them no frequency and no ζ (as the
+/// text says "non-oscillatory"), and their decay rate −λ.
+#[test]
+fn an_overdamped_mode_has_no_frequency() {
+    let (a, b) = sdof_roots(100.0);
+    assert_eq!((a, b), (-40.0, -10.0));
+    let v = json(&["modes", SDOF, "--set", "c=100", "--json"]);
+    assert_eq!(v["dynamically_stable"], true);
+    let modes = v["modes"].as_array().unwrap();
+    let mut decay: Vec<f64> = modes.iter().map(|m| f(&m["decay_rate_1_s"])).collect();
+    decay.sort_by(f64::total_cmp);
+    close(decay[0], 10.0, 1e-10);
+    close(decay[1], 40.0, 1e-10);
+    for m in modes {
+        assert_eq!(m["motion"], "decaying");
+        assert_eq!(m["non_oscillatory"], true);
+        assert_eq!(m["growing"], false);
+        for key in [
+            "omega_n_rad_s",
+            "freq_hz",
+            "damping_ratio",
+            "growth_rate_1_s",
+        ] {
+            assert_eq!(m[key], Value::Null, "{key}: {m}");
+        }
+        close(
+            f(&m["decay_time_constant_s"]),
+            1.0 / f(&m["decay_rate_1_s"]),
+            1e-12,
+        );
+    }
+}
+
+/// The inverted pendulum: λ = ±√(mgl/I) with l = L/2, I = mL²/3 (m = 1.5 kg, L = 0.8 m,
+/// g = 9.81): a saddle, statically and dynamically unstable. `modes --json` and the
+/// report's sidecar give the same numbers (one constructor): the decaying root with no
+/// frequency and its decay rate, the divergent root with its growth rate.
+#[test]
+fn an_inverted_pendulum_is_a_saddle_in_modes_and_in_the_report() {
+    let (m, l, g): (f64, f64, f64) = (1.5, 0.8, 9.81);
+    let rate = (m * g * (l / 2.0) / (m * l * l / 3.0)).sqrt();
+    let args = ["--set", "g=-9.81", "--set", "k=0", "--set", "c=0"];
+    let mut a = vec!["modes", PENDULUM, "--json"];
+    a.extend(args);
+    let v = json(&a);
+    assert_eq!(v["stable"], false);
+    assert_eq!(v["dynamically_stable"], false);
+    let modes = v["modes"].as_array().unwrap();
+    assert_eq!(modes.len(), 2);
+    let decaying = modes.iter().find(|m| m["motion"] == "decaying").unwrap();
+    let divergent = modes.iter().find(|m| m["motion"] == "divergent").unwrap();
+    close(f(&decaying["decay_rate_1_s"]), rate, 1e-9);
+    assert_eq!(decaying["freq_hz"], Value::Null);
+    assert_eq!(decaying["damping_ratio"], Value::Null);
+    close(f(&divergent["growth_rate_1_s"]), rate, 1e-9);
+    assert_eq!(divergent["divergent"], true);
+
+    let dir = tempfile::tempdir().unwrap();
+    let html = dir.path().join("r.html");
+    let mut a = vec!["report", PENDULUM, "-o", html.to_str().unwrap()];
+    a.extend(args);
+    let out = run(&a);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let said = String::from_utf8_lossy(&out.stdout) + String::from_utf8_lossy(&out.stderr);
+    assert!(
+        said.contains("(ω_n non-oscillatory, divergent rad/s)"),
+        "{said}"
+    );
+    let side: Value =
+        serde_json::from_str(&std::fs::read_to_string(html.with_extension("json")).unwrap())
+            .unwrap();
+    assert_eq!(side["equilibrium"]["stable"], false);
+    assert_eq!(side["equilibrium"]["dynamically_stable"], false);
+    // the same fields as modes --json, key by key (the report adds mode, rpm, energy)
+    for (r, j) in side["modes"].as_array().unwrap().iter().zip(modes) {
+        for (key, value) in j.as_object().unwrap() {
+            if [
+                "shape",
+                "name",
+                "kinetic_energy_share",
+                "strain_energy_share",
+                "normalized_to",
+            ]
+            .contains(&key.as_str())
+            {
+                continue;
+            }
+            assert_eq!(&r[key], value, "{key}");
+        }
+        assert_eq!(r["rpm"], Value::Null);
+    }
+    let page = std::fs::read_to_string(&html).unwrap();
+    assert!(
+        page.contains("non-oscillatory: decays as e^(−"),
+        "no decaying mode row"
+    );
+    assert!(page.contains("UNSTABLE, statically and dynamically"));
+}
+
+/// The one predicate: a real part within 1e-6 of the largest |λ| is round-off, not
+/// growth (a neutral double zero computed as ±√ε‖A‖); above it, a mode grows, real or
+/// complex.
+#[test]
+fn round_off_is_not_growth() {
+    let mode = |re: f64, im: f64| {
+        let wn = (re * re + im * im).sqrt();
+        Mode {
+            omega_n_rad_s: wn,
+            omega_d_rad_s: im.abs(),
+            freq_hz: wn / std::f64::consts::TAU,
+            damping_ratio: if wn > 0.0 { -re / wn } else { 0.0 },
+            eigenvalue: C64 { re, im },
+            shape: vec![C64 { re: 1.0, im: 0.0 }],
+            normalized_to: 0,
+        }
+    };
+    let threshold = 1e-6 * 20.0; // the largest |λ| of the analysis: 20 rad/s
+    assert_eq!(mode(1e-8, 0.0).motion(threshold), Motion::Neutral);
+    assert_eq!(mode(-1e-8, 0.0).motion(threshold), Motion::Neutral);
+    assert_eq!(mode(1e-8, 20.0).motion(threshold), Motion::Oscillating);
+    assert_eq!(mode(1e-3, 0.0).motion(threshold), Motion::Divergent);
+    assert_eq!(mode(-1e-3, 0.0).motion(threshold), Motion::Decaying);
+    assert_eq!(
+        mode(1e-3, 20.0).motion(threshold),
+        Motion::GrowingOscillation
+    );
+    let fields = mode(1e-8, 0.0).fields(threshold);
+    assert!(!fields.divergent && !fields.growing && fields.non_oscillatory);
+    assert_eq!(fields.growth_rate_1_s, None);
+    // a free block (k = c = 0): a double zero, neutral, nothing divergent
+    let v = json(&["modes", SDOF, "--set", "k=0", "--set", "c=0", "--json"]);
+    for m in v["modes"].as_array().unwrap() {
+        assert_eq!(m["motion"], "neutral", "{m}");
+        assert_eq!(m["divergent"], false);
+    }
+    assert_eq!(v["dynamically_stable"], true);
+}
+
+/// `sensitivity` on an unstable nominal design warns about it first, and its JSON says
+/// `baseline_unstable` with the growing mode (c = −6: Re λ = 1.5 1/s).
+#[test]
+fn sensitivity_warns_of_an_unstable_baseline_first() {
+    let out = run(&[
+        "sensitivity",
+        SDOF,
+        "--set",
+        "c=-6",
+        "--vary",
+        "k=±10%",
+        "--json",
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        stderr.lines().next().unwrap().starts_with(
+            "warning: the nominal design (the baseline) is UNSTABLE: mode 1 grows as e^(+1.5000 t)"
+        ),
+        "{stderr}"
+    );
+    let v: Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(v["baseline_unstable"], true);
+    close(
+        f(&v["baseline_growing_modes"][0]["growth_rate_1_s"]),
+        1.5,
+        1e-10,
+    );
+    let kinds: Vec<&str> = v["warnings"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter_map(|w| w["kind"].as_str())
+        .collect();
+    assert_eq!(kinds.first(), Some(&"unstable_baseline"), "{kinds:?}");
+    // a stable one says so too
+    let v = json(&["sensitivity", SDOF, "--vary", "k=±10%", "--json"]);
+    assert_eq!(v["baseline_unstable"], false);
+}
+
+/// `sensitivity` on a model with no degrees of freedom: nothing to compute is an error
+/// (exit 1) that says so, not an empty success.
+#[test]
+fn sensitivity_without_degrees_of_freedom_is_an_error() {
+    let out = run(&[
+        "sensitivity",
+        "tests/data/driven_pendulum.toml",
+        "--vary",
+        "g=±10%",
+    ]);
+    assert_eq!(out.status.code(), Some(1));
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        stderr.contains("nothing to compute: the model has no degrees of freedom"),
+        "{stderr}"
+    );
+    assert!(stderr.contains("help:"), "{stderr}");
+    assert!(out.stdout.is_empty());
+}
+
+/// `margins --vary`: a corner of the tolerance box that is unstable fails the check
+/// (exit 3), named in the text and the JSON. c = 2 ± 5 N·s/m reaches c = −3, where the
+/// block grows as e^(+3/(2m) t) = e^(+0.75 t).
+#[test]
+fn an_unstable_tolerance_corner_fails_the_margins() {
+    let args = [
+        "margins",
+        SDOF,
+        "--environment",
+        "UH-60",
+        "--set",
+        "c=2",
+        "--vary",
+        "c=±5",
+    ];
+    let out = run(&args);
+    assert_eq!(
+        out.status.code(),
+        Some(3),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let text = String::from_utf8_lossy(&out.stdout);
+    let (re, im) = sdof_roots(-3.0);
+    assert!(
+        text.contains(&format!(
+            "the tolerance box's corner c=-3 is UNSTABLE: an oscillation grows as e^({re:+.4}·t) at ω_d = {im:.4} rad/s"
+        )),
+        "{text}"
+    );
+    assert!(text.contains("FAIL: the tolerance box reaches unstable designs"));
+    let mut a = args.to_vec();
+    a.push("--json");
+    let out = run(&a);
+    assert_eq!(out.status.code(), Some(3));
+    let v: Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(v["pass"], false);
+    let corners = v["unstable_corners"].as_array().unwrap();
+    let c = corners.iter().find(|c| c["label"] == "c=-3").unwrap();
+    assert_eq!(c["corner"], true);
+    close(f(&c["growth_rate_1_s"]), 0.75, 1e-10);
+    close(f(&c["omega_d_rad_s"]), im, 1e-10);
+    // the nominal design and its stable corner alone pass (c = 2 ± 1)
+    let out = run(&[
+        "margins",
+        SDOF,
+        "--environment",
+        "UH-60",
+        "--set",
+        "c=2",
+        "--vary",
+        "c=±1",
+    ]);
+    assert_eq!(out.status.code(), Some(0));
+}
+
+/// `modes` on the unstable inceptor (k_fs = −20000 N/m): its declared names cannot tell
+/// the modes apart there; it falls back to numbering them, with a note, as `margins`
+/// does (exit 0), and says which mode diverges.
+#[test]
+fn modes_fall_back_to_numbers_where_the_names_do_not_apply() {
+    let out = run(&[
+        "modes",
+        "models/inceptor.toml",
+        "--set",
+        "k_fs=-20000",
+        "--json",
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        stderr.contains("note: the model's [[modes]] names do not apply to this design"),
+        "{stderr}"
+    );
+    let v: Value = serde_json::from_slice(&out.stdout).unwrap();
+    let names: Vec<&str> = v["modes"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|m| m["name"].as_str().unwrap())
+        .collect();
+    assert_eq!(names[0], "mode 1");
+    assert_eq!(v["dynamically_stable"], false);
+    assert_eq!(v["growing_modes"][0]["mode"], "mode 1");
+    // the same divergence as `margins` reports (tests/margins.rs: 5.8357 1/s)
+    close(f(&v["growing_modes"][0]["growth_rate_1_s"]), 5.8357, 1e-4);
+}
