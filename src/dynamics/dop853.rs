@@ -5,9 +5,13 @@
 //! estimate, for every dense-output coefficient and for every interpolated sample (about
 //! 30 heap allocations a step and 2 a sample); on the overcentre's 20 s free case
 //! (80 steps, 2001 samples) allocation and copying were about a sixth of the run, and most
-//! of the hand-written minimal model's. No other crate we know of (`ode_solvers`,
-//! `diffsol`, `russell_ode`) steps DOP853 with Hairer's dense output without allocating
-//! per step or per sample. This is the same method, written to perform **the same
+//! of the hand-written minimal model's. `ode_solvers`' `Dop853` is allocation-free only
+//! on fixed-size nalgebra vectors (a model's dimension is known at run time only; on a
+//! `DVector` its stage expressions allocate) and integrates a whole interval through its
+//! own output callback rather than stepping under the caller's control (the drift
+//! projections restart the integration from a changed state); neither it nor any other
+//! crate would give the numbers detune has pinned so far. This is the same method,
+//! written to perform **the same
 //! floating-point operations in the same order** as that crate's step, initial step size
 //! and interpolant (coefficients taken from the crate's own tableau,
 //! `ButcherTableau::dop853`), on buffers made once per integration. So the steps, their
