@@ -5,7 +5,8 @@
 //! * `detune_free_case`: the general path (Udwadia–Kalaba, A and b by dual numbers,
 //!   Cholesky pseudoinverse, projection) through `detune::simulate`;
 //! * `minimal_free_case`: a hand-written θ1-only Lagrange right-hand side integrated by
-//!   the same integrator wrapper with the same outputs: the price of generality;
+//!   the same integrator wrapper (`integrate`: detune's DOP853 stepper, the same as
+//!   `detune_free_case` uses) with the same outputs: the price of generality;
 //! * `stage_*`: one right-hand side split into its stages, to see where the time goes.
 //!
 //! Figures are recorded in docs/performance.md. Run: `cargo bench --bench simulate`.

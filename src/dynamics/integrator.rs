@@ -1,6 +1,8 @@
 //! The ODE integrators behind one small function: DOP853 (8th order, explicit, adaptive,
-//! dense output) or Radau IIA (5th order, implicit, for stiff models), both from the
-//! crate `differential-equations` 0.7.0, driven step by step.
+//! dense output) or Radau IIA (5th order, implicit, for stiff models). Radau IIA is the
+//! crate `differential-equations` 0.7.0's; DOP853 is stepped by [`super::dop853`], the
+//! same method written to the same operations as that crate's so every number is the
+//! same, without its allocation per stage and per sample (see there why).
 //!
 //! [`integrate`] samples the solution at equally spaced output times from the dense
 //! output, and after each accepted step hands the state to a hook that may change it
@@ -35,6 +37,13 @@
 //! numbers (|λ|, the step it forces, the steps the run will take) and is handed to the
 //! caller as soon as it is known.
 //!
+//! A second check ([`StiffnessTest::monitor`]) reports a run projected past
+//! [`MANY_STEPS`] whose steps resolve a fast motion the output does not: its fastest
+//! eigenvalue (by finite differences) ties the steps (h·|λ| > 0.01) and turns by more
+//! than half a cycle between two samples (|λ|·dt_out > π), a stiff element's vibration
+//! followed at tight tolerances. A run that is merely long (the mechanism's own motion,
+//! resolved by its samples) is not stiff.
+//!
 //! # Radau IIA
 //!
 //! `ImplicitRungeKutta::radau5` (Hairer & Wanner's RADAU5: three stages, order 5,
@@ -49,10 +58,12 @@ use crate::failure::Failure;
 use differential_equations::interpolate::Interpolation;
 use differential_equations::methods::{Ordinary, Radau};
 use differential_equations::ode::{ODE, OrdinaryNumericalMethod};
-use differential_equations::prelude::{ExplicitRungeKutta, ImplicitRungeKutta};
+use differential_equations::prelude::ImplicitRungeKutta;
 use differential_equations::status::Status;
 use differential_equations::traits::State;
 use std::cell::{Cell, RefCell};
+
+use super::dop853::Dop853;
 
 /// The integration method.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize)]
@@ -321,10 +332,18 @@ const STABILITY_BOUND: f64 = 6.1;
 const STIFF_TESTS: usize = 15;
 
 /// A run projected to take more steps than this, whose steps are each more than
-/// [`FAST_FRACTION`] of the fastest time constant 1/|λ|, is reported as held by its fastest
+/// [`FAST_FRACTION`] of the fastest time constant 1/|λ|, and whose samples do not resolve
+/// that motion (|λ|·dt_out above [`UNRESOLVED`]), is reported as held by its fastest
 /// motion. The projection is made after 1000, 2000, 4000, ... accepted steps.
 pub const MANY_STEPS: f64 = 1e5;
 const FAST_FRACTION: f64 = 0.01;
+/// |λ|·dt_out above π: the fastest motion turns by more than half a cycle between two
+/// output samples (above their Nyquist rate), so the samples cannot show it and it is not
+/// what the run is for. Below it the fastest motion is the one asked for, and a long run
+/// simply takes many steps: `simulate models/overcentre.toml --set F0=3 --set omega=2
+/// --t-end 100000 --dt-out 0.1` (|λ| ≈ 1.8 1/s, the mechanism's own mode, |λ|·dt_out ≈
+/// 0.18) was called stiff for its length alone (1.3e6 steps) before this condition.
+const UNRESOLVED: f64 = std::f64::consts::PI;
 const FIRST_LOOK: usize = 1000;
 
 impl StiffnessTest {
@@ -405,7 +424,8 @@ impl StiffnessTest {
 impl StiffnessTest {
     /// After 1000, 2000, 4000, ... accepted steps: a run projected to take more than
     /// [`MANY_STEPS`] whose steps are tied to its fastest motion (h·ρ(J) above
-    /// [`FAST_FRACTION`]). The Jacobian is formed by finite differences of the model's own
+    /// [`FAST_FRACTION`]) while its samples do not resolve that motion (ρ(J)·dt_out
+    /// above [`UNRESOLVED`]). The Jacobian is formed by finite differences of the model's own
     /// right-hand side (not counted in the stats).
     fn monitor<F: ODE<f64, Vec<f64>>>(
         &mut self,
@@ -435,7 +455,7 @@ impl StiffnessTest {
         }
         let lambda = spectral_radius(ode, t1, y1)?;
         let step = done / a as f64;
-        if !(step * lambda > FAST_FRACTION) {
+        if !(step * lambda > FAST_FRACTION) || !(lambda * opts.dt_out > UNRESOLVED) {
             return None;
         }
         self.declared = true;
@@ -551,11 +571,12 @@ pub fn integrate_stoppable<F: ODE<f64, Vec<f64>>>(
     };
     match opts.method {
         Integrator::Dop853 => {
-            let solver = ExplicitRungeKutta::<Ordinary, _, f64, Vec<f64>, 8, 12, 16>::dop853()
-                .rtol(opts.rtol)
-                .atol(opts.atol)
-                .max_steps(usize::MAX);
-            run.drive(&guarded, y0, solver, true, &|s, h| s.h0 = h, stats)
+            let solver = Dop853::new(opts.rtol, opts.atol);
+            let dense = |s: &mut Dop853, t: f64, out: &mut Vec<f64>| {
+                s.dense_into(t, out);
+                Ok(())
+            };
+            run.drive(&guarded, y0, solver, true, &|s, h| s.h0 = h, &dense, stats)
         }
         Integrator::Radau => {
             let _dim = RadauDim::set(y0.len());
@@ -568,7 +589,15 @@ pub fn integrate_stoppable<F: ODE<f64, Vec<f64>>>(
                     .h0(h0)
                     .max_steps(usize::MAX)
             };
-            run.drive(&guarded, y0, make(0.0), false, &|s, h| *s = make(h), stats)
+            run.drive(
+                &guarded,
+                y0,
+                make(0.0),
+                false,
+                &|s, h| *s = make(h),
+                &interpolate_into,
+                stats,
+            )
         }
     }
 }
@@ -601,6 +630,7 @@ impl Run<'_> {
         mut solver: S,
         dop: bool,
         set_h0: &dyn Fn(&mut S, f64),
+        dense: &dyn Fn(&mut S, f64, &mut Vec<f64>) -> Result<()>,
         mut stats: IntegratorStats,
     ) -> Result<IntegratorStats>
     where
@@ -637,8 +667,8 @@ impl Run<'_> {
             .init(guarded, t0, t_end, &Y::of(y0.to_vec()))
             .map_err(integration_error)?;
         let mut test = StiffnessTest::new();
-        // ẏ at the end of the previous step, for the dense-output correction.
-        let mut deriv_cache: Option<(f64, Vec<f64>)> = None;
+        // one interpolated sample
+        let mut yk = Vec::with_capacity(y0.len());
         let mut next_k = 1;
         let mut y = y0.to_vec();
         // Radau: a new solver before each step (see `drive`'s docs)
@@ -683,7 +713,6 @@ impl Run<'_> {
                     let h = 0.25 * h_tried;
                     if h >= floor(tp) {
                         restart(&mut solver, tp, &yp, h).map_err(integration_error)?;
-                        deriv_cache = None;
                         stats.restarts += 1;
                         if guarded.non_finite.get() {
                             // at the start of the step, which was accepted
@@ -742,32 +771,12 @@ impl Run<'_> {
                 stats.stiffness = Some(s);
             }
             // Dense output at the requested times inside this step.
-            let mut ends: Option<(Vec<f64>, Vec<f64>)> = None;
             while next_k <= last_k && out_time(next_k) <= t_new {
                 let tk = out_time(next_k);
                 let go_on = if tk == t_new {
                     sample(tk, solver.y().vec())
-                } else if !dop {
-                    let yk = solver.interpolate(tk).map_err(integration_error)?;
-                    sample(tk, yk.vec())
                 } else {
-                    if ends.is_none() {
-                        let t_prev = solver.t_prev();
-                        let f0 = match deriv_cache.take() {
-                            Some((tc, f)) if tc == t_prev => f,
-                            _ => derivative(guarded, t_prev, solver.y_prev().vec()),
-                        };
-                        // f at the accepted end: DOP853 evaluated it (the step's call 12,
-                        // kept for the stiffness test), the same numbers again for nothing
-                        let f1 = if guarded.calls.get() >= DOP853_END {
-                            guarded.f_new.borrow().clone()
-                        } else {
-                            derivative(guarded, t_new, solver.y().vec())
-                        };
-                        ends = Some((f0, f1));
-                    }
-                    let (f0, f1) = ends.as_ref().expect("set above");
-                    let yk = dense_output(&mut solver, tk, f0, f1).map_err(integration_error)?;
+                    dense(&mut solver, tk, &mut yk)?;
                     sample(tk, &yk)
                 };
                 next_k += 1;
@@ -776,9 +785,6 @@ impl Run<'_> {
                     stats.rhs_evaluations = guarded.evals.get();
                     return Ok(stats);
                 }
-            }
-            if let Some((_, f1)) = ends {
-                deriv_cache = Some((t_new, f1));
             }
             if !progress((t_new - t0) / span) {
                 stats.stopped = true;
@@ -792,7 +798,6 @@ impl Run<'_> {
             y.copy_from_slice(solver.y().vec());
             if after_step(t_new, &mut y) {
                 stats.restarts += 1;
-                deriv_cache = None;
                 let h0 = solver.h().min(t_end - t_new);
                 if h0 <= 0.0 {
                     break;
@@ -809,46 +814,16 @@ impl Run<'_> {
     }
 }
 
-/// ẏ at (t, y): one right-hand side.
-fn derivative<F: ODE<f64, Vec<f64>>>(guarded: &Guarded<'_, F>, t: f64, y: &[f64]) -> Vec<f64> {
-    let mut f = vec![0.0; y.len()];
-    ODE::<f64, Vec<f64>>::diff(guarded, t, &y.to_vec(), &mut f);
-    f
-}
-
-/// Dense output of DOP853 at `t` inside the last accepted step [t0, t1], h = t1 − t0.
-///
-/// differential-equations 0.7.0 evaluates the 7th-degree part of Hairer's DOP853
-/// interpolant with θ and 1 − θ swapped (`conpar`), which leaves errors of ~1e-9 where the
-/// step ends are exact to 1e-14. With θ = (t − t0)/h, the correct interpolant P and the
-/// crate's P_w share their cubic part c(θ) = c0 + θ(c1 + (1−θ)(c2 + θ c3)) and differ in
-/// the high-order part only by θ ↔ 1 − θ, which gives exactly
-///
-/// ```text
-/// P(θ) = P_w(1 − θ) + c(θ) − c(1 − θ) = P_w(1 − θ) + (2θ − 1)(c1 + θ(1 − θ) c3),
-/// c1 = y1 − y0,   c3 = 2 c1 − h (f0 + f1)
-/// ```
-///
-/// where f0, f1 are ẏ at the step ends. Checked against cos t for y'' = −y to 3e-14, and
-/// by the overcentre tests (samples between steps agree with the reference to 1e-10).
-fn dense_output<Y: Slice, S: Interpolation<f64, Y> + OrdinaryNumericalMethod<f64, Y>>(
+/// The method's own dense output at `t` inside the last step, into `out` (Radau IIA's
+/// collocation polynomial).
+fn interpolate_into<Y: Slice, S: Interpolation<f64, Y>>(
     solver: &mut S,
     t: f64,
-    f0: &[f64],
-    f1: &[f64],
-) -> std::result::Result<Vec<f64>, differential_equations::error::Error<f64, Y>> {
-    let (t0, t1) = (solver.t_prev(), solver.t());
-    let h = t1 - t0;
-    let theta = (t - t0) / h;
-    let mirrored = (t0 + (1.0 - theta) * h).clamp(t0, t1);
-    let mut y = std::mem::take(solver.interpolate(mirrored)?.vec_mut());
-    let (y0, y1) = (solver.y_prev().vec(), solver.y().vec());
-    for i in 0..y.len() {
-        let c1 = y1[i] - y0[i];
-        let c3 = 2.0 * c1 - h * (f0[i] + f1[i]);
-        y[i] += (2.0 * theta - 1.0) * (c1 + theta * (1.0 - theta) * c3);
-    }
-    Ok(y)
+    out: &mut Vec<f64>,
+) -> Result<()> {
+    let yk = solver.interpolate(t).map_err(integration_error)?;
+    out.clone_from(yk.vec());
+    Ok(())
 }
 
 fn integration_error<Y: State<f64>>(e: differential_equations::error::Error<f64, Y>) -> Error {

@@ -10,6 +10,7 @@
 //! relative rank tolerance otherwise, so redundant constraints and rank-deficient poses
 //! are ordinary events.
 
+pub mod dop853;
 pub mod integrator;
 pub mod simulate;
 

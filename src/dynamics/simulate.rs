@@ -181,6 +181,15 @@ pub fn simulate(
     progress: &mut dyn FnMut(f64) -> bool,
 ) -> Result<Trajectory> {
     let mut traj = Trajectory::empty(sys);
+    // room for every sample at once, so the sample lists are not copied as they grow
+    // (a run of more than 65536 samples, or one the options refuse, grows as it goes)
+    let samples = opts.t_end / opts.dt_out;
+    if (0.0..=65536.0).contains(&samples) {
+        let samples = samples as usize + 2;
+        traj.t.reserve(samples);
+        traj.q.reserve(samples);
+        traj.v.reserve(samples);
+    }
     traj.stats = simulate_with(
         sys,
         start,

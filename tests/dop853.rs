@@ -1,0 +1,149 @@
+//! detune's allocation-free DOP853 stepper (`detune::dynamics::dop853`) against the crate
+//! it replaces, `differential-equations` 0.7.0's `ExplicitRungeKutta::dop853`: the same
+//! operations in the same order, so every step (t, y, the next h, accepted or rejected)
+//! and every point of the interpolant are the same bits, on problems that exercise
+//! rejections, the initial step estimate, restarts with a given step, and more than 100
+//! steps (the crate's periodic stiffness test). And its dense output (Hairer's, the
+//! crate's corrected) against the closed form of y'' = −y.
+
+use detune::dynamics::dop853::Dop853;
+use differential_equations::interpolate::Interpolation;
+use differential_equations::methods::Ordinary;
+use differential_equations::ode::{ODE, OrdinaryNumericalMethod};
+use differential_equations::prelude::ExplicitRungeKutta;
+use differential_equations::status::Status;
+
+struct VanDerPol(f64);
+impl ODE<f64, Vec<f64>> for VanDerPol {
+    fn diff(&self, _t: f64, y: &Vec<f64>, f: &mut Vec<f64>) {
+        f[0] = y[1];
+        f[1] = self.0 * (1.0 - y[0] * y[0]) * y[1] - y[0];
+    }
+}
+
+/// A forced, damped pendulum and a second, coupled one (4 states, t-dependent).
+struct Pendula;
+impl ODE<f64, Vec<f64>> for Pendula {
+    fn diff(&self, t: f64, y: &Vec<f64>, f: &mut Vec<f64>) {
+        f[0] = y[1];
+        f[1] = -9.81 * y[0].sin() - 0.3 * y[1] + 2.0 * (1.7 * t).cos() + 4.0 * (y[2] - y[0]);
+        f[2] = y[3];
+        f[3] = -9.81 * y[2].sin() - 4.0 * (y[2] - y[0]);
+    }
+}
+
+struct Harmonic;
+impl ODE<f64, Vec<f64>> for Harmonic {
+    fn diff(&self, _t: f64, y: &Vec<f64>, f: &mut Vec<f64>) {
+        f[0] = y[1];
+        f[1] = -y[0];
+    }
+}
+
+/// Steps both from (t0, y0) to t_end with tolerance `tol` (restarting both with the
+/// current step at `restart_at`, as the integrator does after a projection), comparing
+/// every step and 7 interpolated points per accepted step bit for bit. Returns the
+/// accepted and rejected steps.
+fn same_steps<F: ODE<f64, Vec<f64>>>(
+    ode: &F,
+    y0: &[f64],
+    t_end: f64,
+    tol: f64,
+    restart_at: f64,
+) -> (usize, usize) {
+    let mut ours = Dop853::new(tol, tol);
+    let mut theirs = ExplicitRungeKutta::<Ordinary, _, f64, Vec<f64>, 8, 12, 16>::dop853()
+        .rtol(tol)
+        .atol(tol)
+        .max_steps(usize::MAX);
+    ours.init(ode, 0.0, t_end, &y0.to_vec()).unwrap();
+    theirs.init(ode, 0.0, t_end, &y0.to_vec()).unwrap();
+    let (mut accepted, mut rejected, mut restarted) = (0, 0, false);
+    while ours.t() < t_end {
+        assert_eq!(
+            ours.h().to_bits(),
+            theirs.h().to_bits(),
+            "h at t = {}",
+            ours.t()
+        );
+        if ours.t() + ours.h() > t_end {
+            let h = t_end - ours.t();
+            ours.set_h(h);
+            theirs.set_h(h);
+        }
+        let (a, b) = (ours.step(ode), theirs.step(ode));
+        assert_eq!(a.is_ok(), b.is_ok());
+        let rej = |s: &Status<f64, Vec<f64>>| matches!(s, Status::RejectedStep);
+        assert_eq!(rej(ours.status()), rej(theirs.status()));
+        if rej(ours.status()) {
+            rejected += 1;
+            continue;
+        }
+        accepted += 1;
+        assert_eq!(ours.t().to_bits(), theirs.t().to_bits());
+        let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        assert_eq!(bits(ours.y()), bits(theirs.y()), "y at t = {}", ours.t());
+        let (t0, t1) = (ours.t_prev(), ours.t());
+        for i in 0..=6 {
+            let t = (t0 + (t1 - t0) * i as f64 / 6.0).min(t1);
+            let (p, q) = (ours.interpolate(t).unwrap(), theirs.interpolate(t).unwrap());
+            assert_eq!(bits(&p), bits(&q), "interpolant at t = {t}");
+        }
+        if !restarted && ours.t() >= restart_at {
+            restarted = true;
+            let (t, y, h) = (ours.t(), ours.y().clone(), ours.h());
+            ours.h0 = h;
+            theirs.h0 = h;
+            ours.init(ode, t, t_end, &y).unwrap();
+            theirs.init(ode, t, t_end, &y).unwrap();
+        }
+    }
+    assert!(restarted || restart_at > t_end);
+    (accepted, rejected)
+}
+
+#[test]
+fn the_same_bits_as_the_crates_dop853() {
+    // Van der Pol with μ = 5: relaxation oscillations, many rejections
+    let (a, r) = same_steps(&VanDerPol(5.0), &[2.0, 0.0], 30.0, 1e-9, 11.0);
+    assert!(a > 100 && r > 5, "{a} accepted, {r} rejected");
+    let (a, r) = same_steps(&Pendula, &[1.0, 0.0, -0.5, 0.3], 20.0, 3e-10, 7.3);
+    assert!(a > 100 && r > 0, "{a} accepted, {r} rejected");
+    // at rest at the start (the initial step estimate's other branch)
+    same_steps(&Harmonic, &[0.0, 0.0], 5.0, 1e-6, 10.0);
+    same_steps(&Harmonic, &[1.0, 0.0], 50.0, 1e-12, 25.0);
+}
+
+/// Hairer's dense output (`dense_into`) of y'' = −y, y(0) = 1: cos t to 1e-11 between the
+/// steps over 20 s at rtol = atol = 1e-12 (the step ends' own global error is of that
+/// order; the crate's own interpolant is off by more than 100 times as much).
+#[test]
+fn dense_output_follows_the_cosine() {
+    let mut s = Dop853::new(1e-12, 1e-12);
+    let t_end = 20.0;
+    s.init(&Harmonic, 0.0, t_end, &vec![1.0, 0.0]).unwrap();
+    let (mut worst, mut worst_crate) = (0.0f64, 0.0f64);
+    let mut y = Vec::new();
+    while s.t() < t_end {
+        if s.t() + s.h() > t_end {
+            s.set_h(t_end - s.t());
+        }
+        s.step(&Harmonic).unwrap();
+        if matches!(s.status(), Status::RejectedStep) {
+            continue;
+        }
+        let (t0, t1) = (s.t_prev(), s.t());
+        for i in 1..10 {
+            let t = t0 + (t1 - t0) * i as f64 / 10.0;
+            s.dense_into(t, &mut y);
+            worst = worst.max((y[0] - t.cos()).abs());
+            worst_crate = worst_crate.max((s.interpolate(t).unwrap()[0] - t.cos()).abs());
+        }
+    }
+    eprintln!("dense output off by {worst:e}, the crate's interpolant by {worst_crate:e}");
+    assert!(worst < 1e-11, "dense output off by {worst:e}");
+    assert!(
+        worst_crate > 1e2 * worst,
+        "{worst_crate:e} against {worst:e}"
+    );
+}
