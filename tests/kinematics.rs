@@ -464,6 +464,19 @@ fn invalid_requests_are_typed_and_worded_with_the_flags() {
     ]);
     assert_eq!(code, 1);
     assert!(err.contains("not finite"), "{err}");
+    // `nan` is a value that is not finite, not an unknown unit
+    let (code, _, err) = run(&[
+        "--drive",
+        "bar1.theta",
+        "--from",
+        "nan",
+        "--to",
+        "1",
+        "--step",
+        "0.1",
+    ]);
+    assert_eq!(code, 1);
+    assert!(err.contains("--from nan: not finite"), "{err}");
 }
 
 #[test]

@@ -188,6 +188,11 @@ pub fn quantity(flag: &str, text: &str, drive: &str, dim: Dim) -> Result<f64> {
             help.unwrap_or_else(|| format!("give a number (SI) or a quantity, e.g. {example}")),
         ),
     };
+    // `nan`, `inf` (and an expression such as 1e400 below) are no value, not a unit
+    let not_finite = || bad("not finite".into(), None);
+    if text.trim().parse::<f64>().is_ok_and(|x| !x.is_finite()) {
+        return Err(not_finite());
+    }
     let e = expr::parse(text).map_err(|e| bad(e.message.clone(), e.help.clone()))?;
     if let Some((name, _)) = e.variables().first() {
         return Err(bad(
@@ -215,13 +220,17 @@ pub fn quantity(flag: &str, text: &str, drive: &str, dim: Dim) -> Result<f64> {
             None,
         ));
     }
-    expr::eval_const(&e, &mut |n, span| {
+    let x = expr::eval_const(&e, &mut |n, span| {
         Err(expr::ExprError::new(
             span.clone(),
             format!("unknown name `{n}`"),
         ))
     })
-    .map_err(|e| bad(e.message.clone(), e.help.clone()))
+    .map_err(|e| bad(e.message.clone(), e.help.clone()))?;
+    if !x.is_finite() {
+        return Err(not_finite());
+    }
+    Ok(x)
 }
 
 /// `--mark LABEL=VALUE`: a labelled frequency to draw on a response plot (a rotor's 1P
