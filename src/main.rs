@@ -137,11 +137,8 @@ fn main() {
         );
         std::process::exit(interrupted.unwrap_or(1));
     }
-    if let Some(code) = interrupted {
-        use std::io::Write;
-        let _ = std::io::stdout().flush();
-        std::process::exit(code);
-    }
+    // a signal after the results were complete (cli::results_complete) ends nothing: 0
+    let exit_code = cli::exit_code_after(exit_code);
     if exit_code != 0 {
         use std::io::Write;
         let _ = std::io::stdout().flush();

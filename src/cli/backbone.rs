@@ -118,6 +118,10 @@ pub fn run(a: BackboneArgs) -> Result<()> {
     };
     let bb = backbone(&sys, mode, to, &opts, &progress, &super::INTERRUPTED)?;
     bar.finish_and_clear();
+    if bb.stop.is_none() {
+        // the whole backbone: a signal from now on stops nothing
+        super::results_complete();
+    }
     let unit_of = |k: usize| bb.units[k];
     let label = mode_label(&bb);
     let ref_unit = if sys0.is_angle(r) { "rad" } else { "m" };

@@ -273,6 +273,10 @@ pub fn run(a: NfrArgs) -> Result<()> {
     );
     bar.finish_and_clear();
     let curve = curve?;
+    if curve.complete && a.backbone.is_empty() {
+        // the whole curve: a signal from now on stops nothing
+        super::results_complete();
+    }
     if let Some(o) = &a.output {
         write_nfr_csv(o, &curve)?;
     }
@@ -300,6 +304,10 @@ pub fn run(a: NfrArgs) -> Result<()> {
                 }),
                 Err(e) => eprintln!("warning: the backbone of mode {spec} is not drawn: {e}"),
             }
+        }
+        if curve.complete && !INTERRUPTED.load(std::sync::atomic::Ordering::SeqCst) {
+            // the whole curve and its backbones
+            super::results_complete();
         }
         let figures: Vec<_> = nfr_figures(&Case::of(&model), &curve, &param_unit, &lines)
             .into_iter()
