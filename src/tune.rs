@@ -529,6 +529,18 @@ impl Problem<'_> {
     }
 }
 
+/// The error for a model with no degrees of freedom (every coordinate fixed or driven by
+/// a constraint): it has no modes, so `what` (the analysis's own words).
+pub fn no_degrees_of_freedom(sys: &System, what: &str) -> Error {
+    Error::request(
+        format!(
+            "the model has no degrees of freedom (its constraints fix or drive every one of its {} coordinates): it has no modes, so {what}",
+            sys.nq()
+        ),
+        "check the model's constraints and fixed coordinates (`detune check` counts the degrees of freedom); a mechanism moved entirely by a prescribed motion has no dynamics of its own: simulate it instead",
+    )
+}
+
 /// Tune `sys` (trimmed) over `varies` (each with its range as bounds) so that every
 /// oscillatory mode clears every line of `lines` by `opts.margin`.
 pub fn tune(
@@ -544,6 +556,12 @@ pub fn tune(
         ));
     }
     let base = modal_analysis(sys, None)?;
+    if base.modes.is_empty() {
+        return Err(no_degrees_of_freedom(
+            sys,
+            "no mode to keep clear of the forcing bands",
+        ));
+    }
     let keep: Vec<usize> = (0..base.modes.len())
         .filter(|&i| oscillatory(&base.modes[i]))
         .collect();

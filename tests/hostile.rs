@@ -416,3 +416,34 @@ fn nfr_at_a_forcing_far_below_the_fastest_motion_is_refused_at_once() {
     );
     refused(&o, &["at least 31100 steps a period"]);
 }
+
+/// Issue 10 leftovers (issue 13's last audit, point 6): a model with no degrees of freedom
+/// (tests/data/driven_pendulum.toml: its one body's angle prescribed in time, so 3
+/// coordinates and 3 constraint rows) has no modes; `tune` printed "modes: ; closest
+/// separation inf %" and `backbone` ended its message in a colon before an empty list.
+/// Both say so plainly now, exit 1.
+#[test]
+fn tune_and_backbone_say_a_model_has_no_degrees_of_freedom() {
+    let text = std::fs::read_to_string(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/driven_pendulum.toml"),
+    )
+    .unwrap();
+    let model = [("driven.toml", text.as_str())];
+    let said = "the model has no degrees of freedom (its constraints fix or drive every one of its 3 coordinates): it has no modes";
+    let o = run(
+        &[
+            "tune",
+            "driven.toml",
+            "--environment",
+            "uh60",
+            "--vary",
+            "g=50%..200%",
+        ],
+        &model,
+    );
+    refused(&o, &[said, "no mode to keep clear of the forcing bands"]);
+    assert!(!o.stdout.contains("closest separation"), "{}", o.stdout);
+    let o = run(&["backbone", "driven.toml", "--of-mode", "1"], &model);
+    refused(&o, &[said, "so no backbone"]);
+    assert!(!o.stderr.contains(": \n"), "{}", o.stderr);
+}
