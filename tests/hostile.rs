@@ -447,3 +447,56 @@ fn tune_and_backbone_say_a_model_has_no_degrees_of_freedom() {
     refused(&o, &[said, "so no backbone"]);
     assert!(!o.stderr.contains(": \n"), "{}", o.stderr);
 }
+
+/// Issue 13 point 3 (`--integrator` on every time-domain command), last audit point 4:
+/// `backbone` takes `--integrator` as `nfr` does; `radau` is refused by both with the
+/// reason (the shooting integrates each period with its variational equations, DOP853
+/// only), `dop853` runs.
+#[test]
+fn backbone_and_nfr_take_integrator_and_refuse_radau_with_the_reason() {
+    for args in [
+        &[
+            "backbone",
+            "oc.toml",
+            "--of-mode",
+            "1",
+            "--integrator",
+            "radau",
+        ][..],
+        &[
+            "nfr",
+            "oc.toml",
+            "--set",
+            "F0=1",
+            "--param",
+            "omega",
+            "--from",
+            "0.5",
+            "--to",
+            "1",
+            "--integrator",
+            "radau",
+        ][..],
+    ] {
+        let o = run(args, &[]);
+        refused(
+            &o,
+            &["--integrator radau", "variational equations", "DOP853 only"],
+        );
+    }
+    let o = run(
+        &[
+            "backbone",
+            "oc.toml",
+            "--of-mode",
+            "1",
+            "--to-amplitude",
+            "0.05",
+            "--integrator",
+            "dop853",
+        ],
+        &[],
+    );
+    assert_eq!(o.code, Some(0), "{}", o.stderr);
+    assert!(o.stdout.contains("backbone of"), "{}", o.stdout);
+}

@@ -110,12 +110,7 @@ pub fn run(a: NfrArgs) -> Result<()> {
             "add --plot curve.svg (or .png), or leave --backbone out (`detune backbone` computes it on its own)",
         ));
     }
-    if a.tol.integrator == IntegratorChoice::Radau {
-        return Err(Error::request(
-            "--integrator radau: the shooting integrates the periodic orbit's variational equations with the explicit DOP853 only",
-            "leave --integrator out (or give dop853); for a stiff model, loosen --rtol/--atol or soften the stiff element",
-        ));
-    }
+    refuse_radau(a.tol.integrator)?;
     for (flag, v) in [
         ("--rtol", a.tol.rtol),
         ("--atol", a.tol.atol),
@@ -453,6 +448,26 @@ pub fn run(a: NfrArgs) -> Result<()> {
                 curve.points.len()
             ),
             help,
+        ));
+    }
+    Ok(())
+}
+
+/// `--integrator radau` for the shooting of periodic orbits (`nfr`, `backbone`): refused.
+/// The shooting integrates each period together with its variational equations (the
+/// monodromy's 2·DoF columns and the parameter's, each a directional difference of the
+/// right-hand side at every stage: 2n(2·DoF + 2) unknowns). Radau IIA would solve a
+/// Newton system of that whole augmented state at every step, its Jacobian by finite
+/// differences (one augmented right-hand side per unknown: 204 for the inceptor, against
+/// DOP853's 12 stages), and differential-equations' Radau5 offers no way to pass the
+/// variational part's structure (the same Jacobian repeated per column). The periods'
+/// step budget (`periodic::continuation::PERIOD_STEPS`) refuses at once what DOP853
+/// cannot cross.
+pub fn refuse_radau(choice: IntegratorChoice) -> Result<()> {
+    if choice == IntegratorChoice::Radau {
+        return Err(Error::request(
+            "--integrator radau: the shooting integrates each period with its variational equations (the monodromy matrix) with the explicit DOP853 only; an implicit method would solve for that whole augmented state at every step, its Jacobian by finite differences",
+            "leave --integrator out (or give dop853); for a stiff model, soften the stiff element or loosen --rtol/--atol, or use `detune sweep --integrator radau` (stable orbits only)",
         ));
     }
     Ok(())
