@@ -222,7 +222,13 @@ pub fn run(a: NfrArgs) -> Result<()> {
     // in the parameter's unit, to 7 significant digits
     let shown = |v: f64| -> String {
         if is_freq {
-            format!("{:.6} {}", fu.of(v), fu.symbol())
+            let f = fu.of(v);
+            if f != 0.0 && !(1e-4..1e7).contains(&f.abs()) {
+                // 1e150 rad/s, not 151 digits
+                format!("{f:.6e} {}", fu.symbol())
+            } else {
+                format!("{f:.6} {}", fu.symbol())
+            }
         } else {
             format!("{} {param_unit}", significant(v, 7))
                 .trim_end()
