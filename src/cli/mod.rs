@@ -131,6 +131,15 @@ pub fn results_complete() {
     COMPLETE.store(true, Ordering::SeqCst);
 }
 
+/// The exit code of a command that returned an error: 1, or 128 + the signal if one
+/// interrupted it before its results were complete.
+pub fn exit_code_of_error() -> i32 {
+    match interrupted_by() {
+        Some(signal) if !COMPLETE.load(Ordering::SeqCst) => signal,
+        _ => 1,
+    }
+}
+
 /// The exit code of a command that returned `Ok`: 128 + the signal if one interrupted
 /// it; 0 (with a note on stderr) if the signal came only after its results were
 /// complete ([`results_complete`]), its outputs all written; else `code`.
