@@ -68,6 +68,24 @@ pub enum Failure {
         periods: f64,
         max_steps: usize,
     },
+    /// One forcing period (the shooting of a periodic orbit integrates whole periods)
+    /// spans so many of the model's fastest time constants 1/|λ| that an explicit
+    /// integrator, held by stability to h·|λ| ≲ 6, needs more than `max_steps` steps a
+    /// period (`steps`, a lower bound).
+    #[error(
+        "one forcing period at {} rad/s (T = {} s) spans {} of the model's fastest time constant (|λ| = {} 1/s): the shooting's explicit integrator needs at least {} steps a period (h·|λ| ≤ 6), more than the {max_steps} it allows",
+        crate::diag::num(*.omega),
+        crate::diag::about(std::f64::consts::TAU / *.omega),
+        crate::diag::about(std::f64::consts::TAU / *.omega * *.lambda),
+        crate::diag::about(*.lambda),
+        crate::diag::about(*.steps)
+    )]
+    PeriodUnresolved {
+        omega: f64,
+        lambda: f64,
+        steps: f64,
+        max_steps: usize,
+    },
     #[error("too many steps at t = {t:.6} s")]
     TooManySteps { t: f64 },
     #[error("the problem became stiff at t = {t:.6} s")]
@@ -259,6 +277,12 @@ fn drive_value(x: f64, angle: bool) -> String {
     }
 }
 
+/// The lowest forcing frequency (rad/s) whose period an explicit integrator held to
+/// h·|λ| ≤ 6 crosses in `max_steps` steps: 2π|λ| / (6 · max_steps).
+pub fn period_floor(lambda: f64, max_steps: usize) -> f64 {
+    std::f64::consts::TAU * lambda / (6.0 * max_steps as f64)
+}
+
 impl Failure {
     /// What the numbers suggest, without naming any command-line flag.
     pub fn hint(&self) -> String {
@@ -271,6 +295,10 @@ impl Failure {
             ForcingUnresolved { omega, max_steps, .. } => format!(
                 "shorten the run to below {} s ({max_steps} forcing periods), or lower the forcing frequency to a physical value",
                 crate::diag::num(*max_steps as f64 * std::f64::consts::TAU / omega)
+            ),
+            PeriodUnresolved { lambda, max_steps, .. } => format!(
+                "start the curve above {} rad/s, or soften a very stiff element; far below the natural frequencies the response is quasi-static (continue equilibria in the forcing amplitude instead)",
+                crate::diag::about(period_floor(*lambda, *max_steps))
             ),
             SweepInterrupted => "the sweep was interrupted".into(),
             StudyInterrupted { kept: true, .. } => "the part computed until then is kept, marked incomplete".into(),
@@ -348,6 +376,12 @@ mod tests {
                 t_end: 1.0,
                 periods: 1.6e149,
                 max_steps: 10_000_000,
+            },
+            Failure::PeriodUnresolved {
+                omega: 1e-4,
+                lambda: 3.0,
+                steps: 3.1e4,
+                max_steps: 10_000,
             },
             Failure::Stiff { t: 1.0 },
             Failure::Integrator {

@@ -129,19 +129,16 @@ fn main() {
     };
     // exit codes (README, docs/reliability.md): 0 success, 1 error, 2 usage (clap), 3 a
     // check failed, 128 + the signal (130 SIGINT, 143 SIGTERM, 129 SIGHUP) interrupted
-    let interrupted = cli::interrupted_by();
     if let Err(e) = result {
         eprint!(
             "{}",
             e.render_with(std::io::stderr().is_terminal(), &cli::advice::Cli)
         );
-        std::process::exit(interrupted.unwrap_or(1));
+        // (an error after the results were complete, a failed commit, is an error: 1)
+        std::process::exit(cli::exit_code_of_error());
     }
-    if let Some(code) = interrupted {
-        use std::io::Write;
-        let _ = std::io::stdout().flush();
-        std::process::exit(code);
-    }
+    // a signal after the results were complete (cli::results_complete) ends nothing: 0
+    let exit_code = cli::exit_code_after(exit_code);
     if exit_code != 0 {
         use std::io::Write;
         let _ = std::io::stdout().flush();

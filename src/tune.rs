@@ -529,6 +529,18 @@ impl Problem<'_> {
     }
 }
 
+/// The error for a model with no degrees of freedom (every coordinate fixed or driven by
+/// a constraint): it has no modes, so `what` (the analysis's own words).
+pub fn no_degrees_of_freedom(sys: &System, what: &str) -> Error {
+    Error::request(
+        format!(
+            "the model has no degrees of freedom (its constraints fix or drive every one of its {} coordinates): it has no modes, so {what}",
+            sys.nq()
+        ),
+        "check the model's constraints and fixed coordinates (`detune check` counts the degrees of freedom); a mechanism moved entirely by a prescribed motion has no dynamics of its own: simulate it instead",
+    )
+}
+
 /// Tune `sys` (trimmed) over `varies` (each with its range as bounds) so that every
 /// oscillatory mode clears every line of `lines` by `opts.margin`.
 pub fn tune(
@@ -544,6 +556,12 @@ pub fn tune(
         ));
     }
     let base = modal_analysis(sys, None)?;
+    if base.modes.is_empty() {
+        return Err(no_degrees_of_freedom(
+            sys,
+            "no mode to keep clear of the forcing bands",
+        ));
+    }
     let keep: Vec<usize> = (0..base.modes.len())
         .filter(|&i| oscillatory(&base.modes[i]))
         .collect();
@@ -1184,6 +1202,7 @@ fn verify_design(
 /// 1.3 × the highest ω_n in 60 steps, peaks refined to 1/20 of a step; returns the peaks
 /// (rad/s) and whether each clears every band by `margin`. The steady states are
 /// computed with `steady` (integrator, tolerances); `stiff` hears of a stiff integration.
+#[allow(clippy::too_many_arguments)]
 pub fn verify_sweep(
     sys: &System,
     design: &Design,
@@ -1194,6 +1213,27 @@ pub fn verify_sweep(
     cancel: &std::sync::atomic::AtomicBool,
     stiff: crate::frequency::StiffHook,
 ) -> Result<(Vec<f64>, bool)> {
+    let (s, opts) = verify_sweep_setup(sys, design, response, steady)?;
+    verify_sweep_logged(
+        &s,
+        &opts,
+        lines,
+        margin,
+        cancel,
+        &crate::frequency::checkpoint::NoLog,
+        0,
+        stiff,
+    )
+}
+
+/// The system (`sys` at `design`'s parameters, trimmed) and the sweep of
+/// [`verify_sweep`] for `design`: what a checkpoint of the verification fingerprints.
+pub fn verify_sweep_setup(
+    sys: &System,
+    design: &Design,
+    response: &str,
+    steady: &crate::frequency::SteadyOptions,
+) -> Result<(System, crate::frequency::SweepOptions)> {
     let Some(f) = sys.forcing_param() else {
         return Err(Error::request(
             "a stepped-sine sweep needs the model's forcing frequency",
@@ -1211,8 +1251,25 @@ pub fn verify_sweep(
     let lo = ws.iter().copied().fold(f64::INFINITY, f64::min);
     let hi = ws.iter().copied().fold(0.0, f64::max);
     let opts = crate::linear::sensitivity::peak_sweep(&s, f, lo, hi, response, steady);
+    Ok((s, opts))
+}
+
+/// [`verify_sweep`] of a system and sweep from [`verify_sweep_setup`], its steady states
+/// looked up in and recorded to `log` as run `run` (a checkpoint: `tune --verify sweep
+/// --checkpoint FILE` resumes the designs' sweeps).
+#[allow(clippy::too_many_arguments)]
+pub fn verify_sweep_logged(
+    s: &System,
+    opts: &crate::frequency::SweepOptions,
+    lines: &[ForcingLine],
+    margin: f64,
+    cancel: &std::sync::atomic::AtomicBool,
+    log: &dyn crate::frequency::checkpoint::CaseLog,
+    run: usize,
+    stiff: crate::frequency::StiffHook,
+) -> Result<(Vec<f64>, bool)> {
     // a failing frequency is an error (no verdict from part of the curve)
-    let sw = crate::frequency::sweep_watched(&s, &opts, &|_| {}, cancel, stiff)?;
+    let sw = crate::frequency::sweep_logged(s, opts, &|_| {}, cancel, log, run, stiff)?;
     // an interrupted sweep has no peaks: "every peak clears" would be a false verdict
     if !sw.complete {
         return Err(crate::failure::Failure::SweepInterrupted.into());

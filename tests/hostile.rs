@@ -359,3 +359,144 @@ fn a_sweep_of_too_many_periods_names_max_periods() {
     );
     assert!(!o.stderr.contains("--t-end"), "{}", o.stderr);
 }
+
+/// Issue 13, last audit point 1: `nfr` at a forcing far below the model's fastest motion
+/// integrated tens of thousands of DOP853 steps a period (with the variational
+/// equations), minutes for the first point without a word. It is refused at once: the
+/// overcentre's fastest |λ| is its mode's ω_n = √8.8397 = 2.9732 rad/s (`detune modes`),
+/// so a period at 1e-4 rad/s needs at least 2π/1e-4 · 2.9732 / 6 = 31 135 steps
+/// (h·|λ| ≤ 6), above the 10 000 allowed; the floor is 2π · 2.9732 / 6e4 = 3.11e-4 rad/s.
+#[test]
+fn nfr_at_a_forcing_far_below_the_fastest_motion_is_refused_at_once() {
+    let lambda = 8.839704763344846f64.sqrt();
+    let steps = std::f64::consts::TAU / 1e-4 * lambda / 6.0;
+    assert!((steps - 31_135.0).abs() < 1.0, "{steps}");
+    let o = run(
+        &[
+            "nfr", "oc.toml", "--set", "F0=3", "--param", "omega", "--from", "1e-4", "--to",
+            "1e-2", "-o", "out.csv",
+        ],
+        &[],
+    );
+    refused(
+        &o,
+        &[
+            "one forcing period at 0.0001 rad/s (T = 62800 s)",
+            "(|λ| = 2.97 1/s)",
+            "at least 31100 steps a period",
+            "more than the 10000 it allows",
+            "start --from/--to above 0.000311 rad/s",
+        ],
+    );
+    // the same with the range given downwards, and in another parameter at that forcing
+    let o = run(
+        &[
+            "nfr", "oc.toml", "--set", "F0=3", "--param", "omega", "--from", "1e-2", "--to",
+            "1e-4", "-o", "out.csv",
+        ],
+        &[],
+    );
+    refused(&o, &["at least 31100 steps a period"]);
+    let o = run(
+        &[
+            "nfr",
+            "oc.toml",
+            "--set",
+            "omega=1e-4",
+            "--param",
+            "F0",
+            "--from",
+            "1",
+            "--to",
+            "3",
+            "-o",
+            "out.csv",
+        ],
+        &[],
+    );
+    refused(&o, &["at least 31100 steps a period"]);
+}
+
+/// Issue 10 leftovers (issue 13's last audit, point 6): a model with no degrees of freedom
+/// (tests/data/driven_pendulum.toml: its one body's angle prescribed in time, so 3
+/// coordinates and 3 constraint rows) has no modes; `tune` printed "modes: ; closest
+/// separation inf %" and `backbone` ended its message in a colon before an empty list.
+/// Both say so plainly now, exit 1.
+#[test]
+fn tune_and_backbone_say_a_model_has_no_degrees_of_freedom() {
+    let text = std::fs::read_to_string(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/driven_pendulum.toml"),
+    )
+    .unwrap();
+    let model = [("driven.toml", text.as_str())];
+    let said = "the model has no degrees of freedom (its constraints fix or drive every one of its 3 coordinates): it has no modes";
+    let o = run(
+        &[
+            "tune",
+            "driven.toml",
+            "--environment",
+            "uh60",
+            "--vary",
+            "g=50%..200%",
+        ],
+        &model,
+    );
+    refused(&o, &[said, "no mode to keep clear of the forcing bands"]);
+    assert!(!o.stdout.contains("closest separation"), "{}", o.stdout);
+    let o = run(&["backbone", "driven.toml", "--of-mode", "1"], &model);
+    refused(&o, &[said, "so no backbone"]);
+    assert!(!o.stderr.contains(": \n"), "{}", o.stderr);
+}
+
+/// Issue 13 point 3 (`--integrator` on every time-domain command), last audit point 4:
+/// `backbone` takes `--integrator` as `nfr` does; `radau` is refused by both with the
+/// reason (the shooting integrates each period with its variational equations, DOP853
+/// only), `dop853` runs.
+#[test]
+fn backbone_and_nfr_take_integrator_and_refuse_radau_with_the_reason() {
+    for args in [
+        &[
+            "backbone",
+            "oc.toml",
+            "--of-mode",
+            "1",
+            "--integrator",
+            "radau",
+        ][..],
+        &[
+            "nfr",
+            "oc.toml",
+            "--set",
+            "F0=1",
+            "--param",
+            "omega",
+            "--from",
+            "0.5",
+            "--to",
+            "1",
+            "--integrator",
+            "radau",
+        ][..],
+    ] {
+        let o = run(args, &[]);
+        refused(
+            &o,
+            &["--integrator radau", "variational equations", "DOP853 only"],
+        );
+    }
+    let o = run(
+        &[
+            "backbone",
+            "oc.toml",
+            "--of-mode",
+            "1",
+            "--to-amplitude",
+            "0.05",
+            "--integrator",
+            "dop853",
+        ],
+        &[],
+    );
+    assert_eq!(o.code, Some(0), "{}", o.stderr);
+    assert!(o.stdout.contains("backbone of"), "{}", o.stdout);
+}

@@ -781,3 +781,164 @@ fn a_forcing_faster_than_the_steps_can_resolve_is_refused_at_once() {
     assert!(!csv.exists());
     assert!(temps(dir.path()).is_empty(), "{:?}", temps(dir.path()));
 }
+
+/// Issue 13, last audit point 2: a FIFO output with no reader. Outputs to special files
+/// are written last, and `open` on a FIFO blocks until a reader appears; the run polls no
+/// more by then, so one SIGTERM used to set the flag and leave it blocked (a second one
+/// ended it). One signal ends it now, at once: exit 143, the message names the FIFO's
+/// case, the regular output committed before it is kept whole, and no temporary file is
+/// left (the special output's is made in TMPDIR, here the test's directory).
+#[test]
+fn one_signal_ends_a_write_blocked_on_a_fifo_with_no_reader() {
+    let dir = tempfile::tempdir().unwrap();
+    let fifo = dir.path().join("pipe.csv");
+    assert!(
+        Command::new("mkfifo")
+            .arg(&fifo)
+            .status()
+            .unwrap()
+            .success()
+    );
+    let json = dir.path().join("run.json");
+    let mut child = Command::new(env!("CARGO_BIN_EXE_detune"))
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .env("TMPDIR", dir.path())
+        .args([
+            "simulate",
+            "models/overcentre.toml",
+            "--t-end",
+            "1",
+            "-o",
+            s(&fifo),
+            "--json",
+            s(&json),
+        ])
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    // the regular output is committed before the FIFO is opened: then it blocks there
+    let began = std::time::Instant::now();
+    while !json.exists() {
+        assert!(
+            began.elapsed() < Duration::from_secs(20),
+            "no JSON after 20 s"
+        );
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    std::thread::sleep(Duration::from_millis(300));
+    assert!(child.try_wait().unwrap().is_none(), "it did not block");
+    // SAFETY: sending a signal to our own child.
+    assert_eq!(
+        unsafe { libc::kill(child.id() as libc::pid_t, libc::SIGTERM) },
+        0
+    );
+    let signalled = std::time::Instant::now();
+    while child.try_wait().unwrap().is_none() {
+        if signalled.elapsed() > Duration::from_secs(5) {
+            child.kill().unwrap();
+            child.wait().unwrap();
+            // a reader would have freed it: give the FIFO none, and fail
+            panic!("one SIGTERM did not end a write blocked on a FIFO within 5 s");
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    let out = child.wait_with_output().unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(143), "{err}");
+    assert!(err.contains("interrupted while writing to a FIFO"), "{err}");
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    assert_eq!(summary["complete"], serde_json::Value::Bool(true));
+    assert!(
+        std::fs::symlink_metadata(&fifo)
+            .unwrap()
+            .file_type()
+            .is_fifo()
+    );
+    assert!(temps(dir.path()).is_empty(), "{:?}", temps(dir.path()));
+}
+
+/// Issue 13, last audit point 3: a signal that comes after the results were complete
+/// (here while `nfr --json` prints its 70 KB document into a pipe nobody reads yet, after
+/// every output was committed) stops nothing: the outputs are whole, the run says so on
+/// stderr and exits 0 (not 143, which would have a scheduler requeue a finished run).
+/// Deterministic: the CSV exists only once committed, after the curve was complete, and
+/// the printing blocks until the test reads (the document is larger than a pipe's 64 KiB).
+#[test]
+fn a_signal_after_the_results_were_complete_says_so_and_exits_0() {
+    use std::io::Read;
+    let dir = tempfile::tempdir().unwrap();
+    let csv = dir.path().join("nfr.csv");
+    let args = [
+        "nfr",
+        "models/overcentre.toml",
+        "--set",
+        "F0=1",
+        "--param",
+        "omega",
+        "--from",
+        "0.5",
+        "--to",
+        "1",
+        "--json",
+        "-o",
+        s(&csv),
+    ];
+    let mut child = Command::new(env!("CARGO_BIN_EXE_detune"))
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .args(args)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let began = std::time::Instant::now();
+    while !csv.exists() {
+        if began.elapsed() > Duration::from_secs(20) {
+            child.kill().unwrap();
+            child.wait().unwrap();
+            panic!("no CSV after 20 s");
+        }
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    std::thread::sleep(Duration::from_millis(200));
+    assert!(
+        child.try_wait().unwrap().is_none(),
+        "it ended before the signal: its JSON fitted in the pipe"
+    );
+    // SAFETY: sending a signal to our own child.
+    assert_eq!(
+        unsafe { libc::kill(child.id() as libc::pid_t, libc::SIGTERM) },
+        0
+    );
+    let mut stdout = String::new();
+    child
+        .stdout
+        .take()
+        .unwrap()
+        .read_to_string(&mut stdout)
+        .unwrap();
+    let out = child.wait_with_output().unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(0), "{err}");
+    assert!(
+        err.contains("note: SIGTERM received after the results were complete; outputs written"),
+        "{err}"
+    );
+    let doc: serde_json::Value = serde_json::from_str(&stdout).unwrap();
+    assert_eq!(
+        doc["complete"],
+        serde_json::Value::Bool(true),
+        "{stdout:.300}"
+    );
+    let text = std::fs::read_to_string(&csv).unwrap();
+    assert!(!text.contains("# incomplete"));
+    // the same run uninterrupted writes the same CSV
+    let again = dir.path().join("again.csv");
+    let mut plain = args.to_vec();
+    let last = plain.len() - 1;
+    plain[last] = s(&again);
+    let (code, _, e) = detune(&plain);
+    assert_eq!(code, 0, "{e}");
+    assert_eq!(std::fs::read_to_string(&again).unwrap(), text);
+}

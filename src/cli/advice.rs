@@ -40,6 +40,10 @@ pub fn advice(f: &Failure) -> Option<String> {
             "shorten --t-end to below {} s ({max_steps} forcing periods), or --set the forcing frequency to a physical value",
             detune::diag::num(*max_steps as f64 * std::f64::consts::TAU / omega)
         ),
+        PeriodUnresolved { lambda, max_steps, .. } => format!(
+            "start --from/--to above {} rad/s, or soften a very stiff element; far below the natural frequencies the response is quasi-static: `detune continue --param <forcing amplitude>` computes it as equilibria",
+            detune::diag::about(detune::failure::period_floor(*lambda, *max_steps))
+        ),
         Stiff { .. } => "a very stiff spring or damper makes the explicit DOP853 crawl: use --integrator radau (implicit, stable at any step), or soften it".into(),
         Integrator { bad_input: true, .. } => "check --t-end, --rtol and --atol".into(),
         ConstraintsNotKept { .. } => "tighten --rtol/--atol (the defaults are 1e-10 and 1e-12); if that does not help, the mechanism may pass a singular pose".into(),

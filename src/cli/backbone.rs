@@ -39,6 +39,10 @@ pub struct BackboneArgs {
     /// Absolute error tolerance of the integration per step (SI).
     #[arg(long, default_value_t = 1e-12, value_name = "A")]
     pub atol: f64,
+    /// The integrator: only `dop853` (the shooting integrates each period with its
+    /// variational equations; see docs/reliability.md).
+    #[arg(long, value_enum, default_value_t = super::args::IntegratorChoice::Dop853, value_name = "METHOD")]
+    pub integrator: super::args::IntegratorChoice,
     /// Print JSON: {"mode", "points": [{"amplitude", "omega", "<response>_amplitude"...}],
     /// "units", ...}.
     #[arg(long)]
@@ -56,6 +60,7 @@ pub struct BackboneArgs {
 }
 
 pub fn run(a: BackboneArgs) -> Result<()> {
+    super::nfr::refuse_radau(a.integrator)?;
     let (model, sys) = a.model.load()?;
     let size = a.plot_size.check(a.plot.as_deref(), a.output.as_deref())?;
     let outputs = check_outputs(
@@ -118,6 +123,10 @@ pub fn run(a: BackboneArgs) -> Result<()> {
     };
     let bb = backbone(&sys, mode, to, &opts, &progress, &super::INTERRUPTED)?;
     bar.finish_and_clear();
+    if bb.stop.is_none() {
+        // the whole backbone: a signal from now on stops nothing
+        super::results_complete();
+    }
     let unit_of = |k: usize| bb.units[k];
     let label = mode_label(&bb);
     let ref_unit = if sys0.is_angle(r) { "rad" } else { "m" };

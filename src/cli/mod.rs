@@ -84,11 +84,18 @@ extern "C" fn on_signal(sig: libc::c_int) {
     let first = SIGNAL
         .compare_exchange(0, sig, Ordering::SeqCst, Ordering::SeqCst)
         .is_ok();
-    if first && POLLS.load(Ordering::SeqCst) {
+    // blocked on a FIFO with no reader (or one that does not read): the run polls no
+    // more, so the first signal ends it
+    let blocked = detune::output::commit::writing_special();
+    if first && POLLS.load(Ordering::SeqCst) && !blocked {
         return;
     }
     detune::output::commit::remove_temps_now();
-    let msg = b"\ninterrupted: stopped; no output written\n";
+    let msg: &[u8] = if blocked {
+        b"\ninterrupted while writing to a FIFO or device (no reader?): that output is not written; the files written before it are kept\n"
+    } else {
+        b"\ninterrupted: stopped; no output written\n"
+    };
     // SAFETY: write(2) and _exit(2) are async-signal-safe.
     unsafe {
         libc::write(2, msg.as_ptr().cast(), msg.len());
@@ -109,6 +116,47 @@ pub fn interrupted_by() -> Option<i32> {
     match SIGNAL.load(Ordering::SeqCst) {
         0 => None,
         s => Some(128 + s),
+    }
+}
+
+/// Set by a command whose work ran to its end uninterrupted ([`results_complete`]).
+static COMPLETE: AtomicBool = AtomicBool::new(false);
+
+/// The running command's results are complete: its work ran to its end (its own stop
+/// state says so: a signal that came after its last check stopped nothing), and what it writes from now on is the whole result. A signal that comes
+/// after this (while the outputs are rendered and committed) no longer stops anything:
+/// the outputs are finished and committed, and the run exits 0, saying on stderr that
+/// the signal came after the results were complete ([`exit_code_after`]).
+pub fn results_complete() {
+    COMPLETE.store(true, Ordering::SeqCst);
+}
+
+/// The exit code of a command that returned an error: 1, or 128 + the signal if one
+/// interrupted it before its results were complete.
+pub fn exit_code_of_error() -> i32 {
+    match interrupted_by() {
+        Some(signal) if !COMPLETE.load(Ordering::SeqCst) => signal,
+        _ => 1,
+    }
+}
+
+/// The exit code of a command that returned `Ok`: 128 + the signal if one interrupted
+/// it; 0 (with a note on stderr) if the signal came only after its results were
+/// complete ([`results_complete`]), its outputs all written; else `code`.
+pub fn exit_code_after(code: i32) -> i32 {
+    match interrupted_by() {
+        Some(_) if COMPLETE.load(Ordering::SeqCst) => {
+            let name = match SIGNAL.load(Ordering::SeqCst) {
+                libc::SIGINT => "SIGINT",
+                libc::SIGTERM => "SIGTERM",
+                libc::SIGHUP => "SIGHUP",
+                _ => "a signal",
+            };
+            eprintln!("note: {name} received after the results were complete; outputs written");
+            code
+        }
+        Some(signal) => signal,
+        None => code,
     }
 }
 

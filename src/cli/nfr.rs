@@ -110,12 +110,7 @@ pub fn run(a: NfrArgs) -> Result<()> {
             "add --plot curve.svg (or .png), or leave --backbone out (`detune backbone` computes it on its own)",
         ));
     }
-    if a.tol.integrator == IntegratorChoice::Radau {
-        return Err(Error::request(
-            "--integrator radau: the shooting integrates the periodic orbit's variational equations with the explicit DOP853 only",
-            "leave --integrator out (or give dop853); for a stiff model, loosen --rtol/--atol or soften the stiff element",
-        ));
-    }
+    refuse_radau(a.tol.integrator)?;
     for (flag, v) in [
         ("--rtol", a.tol.rtol),
         ("--atol", a.tol.atol),
@@ -227,7 +222,13 @@ pub fn run(a: NfrArgs) -> Result<()> {
     // in the parameter's unit, to 7 significant digits
     let shown = |v: f64| -> String {
         if is_freq {
-            format!("{:.6} {}", fu.of(v), fu.symbol())
+            let f = fu.of(v);
+            if f != 0.0 && !(1e-4..1e7).contains(&f.abs()) {
+                // 1e150 rad/s, not 151 digits
+                format!("{f:.6e} {}", fu.symbol())
+            } else {
+                format!("{f:.6} {}", fu.symbol())
+            }
         } else {
             format!("{} {param_unit}", significant(v, 7))
                 .trim_end()
@@ -273,6 +274,10 @@ pub fn run(a: NfrArgs) -> Result<()> {
     );
     bar.finish_and_clear();
     let curve = curve?;
+    if curve.complete && a.backbone.is_empty() {
+        // the whole curve: a signal from now on stops nothing
+        super::results_complete();
+    }
     if let Some(o) = &a.output {
         write_nfr_csv(o, &curve)?;
     }
@@ -300,6 +305,10 @@ pub fn run(a: NfrArgs) -> Result<()> {
                 }),
                 Err(e) => eprintln!("warning: the backbone of mode {spec} is not drawn: {e}"),
             }
+        }
+        if curve.complete && !INTERRUPTED.load(std::sync::atomic::Ordering::SeqCst) {
+            // the whole curve and its backbones
+            super::results_complete();
         }
         let figures: Vec<_> = nfr_figures(&Case::of(&model), &curve, &param_unit, &lines)
             .into_iter()
@@ -445,6 +454,26 @@ pub fn run(a: NfrArgs) -> Result<()> {
                 curve.points.len()
             ),
             help,
+        ));
+    }
+    Ok(())
+}
+
+/// `--integrator radau` for the shooting of periodic orbits (`nfr`, `backbone`): refused.
+/// The shooting integrates each period together with its variational equations (the
+/// monodromy's 2·DoF columns and the parameter's, each a directional difference of the
+/// right-hand side at every stage: 2n(2·DoF + 2) unknowns). Radau IIA would solve a
+/// Newton system of that whole augmented state at every step, its Jacobian by finite
+/// differences (one augmented right-hand side per unknown: 204 for the inceptor, against
+/// DOP853's 12 stages), and differential-equations' Radau5 offers no way to pass the
+/// variational part's structure (the same Jacobian repeated per column). The periods'
+/// step budget (`periodic::continuation::PERIOD_STEPS`) refuses at once what DOP853
+/// cannot cross.
+pub fn refuse_radau(choice: IntegratorChoice) -> Result<()> {
+    if choice == IntegratorChoice::Radau {
+        return Err(Error::request(
+            "--integrator radau: the shooting integrates each period with its variational equations (the monodromy matrix) with the explicit DOP853 only; an implicit method would solve for that whole augmented state at every step, its Jacobian by finite differences",
+            "leave --integrator out (or give dop853); for a stiff model, soften the stiff element or loosen --rtol/--atol, or use `detune sweep --integrator radau` (stable orbits only)",
         ));
     }
     Ok(())

@@ -217,6 +217,10 @@ pub fn run(a: SimulateArgs) -> Result<()> {
         None => {}
     }
     written?;
+    if stopped_at.is_none() {
+        // every sample is computed and written: a signal from now on stops nothing
+        super::results_complete();
+    }
     if let Some(p) = &a.plot {
         let mut figures = trajectory_figures(&Case::of(&model), &traj, &picks);
         if let Some(t) = stopped_at {

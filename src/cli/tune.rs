@@ -41,6 +41,13 @@ pub struct TuneArgs {
     /// The --verify sweep's integrator and tolerances.
     #[command(flatten)]
     pub tol: super::args::Tolerances,
+    /// --verify sweep: append each steady state of the designs' sweeps to FILE as it is
+    /// computed; the same command with the same FILE resumes, skipping what is done (the
+    /// output is identical to an uninterrupted run's). A FILE of another model, --set,
+    /// --vary or options (anything that changes the designs or their sweeps), or of
+    /// another command, is refused.
+    #[arg(long, value_name = "FILE")]
+    pub checkpoint: Option<String>,
     /// A manufacturing tolerance the design must clear the bands over, as `margins --vary`
     /// checks it: `k_fs=±10%` (relative: ±10 % of the design's value) or `k_fs=±500 N/m`.
     /// Repeatable; a parameter may be both free (--vary) and toleranced.
@@ -138,6 +145,20 @@ pub fn run(a: TuneArgs) -> Result<super::Outcome> {
             ));
         }
     };
+    if let Some(c) = &a.checkpoint {
+        if !sweep {
+            return Err(Error::request(
+                format!("--checkpoint {c}: without --verify sweep there are no sweeps to resume"),
+                "--checkpoint goes with --verify sweep",
+            ));
+        }
+        if a.output.as_deref() == Some(c.as_str()) {
+            return Err(Error::request(
+                format!("--checkpoint {c} is also the output"),
+                "give the checkpoint its own file (e.g. tune.ckpt)",
+            ));
+        }
+    }
     let mut t = tune(&sys, &vs, &lines, &opts)?;
     let watch = super::StiffWatch::new(
         &sys.forcing_param()
@@ -155,23 +176,44 @@ pub fn run(a: TuneArgs) -> Result<super::Outcome> {
             }
             None => sys.coordinates[detune::linear::default_reference(&sys)].clone(),
         };
-        for (k, d) in t.designs.iter_mut().enumerate() {
-            let (peaks, clear) = detune::tune::verify_sweep(
-                &sys,
-                d,
+        let context = |k: usize| {
+            format!(
+                "--verify sweep of design {} ({})",
+                k + 1,
+                super::args::set_forcing_amplitude(&model, &sys)
+            )
+        };
+        // each design's system and sweep, known before any sweep: the checkpoint's
+        // fingerprint holds them all
+        let setups = t
+            .designs
+            .iter()
+            .enumerate()
+            .map(|(k, d)| {
+                detune::tune::verify_sweep_setup(&sys, d, &response, &steady)
+                    .map_err(|e| e.context(&context(k)))
+            })
+            .collect::<Result<Vec<_>>>()?;
+        let log = open_checkpoint(&a, &model, &t, &response, &setups)?;
+        for (k, (d, (s, sweep_opts))) in t.designs.iter_mut().zip(&setups).enumerate() {
+            let (peaks, clear) = detune::tune::verify_sweep_logged(
+                s,
+                sweep_opts,
                 &lines,
                 margin,
-                &response,
-                &steady,
                 &super::INTERRUPTED,
+                log.as_ref(),
+                k,
                 &|at| watch.found(&format!("the sweep of design {}", k + 1), at, &bar),
             )
             .map_err(|e| {
-                e.context(&format!(
-                    "--verify sweep of design {} ({})",
-                    k + 1,
-                    super::args::set_forcing_amplitude(&model, &sys)
-                ))
+                if let (Some(c), true) = (&a.checkpoint, e.failure().is_some_and(interrupted))
+                {
+                    eprintln!(
+                        "the steady states computed are in the checkpoint {c}: the same command resumes from them"
+                    );
+                }
+                e.context(&context(k))
             })?;
             d.sweep_peaks_rad_s = Some(peaks);
             d.sweep_peaks_clear = Some(clear);
@@ -370,4 +412,84 @@ fn tolerances(
             relative: t.contains('%'),
         })
         .collect())
+}
+
+/// A failure that is a signal's interruption.
+fn interrupted(f: &detune::failure::Failure) -> bool {
+    matches!(
+        f,
+        detune::failure::Failure::SweepInterrupted
+            | detune::failure::Failure::StudyInterrupted { .. }
+            | detune::failure::Failure::Interrupted { .. }
+    )
+}
+
+/// `--checkpoint FILE` of the designs' `--verify sweep`s (one run per design, in the
+/// order listed): opened (resumed when it exists) with a fingerprint of everything that
+/// changes a case's result: the model, its parameters (`--set`), each design's
+/// parameters and trimmed system's parameter values, and its sweep's options (grid,
+/// response, refinement, integrator and tolerances). Different --vary, --weight,
+/// --tolerance, --margin or environment that change the designs change it too.
+fn open_checkpoint(
+    a: &TuneArgs,
+    model: &detune::model::Model,
+    t: &Tuning,
+    response: &str,
+    setups: &[(detune::System, detune::frequency::SweepOptions)],
+) -> Result<Box<dyn detune::frequency::checkpoint::CaseLog>> {
+    use detune::frequency::checkpoint::{self, Checkpoint, Header, NoLog, Shard};
+    use sha2::{Digest, Sha256};
+    let Some(path) = &a.checkpoint else {
+        return Ok(Box::new(NoLog));
+    };
+    let mut text = format!(
+        "detune {}\ntune model {} parameters {:?}\nresponse {response}\n",
+        env!("CARGO_PKG_VERSION"),
+        model.hash,
+        model.parameters.values,
+    );
+    for (d, (s, opts)) in t.designs.iter().zip(setups) {
+        // the parameters' bits, as a case's result depends on them
+        let bits: Vec<u64> = (0..s.param_names().len())
+            .map(|i| s.param(i).to_bits())
+            .collect();
+        text.push_str(&format!(
+            "design {}\nsystem {bits:?}\noptions {opts:?}\n",
+            serde_json::to_string(&d.parameters).unwrap_or_default()
+        ));
+    }
+    let fingerprint = Sha256::digest(text.as_bytes())
+        .iter()
+        .map(|b| format!("{b:02x}"))
+        .collect();
+    let header = Header {
+        format: checkpoint::FORMAT.into(),
+        format_version: checkpoint::FORMAT_VERSION,
+        detune_version: env!("CARGO_PKG_VERSION").into(),
+        model_file: model.source.path.clone(),
+        model_sha256: model.hash.clone(),
+        overrides: Provenance::of(model).overrides,
+        fingerprint,
+        command: std::env::args_os()
+            .skip(2)
+            .map(|s| s.to_string_lossy().into_owned())
+            .collect(),
+        shard: Shard::ALL,
+        sequential: false,
+        grid: setups.first().map_or(0, |(_, o)| o.values.len()),
+        runs: setups.len(),
+        study: Some("tune".into()),
+    };
+    let grid = setups
+        .first()
+        .map(|(_, o)| o.values.clone())
+        .unwrap_or_default();
+    let c = Checkpoint::open(path, header, &grid)?;
+    if c.reused > 0 {
+        eprintln!(
+            "resuming from the checkpoint {path}: {} steady states done before",
+            c.reused
+        );
+    }
+    Ok(Box::new(c))
 }

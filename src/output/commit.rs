@@ -484,7 +484,7 @@ impl OutputSet {
         for p in &mut planned {
             let Some(temp) = p.temp.take() else { continue };
             let r = if p.special {
-                copy_into(&temp.path, &p.target)
+                copy_into_special(&temp.path, &p.target)
             } else {
                 let backup = backup_of(&p.target);
                 let r = std::fs::rename(&temp.path, &p.target);
@@ -552,6 +552,28 @@ fn rand_u64() -> u64 {
             .unwrap_or(0),
     );
     h.finish()
+}
+
+/// Set while a special output (a FIFO, a device) is being opened or written: `open` on a
+/// FIFO blocks until a reader appears, and a write to one blocks while its reader does
+/// not read. A signal handler that would otherwise only set a flag for the run to poll
+/// (the run is past its polling by then) ends the process at once while this is set
+/// (see [`writing_special`]).
+static WRITING_SPECIAL: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
+/// Whether this process is opening or writing a special output (FIFO, device), where it
+/// may block for good (a FIFO with no reader). Async-signal-safe (an atomic load): for a
+/// signal handler deciding to end the process at once.
+pub fn writing_special() -> bool {
+    WRITING_SPECIAL.load(Ordering::SeqCst)
+}
+
+/// [`copy_into`] with [`writing_special`] set meanwhile.
+fn copy_into_special(from: &Path, to: &Path) -> std::io::Result<()> {
+    WRITING_SPECIAL.store(true, Ordering::SeqCst);
+    let r = copy_into(from, to);
+    WRITING_SPECIAL.store(false, Ordering::SeqCst);
+    r
 }
 
 /// Write a special file (FIFO, device) from the rendered temporary file: opened for

@@ -168,6 +168,12 @@ pub fn undamped_modes(
 /// The mode `of` names (its name, `mode k`, or its number k from 1), 0-based.
 pub fn mode_index(sys: &System, of: &str, normalize: Option<&str>) -> Result<usize> {
     let (_, ma, names) = undamped_modes(sys, normalize)?;
+    if names.is_empty() {
+        return Err(crate::tune::no_degrees_of_freedom(
+            sys,
+            "no backbone (the free periodic orbits grow from a mode)",
+        ));
+    }
     let list = || {
         names
             .iter()

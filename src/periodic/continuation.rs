@@ -322,6 +322,13 @@ pub fn nfr(
         y,
     } = linear_start(&sys0, freq, &omega_param)?;
     let omega0 = sys0.param(freq);
+    // the longest period of the range, against the fastest motion of the linearization
+    let slowest = if param == freq {
+        opts.from.min(opts.to)
+    } else {
+        omega0
+    };
+    check_period(&lin, slowest)?;
     let n = sys0.nq();
     // The scales: the parameter's range, and the largest linear state over it.
     let sp = (opts.to - opts.from).abs();
@@ -523,6 +530,39 @@ pub fn nfr(
         rhs_evaluations: tr.sh.rhs_evaluations,
         unresolved_events: tr.unresolved,
     })
+}
+
+/// The most steps the shooting's integrator may need for one forcing period, by the
+/// stability bound of an explicit method (DOP853: h·|λ| ≲ 6 for the fastest eigenvalue
+/// λ of the linearization, whatever the accuracy asks).
+pub const PERIOD_STEPS: usize = 10_000;
+
+/// Refuse a forcing frequency whose period DOP853 cannot cross in [`PERIOD_STEPS`]
+/// steps: at ω far below the model's fastest motion (1e-4 rad/s on the overcentre, whose
+/// |λ| is 3 1/s) every period takes tens of thousands of steps, each with the variational
+/// equations, and the first point alone runs for minutes without a word. The bound is a
+/// lower one (the overcentre at 1e-4 rad/s: 3.1e4 by the bound, about 5e4 taken); at the
+/// budget a period costs about 1e4 steps, a second or so on the overcentre.
+fn check_period(lin: &Linearization, omega: f64) -> Result<()> {
+    let Ok(modes) = lin.modes(0) else {
+        return Ok(());
+    };
+    let lambda = modes
+        .iter()
+        .map(|m| m.omega_n_rad_s)
+        .filter(|l| l.is_finite())
+        .fold(0.0, f64::max);
+    let steps = std::f64::consts::TAU / omega * lambda / 6.0;
+    if omega > 0.0 && steps > PERIOD_STEPS as f64 {
+        return Err(Failure::PeriodUnresolved {
+            omega,
+            lambda,
+            steps,
+            max_steps: PERIOD_STEPS,
+        }
+        .into());
+    }
+    Ok(())
 }
 
 /// The linear response about the equilibrium at the system's parameter values.
