@@ -507,10 +507,11 @@ fn command_wording_and_requests() {
         err.contains("the continuation was interrupted") && !err.contains("sweep"),
         "{err}"
     );
-    // 3 rad/s = 0.477465 Hz; the end "interrupted at omega = 0.6... Hz", not in rad/s
+    // 3 rad/s = 0.477465 Hz (omega/2π: cycles); the end "interrupted at omega/2π =
+    // 0.6... Hz", not in rad/s
     assert!(
         out.lines()
-            .any(|l| l.starts_with("branch 0: from omega = 0.477465 Hz,")),
+            .any(|l| l.starts_with("branch 0: from omega/2π = 0.477465 Hz,")),
         "{out}"
     );
     let interrupted = out
@@ -518,7 +519,7 @@ fn command_wording_and_requests() {
         .find(|l| l.starts_with("branch ") && l.contains("interrupted"))
         .unwrap_or("");
     assert!(
-        interrupted.contains("interrupted at omega = 0.") && interrupted.ends_with(" Hz"),
+        interrupted.contains("interrupted at omega/2π = 0.") && interrupted.ends_with(" Hz"),
         "{out}"
     );
 }

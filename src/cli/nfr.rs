@@ -218,6 +218,13 @@ pub fn run(a: NfrArgs) -> Result<()> {
     let began = std::time::Instant::now();
     let param = a.param.clone();
     let fu = a.freq.freq_unit;
+    // the parameter as named in the lines: `omega/2π` when a frequency is shown in Hz or
+    // rpm (cycles: `omega = 0.45 Hz` would read as an angular frequency)
+    let pn = if is_freq {
+        fu.quantity(&param)
+    } else {
+        param.clone()
+    };
     // a value of the continued parameter as printed: in the chosen frequency unit, or
     // in the parameter's unit, to 7 significant digits
     let shown = |v: f64| -> String {
@@ -267,7 +274,7 @@ pub fn run(a: NfrArgs) -> Result<()> {
         &sys,
         &opts,
         &|n, v| {
-            bar.set_message(format!("{n} points, {param} = {}", shown(v)));
+            bar.set_message(format!("{n} points, {pn} = {}", shown(v)));
             bar.tick();
         },
         &INTERRUPTED,
@@ -366,10 +373,10 @@ pub fn run(a: NfrArgs) -> Result<()> {
             println!(
                 "branch {}: from {} = {}, {} points; {}",
                 b.index,
-                curve.param,
+                pn,
                 shown(b.from),
                 b.points,
-                b.words(&curve.param, &shown)
+                b.words(&pn, &shown)
             );
         }
         let amp = |s: &detune::periodic::continuation::Special| -> String {
@@ -395,7 +402,7 @@ pub fn run(a: NfrArgs) -> Result<()> {
                     detune::periodic::continuation::Located::PeriodDoubling => "period doubling",
                     _ => "Neimark-Sacker point",
                 },
-                curve.param,
+                pn,
                 shown_to(s.value, s.uncertainty),
                 located_to(s.refined, s.uncertainty, &shown_difference),
                 amp(s),
@@ -423,7 +430,7 @@ pub fn run(a: NfrArgs) -> Result<()> {
             println!(
                 "peak {}: {} = {} ({}), amplitude {:.6e} {unit}",
                 p.response,
-                curve.param,
+                pn,
                 shown_to(p.value, p.uncertainty),
                 located_to(p.refined, p.uncertainty, &shown_difference),
                 p.amplitude
