@@ -372,3 +372,42 @@ fn inceptor_toleranced_design_passes_margins_over_the_box() {
         assert!((x - y).abs() < 1e-6 * y, "cost {x} (auto) vs {y} (COBYLA)");
     }
 }
+
+/// A `--vary` range past a fold: the overcentre's upper well ends at k = 37.01 N/m (the
+/// fold `continue` locates from k = 50 down), so at k = 50 % = 25 N/m there is no
+/// equilibrium near the baseline's. The advice is to narrow that --vary (another initial
+/// pose, the statics' generic advice, is no remedy).
+#[test]
+fn a_vary_range_past_a_fold_is_advised_to_narrow() {
+    let (code, out, _) = detune(&[
+        "continue",
+        "models/overcentre.toml",
+        "--param",
+        "k",
+        "--from",
+        "50",
+        "--to",
+        "25",
+        "--step",
+        "1",
+    ]);
+    assert_eq!(code, 0, "{out}");
+    assert!(out.contains("fold at k = 37.01492"), "{out}");
+    let (code, _, err) = detune(&[
+        "tune",
+        "models/overcentre.toml",
+        "--environment",
+        "tests/data/uh60_profile.toml",
+        "--vary",
+        "k=50%..200%",
+    ]);
+    assert_eq!(code, 1, "{err}");
+    assert!(
+        err.contains("the case k=50%: no equilibrium found"),
+        "{err}"
+    );
+    assert!(
+        err.contains("narrow the range of --vary k") && !err.contains("start closer"),
+        "{err}"
+    );
+}

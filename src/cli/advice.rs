@@ -67,15 +67,36 @@ pub fn advice(f: &Failure) -> Option<String> {
 /// range takes the linkage past where it closes. Narrow that flag's range.
 pub fn vary_advice(f: &Failure, context: &[String]) -> Option<String> {
     use Failure::*;
-    if !matches!(
-        f,
-        NoAssembly { .. } | UndefinedGuess { .. } | UndefinedConstraint { .. }
-    ) {
+    let no_equilibrium = matches!(f, NoEquilibrium { .. });
+    if !no_equilibrium
+        && !matches!(
+            f,
+            NoAssembly { .. } | UndefinedGuess { .. } | UndefinedConstraint { .. }
+        )
+    {
         return None;
     }
     let name = context
         .iter()
         .find_map(|c| c.split_once(": the case ").map(|(n, _)| n.trim()))?;
+    if no_equilibrium {
+        // each case starts from the baseline's equilibrium: none near it means the
+        // change takes the mechanism past a fold (another initial pose is no remedy)
+        let which = if name.contains(' ') {
+            "at that corner of the tolerance box".to_string()
+        } else {
+            format!("at that value of `{name}`")
+        };
+        let range = if name.contains(' ') {
+            "the --vary ranges".to_string()
+        } else {
+            format!("the range of --vary {name} (e.g. --vary {name}=80%..120%, or ±10%)")
+        };
+        let continued = if name.contains(' ') { "NAME" } else { name };
+        return Some(format!(
+            "{which} the equilibrium the baseline starts from no longer exists (the change takes the mechanism past a fold): narrow {range}; `detune continue --param {continued}` shows where it ends"
+        ));
+    }
     if name.contains(' ') {
         // a corner of the tolerance box (`the tolerance box's corner: the case a=1, b=2`)
         return Some("at that corner of the tolerance box the linkage no longer closes: narrow the --vary ranges (e.g. NAME=80%..120%, or ±10%), or check the values with --set and `detune check`".into());
