@@ -571,11 +571,17 @@ fn refuse_other(path: &str, old: &Header, want: &Header) -> Result<()> {
     if old.fingerprint != want.fingerprint {
         return Err(Error::request(
             format!(
-                "the checkpoint {path} is of a {} with other options, --set or --values: it was written by\n  detune {} {}",
+                "the checkpoint {path} is of a {} with other options{}: it was written by\n  detune {} {}",
                 if old.study.is_some() {
                     "study"
                 } else {
                     "sweep"
+                },
+                // `--values` is the sweep's; the studies (sensitivity, tune) vary by --vary
+                if old.study.is_some() {
+                    " or --set"
+                } else {
+                    ", --set or --values"
                 },
                 command(old),
                 old.command.join(" ")
