@@ -312,9 +312,25 @@ fn an_orbit_over_both_wells_spans_them() {
     let (_, qs) = pose(truth[1].0);
     let (upper, qu) = pose(truth[2].0);
     assert!(!truth[1].1 && truth[0].1 && truth[2].1);
+    // the other pose in the lower pose's turn (each angle within π of it), as a
+    // continuous orbit carries it: `equilibrium --all` shows each pose with its angles in
+    // (−π, π], where the lower well's bar2.theta is −2.28 rad and the saddle's 2.88
+    let angles = sys.angles();
     let orbit = |n_lower: usize, other: &[f64], n_other: usize| -> Vec<Vec<f64>> {
+        let other: Vec<f64> = other
+            .iter()
+            .zip(&ql)
+            .zip(&angles)
+            .map(|((&x, &l), &angle)| {
+                if angle {
+                    x - std::f64::consts::TAU * ((x - l) / std::f64::consts::TAU).round()
+                } else {
+                    x
+                }
+            })
+            .collect();
         let mut o = vec![ql.clone(); n_lower];
-        o.extend(std::iter::repeat_n(other.to_vec(), n_other));
+        o.extend(std::iter::repeat_n(other, n_other));
         o
     };
     // half and half: spans (whichever the mean is nearest to)
