@@ -48,8 +48,8 @@ fn freq_unit_prints_the_modes_table_in_hz_and_rpm() {
     let hz = ok(&["modes", "models/overcentre.toml", "--freq-unit", "Hz"]);
     let rpm = ok(&["modes", "models/overcentre.toml", "--freq-unit", "rpm"]);
     assert!(line(&rad, "mode").contains("ω_n [rad/s]"), "{rad}");
-    assert!(line(&hz, "mode").contains("ω_n [Hz]"), "{hz}");
-    assert!(line(&rpm, "mode").contains("ω_d [rpm]"), "{rpm}");
+    assert!(line(&hz, "mode").contains("f_n [Hz]"), "{hz}");
+    assert!(line(&rpm, "mode").contains("f_d [rpm]"), "{rpm}");
     // mode 1: ω_n, ω_d (8 decimals), f [Hz], ζ, λ
     let r = numbers(line(&rad, "1 "));
     let h = numbers(line(&hz, "1 "));
