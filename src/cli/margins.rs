@@ -332,7 +332,15 @@ fn print_table(check: &MarginCheck, fu: FreqUnit) {
             String::new()
         },
         "line",
-        format!("ω [{sym}]"),
+        // a line's frequency: ω in rad/s, f (a cycle rate) in Hz or rpm
+        format!(
+            "{} [{sym}]",
+            if fu == FreqUnit::RadPerSecond {
+                "ω"
+            } else {
+                "f"
+            }
+        ),
         ctitle,
         "separation",
         "side",
