@@ -432,3 +432,193 @@ fn modes_fall_back_to_numbers_where_the_names_do_not_apply() {
     // the same divergence as `margins` reports (tests/margins.rs: 5.8357 1/s)
     close(f(&v["growing_modes"][0]["growth_rate_1_s"]), 5.8357, 1e-4);
 }
+
+/// `equilibrium` says both truths as `modes` does (re-audit of issues 10/11): the block
+/// with c = −6 N·s/m is statically stable (ω² = k/m = 400 rad²/s²) and dynamically
+/// UNSTABLE, growing as e^(+c/2m t) = e^(+1.5 t) at ω_d = √(4km − c²)/2m; `--json` adds
+/// `dynamically_stable` beside `stable` (and per equilibrium with `--all`).
+#[test]
+fn equilibrium_says_dynamic_stability_as_modes_does() {
+    let (re, im) = sdof_roots(-6.0);
+    let out = run(&["equilibrium", SDOF, "--set", "c=-6"]);
+    assert!(out.status.success());
+    let text = String::from_utf8_lossy(&out.stdout);
+    let want = format!(
+        "  statically stable, dynamically UNSTABLE (mode 1 grows as e^({re:+.4} t), oscillating at {im:.4} rad/s); ω² = 400.000000 rad²/s²"
+    );
+    assert!(text.contains(&want), "no {want:?} in\n{text}");
+    // the same words as modes'
+    let modes = run(&["modes", SDOF, "--set", "c=-6"]);
+    let first = String::from_utf8_lossy(&modes.stdout)
+        .lines()
+        .next()
+        .unwrap()
+        .to_string();
+    assert!(
+        want.contains(first.trim_start_matches("equilibrium: ")),
+        "{first}"
+    );
+    let v = json(&["equilibrium", SDOF, "--set", "c=-6", "--json"]);
+    assert_eq!(v["stable"], true);
+    assert_eq!(v["dynamically_stable"], false);
+    close(f(&v["undamped_omega2"][0]), K / M, 1e-10);
+    // positive damping: both stable, the words unchanged
+    let v = json(&["equilibrium", SDOF, "--json"]);
+    assert_eq!(
+        (&v["stable"], &v["dynamically_stable"]),
+        (&Value::Bool(true), &Value::Bool(true))
+    );
+    let text = String::from_utf8_lossy(&run(&["equilibrium", SDOF]).stdout).to_string();
+    assert!(
+        text.contains("  stable (ω² = 400.000000 rad²/s²)"),
+        "{text}"
+    );
+    // --all: the inverted pendulum's saddle diverges at √(mgl/I) (l = L/2, I = mL²/3)
+    let (m, l, g): (f64, f64, f64) = (1.5, 0.8, 9.81);
+    let rate = (m * g * (l / 2.0) / (m * l * l / 3.0)).sqrt();
+    let args = [
+        "equilibrium",
+        PENDULUM,
+        "--all",
+        "--set",
+        "g=-9.81",
+        "--set",
+        "k=0",
+        "--set",
+        "c=0",
+    ];
+    let v = json(&[&args[..], &["--json"]].concat());
+    let all = v["equilibria"].as_array().unwrap();
+    assert!(!all.is_empty());
+    for e in all {
+        assert_eq!(e["stable"], false, "{e}");
+        assert_eq!(e["dynamically_stable"], false, "{e}");
+        close(f(&e["undamped_omega2"][0]), -rate * rate, 1e-9);
+    }
+    let text = String::from_utf8_lossy(&run(&args).stdout).to_string();
+    assert!(
+        text.contains(&format!(
+            "UNSTABLE, statically and dynamically (mode 2 diverges as e^(+{rate:.4} t) without oscillating)"
+        )),
+        "{text}"
+    );
+}
+
+/// A slow growth is not printed as zero: c = −1e-3 N·s/m grows as e^(+c/2m t) with
+/// c/2m = 2.5e-4 1/s, above the round-off threshold (1e-6 × ω_n = 2e-5): shown in 4
+/// significant digits wherever a growth rate is printed.
+#[test]
+fn a_slow_growth_is_printed_in_significant_digits() {
+    let (re, _) = sdof_roots(-1e-3);
+    close(re, 2.5e-4, 1e-12);
+    assert_eq!(detune::linear::rate_text(re, 4, true), "+2.500e-4");
+    assert_eq!(detune::linear::rate_text(0.13, 4, true), "+0.1300");
+    assert_eq!(detune::linear::rate_text(5.8357, 4, false), "5.8357");
+    let text =
+        String::from_utf8_lossy(&run(&["modes", SDOF, "--set", "c=-1e-3"]).stdout).to_string();
+    assert!(
+        text.lines()
+            .next()
+            .unwrap()
+            .contains("mode 1 grows as e^(+2.500e-4 t)"),
+        "{text}"
+    );
+    assert!(
+        text.contains("GROWING: e^(+2.500e-4 t), time constant 4000.000000 s"),
+        "{text}"
+    );
+    assert!(!text.contains("+0.0000 t"), "{text}");
+    let text = String::from_utf8_lossy(&run(&["equilibrium", SDOF, "--set", "c=-1e-3"]).stdout)
+        .to_string();
+    assert!(text.contains("grows as e^(+2.500e-4 t)"), "{text}");
+}
+
+/// The report of a growing oscillation (c = −6 N·s/m: ζ = c/2√(km) = −0.075, growth
+/// +1.5 1/s) marks its modes-table row, and its standard output says the verdict.
+#[test]
+fn the_report_marks_a_growing_oscillation_and_says_unstable() {
+    let (re, im) = sdof_roots(-6.0);
+    let dir = tempfile::tempdir().unwrap();
+    let html = dir.path().join("r.html");
+    let out = run(&[
+        "report",
+        SDOF,
+        "--set",
+        "c=-6",
+        "-o",
+        html.to_str().unwrap(),
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let said = String::from_utf8_lossy(&out.stdout);
+    let want = format!(
+        "equilibrium: statically stable, dynamically UNSTABLE (mode 1 grows as e^({re:+.4} t), oscillating at {im:.4} rad/s)"
+    );
+    assert!(said.lines().any(|l| l == want), "no {want:?} in\n{said}");
+    let page = std::fs::read_to_string(&html).unwrap();
+    let row = format!(
+        "<td><span class=\"num\" data-key=\"modes/0/damping_ratio\">{:.4}</span> (growing: e^(+<span class=\"num\" data-key=\"modes/0/growth_rate_1_s\">{re:.3}</span> t), 1/s)</td>",
+        -6.0 / (2.0 * (K * M).sqrt())
+    );
+    assert!(page.contains(&row), "no {row} in the page");
+    // a stable design: no verdict line, no marker
+    let out = run(&["report", SDOF, "-o", html.to_str().unwrap()]);
+    assert!(out.status.success());
+    assert!(!String::from_utf8_lossy(&out.stdout).contains("UNSTABLE"));
+    assert!(
+        !std::fs::read_to_string(&html)
+            .unwrap()
+            .contains("growing: e^")
+    );
+}
+
+/// `margins --vary`'s unstable points carry labels rounded to 6 significant digits, the
+/// corner flagged apart from the interior samples. The torsion pendulum (k = 12 N·m/rad)
+/// varied by ±40.1234567: the lower corner k = −28.1234567 and the samples a quarter and a
+/// half of the way up to the baseline (−18.0925925…, −8.0617283…) have K = k + m g L/2 < 0
+/// and diverge at λ = (−c + √(c² − 4 I K)) / 2I.
+#[test]
+fn margins_unstable_points_have_rounded_labels() {
+    let growth = |k: f64| {
+        let (m, l, g, c) = (1.5, 0.8, 9.81, 0.4);
+        let (i, kk) = (m * l * l / 3.0, k + m * g * l / 2.0);
+        (-c + (c * c - 4.0 * i * kk).sqrt()) / (2.0 * i)
+    };
+    let args = [
+        "margins",
+        PENDULUM,
+        "--environment",
+        "UH-60",
+        "--vary",
+        "k=±40.1234567",
+        "--json",
+    ];
+    let out = run(&args);
+    assert_eq!(
+        out.status.code(),
+        Some(3),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: Value = serde_json::from_slice(&out.stdout).unwrap();
+    let low = 12.0 - 40.1234567;
+    let want = [
+        ("k=-28.1235", true, low),
+        ("k=-18.0926", false, low + (12.0 - low) * 0.25),
+        ("k=-8.06173", false, low + (12.0 - low) * 0.5),
+    ];
+    let got = v["unstable_corners"].as_array().unwrap();
+    assert_eq!(got.len(), want.len(), "{got:?}");
+    for (label, corner, k) in want {
+        let u = got
+            .iter()
+            .find(|u| u["label"] == label)
+            .unwrap_or_else(|| panic!("no {label} in {got:?}"));
+        assert_eq!(u["corner"], corner, "{u}");
+        close(f(&u["growth_rate_1_s"]), growth(k), 1e-8);
+        assert_eq!(u["omega_d_rad_s"], 0.0);
+    }
+}

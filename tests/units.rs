@@ -48,8 +48,8 @@ fn freq_unit_prints_the_modes_table_in_hz_and_rpm() {
     let hz = ok(&["modes", "models/overcentre.toml", "--freq-unit", "Hz"]);
     let rpm = ok(&["modes", "models/overcentre.toml", "--freq-unit", "rpm"]);
     assert!(line(&rad, "mode").contains("ω_n [rad/s]"), "{rad}");
-    assert!(line(&hz, "mode").contains("ω_n [Hz]"), "{hz}");
-    assert!(line(&rpm, "mode").contains("ω_d [rpm]"), "{rpm}");
+    assert!(line(&hz, "mode").contains("f_n [Hz]"), "{hz}");
+    assert!(line(&rpm, "mode").contains("f_d [rpm]"), "{rpm}");
     // mode 1: ω_n, ω_d (8 decimals), f [Hz], ζ, λ
     let r = numbers(line(&rad, "1 "));
     let h = numbers(line(&hz, "1 "));
@@ -820,4 +820,102 @@ fn backbone_shows_its_frequencies_in_the_freq_unit() {
         let want = p["omega"].as_f64().unwrap() / TAU;
         assert!((f - want).abs() < 1e-9, "{row}: want {want}");
     }
+}
+
+/// In Hz or rpm a natural frequency is f_n, a damped one f_d (re-audit of issues 10/11):
+/// the tables of `modes`, `margins` and `sensitivity` say so (ω in rad/s). The block of
+/// tests/data/sdof.toml: ω_n = √(k/m) = 20 rad/s, f_n = 10/π Hz.
+#[test]
+fn tables_in_hz_say_f_n() {
+    let hz = ok(&["modes", "tests/data/sdof.toml", "--freq-unit", "Hz"]);
+    let head = line(&hz, "mode");
+    assert!(
+        head.contains("f_n [Hz]") && head.contains("f_d [Hz]"),
+        "{head}"
+    );
+    assert!(
+        head.contains("ω_n [rad/s]") && !head.contains("ω_n [Hz]"),
+        "{head}"
+    );
+    let r = numbers(line(&hz, "1 "));
+    assert!((r[1] - 20.0 / TAU).abs() < 1e-8, "{r:?}");
+    assert!((r[3] - 20.0).abs() < 1e-6, "{r:?}");
+    let rad = ok(&["modes", "tests/data/sdof.toml"]);
+    assert!(line(&rad, "mode").contains("ω_d [rad/s]"), "{rad}");
+
+    let m = ok(&[
+        "margins",
+        "tests/data/sdof.toml",
+        "--environment",
+        "UH-60",
+        "--freq-unit",
+        "rpm",
+    ]);
+    let head = line(&m, "mode ");
+    assert!(
+        head.contains("f_n [rpm]") && head.contains("f [rpm]") && !head.contains("ω_n [rpm]"),
+        "{head}"
+    );
+    let r = numbers(line(&m, "mode 1 "));
+    assert!((r[1] - 20.0 * 60.0 / TAU).abs() < 1e-3, "{r:?}");
+
+    let s = ok(&[
+        "sensitivity",
+        "tests/data/sdof.toml",
+        "--vary",
+        "k=±10%",
+        "--freq-unit",
+        "Hz",
+    ]);
+    let first = line(&s, "mode 1:");
+    assert!(first.starts_with("mode 1: f_n = 3.183099 Hz"), "{first}");
+    assert!(first.contains("undamped f = 3.183099 Hz"), "{first}");
+    let head = line(&s, "case");
+    assert!(
+        head.contains("f_n [Hz]") && head.contains("undamped f [Hz]"),
+        "{head}"
+    );
+}
+
+/// `modes --param --freq-unit Hz --plot`: the curves, their legend, the axis and the
+/// crossing's marker and note all in f_n [Hz]. Two uncoupled pendulums (kc = 0) of
+/// tests/data/veering_pendulums.toml cross at l2 = l1 = 1 m, at ω = √(m g l/(m l² + I)) =
+/// √(9.81/1.001) rad/s; in rad/s the note would sit far above the Hz axis, off the plot.
+#[test]
+fn the_tracking_plot_in_hz_says_f_n_and_places_its_crossing() {
+    let dir = tempfile::tempdir().unwrap();
+    let svg = dir.path().join("m.svg");
+    let out = ok(&[
+        "modes",
+        "tests/data/veering_pendulums.toml",
+        "--set",
+        "kc=0",
+        "--param",
+        "l2",
+        "--from",
+        "0.81",
+        "--to",
+        "1.26",
+        "--points",
+        "10",
+        "--freq-unit",
+        "Hz",
+        "--plot",
+        svg.to_str().unwrap(),
+    ]);
+    let f = (9.81f64 / 1.001).sqrt() / TAU;
+    let crossing = line(&out, "pendulum 1 swings and pendulum 2 swings at l2");
+    let x = numbers(crossing.split("f_n =").nth(1).unwrap());
+    assert!((x[0] - f).abs() < 2e-4, "{crossing} vs {f}");
+    assert!(line(&out, "modes against").contains("f_n in Hz"), "{out}");
+    let texts = svg_texts(&svg);
+    for want in [
+        "f_n [Hz]",
+        "pendulum 1 swings f_n [Hz]",
+        "pendulum 2 swings f_n [Hz]",
+        "crossing l2 = 1 m",
+    ] {
+        assert!(texts.iter().any(|t| t == want), "no {want:?} in {texts:?}");
+    }
+    assert!(!texts.iter().any(|t| t.contains("ω_n")), "{texts:?}");
 }

@@ -33,6 +33,15 @@ pub fn run(a: EquilibriumArgs) -> Result<()> {
     } else {
         vec![st.nearest(&start)?]
     };
+    // dynamic stability too (no mode grows), as `modes` gives it: with negative damping
+    // a statically stable equilibrium is dynamically unstable. Modes that cannot be
+    // computed leave it unknown (null), the static verdict standing alone.
+    let reference = detune::linear::default_reference(&sys);
+    let modal: Vec<Option<detune::linear::ModalAnalysis>> = list
+        .iter()
+        .map(|e| detune::linear::modal_analysis_at(&sys, &st, e.clone(), reference).ok())
+        .collect();
+    let dynamic = |k: usize| modal[k].as_ref().and_then(|m| m.dynamically_stable());
     let solved = sys.trim_solved();
     let trim_off = sys.trim_off().map(|p| {
         format!("off: {p} is given with --set, so the held pose need not be an equilibrium")
@@ -41,7 +50,7 @@ pub fn run(a: EquilibriumArgs) -> Result<()> {
         let solved: Option<std::collections::BTreeMap<String, f64>> =
             solved.map(|v| v.into_iter().collect());
         let provenance = Provenance::of(&model);
-        let json = |e| EquilibriumJson::new(&sys.coordinates, e);
+        let json = |(k, e)| EquilibriumJson::new(&sys.coordinates, e, dynamic(k));
         let mut units = Units::new().coordinates(&sys).with_all([
             (
                 "residual",
@@ -55,7 +64,7 @@ pub fn run(a: EquilibriumArgs) -> Result<()> {
         if a.all {
             print_json(&WithUnits {
                 doc: EquilibriaReport {
-                    equilibria: list.iter().map(json).collect(),
+                    equilibria: list.iter().enumerate().map(json).collect(),
                     solved,
                     trim: trim_off,
                     provenance: &provenance,
@@ -65,7 +74,7 @@ pub fn run(a: EquilibriumArgs) -> Result<()> {
         } else {
             print_json(&WithUnits {
                 doc: EquilibriumReport {
-                    equilibrium: json(&list[0]),
+                    equilibrium: json((0, &list[0])),
                     solved,
                     trim: trim_off,
                     provenance: &provenance,
@@ -103,9 +112,25 @@ pub fn run(a: EquilibriumArgs) -> Result<()> {
             );
             continue;
         }
+        // both truths, in the words `modes` uses; the static verdict alone when the modes
+        // could not be computed
+        let words = match &modal[k] {
+            Some(m) => detune::linear::stability_words(
+                Some(e.stable),
+                m.dynamically_stable(),
+                &detune::margins::unstable_modes(m, &[]),
+            ),
+            None if e.stable => "stable (statically; modes not computed)".to_string(),
+            None => "UNSTABLE".to_string(),
+        };
+        // (the unstable words carry their own parentheses: which mode grows, how fast)
+        let (open, close) = if words.contains('(') {
+            ("; ", "")
+        } else {
+            (" (", ")")
+        };
         println!(
-            "  {} (ω² = {} rad²/s²), residual {:.2e} (SI: N, N·m, m, rad) after {} iterations",
-            if e.stable { "stable" } else { "UNSTABLE" },
+            "  {words}{open}ω² = {} rad²/s²{close}, residual {:.2e} (SI: N, N·m, m, rad) after {} iterations",
             w2.join(", "),
             e.residual,
             e.iterations

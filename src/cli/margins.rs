@@ -319,7 +319,7 @@ fn print_table(check: &MarginCheck, fu: FreqUnit) {
     println!(
         "{:<mw$} {:>12} {:>9} {:>8} {}{:<8} {:>12} {:>9} {:>12} {:>8} {:>11} {:>5}",
         "mode",
-        format!("ω_n [{sym}]"),
+        format!("{} [{sym}]", super::modes::natural(fu, "n")),
         if cu == FreqUnit::Hertz {
             "f [Hz]"
         } else {
@@ -332,7 +332,15 @@ fn print_table(check: &MarginCheck, fu: FreqUnit) {
             String::new()
         },
         "line",
-        format!("ω [{sym}]"),
+        // a line's frequency: ω in rad/s, f (a cycle rate) in Hz or rpm
+        format!(
+            "{} [{sym}]",
+            if fu == FreqUnit::RadPerSecond {
+                "ω"
+            } else {
+                "f"
+            }
+        ),
         ctitle,
         "separation",
         "side",
@@ -500,17 +508,23 @@ fn summary(check: &MarginCheck, env: &Environment, fu: FreqUnit) -> Vec<String> 
     out
 }
 
+use detune::linear::rate_text;
+
 /// An unstable mode in words: which mode grows, and how fast.
 pub fn unstable_words(u: &UnstableMode) -> String {
     if u.omega_d_rad_s == 0.0 {
         format!(
-            "{} is UNSTABLE: a divergent mode, growth rate Re λ = {:.4} 1/s (the equilibrium is unstable: it grows as e^({:.4}·t) and does not oscillate)",
-            u.mode, u.growth_rate_1_s, u.growth_rate_1_s
+            "{} is UNSTABLE: a divergent mode, growth rate Re λ = {} 1/s (the equilibrium is unstable: it grows as e^({}·t) and does not oscillate)",
+            u.mode,
+            rate_text(u.growth_rate_1_s, 4, false),
+            rate_text(u.growth_rate_1_s, 4, false)
         )
     } else {
         format!(
-            "{} is UNSTABLE: an oscillation that grows, growth rate Re λ = {:.4} 1/s at ω_d = {:.4} rad/s (negative damping: the equilibrium is unstable)",
-            u.mode, u.growth_rate_1_s, u.omega_d_rad_s
+            "{} is UNSTABLE: an oscillation that grows, growth rate Re λ = {} 1/s at ω_d = {:.4} rad/s (negative damping: the equilibrium is unstable)",
+            u.mode,
+            rate_text(u.growth_rate_1_s, 4, false),
+            u.omega_d_rad_s
         )
     }
 }
@@ -523,13 +537,14 @@ pub fn corner_words(c: &UnstableCorner) -> String {
         c.label,
         if c.omega_d_rad_s > 0.0 {
             format!(
-                "an oscillation grows as e^({:+.4}·t) at ω_d = {:.4} rad/s",
-                c.growth_rate_1_s, c.omega_d_rad_s
+                "an oscillation grows as e^({}·t) at ω_d = {:.4} rad/s",
+                rate_text(c.growth_rate_1_s, 4, true),
+                c.omega_d_rad_s
             )
         } else {
             format!(
-                "a mode diverges as e^({:+.4}·t) without oscillating",
-                c.growth_rate_1_s
+                "a mode diverges as e^({}·t) without oscillating",
+                rate_text(c.growth_rate_1_s, 4, true)
             )
         }
     )

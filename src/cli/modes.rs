@@ -137,7 +137,7 @@ pub fn run(a: ModesArgs) -> Result<()> {
     for w2 in &m.undamped_omega2 {
         if *w2 > 0.0 && fu != FreqUnit::RadPerSecond {
             println!(
-                "  ω = {:.10} {sym} = {:.10} rad/s",
+                "  f = {:.10} {sym} = ω {:.10} rad/s",
                 fu.of(w2.sqrt()),
                 w2.sqrt()
             );
@@ -154,8 +154,8 @@ pub fn run(a: ModesArgs) -> Result<()> {
     println!(
         "\n{:>4} {:>14} {:>14} {:>12} {:>10} {:>28}",
         "mode",
-        format!("ω_n [{sym}]"),
-        format!("ω_d [{sym}]"),
+        format!("{} [{sym}]", natural(fu, "n")),
+        format!("{} [{sym}]", natural(fu, "d")),
         // ω_n in the companion unit: Hz, or rad/s when the table is in Hz
         match fu.companion() {
             FreqUnit::Hertz => "f [Hz]",
@@ -203,8 +203,8 @@ pub fn run(a: ModesArgs) -> Result<()> {
             md.eigenvalue.im,
             if motion == Motion::GrowingOscillation {
                 format!(
-                    "  GROWING: e^({:+.6} t), time constant {:.6} s",
-                    md.eigenvalue.re,
+                    "  GROWING: e^({} t), time constant {:.6} s",
+                    detune::linear::rate_text(md.eigenvalue.re, 6, true),
                     1.0 / md.eigenvalue.re
                 )
             } else {
@@ -241,6 +241,15 @@ pub fn run(a: ModesArgs) -> Result<()> {
     }
     print_names(&named);
     Ok(())
+}
+
+/// A natural (`which` "n") or damped ("d") frequency's symbol in `fu`: ω_n in rad/s, f_n
+/// in Hz or rpm (cycle rates; docs/units.md).
+pub(crate) fn natural(fu: FreqUnit, which: &str) -> String {
+    match fu {
+        FreqUnit::RadPerSecond => format!("ω_{which}"),
+        _ => format!("f_{which}"),
+    }
 }
 
 /// `percent` of a fraction, `55 %`.
@@ -330,10 +339,17 @@ fn track(a: ModesArgs, param: &str) -> Result<()> {
             unit,
         );
         if fu != FreqUnit::RadPerSecond {
+            // in Hz or rpm a natural frequency is f_n (a cycle rate), not ω_n: the
+            // curves, the crossings' markers and notes, the legend and the axis alike
+            let (from, to) = ("ω_n [rad/s]", format!("f_n [{fu}]"));
             for s in &mut figure.series {
                 s.y.iter_mut().for_each(|y| *y = fu.of(*y));
+                s.label = s.label.replace(from, &to);
             }
-            figure.y_label = figure.y_label.replace("[rad/s]", &format!("[{fu}]"));
+            for n in &mut figure.notes {
+                n.y = fu.of(n.y);
+            }
+            figure.y_label = figure.y_label.replace(from, &to);
         }
         detune::output::plot::write_panels_sized(p, &[figure], size)?;
     }
@@ -382,8 +398,9 @@ fn print_tracking(t: &ModeTracking, unit: &str, fu: FreqUnit) {
         format!(" [{unit}]")
     };
     let sym = fu.symbol();
+    let nat = natural(fu, "n");
     println!(
-        "modes against {}{u} (named at {} = {}{u}); ω_n in {sym}, ζ the damping ratio:",
+        "modes against {}{u} (named at {} = {}{u}); {nat} in {sym}, ζ the damping ratio:",
         t.param, t.param, t.baseline
     );
     let at_baseline: Vec<String> = t
@@ -399,7 +416,7 @@ fn print_tracking(t: &ModeTracking, unit: &str, fu: FreqUnit) {
     let head: Vec<String> = t
         .labels
         .iter()
-        .map(|l| format!("{:>26}", format!("{l}: ω_n, ζ")))
+        .map(|l| format!("{:>26}", format!("{l}: {nat}, ζ")))
         .collect();
     println!("{:>14}  {}", format!("{}{u}", t.param), head.join(" "));
     for s in t.steps.iter().filter(|s| s.requested) {
@@ -429,10 +446,10 @@ fn print_tracking(t: &ModeTracking, unit: &str, fu: FreqUnit) {
     if t.crossings.is_empty() {
         println!("\ncrossings: none");
     } else {
-        println!("\ncrossings (two modes' ω_n swap order):");
+        println!("\ncrossings (two modes' {nat} swap order):");
         for c in &t.crossings {
             println!(
-                "  {} and {} at {} = {:.6}{u}, ω_n = {:.6} {sym}",
+                "  {} and {} at {} = {:.6}{u}, {nat} = {:.6} {sym}",
                 c.labels[0],
                 c.labels[1],
                 t.param,
@@ -447,7 +464,7 @@ fn print_tracking(t: &ModeTracking, unit: &str, fu: FreqUnit) {
         println!("veerings (two modes approach without crossing and exchange shapes):");
         for v in &t.veerings {
             println!(
-                "  {} and {} at {} = {:.6}{u}: ω_n = {:.6} and {:.6} {sym}, least relative gap {:.2} %, shapes exchanged over {:.6} to {:.6}{u}",
+                "  {} and {} at {} = {:.6}{u}: {nat} = {:.6} and {:.6} {sym}, least relative gap {:.2} %, shapes exchanged over {:.6} to {:.6}{u}",
                 v.labels[0],
                 v.labels[1],
                 t.param,

@@ -207,6 +207,28 @@ pub fn run(a: ReportArgs) -> Result<()> {
         report.document.sections.len(),
         start.elapsed().as_secs_f64()
     );
+    // an unstable design says so here too, in the words `modes` and the page use
+    let eq = |key: &str| report.sidecar.get(&format!("equilibrium/{key}")).cloned();
+    let flag = |key: &str| eq(key).and_then(|v| v.as_bool());
+    let (stable, dynamic) = (flag("stable"), flag("dynamically_stable"));
+    if matches!((stable, dynamic), (Some(false), _) | (_, Some(false))) {
+        let growing: Vec<detune::margins::UnstableMode> = eq("growing_modes")
+            .and_then(|g| g.as_array().cloned())
+            .unwrap_or_default()
+            .iter()
+            .filter_map(|u| {
+                Some(detune::margins::UnstableMode {
+                    mode: u.get("mode")?.as_str()?.to_string(),
+                    growth_rate_1_s: u.get("growth_rate_1_s")?.as_f64()?,
+                    omega_d_rad_s: u.get("omega_d_rad_s")?.as_f64()?,
+                })
+            })
+            .collect();
+        println!(
+            "equilibrium: {}",
+            detune::linear::stability_words(stable, dynamic, &growing)
+        );
+    }
     Ok(())
 }
 

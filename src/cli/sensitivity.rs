@@ -247,11 +247,17 @@ pub fn baseline_warning(study: &Sensitivity) -> Option<String> {
         .map(|u| {
             if u.omega_d_rad_s > 0.0 {
                 format!(
-                    "{} grows as e^({:+.4} t), oscillating at {:.4} rad/s",
-                    u.mode, u.growth_rate_1_s, u.omega_d_rad_s
+                    "{} grows as e^({} t), oscillating at {:.4} rad/s",
+                    u.mode,
+                    detune::linear::rate_text(u.growth_rate_1_s, 4, true),
+                    u.omega_d_rad_s
                 )
             } else {
-                format!("{} diverges as e^({:+.4} t)", u.mode, u.growth_rate_1_s)
+                format!(
+                    "{} diverges as e^({} t)",
+                    u.mode,
+                    detune::linear::rate_text(u.growth_rate_1_s, 4, true)
+                )
             }
         })
         .collect();
@@ -269,14 +275,14 @@ pub fn unstable_warnings(study: &Sensitivity) -> Vec<String> {
         .iter()
         .map(|c| {
             format!(
-                "the case {}: the equilibrium is unstable ({}, growth rate Re λ = {:.4} 1/s); its frequencies are not resonances",
+                "the case {}: the equilibrium is unstable ({}, growth rate Re λ = {} 1/s); its frequencies are not resonances",
                 c.label,
                 if c.omega_d_rad_s == 0.0 {
                     "a divergent mode".to_string()
                 } else {
                     format!("an oscillation growing at ω_d = {:.4} rad/s", c.omega_d_rad_s)
                 },
-                c.growth_rate_1_s
+                detune::linear::rate_text(c.growth_rate_1_s, 4, false)
             )
         })
         .collect();
@@ -303,6 +309,13 @@ fn print_tables(s: &Sensitivity, unit: &dyn Fn(&str) -> String, fu: FreqUnit) {
     // frequencies in the --freq-unit (rad/s by default, then with Hz beside)
     let f = |w: f64| fu.of(w);
     let sym = fu.symbol();
+    // ω_n in rad/s, f_n in Hz or rpm (cycle rates); the undamped frequency likewise
+    let nat = super::modes::natural(fu, "n");
+    let undamped = if fu == FreqUnit::RadPerSecond {
+        "ω"
+    } else {
+        "f"
+    };
     let beside = |w: f64, d: usize| {
         if fu == FreqUnit::RadPerSecond {
             format!(" ({:.d$} Hz)", hz(w))
@@ -315,13 +328,13 @@ fn print_tables(s: &Sensitivity, unit: &dyn Fn(&str) -> String, fu: FreqUnit) {
     }
     for m in &s.modes {
         println!(
-            "{}: ω_n = {:.6} {sym}{}, ζ = {:.5}{}",
+            "{}: {nat} = {:.6} {sym}{}, ζ = {:.5}{}",
             m.name,
             f(m.omega_n_rad_s),
             beside(m.omega_n_rad_s, 5),
             m.damping_ratio,
             m.undamped_omega_rad_s
-                .map(|u| format!(", undamped ω = {:.6} {sym}", f(u)))
+                .map(|u| format!(", undamped {undamped} = {:.6} {sym}", f(u)))
                 .unwrap_or_default()
         );
         if let Some(p) = m.peak_omega_rad_s {
@@ -333,9 +346,9 @@ fn print_tables(s: &Sensitivity, unit: &dyn Fn(&str) -> String, fu: FreqUnit) {
             "  {:<22} {:>16} {:>14} {:>9} {:>14} {:>9} {:>9}{}",
             "case",
             "value",
-            format!("ω_n [{sym}]"),
+            format!("{nat} [{sym}]"),
             "change",
-            format!("undamped ω [{sym}]"),
+            format!("undamped {undamped} [{sym}]"),
             "change",
             "ζ",
             if swept {

@@ -541,6 +541,18 @@ impl ModalAnalysis {
     }
 }
 
+/// A growth (or decay) rate, 1/s, as the text shows it: `decimals` decimals from 1e-3 up
+/// (`+0.1300`), 4 significant digits in scientific notation below (`+1.000e-4`: a slow
+/// growth is not printed as `+0.0000`); `signed` prefixes `+` to a positive rate.
+pub fn rate_text(rate: f64, decimals: usize, signed: bool) -> String {
+    match (rate != 0.0 && rate.abs() < 1e-3, signed) {
+        (true, true) => format!("{rate:+.3e}"),
+        (true, false) => format!("{rate:.3e}"),
+        (false, true) => format!("{rate:+.decimals$}"),
+        (false, false) => format!("{rate:.decimals$}"),
+    }
+}
+
 /// An equilibrium's stability in words, both truths: static (`stable`: every undamped
 /// ω² positive) and dynamic (`dynamic`: no mode grows; `growing` the growing modes, as
 /// [`crate::margins::unstable_modes`] gives them). `None` for either: no degrees of
@@ -557,13 +569,16 @@ pub fn stability_words(
             .map(|u| {
                 if u.omega_d_rad_s > 0.0 {
                     format!(
-                        "{} grows as e^({:+.4} t), oscillating at {:.4} rad/s",
-                        u.mode, u.growth_rate_1_s, u.omega_d_rad_s
+                        "{} grows as e^({} t), oscillating at {:.4} rad/s",
+                        u.mode,
+                        rate_text(u.growth_rate_1_s, 4, true),
+                        u.omega_d_rad_s
                     )
                 } else {
                     format!(
-                        "{} diverges as e^({:+.4} t) without oscillating",
-                        u.mode, u.growth_rate_1_s
+                        "{} diverges as e^({} t) without oscillating",
+                        u.mode,
+                        rate_text(u.growth_rate_1_s, 4, true)
                     )
                 }
             })
@@ -608,7 +623,18 @@ pub fn modal_analysis(sys: &System, normalize: Option<&str>) -> Result<ModalAnal
     let start = crate::dynamics::assemble_at_rest(sys)?;
     let st = Statics::new(sys, &start.q)?;
     let equilibrium = st.nearest(&start)?;
-    let linearization = Linearization::new(&st, &equilibrium);
+    modal_analysis_at(sys, &st, equilibrium, reference)
+}
+
+/// The modal analysis about a given `equilibrium` of `st` (`equilibrium --all` has
+/// several), shapes normalized to coordinate `reference`.
+pub fn modal_analysis_at(
+    sys: &System,
+    st: &Statics,
+    equilibrium: crate::statics::Equilibrium,
+    reference: usize,
+) -> Result<ModalAnalysis> {
+    let linearization = Linearization::new(st, &equilibrium);
     let modes = linearization.modes(reference)?;
     let undamped_omega2 = linearization.undamped_omega2();
     Ok(ModalAnalysis {

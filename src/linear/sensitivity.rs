@@ -532,6 +532,34 @@ impl NegativeDamping {
     }
 }
 
+/// `x` to 6 significant digits, trailing zeros trimmed (`2.6163`, `110000`, `-1.5e-5`):
+/// the value in a point's label (an interior sample sits at a fraction of the range, so
+/// its value has every digit of f64).
+pub(crate) fn sig6(x: f64) -> String {
+    if x == 0.0 || !x.is_finite() {
+        return format!("{x}");
+    }
+    let e = x.abs().log10().floor() as i64;
+    if (-3..7).contains(&e) {
+        let decimals = (5 - e).max(0) as usize;
+        let s = format!("{x:.decimals$}");
+        if s.contains('.') {
+            s.trim_end_matches('0').trim_end_matches('.').to_string()
+        } else {
+            s
+        }
+    } else {
+        let s = format!("{x:.5e}");
+        let (m, exp) = s.split_once('e').unwrap_or((&s, "0"));
+        let m = if m.contains('.') {
+            m.trim_end_matches('0').trim_end_matches('.')
+        } else {
+            m
+        };
+        format!("{m}e{exp}")
+    }
+}
+
 /// `x` to 6 decimals, trailing zeros trimmed (`-2.8245`, `-5`), or in scientific
 /// notation when small or large.
 fn short(x: f64) -> String {
@@ -826,10 +854,13 @@ pub struct Sensitivity {
 /// whose equilibrium is unstable.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct UnstableCorner {
-    /// The parameters' values there, `k_fs=110000, gearbox_scale=0.95` (SI).
+    /// The parameters' values there, `k_fs=110000, gearbox_scale=0.95` (SI, 6 significant
+    /// digits, trailing zeros trimmed).
     pub label: String,
-    /// A corner of the box (all parameters at an end of their range), else an interior
-    /// sample (one parameter inside its range, the others at the baseline).
+    /// `true`: a corner of the box (every varied parameter at an end of its range);
+    /// `false`: an interior sample (one parameter inside its range, at 1/4, 1/2 or 3/4
+    /// of the way from an end to the baseline, the others at the baseline), or a
+    /// `--vary` case inside the box (`margins`).
     pub corner: bool,
     /// The largest Re λ, 1/s.
     pub growth_rate_1_s: f64,
@@ -1166,7 +1197,7 @@ pub fn sensitivity(
         varies
             .iter()
             .zip(hi)
-            .map(|(v, &h)| format!("{}={}", v.name, if h { v.range.1 } else { v.range.0 }))
+            .map(|(v, &h)| format!("{}={}", v.name, sig6(if h { v.range.1 } else { v.range.0 })))
             .collect::<Vec<_>>()
             .join(", ")
     };
@@ -1230,7 +1261,7 @@ pub fn sensitivity(
                 v,
                 x,
                 run(
-                    &format!("{}={x}", vary.name),
+                    &format!("{}={}", vary.name, sig6(x)),
                     &vary.name,
                     &[(vary.param, x)],
                 )
@@ -1246,7 +1277,7 @@ pub fn sensitivity(
     unstable_corners.extend(axis_results.iter().filter_map(|(v, x, r)| {
         let (g, wd) = r.as_ref()?.0.growth?;
         Some(UnstableCorner {
-            label: format!("{}={x}", varies[*v].name),
+            label: format!("{}={}", varies[*v].name, sig6(*x)),
             corner: false,
             growth_rate_1_s: g,
             omega_d_rad_s: wd,

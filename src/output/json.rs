@@ -166,16 +166,23 @@ pub struct EquilibriumJson<'a> {
     /// `null` when nothing can move (no degrees of freedom: every coordinate fixed or
     /// driven), so there is no stability to speak of; see [`stability`].
     pub stable: Option<bool>,
+    /// DYNAMIC stability: no mode of the linearization about this equilibrium grows
+    /// ([`crate::linear::ModalAnalysis::dynamically_stable`]); with negative damping an
+    /// equilibrium is `stable` (statically) and not dynamically stable. `null` with no
+    /// degrees of freedom, or when its modes could not be computed.
+    pub dynamically_stable: Option<bool>,
     pub residual: f64,
     pub iterations: usize,
     pub undamped_omega2: &'a [f64],
 }
 
 impl<'a> EquilibriumJson<'a> {
-    pub fn new(names: &'a [String], e: &'a Equilibrium) -> Self {
+    /// `dynamic`: [`crate::linear::ModalAnalysis::dynamically_stable`] about `e`.
+    pub fn new(names: &'a [String], e: &'a Equilibrium, dynamic: Option<bool>) -> Self {
         EquilibriumJson {
             coordinates: Named::new(names, &e.q),
             stable: stability(e),
+            dynamically_stable: dynamic,
             residual: e.residual,
             iterations: e.iterations,
             undamped_omega2: &e.omega2,

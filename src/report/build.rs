@@ -600,7 +600,10 @@ pub fn build(inp: &ReportInputs) -> Result<Report> {
                         let what = match x.fields.motion {
                             Motion::Divergent => format!(
                                 "divergent: grows as e^(+{} t) (1/s), time constant {} s",
-                                data.inline(format!("modes/{k}/growth_rate_1_s"), Digits::Fixed(3)),
+                                data.inline(
+                                    format!("modes/{k}/growth_rate_1_s"),
+                                    rate_digits(x.fields.growth_rate_1_s)
+                                ),
                                 data.inline(format!("modes/{k}/time_constant_s"), Digits::Fixed(4)),
                             ),
                             Motion::Decaying => format!(
@@ -622,11 +625,24 @@ pub fn build(inp: &ReportInputs) -> Result<Report> {
                         ]);
                         return row;
                     }
+                    // a growing oscillation: ζ < 0, and the growth said beside it
+                    let zeta = if x.fields.motion == Motion::GrowingOscillation {
+                        Cell::text(format!(
+                            "{} (growing: e^(+{} t), 1/s)",
+                            data.inline(format!("modes/{k}/damping_ratio"), Digits::Fixed(4)),
+                            data.inline(
+                                format!("modes/{k}/growth_rate_1_s"),
+                                rate_digits(x.fields.growth_rate_1_s)
+                            ),
+                        ))
+                    } else {
+                        data.num(format!("modes/{k}/damping_ratio"), Digits::Fixed(4))
+                    };
                     row.extend([
                         data.num(format!("modes/{k}/omega_n_rad_s"), Digits::Fixed(3)),
                         data.num(format!("modes/{k}/freq_hz"), Digits::Fixed(4)),
                         data.num(format!("modes/{k}/rpm"), Digits::Fixed(1)),
-                        data.num(format!("modes/{k}/damping_ratio"), Digits::Fixed(4)),
+                        zeta,
                         data.num(format!("modes/{k}/omega_d_rad_s"), Digits::Fixed(3)),
                     ]);
                     row
@@ -1294,4 +1310,13 @@ fn extras_names(extras: Option<&ModeExtras>, n: usize) -> Vec<String> {
                 .unwrap_or_else(|| format!("mode {}", k + 1))
         })
         .collect()
+}
+
+/// The digits of a growth rate (1/s) on the page: 3 decimals, or 4 significant digits
+/// below 1e-3 (a slow growth is not shown as 0.000; [`crate::linear::rate_text`]).
+fn rate_digits(rate: Option<f64>) -> Digits {
+    match rate {
+        Some(r) if r.abs() < 1e-3 => Digits::Sig(4),
+        _ => Digits::Fixed(3),
+    }
 }
