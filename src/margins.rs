@@ -90,7 +90,7 @@ pub struct UnstableMode {
 }
 
 /// Every mode of `modal` that grows ([`ModalAnalysis::growing`]: Re λ above round-off,
-/// 1e-6 of the largest |λ|, real or complex), named as in [`mode_points_named`] (`names`
+/// [`crate::linear::ModalAnalysis::threshold`], real or complex), named as in [`mode_points_named`] (`names`
 /// in `modal.modes` order; `mode k` where missing).
 pub fn unstable_modes(modal: &ModalAnalysis, names: &[String]) -> Vec<UnstableMode> {
     modal

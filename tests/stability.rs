@@ -622,3 +622,61 @@ fn margins_unstable_points_have_rounded_labels() {
         assert_eq!(u["omega_d_rad_s"], 0.0);
     }
 }
+
+/// A stiff element does not hide a divergence (the fresh-eyes review's D1): the block
+/// (m = 2 kg) on a negative spring k with a stiff bead (m2 = 1e-3 kg) hung on it by
+/// k2, c2. Its positive real root of det(λ²M + λC + K) = (mλ² + c2λ + k + k2)(m2λ² + c2λ
+/// + k2) − (c2λ + k2)² = 0 (c = 0), found here by bisection, grows; with a threshold of
+/// 1e-6 of the largest |λ| (c2/m2 = 1e8 1/s, or the 1e10 N/m spring's 3.2e6 rad/s) it
+/// was read as neutral and `margins` passed the design (exit 0).
+#[test]
+fn a_stiff_element_does_not_hide_a_divergence() {
+    let (m, m2) = (2.0, 1e-3);
+    for (k, k2, c2) in [(-800.0, 1e4, 1e5), (-8.0, 1e10, 0.0)] {
+        let p = |l: f64| {
+            (m * l * l + c2 * l + k + k2) * (m2 * l * l + c2 * l + k2) - (c2 * l + k2).powi(2)
+        };
+        // p < 0 at 0 (k k2 < 0), > 0 at √(|k|/m) + 1
+        let (mut lo, mut hi) = (0.0, (-k / m).sqrt() + 1.0);
+        assert!(p(lo) < 0.0 && p(hi) > 0.0);
+        for _ in 0..200 {
+            let mid = 0.5 * (lo + hi);
+            if p(mid) < 0.0 { lo = mid } else { hi = mid }
+        }
+        let (ks, k2s, c2s) = (format!("k={k}"), format!("k2={k2}"), format!("c2={c2}"));
+        let sets = ["--set", &ks, "--set", "c=0", "--set", &k2s, "--set", &c2s];
+        let v = json(
+            &[
+                &["modes", "tests/data/stiff_sdof.toml", "--json"][..],
+                &sets,
+            ]
+            .concat(),
+        );
+        assert_eq!(v["dynamically_stable"], Value::Bool(false), "{v:#}");
+        let growing: Vec<f64> = v["modes"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .filter(|m| m["growing"] == Value::Bool(true))
+            .map(|m| f(&m["growth_rate_1_s"]))
+            .collect();
+        assert_eq!(growing.len(), 1, "{v:#}");
+        close(growing[0], lo, 1e-6);
+        let out = run(&[
+            &[
+                "margins",
+                "tests/data/stiff_sdof.toml",
+                "--environment",
+                "UH-60",
+            ][..],
+            &sets,
+        ]
+        .concat());
+        assert_eq!(
+            out.status.code(),
+            Some(3),
+            "{}",
+            String::from_utf8_lossy(&out.stdout)
+        );
+    }
+}

@@ -487,20 +487,32 @@ pub struct ModalAnalysis {
     pub rows: Vec<usize>,
 }
 
-/// Round-off of a real part relative to the largest |λ|: a neutral direction (a double
-/// eigenvalue at 0) is computed as ±√ε‖A‖, about 1e-8 of it.
-pub const GROWTH_ROUND_OFF: f64 = 1e-6;
+/// How far above the round-off of a double eigenvalue at 0 a real part must lie to be
+/// growth (or decay): a neutral direction (a Jordan block at 0) is computed as
+/// ±√(ε‖A‖), ‖A‖ the size of the first-order matrix [0 I; −M⁻¹K −M⁻¹C] in SI (see
+/// [`ModalAnalysis::threshold`]); this factor is the margin over it.
+pub const GROWTH_ROUND_OFF: f64 = 10.0;
 
 impl ModalAnalysis {
     /// The real part (1/s) below which a mode neither grows nor decays:
-    /// [`GROWTH_ROUND_OFF`] × the largest |λ|.
+    /// [`GROWTH_ROUND_OFF`] × √(ε‖A‖), with ‖A‖ = max(1, max |undamped ω²|, max |λ|) the
+    /// largest entry scale of the first-order matrix (its identity block, its stiffness
+    /// block M⁻¹K, its damping block M⁻¹C, whose stiff entries c/m are a damper mode's
+    /// |λ|). About 5e-7 1/s on the overcentre. Not a fraction of the largest |λ| (as first
+    /// written, 1e-6 of it): a stiff damper (|λ| = c/m = 1e8 1/s) then read a divergence
+    /// of +20 1/s as neutral, and `margins` passed it.
     pub fn threshold(&self) -> f64 {
-        let scale = self
+        let stiffness = self
+            .undamped_omega2
+            .iter()
+            .fold(0.0f64, |m, w| m.max(w.abs()));
+        let largest = self
             .modes
             .iter()
             .map(|m| m.omega_n_rad_s)
             .fold(0.0, f64::max);
-        GROWTH_ROUND_OFF * scale.max(1e-300)
+        let norm = 1.0f64.max(stiffness).max(largest);
+        GROWTH_ROUND_OFF * (f64::EPSILON * norm).sqrt()
     }
 
     /// How mode `k` moves ([`Mode::motion`] at this analysis's threshold).
