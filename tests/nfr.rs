@@ -353,6 +353,21 @@ fn command_outputs_and_bad_input() {
     ]);
     assert_eq!(code, 1);
     assert!(err.contains("empty"), "{err}");
+    // a range that is not finite is not "empty"
+    let (code, _, err) = detune(&[
+        "nfr",
+        "models/overcentre.toml",
+        "--set",
+        "F0=1",
+        "--param",
+        "omega",
+        "--from",
+        "nan",
+        "--to",
+        "3",
+    ]);
+    assert_eq!(code, 1);
+    assert!(err.contains("--from NaN --to 3: not finite"), "{err}");
     let (code, _, err) = detune(&[
         "nfr",
         "models/overcentre.toml",

@@ -111,6 +111,10 @@ pub fn run(a: ContinueArgs) -> Result<()> {
     // marked incomplete, and the exit code says which signal (130, 143, 129)
     super::interrupt_on_ctrl_c();
     let branch = continue_equilibria_until(&sys, &opts, &super::INTERRUPTED)?;
+    if branch.complete {
+        // the branch ran to its end: a signal from now on stops nothing
+        super::results_complete();
+    }
     if fu != FreqUnit::RadPerSecond
         && !is_freq(&a.param)
         && !branch.solved.iter().any(|n| is_freq(n))

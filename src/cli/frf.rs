@@ -92,6 +92,9 @@ pub fn run(a: FrfArgs) -> Result<()> {
         &responses,
         &super::INTERRUPTED,
     )?;
+    // every frequency is computed (an interrupted one returned an error above): a signal
+    // from now on stops nothing
+    super::results_complete();
     let fu = a.freq.freq_unit;
     let sym = fu.symbol();
     // each response's amplitude unit (rad, m, N; per unit of the forcing with --per-unit)

@@ -111,7 +111,10 @@ pub fn run(a: SensitivityArgs) -> Result<()> {
             ..
         } => Error::numerical(
             format!("{}: {f}", context.join(": ")),
-            "narrow the range of that --vary: each case starts from the baseline's equilibrium, and none near it means the change takes the mechanism past a fold (the equilibrium vanishes); `detune continue --param NAME` shows where",
+            // the advice tune, margins and report give (naming the parameter)
+            super::advice::vary_advice(f, context).unwrap_or_else(|| {
+                "narrow the range of that --vary: each case starts from the baseline's equilibrium, and none near it means the change takes the mechanism past a fold".into()
+            }),
         ),
         _ => e,
     })?;

@@ -341,6 +341,11 @@ pub fn execute(a: SweepArgs, source: Source) -> Result<()> {
     let failed = runs
         .iter()
         .find_map(|r| Some((r, r.sweep.failure.clone()?)));
+    if complete && failed.is_none() {
+        // every frequency is computed: a signal from now on stops nothing (exit 0 with a
+        // note once the outputs are written, as simulate, nfr and backbone)
+        super::results_complete();
+    }
     let failed_error = |kept: &str| -> Option<Error> {
         let (run, f) = failed.as_ref()?;
         // the failing run's own system and values (a --values family's run differs from
@@ -477,9 +482,10 @@ pub fn execute(a: SweepArgs, source: Source) -> Result<()> {
             }
         };
         for run in &runs {
-            let tag = match detune::frequency::study::values_label(&run.values) {
-                l if l.is_empty() => String::new(),
-                l => format!(" [{l}]"),
+            // the run's values with their units, as the plot's notes name them
+            let tag = match run.label() {
+                Some(l) if !l.is_empty() => format!(" [{l}]"),
+                _ => String::new(),
             };
             for line in detune::output::figures::well_summary(run, fu) {
                 println!("{line}{tag}");

@@ -282,7 +282,13 @@ pub fn nfr(
         &opts.param,
         Argument::ContinuationParameter,
     )?;
-    if !(opts.from.is_finite() && opts.to.is_finite()) || opts.from == opts.to {
+    if !(opts.from.is_finite() && opts.to.is_finite()) {
+        return Err(Error::request(
+            format!("--from {} --to {}: not finite", opts.from, opts.to),
+            "give finite numbers for --from and --to",
+        ));
+    }
+    if opts.from == opts.to {
         return Err(Error::request(
             format!(
                 "--from {} --to {}: the range of {} is empty",
