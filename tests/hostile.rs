@@ -385,7 +385,7 @@ fn nfr_at_a_forcing_far_below_the_fastest_motion_is_refused_at_once() {
             "(|λ| = 2.97 1/s)",
             "at least 31100 steps a period",
             "more than the 10000 it allows",
-            "start --from/--to above 0.000311 rad/s",
+            "the forcing frequency must be above 0.000311 rad/s",
         ],
     );
     // the same with the range given downwards, and in another parameter at that forcing

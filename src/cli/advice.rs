@@ -40,10 +40,15 @@ pub fn advice(f: &Failure) -> Option<String> {
             "shorten --t-end to below {} s ({max_steps} forcing periods), or --set the forcing frequency to a physical value",
             detune::diag::num(*max_steps as f64 * std::f64::consts::TAU / omega)
         ),
-        PeriodUnresolved { lambda, max_steps, .. } => format!(
-            "start --from/--to above {} rad/s, or soften a very stiff element; far below the natural frequencies the response is quasi-static: `detune continue --param <forcing amplitude>` computes it as equilibria",
-            detune::diag::about(detune::failure::period_floor(*lambda, *max_steps))
-        ),
+        PeriodUnresolved { lambda, max_steps, .. } => {
+            let floor = detune::failure::period_floor(*lambda, *max_steps);
+            format!(
+                "the forcing frequency must be above {} rad/s ({} Hz) here: with --param omega start --from above it, else --set the forcing frequency above it; that floor is set by the model's fastest motion ({} 1/s): if a very stiff element sets it, soften it, or compute the stepped sine with `detune sweep --integrator radau` (implicit); far below the natural frequencies the response is quasi-static: `detune continue --param <forcing amplitude>` computes it as equilibria",
+                detune::diag::about(floor),
+                detune::diag::about(floor / std::f64::consts::TAU),
+                detune::diag::about(*lambda)
+            )
+        }
         Stiff { .. } => "a very stiff spring or damper makes the explicit DOP853 crawl: use --integrator radau (implicit, stable at any step), or soften it".into(),
         Integrator { bad_input: true, .. } => "check --t-end, --rtol and --atol".into(),
         ConstraintsNotKept { .. } => "tighten --rtol/--atol (the defaults are 1e-10 and 1e-12); if that does not help, the mechanism may pass a singular pose".into(),
