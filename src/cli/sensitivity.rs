@@ -547,10 +547,8 @@ fn open_checkpoint(
     opts: &detune::frequency::SweepOptions,
     runs: usize,
 ) -> Result<Box<dyn detune::frequency::checkpoint::CaseLog>> {
-    use detune::frequency::checkpoint::{self, Checkpoint, Header, NoLog, Shard};
-    use sha2::{Digest, Sha256};
     let Some(path) = &a.checkpoint else {
-        return Ok(Box::new(NoLog));
+        return Ok(Box::new(detune::frequency::checkpoint::NoLog));
     };
     let cases: Vec<_> = vs.iter().map(|v| (v.param, &v.cases)).collect();
     let text = format!(
@@ -559,6 +557,22 @@ fn open_checkpoint(
         model.hash,
         model.parameters.values,
     );
+    open_study_checkpoint(path, model, &text, &opts.values, runs, "sensitivity")
+}
+
+/// The `--checkpoint FILE` of a study (sensitivity, tune: `runs` sweeps over the same
+/// `grid` of frequencies), its header fingerprinted by `text` (the study's cases and
+/// options); says on stderr how much it resumes.
+pub(super) fn open_study_checkpoint(
+    path: &str,
+    model: &detune::model::Model,
+    text: &str,
+    grid: &[f64],
+    runs: usize,
+    study: &str,
+) -> Result<Box<dyn detune::frequency::checkpoint::CaseLog>> {
+    use detune::frequency::checkpoint::{self, Checkpoint, Header, Shard};
+    use sha2::{Digest, Sha256};
     let fingerprint = Sha256::digest(text.as_bytes())
         .iter()
         .map(|b| format!("{b:02x}"))
@@ -577,11 +591,11 @@ fn open_checkpoint(
             .collect(),
         shard: Shard::ALL,
         sequential: false,
-        grid: opts.values.len(),
+        grid: grid.len(),
         runs,
-        study: Some("sensitivity".into()),
+        study: Some(study.into()),
     };
-    let c = Checkpoint::open(path, header, &opts.values)?;
+    let c = Checkpoint::open(path, header, grid)?;
     if c.reused > 0 {
         eprintln!(
             "resuming from the checkpoint {path}: {} steady states done before",

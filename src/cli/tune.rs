@@ -437,10 +437,8 @@ fn open_checkpoint(
     response: &str,
     setups: &[(detune::System, detune::frequency::SweepOptions)],
 ) -> Result<Box<dyn detune::frequency::checkpoint::CaseLog>> {
-    use detune::frequency::checkpoint::{self, Checkpoint, Header, NoLog, Shard};
-    use sha2::{Digest, Sha256};
     let Some(path) = &a.checkpoint else {
-        return Ok(Box::new(NoLog));
+        return Ok(Box::new(detune::frequency::checkpoint::NoLog));
     };
     let mut text = format!(
         "detune {}\ntune model {} parameters {:?}\nresponse {response}\n",
@@ -458,38 +456,9 @@ fn open_checkpoint(
             serde_json::to_string(&d.parameters).unwrap_or_default()
         ));
     }
-    let fingerprint = Sha256::digest(text.as_bytes())
-        .iter()
-        .map(|b| format!("{b:02x}"))
-        .collect();
-    let header = Header {
-        format: checkpoint::FORMAT.into(),
-        format_version: checkpoint::FORMAT_VERSION,
-        detune_version: env!("CARGO_PKG_VERSION").into(),
-        model_file: model.source.path.clone(),
-        model_sha256: model.hash.clone(),
-        overrides: Provenance::of(model).overrides,
-        fingerprint,
-        command: std::env::args_os()
-            .skip(2)
-            .map(|s| s.to_string_lossy().into_owned())
-            .collect(),
-        shard: Shard::ALL,
-        sequential: false,
-        grid: setups.first().map_or(0, |(_, o)| o.values.len()),
-        runs: setups.len(),
-        study: Some("tune".into()),
-    };
     let grid = setups
         .first()
         .map(|(_, o)| o.values.clone())
         .unwrap_or_default();
-    let c = Checkpoint::open(path, header, &grid)?;
-    if c.reused > 0 {
-        eprintln!(
-            "resuming from the checkpoint {path}: {} steady states done before",
-            c.reused
-        );
-    }
-    Ok(Box::new(c))
+    super::sensitivity::open_study_checkpoint(path, model, &text, &grid, setups.len(), "tune")
 }
