@@ -330,7 +330,7 @@ fn bad_varies_are_refused_with_advice() {
         ),
         (
             vec!["--vary", "L2=±90%"],
-            "help: narrow the range of that --vary",
+            "narrow the range of --vary L2 (e.g. --vary L2=80%..120%, or ±10%); `detune continue --param L2` shows where it ends",
         ),
     ] {
         let mut a = vec!["sensitivity", "models/overcentre.toml"];
