@@ -444,37 +444,32 @@ fn summary(check: &MarginCheck, env: &Environment, fu: FreqUnit) -> Vec<String> 
             ),
         });
     }
+    // what an unstable verdict adds about the separations
+    let also_close = || {
+        if failures.is_empty() {
+            String::new()
+        } else {
+            format!(
+                "; and {} of {} mode–line pairs are closer than required (margin {}, your choice, not a standard)",
+                failures.len(),
+                check.rows.len(),
+                pct(check.margin_pct)
+            )
+        }
+    };
     if !check.unstable.is_empty() {
         out.push(format!(
             "FAIL: the equilibrium is unstable ({} growing mode{}): a design that leaves its equilibrium cannot pass, whatever its separations{}",
             check.unstable.len(),
             if check.unstable.len() == 1 { "" } else { "s" },
-            if failures.is_empty() {
-                String::new()
-            } else {
-                format!(
-                    "; and {} of {} mode–line pairs are closer than required (margin {}, your choice, not a standard)",
-                    failures.len(),
-                    check.rows.len(),
-                    pct(check.margin_pct)
-                )
-            }
+            also_close()
         ));
     } else if !check.unstable_corners.is_empty() {
         let n = check.unstable_corners.len();
         out.push(format!(
             "FAIL: the tolerance box reaches unstable designs ({n} point{} of it, named above): a part within tolerance can leave its equilibrium, whatever the separations{}",
             if n == 1 { "" } else { "s" },
-            if failures.is_empty() {
-                String::new()
-            } else {
-                format!(
-                    "; and {} of {} mode–line pairs are closer than required (margin {}, your choice, not a standard)",
-                    failures.len(),
-                    check.rows.len(),
-                    pct(check.margin_pct)
-                )
-            }
+            also_close()
         ));
     } else if check.rows.is_empty() {
         out.push("PASS: no oscillatory mode to check".into());

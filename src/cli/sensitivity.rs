@@ -247,22 +247,7 @@ pub fn baseline_warning(study: &Sensitivity) -> Option<String> {
     let how: Vec<String> = study
         .baseline_growing_modes
         .iter()
-        .map(|u| {
-            if u.omega_d_rad_s > 0.0 {
-                format!(
-                    "{} grows as e^({} t), oscillating at {:.4} rad/s",
-                    u.mode,
-                    detune::linear::rate_text(u.growth_rate_1_s, 4, true),
-                    u.omega_d_rad_s
-                )
-            } else {
-                format!(
-                    "{} diverges as e^({} t)",
-                    u.mode,
-                    detune::linear::rate_text(u.growth_rate_1_s, 4, true)
-                )
-            }
-        })
+        .map(detune::linear::growth_words)
         .collect();
     Some(format!(
         "the nominal design (the baseline) is UNSTABLE: {}; its equilibrium is left at once, so its frequencies and the cases' changes from them are not resonances about a steady state",

@@ -565,6 +565,25 @@ pub fn rate_text(rate: f64, decimals: usize, signed: bool) -> String {
     }
 }
 
+/// How a growing mode grows, in words: `mode 1 grows as e^(+0.1300 t), oscillating at
+/// 2.9703 rad/s`, or `mode 3 diverges as e^(+19.9950 t) without oscillating`.
+pub fn growth_words(u: &crate::margins::UnstableMode) -> String {
+    if u.omega_d_rad_s > 0.0 {
+        format!(
+            "{} grows as e^({} t), oscillating at {:.4} rad/s",
+            u.mode,
+            rate_text(u.growth_rate_1_s, 4, true),
+            u.omega_d_rad_s
+        )
+    } else {
+        format!(
+            "{} diverges as e^({} t) without oscillating",
+            u.mode,
+            rate_text(u.growth_rate_1_s, 4, true)
+        )
+    }
+}
+
 /// An equilibrium's stability in words, both truths: static (`stable`: every undamped
 /// ω² positive) and dynamic (`dynamic`: no mode grows; `growing` the growing modes, as
 /// [`crate::margins::unstable_modes`] gives them). `None` for either: no degrees of
@@ -578,22 +597,7 @@ pub fn stability_words(
     let how = || {
         growing
             .iter()
-            .map(|u| {
-                if u.omega_d_rad_s > 0.0 {
-                    format!(
-                        "{} grows as e^({} t), oscillating at {:.4} rad/s",
-                        u.mode,
-                        rate_text(u.growth_rate_1_s, 4, true),
-                        u.omega_d_rad_s
-                    )
-                } else {
-                    format!(
-                        "{} diverges as e^({} t) without oscillating",
-                        u.mode,
-                        rate_text(u.growth_rate_1_s, 4, true)
-                    )
-                }
-            })
+            .map(growth_words)
             .collect::<Vec<_>>()
             .join("; ")
     };

@@ -385,7 +385,15 @@ pub struct NamedMode {
 
 /// Names and energy shares of every mode of `modal` (in its order).
 pub fn describe_modes(sys: &System, modal: &ModalAnalysis) -> Result<Vec<NamedMode>> {
-    let names = name_modes(sys, modal)?;
+    with_shares(sys, modal, name_modes(sys, modal)?)
+}
+
+/// `names` (one per mode of `modal`) with each mode's energy shares and dominant body.
+fn with_shares(
+    sys: &System,
+    modal: &ModalAnalysis,
+    names: Vec<ModeName>,
+) -> Result<Vec<NamedMode>> {
     let shares = energy_shares(sys, modal)?;
     Ok(names
         .into_iter()
@@ -426,20 +434,7 @@ pub fn describe_modes_or_numbered(
             ),
         ),
     };
-    let shares = energy_shares(sys, modal)?;
-    let named = names
-        .into_iter()
-        .zip(shares)
-        .map(|(name, energy)| NamedMode {
-            dominant_body: energy.kinetic.largest().map(|(b, x)| BodyShare {
-                body: b.to_string(),
-                share: x,
-            }),
-            name,
-            energy,
-        })
-        .collect();
-    Ok((named, note))
+    Ok((with_shares(sys, modal, names)?, note))
 }
 
 /// Options of [`track_modes`].
