@@ -245,6 +245,22 @@ fn angles_are_shown_in_the_first_turn_unless_an_element_sees_the_raw_angle() {
         assert!(coord(e, "rod.theta").abs() <= PI);
         assert_eq!(e["stable"].as_bool(), Some(stable));
     }
+    // the plain command (the equilibrium nearest the start) shows it the same way: the
+    // stable one at −90°, where it showed 630°
+    let out = Command::new(env!("CARGO_BIN_EXE_detune"))
+        .args([
+            "equilibrium",
+            "tests/data/slider_crank.toml",
+            "--set",
+            "th0=10",
+            "--json",
+        ])
+        .output()
+        .unwrap();
+    assert!(out.status.success());
+    let one: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let th = coord(&one, "crank.theta");
+    assert!((th + FRAC_PI_2).abs() < 1e-10, "crank.theta = {th}");
     let list = all_equilibria_of(&["tests/data/torsion_pendulum.toml", "--set", "T=60"]);
     assert_eq!(list.len(), 1, "{list:#?}");
     let th = coord(&list[0], "bar.theta");

@@ -31,7 +31,9 @@ pub fn run(a: EquilibriumArgs) -> Result<()> {
     let list = if a.all {
         st.all(&start)?
     } else {
-        vec![st.nearest(&start)?]
+        // shown with its angles in (−π, π] as `--all` shows it, where that is the same
+        // equilibrium (a start beyond a turn finds the crank at 630°: −90°)
+        vec![st.in_first_turn(st.nearest(&start)?)]
     };
     // dynamic stability too (no mode grows), as `modes` gives it: with negative damping
     // a statically stable equilibrium is dynamically unstable. Modes that cannot be

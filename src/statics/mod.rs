@@ -789,7 +789,7 @@ impl<'a> Statics<'a> {
     /// multipliers, passes the Newton test. That holds when the elements see the angles
     /// only through their sines and cosines; a torsion spring on a raw angle, k (θ − θ0),
     /// does not, and its equilibrium keeps the angles found.
-    fn in_first_turn(&self, e: Equilibrium) -> Equilibrium {
+    pub fn in_first_turn(&self, e: Equilibrium) -> Equilibrium {
         let angles = self.sys.angles();
         let mut q = e.q.clone();
         for (x, &angle) in q.iter_mut().zip(&angles) {
