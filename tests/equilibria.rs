@@ -413,4 +413,16 @@ fn a_driven_model_without_degrees_of_freedom_is_not_called_stable() {
     // a model that can move keeps its boolean
     let s = json(&["equilibrium", "models/overcentre.toml", "--json"]);
     assert_eq!(s["stable"], true);
+    // margins: no empty table before its verdict; the report: "no modes", not
+    // "0 modes (ω_n none rad/s)"
+    let text = run(&["margins", file, "--environment", "UH-60"]);
+    assert!(
+        text.contains("PASS: no oscillatory mode to check"),
+        "{text}"
+    );
+    assert!(!text.contains("separation     side"), "{text}");
+    let dir = tempfile::tempdir().unwrap();
+    let html = dir.path().join("r.html");
+    let text = run(&["report", file, "-o", html.to_str().unwrap()]);
+    assert!(text.contains("driven_pendulum: no modes;"), "{text}");
 }

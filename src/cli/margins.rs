@@ -308,6 +308,10 @@ fn print_table(check: &MarginCheck, fu: FreqUnit) {
             Requirement::DampingAware => "; DAMPING-AWARE (heuristic, API 684-style, not a standard): scaled by 1 − 1/(AF − 1.5), AF = 1/(2ζ); none below AF = 2.5".to_string(),
         }
     );
+    if check.rows.is_empty() {
+        // no oscillatory mode: no table (the verdict says so)
+        return;
+    }
     let varied = check.rows.iter().any(|r| r.min_rad_s < r.max_rad_s);
     let mw = check
         .rows

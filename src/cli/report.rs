@@ -195,13 +195,18 @@ pub fn run(a: ReportArgs) -> Result<()> {
         });
     println!("wrote {} and {json}", a.output);
     println!(
-        "{}: {} modes (ω_n {} rad/s){}; {} sections in {:.2} s",
+        "{}: {}{}; {} sections in {:.2} s",
         model.name,
-        modes.len(),
         if modes.is_empty() {
-            "none".to_string()
+            // no degrees of freedom (or no mode computed): nothing to list
+            "no modes".to_string()
         } else {
-            modes.join(", ")
+            format!(
+                "{} mode{} (ω_n {} rad/s)",
+                modes.len(),
+                if modes.len() == 1 { "" } else { "s" },
+                modes.join(", ")
+            )
         },
         nearest.unwrap_or_default(),
         report.document.sections.len(),
