@@ -219,18 +219,22 @@ pub fn add_studies(report: &mut Report, s: &Studies) -> Result<()> {
             )
         })
         .collect();
+    // what an unstable verdict adds about the separations
+    let also_close = || {
+        if failures.is_empty() {
+            ".".to_string()
+        } else {
+            format!(
+                "; and at a {margin} % margin (a choice, not a standard): {}.",
+                failures.join("; ")
+            )
+        }
+    };
     let verdict = if !unstable.is_empty() {
         format!(
             "FAIL: the equilibrium is UNSTABLE ({}): a design that leaves its equilibrium cannot pass, whatever its separations{}",
             unstable.join("; "),
-            if failures.is_empty() {
-                ".".to_string()
-            } else {
-                format!(
-                    "; and at a {margin} % margin (a choice, not a standard): {}.",
-                    failures.join("; ")
-                )
-            }
+            also_close()
         )
     } else if !check.unstable_corners.is_empty() {
         let corners: Vec<String> = (0..check.unstable_corners.len())
@@ -248,14 +252,7 @@ pub fn add_studies(report: &mut Report, s: &Studies) -> Result<()> {
         format!(
             "FAIL: the tolerance box reaches UNSTABLE designs, at {}: a part within tolerance can leave its equilibrium, whatever the separations{}",
             corners.join("; "),
-            if failures.is_empty() {
-                ".".to_string()
-            } else {
-                format!(
-                    "; and at a {margin} % margin (a choice, not a standard): {}.",
-                    failures.join("; ")
-                )
-            }
+            also_close()
         )
     } else if check.pass {
         format!(
