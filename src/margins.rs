@@ -155,6 +155,34 @@ pub fn mode_points_named(
     (modes, skipped)
 }
 
+/// The points of a tolerance box whose equilibrium is unstable, from its sensitivity
+/// study over `varies`: the corners and interior samples it evaluated, and the `--vary`
+/// cases inside the box (a case at an end of a single parameter's range is one of the
+/// corners already listed, so it is not listed again). Any of them fails a margins check
+/// over the box ([`MarginCheck::with_unstable_corners`]), as an unstable nominal design
+/// does: `margins --vary` and `tune --tolerance` check the same points.
+pub fn unstable_points(
+    study: &crate::linear::sensitivity::Sensitivity,
+    varies: &[crate::linear::sensitivity::Vary],
+) -> Vec<crate::linear::sensitivity::UnstableCorner> {
+    let mut unstable = study.unstable_corners.clone();
+    for c in &study.unstable_cases {
+        let at_end = varies.len() == 1
+            && varies
+                .iter()
+                .any(|v| v.name == c.param && (c.value == v.range.0 || c.value == v.range.1));
+        if !at_end {
+            unstable.push(crate::linear::sensitivity::UnstableCorner {
+                label: c.label.clone(),
+                corner: false,
+                growth_rate_1_s: c.growth_rate_1_s,
+                omega_d_rad_s: c.omega_d_rad_s,
+            });
+        }
+    }
+    unstable
+}
+
 /// `points` widened to each mode's interval over a sensitivity study's tolerance box (its
 /// worst case, matched by name; a mode the study does not have stays a point).
 pub fn with_intervals(

@@ -228,6 +228,10 @@ pub enum Blocked {
     DoesNotVerify { error: String },
     /// The design found is unstable: `mode` grows at `growth_rate_1_s` = Re λ > 0 (1/s).
     Unstable { mode: String, growth_rate_1_s: f64 },
+    /// The design found is stable, but its tolerance box reaches an unstable design:
+    /// at `point` (a corner `k=1.1, c=-2.5`, or a point along one range) a mode grows at
+    /// `growth_rate_1_s` = Re λ > 0 (1/s).
+    UnstableOverTolerances { point: String, growth_rate_1_s: f64 },
 }
 
 impl Blocked {
@@ -303,6 +307,13 @@ impl Blocked {
                 growth_rate_1_s,
             } => format!(
                 "the design found is unstable: {mode} grows at Re λ = {} 1/s (the equilibrium is unstable), so it cannot pass",
+                num("growth_rate_1_s", *growth_rate_1_s, 4),
+            ),
+            Blocked::UnstableOverTolerances {
+                point,
+                growth_rate_1_s,
+            } => format!(
+                "the design found is stable, but its tolerance box reaches an unstable design: at {point} a mode grows at Re λ = {} 1/s, so a part within tolerance can leave its equilibrium and the design cannot pass",
                 num("growth_rate_1_s", *growth_rate_1_s, 4),
             ),
         }
@@ -757,6 +768,15 @@ pub fn tune(
                         growth_rate_1_s: u.growth_rate_1_s,
                     })
                     .or_else(|| {
+                        v.check
+                            .unstable_corners
+                            .first()
+                            .map(|c| Blocked::UnstableOverTolerances {
+                                point: c.label.clone(),
+                                growth_rate_1_s: c.growth_rate_1_s,
+                            })
+                    })
+                    .or_else(|| {
                         v.check.failures().first().map(|r| Blocked::FailsCheck {
                             over_tolerances: !opts.tolerances.is_empty(),
                             mode: r.mode.clone(),
@@ -1156,6 +1176,7 @@ fn verify_design(
     let names = crate::linear::sensitivity::mode_names(&s, &modal);
     let (mut points, _) = mode_points_named(&modal, &names);
     let mut intervals = std::collections::BTreeMap::new();
+    let mut unstable_points = Vec::new();
     if !opts.tolerances.is_empty() {
         let box_: Vec<Vary> = opts
             .tolerances
@@ -1179,8 +1200,10 @@ fn verify_design(
             );
         }
         points = crate::margins::with_intervals(points, &study);
+        unstable_points = crate::margins::unstable_points(&study, &box_);
     }
-    // an unstable design fails, whatever its separations
+    // an unstable design fails, whatever its separations; so does one whose tolerance
+    // box reaches an unstable design (as `margins --vary` checks it)
     let check = crate::margins::check_design(
         &modal,
         &names,
@@ -1188,7 +1211,8 @@ fn verify_design(
         lines,
         opts.margin,
         Requirement::Fixed,
-    )?;
+    )?
+    .with_unstable_corners(unstable_points);
     Ok(Verified {
         check,
         modal,

@@ -411,3 +411,52 @@ fn a_vary_range_past_a_fold_is_advised_to_narrow() {
         "{err}"
     );
 }
+
+/// A tolerance box that reaches an unstable design fails the tuning, as `margins --vary`
+/// fails it: the overcentre's mode (2.97 rad/s) clears every UH-60 line by 89 %, but
+/// c = 5 N·s/m ± 150 % reaches c = −2.5, where the mode grows. The design is refused
+/// (exit 3) with the point and its growth rate, which equals Re λ of `modes` run at that
+/// point on its own; the nominal design's own check with the same box fails too.
+#[test]
+fn a_tolerance_box_reaching_an_unstable_design_fails_the_tuning() {
+    let base = [
+        "models/overcentre.toml",
+        "--environment",
+        "tests/data/uh60_profile.toml",
+    ];
+    let mut args = vec!["tune"];
+    args.extend(base);
+    args.extend(["--vary", "k=80%..120%", "--tolerance", "c=±150%", "--json"]);
+    let (code, out, err) = detune(&args);
+    assert_eq!(code, 3, "{out}{err}");
+    let t: serde_json::Value = serde_json::from_str(&out).unwrap();
+    assert!(t["designs"].as_array().unwrap().is_empty(), "{out}");
+    assert_eq!(t["baseline_passes"], false);
+    let blocked = &t["infeasible"][0]["blocked"];
+    assert_eq!(blocked["kind"], "unstable_over_tolerances", "{out}");
+    assert_eq!(blocked["point"], "c=-2.5");
+    let (code, out, err) = detune(&[
+        "modes",
+        "models/overcentre.toml",
+        "--set",
+        "c=-2.5",
+        "--json",
+    ]);
+    assert_eq!(code, 0, "{err}");
+    let m: serde_json::Value = serde_json::from_str(&out).unwrap();
+    let growth = m["modes"][0]["growth_rate_1_s"].as_f64().unwrap();
+    let got = blocked["growth_rate_1_s"].as_f64().unwrap();
+    assert!(
+        growth > 0.3 && (got - growth).abs() < 1e-9 * growth,
+        "{got} vs {growth}"
+    );
+    // the text names the remedy: the tolerance, not the ranges
+    args.pop();
+    let (code, out, _) = detune(&args);
+    assert_eq!(code, 3);
+    assert!(out.contains("narrow the --tolerance"), "{out}");
+    let mut margins = vec!["margins"];
+    margins.extend(base);
+    margins.extend(["--vary", "c=±150%"]);
+    assert_eq!(detune(&margins).0, 3);
+}

@@ -184,22 +184,7 @@ fn intervals(
         ));
     }
     // the unstable points fail the check (named in its summary), no longer only a warning
-    let mut unstable = study.unstable_corners.clone();
-    for c in &study.unstable_cases {
-        // a case at an end of a single parameter's range is a corner already listed
-        let at_end = vs.len() == 1
-            && vs
-                .iter()
-                .any(|v| v.name == c.param && (c.value == v.range.0 || c.value == v.range.1));
-        if !at_end {
-            unstable.push(UnstableCorner {
-                label: c.label.clone(),
-                corner: false,
-                growth_rate_1_s: c.growth_rate_1_s,
-                omega_d_rad_s: c.omega_d_rad_s,
-            });
-        }
-    }
+    let unstable = detune::margins::unstable_points(&study, &vs);
     for m in &study.modes {
         if !m.worst_case.non_monotone.is_empty() {
             eprintln!(

@@ -384,9 +384,23 @@ pub fn run(a: TuneArgs) -> Result<super::Outcome> {
             }
         }
         if t.designs.is_empty() {
-            println!(
-                "\nno design within the bounds clears every band: widen the ranges, vary another parameter, or lower the margin"
-            );
+            // every choice blocked by an unstable point of the tolerance box: the remedy
+            // is the tolerances, not the ranges
+            let unstable_box = t.infeasible.iter().all(|i| {
+                matches!(
+                    i.blocked,
+                    Some(detune::tune::Blocked::UnstableOverTolerances { .. })
+                )
+            });
+            if unstable_box {
+                println!(
+                    "\nno design within the bounds is stable over its tolerance box: narrow the --tolerance that reaches the unstable point (a damping tolerance below 100 % keeps every damper passive), or vary a parameter that stabilizes it"
+                );
+            } else {
+                println!(
+                    "\nno design within the bounds clears every band: widen the ranges, vary another parameter, or lower the margin"
+                );
+            }
         }
     }
     Ok(if t.designs.is_empty() {
