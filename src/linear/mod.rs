@@ -565,6 +565,17 @@ pub fn rate_text(rate: f64, decimals: usize, signed: bool) -> String {
     }
 }
 
+/// The one sentence every command gives for a model with no degrees of freedom (every
+/// coordinate fixed or driven by a constraint): `the model has no degrees of freedom (its
+/// constraints fix or drive every one of its 3 coordinates): it has no modes`. Each
+/// command adds what follows for it (`, so nothing can resonate`).
+pub fn no_modes_words(sys: &System) -> String {
+    format!(
+        "the model has no degrees of freedom (its constraints fix or drive every one of its {} coordinates): it has no modes",
+        sys.nq()
+    )
+}
+
 /// How a growing mode grows, in words: `mode 1 grows as e^(+0.1300 t), oscillating at
 /// 2.9703 rad/s`, or `mode 3 diverges as e^(+19.9950 t) without oscillating`.
 pub fn growth_words(u: &crate::margins::UnstableMode) -> String {
