@@ -193,6 +193,16 @@ pub fn quantity(flag: &str, text: &str, drive: &str, dim: Dim) -> Result<f64> {
     if text.trim().parse::<f64>().is_ok_and(|x| !x.is_finite()) {
         return Err(not_finite());
     }
+    // the same with a unit: `nan deg`, `inf Hz`, `1e400 rad/s` (the expression parser
+    // would take `nan` for a name and ask for an operator before the unit)
+    let number = text
+        .trim()
+        .split(|c: char| c.is_whitespace() || c == '*')
+        .next()
+        .unwrap_or_default();
+    if number.parse::<f64>().is_ok_and(|x| !x.is_finite()) {
+        return Err(not_finite());
+    }
     let e = expr::parse(text).map_err(|e| bad(e.message.clone(), e.help.clone()))?;
     if let Some((name, _)) = e.variables().first() {
         return Err(bad(
