@@ -594,6 +594,26 @@ impl PlotSize {
     /// `--plot-size` (which needs `--plot`), and `-o` not named like a figure (it is CSV).
     /// Returns the size asked for.
     pub fn check(&self, plot: Option<&str>, csv: Option<&str>) -> Result<Option<(u32, u32)>> {
+        if let Some(p) = plot
+            && detune::output::commit::is_stdout(p)
+        {
+            return Err(Error::request(
+                format!(
+                    "--plot {p}: this command prints its results on standard output, where they would mix with the figure"
+                ),
+                "write the figure to a file (--plot figure.svg) or another stream (a FIFO, /dev/stderr); `simulate` and `draw` can write theirs to standard output",
+            ));
+        }
+        self.check_streamed(plot, csv)
+    }
+
+    /// [`PlotSize::check`] for a command that writes nothing else on standard output when
+    /// its figure goes there (`simulate`: its summary then goes to stderr).
+    pub fn check_streamed(
+        &self,
+        plot: Option<&str>,
+        csv: Option<&str>,
+    ) -> Result<Option<(u32, u32)>> {
         if let Some(o) = csv {
             csv_output(o)?;
         }

@@ -81,7 +81,11 @@ pub fn run(a: SensitivityArgs) -> Result<()> {
                 "--checkpoint goes with --method sweep|both",
             ));
         }
-        if [a.output.as_deref(), a.plot.as_deref()].contains(&Some(c.as_str())) {
+        if [a.output.as_deref(), a.plot.as_deref()]
+            .into_iter()
+            .flatten()
+            .any(|o| detune::output::commit::same_file(o, c))
+        {
             return Err(Error::request(
                 format!("--checkpoint {c} is also an output"),
                 "give the checkpoint its own file (e.g. sensitivity.ckpt)",

@@ -167,7 +167,10 @@ pub fn execute(a: SweepArgs, source: Source) -> Result<()> {
         &[a.output.as_deref(), a.plot.as_deref()],
     )?;
     if let Some(c) = &a.checkpoint
-        && [a.output.as_deref(), a.plot.as_deref()].contains(&Some(c.as_str()))
+        && [a.output.as_deref(), a.plot.as_deref()]
+            .into_iter()
+            .flatten()
+            .any(|o| detune::output::commit::same_file(o, c))
     {
         return Err(Error::request(
             format!("--checkpoint {c} is also an output"),

@@ -223,7 +223,8 @@ pub enum Format {
 }
 
 impl Format {
-    /// `.svg` or `.png` (any case); anything else is refused, naming the flag.
+    /// `.svg` or `.png` (any case); a stream (`/dev/stdout`, a FIFO) without either is
+    /// SVG; anything else is refused, naming the flag.
     pub fn of(flag: &str, path: &str) -> Result<Format> {
         let ext = std::path::Path::new(path)
             .extension()
@@ -232,6 +233,9 @@ impl Format {
         match ext.as_deref() {
             Some("svg") => Ok(Format::Svg),
             Some("png") => Ok(Format::Png),
+            // a stream (`/dev/stdout`, a FIFO) has no extension to honour: SVG, as `draw`
+            // writes it there
+            _ if super::commit::is_stream(path) => Ok(Format::Svg),
             _ => Err(Error::request(
                 format!(
                     "{flag} {path}: a figure is written as .svg or .png, not {}",
