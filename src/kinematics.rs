@@ -498,11 +498,19 @@ fn dot(a: &[f64], b: &[f64]) -> f64 {
 // ---- output ------------------------------------------------------------------------------
 
 impl KinematicPath {
-    /// The CSV header: the drive (named as the coordinate), every coordinate, then
-    /// `d<drive>/d<name>` per ratio.
+    /// The CSV header: the drive (named as the coordinate), every other coordinate, then
+    /// `d<drive>/d<name>` per ratio. The drive's own coordinate column would repeat the
+    /// first, value for value (the closure holds the drive at each value exactly): each
+    /// column appears once.
     pub fn header(&self) -> Vec<String> {
         let mut h = vec![self.drive.clone()];
-        h.extend(self.coordinates.iter().cloned());
+        h.extend(
+            self.coordinates
+                .iter()
+                .enumerate()
+                .filter(|(i, _)| *i != self.drive_index)
+                .map(|(_, c)| c.clone()),
+        );
         h.extend(
             self.ratio_names
                 .iter()
@@ -517,8 +525,10 @@ impl KinematicPath {
             writeln!(w, "{}", self.header().join(","))?;
             for (k, d) in self.values.iter().enumerate() {
                 write!(w, "{}", num(*d))?;
-                for x in &self.q[k] {
-                    write!(w, ",{}", num(*x))?;
+                for (i, x) in self.q[k].iter().enumerate() {
+                    if i != self.drive_index {
+                        write!(w, ",{}", num(*x))?;
+                    }
                 }
                 for r in &self.ratios[k] {
                     write!(w, ",{}", num(*r))?;
@@ -563,11 +573,7 @@ impl KinematicPath {
                 .map(|&i| self.ratio_unit(i))
                 .collect();
             let y_label = if self.ratio_names.len() == 1 {
-                format!(
-                    "{} [{}]",
-                    self.header()[self.coordinates.len() + 1],
-                    units[0]
-                )
+                format!("d{}/d{} [{}]", self.drive, self.ratio_names[0], units[0])
             } else if units.iter().all(|u| *u == units[0]) {
                 format!("d{}/d(coordinate) [{}]", self.drive, units[0])
             } else {

@@ -261,6 +261,31 @@ fn angles_are_shown_in_the_first_turn_unless_an_element_sees_the_raw_angle() {
     let one: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     let th = coord(&one, "crank.theta");
     assert!((th + FRAC_PI_2).abs() < 1e-10, "crank.theta = {th}");
+    // and `modes` shows the pose it computes its modes at the same way (display only:
+    // ω² = 12.612857 rad²/s² about the pose found, as before)
+    let modes = |json: bool| {
+        let mut args = vec!["modes", "tests/data/slider_crank.toml", "--set", "th0=10"];
+        if json {
+            args.push("--json");
+        }
+        let out = Command::new(env!("CARGO_BIN_EXE_detune"))
+            .args(&args)
+            .output()
+            .unwrap();
+        assert!(out.status.success());
+        String::from_utf8(out.stdout).unwrap()
+    };
+    let text = modes(false);
+    let crank = text
+        .lines()
+        .find(|l| l.trim_start().starts_with("crank.theta"))
+        .unwrap();
+    assert!(crank.contains("(-90.000000°)"), "{text}");
+    assert!(!text.contains("630"), "{text}");
+    assert!(text.contains("ω² = [12.61285714285"), "{text}");
+    let m: serde_json::Value = serde_json::from_str(&modes(true)).unwrap();
+    let th = m["equilibrium"]["crank.theta"].as_f64().unwrap();
+    assert!((th + FRAC_PI_2).abs() < 1e-10, "crank.theta = {th}");
     let list = all_equilibria_of(&["tests/data/torsion_pendulum.toml", "--set", "T=60"]);
     assert_eq!(list.len(), 1, "{list:#?}");
     let th = coord(&list[0], "bar.theta");

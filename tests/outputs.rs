@@ -942,3 +942,165 @@ fn a_signal_after_the_results_were_complete_says_so_and_exits_0() {
     assert_eq!(code, 0, "{e}");
     assert_eq!(std::fs::read_to_string(&again).unwrap(), text);
 }
+
+/// `detune` in `dir`, the overcentre given by its absolute path.
+fn in_dir(dir: &Path, args: &[&str]) -> std::process::Output {
+    let model = Path::new(env!("CARGO_MANIFEST_DIR")).join("models/overcentre.toml");
+    let args: Vec<&str> = args
+        .iter()
+        .map(|a| if *a == "MODEL" { s(&model) } else { *a })
+        .collect();
+    Command::new(env!("CARGO_BIN_EXE_detune"))
+        .current_dir(dir)
+        .args(&args)
+        .output()
+        .unwrap()
+}
+
+/// `--checkpoint` is compared with the outputs as the same file (device and inode when it
+/// exists, else the absolute path), as the outputs are with the inputs: `./x.csv` and
+/// `x.csv` are one file (they were compared as strings), and so are a link and its
+/// target. Refused before any work, nothing written.
+#[test]
+fn a_checkpoint_that_is_an_output_under_another_name_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let sweep = |out: &str, ckpt: &str| {
+        in_dir(
+            dir.path(),
+            &[
+                "sweep",
+                "MODEL",
+                "--set",
+                "F0=1",
+                "--param",
+                "omega",
+                "--from",
+                "2",
+                "--to",
+                "3",
+                "--step",
+                "0.5",
+                "-o",
+                out,
+                "--checkpoint",
+                ckpt,
+            ],
+        )
+    };
+    for (out, ckpt) in [("x.csv", "./x.csv"), ("./y.csv", "y.csv")] {
+        let o = sweep(out, ckpt);
+        assert_eq!(o.status.code(), Some(1), "{o:?}");
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(
+            err.contains(&format!("--checkpoint {ckpt} is also an output")),
+            "{err}"
+        );
+        assert!(std::fs::read_dir(dir.path()).unwrap().next().is_none());
+    }
+    // an existing output reached through a link
+    std::fs::write(dir.path().join("z.csv"), "keep").unwrap();
+    std::os::unix::fs::symlink("z.csv", dir.path().join("link.ckpt")).unwrap();
+    let o = sweep("z.csv", "link.ckpt");
+    assert_eq!(o.status.code(), Some(1), "{o:?}");
+    assert_eq!(
+        std::fs::read_to_string(dir.path().join("z.csv")).unwrap(),
+        "keep"
+    );
+    let o = in_dir(
+        dir.path(),
+        &[
+            "sensitivity",
+            "MODEL",
+            "--set",
+            "F0=1",
+            "--vary",
+            "k=±10%",
+            "--method",
+            "sweep",
+            "-o",
+            "s.csv",
+            "--checkpoint",
+            "./s.csv",
+        ],
+    );
+    assert_eq!(o.status.code(), Some(1), "{o:?}");
+    assert!(
+        String::from_utf8_lossy(&o.stderr).contains("is also an output"),
+        "{o:?}"
+    );
+    assert!(!dir.path().join("s.csv").exists());
+}
+
+/// `simulate --plot /dev/stdout` writes the SVG alone on standard output and its summary
+/// on stderr, as `draw -o /dev/stdout` does; two outputs on standard output are refused;
+/// another command whose results are printed on standard output refuses it with the
+/// reason.
+#[test]
+fn simulate_writes_its_figure_alone_on_standard_output() {
+    let dir = tempfile::tempdir().unwrap();
+    let o = in_dir(
+        dir.path(),
+        &[
+            "simulate",
+            "MODEL",
+            "--t-end",
+            "0.5",
+            "--plot",
+            "/dev/stdout",
+        ],
+    );
+    assert!(o.status.success(), "{o:?}");
+    let out = String::from_utf8(o.stdout).unwrap();
+    assert!(out.starts_with("<svg"), "{}", &out[..out.len().min(200)]);
+    assert!(
+        out.trim_end().ends_with("</svg>"),
+        "{}",
+        &out[out.len().saturating_sub(200)..]
+    );
+    assert!(!out.contains("simulated"));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("simulated 0.5 s") && err.contains("wrote /dev/stdout"),
+        "{err}"
+    );
+    let o = in_dir(
+        dir.path(),
+        &[
+            "simulate",
+            "MODEL",
+            "--t-end",
+            "0.5",
+            "--plot",
+            "/dev/stdout",
+            "-o",
+            "/dev/fd/1",
+        ],
+    );
+    assert_eq!(o.status.code(), Some(1), "{o:?}");
+    assert!(o.stdout.is_empty());
+    let o = in_dir(
+        dir.path(),
+        &[
+            "sweep",
+            "MODEL",
+            "--set",
+            "F0=1",
+            "--param",
+            "omega",
+            "--from",
+            "2",
+            "--to",
+            "3",
+            "--step",
+            "0.5",
+            "--plot",
+            "/dev/stdout",
+        ],
+    );
+    assert_eq!(o.status.code(), Some(1), "{o:?}");
+    assert!(
+        String::from_utf8_lossy(&o.stderr).contains("would mix with the figure"),
+        "{o:?}"
+    );
+    assert!(std::fs::read_dir(dir.path()).unwrap().next().is_none());
+}

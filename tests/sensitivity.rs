@@ -827,3 +827,49 @@ fn tornado_labels_fit_and_zero_is_zero() {
     assert_eq!(labels, 4); // two modes, −500 and +500 N/m
     assert!(zero, "no 0 tick");
 }
+
+/// The derivative column names the frequency it is in: `df_n/dp [Hz/p]` in Hz (a cycle
+/// rate, as the table's f_n), `dω_n/dp [rad/s/p]` in rad/s; its values are those of
+/// rad/s divided by 2π (the closed form of the block, m = 2 kg, k = 800 N/m:
+/// ω_n = |λ| = √(k/m) whatever the damper, so dω_n/dk = 1/(2√(k m)) = 1/80 rad/s per N/m).
+#[test]
+fn the_derivative_column_is_named_in_the_unit_shown() {
+    let row = |unit: &str| {
+        let o = detune(&[
+            "sensitivity",
+            "tests/data/sdof.toml",
+            "--vary",
+            "k=±10%",
+            "--freq-unit",
+            unit,
+        ]);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let out = String::from_utf8_lossy(&o.stdout).into_owned();
+        let head = out
+            .lines()
+            .find(|l| l.trim_start().starts_with("parameter"))
+            .unwrap()
+            .to_string();
+        let value: f64 = out
+            .lines()
+            .find(|l| l.trim_start().starts_with("k ") && l.contains(" per N/m"))
+            .unwrap()
+            .split_whitespace()
+            .nth(1)
+            .unwrap()
+            .parse()
+            .unwrap();
+        (head, value, out)
+    };
+    let (head, rad, _) = row("rad/s");
+    assert!(head.contains("dω_n/dp [rad/s/p]"), "{head}");
+    let (head, hz, out) = row("Hz");
+    assert!(head.contains("df_n/dp [Hz/p]"), "{head}");
+    assert!(!head.contains('ω'), "{head}");
+    assert!(out.contains("elasticity = (p/f_n)·df_n/dp"), "{out}");
+    assert!(
+        (hz - rad / std::f64::consts::TAU).abs() <= 1e-8 * hz.abs(),
+        "{hz} vs {rad}"
+    );
+    assert!((rad - 1.0 / 80.0).abs() < 1e-9, "{rad}");
+}

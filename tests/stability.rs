@@ -334,7 +334,7 @@ fn sensitivity_without_degrees_of_freedom_is_an_error() {
     assert_eq!(out.status.code(), Some(1));
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(
-        stderr.contains("nothing to compute: the model has no degrees of freedom"),
+        stderr.contains("the model has no degrees of freedom (its constraints fix or drive every one of its 3 coordinates): it has no modes, so sensitivity has nothing to compute"),
         "{stderr}"
     );
     assert!(stderr.contains("help:"), "{stderr}");
@@ -679,4 +679,74 @@ fn a_stiff_element_does_not_hide_a_divergence() {
             String::from_utf8_lossy(&out.stdout)
         );
     }
+}
+
+/// The veering pendulums (tests/data/veering_pendulums.toml: m = 1 kg at l1 = 1 m and
+/// l2 = 0.8 m, coupled by kc = 0.05 N·m/rad) with an extra rotary damper on pendulum 1.
+fn veering_with(extra: &str) -> (tempfile::TempDir, String) {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("vp.toml");
+    let text = std::fs::read_to_string(
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/veering_pendulums.toml"),
+    )
+    .unwrap();
+    std::fs::write(&path, text + extra).unwrap();
+    let p = path.to_str().unwrap().to_string();
+    (dir, p)
+}
+
+/// `equilibrium` names a growing mode by the model's `[[modes]]` names, as `modes` does
+/// (it said `mode 1`): a negative rotary damper c = −0.01 N·m·s/rad on pendulum 1 makes
+/// "pendulum 1 swings" grow at Re λ ≈ −c / (2 I_O), I_O = I + m l1² = 1.001 kg·m².
+#[test]
+fn equilibrium_names_a_growing_mode_as_modes_does() {
+    let (_dir, model) = veering_with(
+        "\n[[forces]]\nname = \"pump\"\ntype = \"torsion\"\nbody1 = \"p1\"\nbody2 = \"ground\"\nstiffness = 0\ndamping = -0.01\n",
+    );
+    let rate = 0.01 / (2.0 * 1.001);
+    let said = format!("pendulum 1 swings grows as e^(+{rate:.4} t)");
+    for command in ["equilibrium", "modes"] {
+        let out = run(&[command, &model]);
+        assert!(out.status.success());
+        let text = String::from_utf8_lossy(&out.stdout);
+        assert!(text.contains(&said), "{command}: {text}");
+        assert!(!text.contains("mode 1 grows"), "{command}: {text}");
+    }
+}
+
+/// The divergent modes of an unstable equilibrium release potential energy: the strain
+/// shares were "none" (a negative total was taken for no energy). The veering pendulums
+/// inverted (g = −9.81): along a mode of shape (θ1, θ2) gravity, through the constraint
+/// reactions, gives E_r = −9.81 m (l1 θ1² + l2 θ2²) and the coupling E_c = kc (θ1 − θ2)²;
+/// each share is E/|E_r + E_c| (summing to −1: the reactions release, the coupling stores).
+#[test]
+fn a_divergent_mode_releases_potential_energy() {
+    let file = "tests/data/veering_pendulums.toml";
+    let m = json(&["modes", file, "--set", "g=-9.81", "--json"]);
+    let modes = m["modes"].as_array().unwrap();
+    assert_eq!(modes.len(), 4);
+    for mode in modes {
+        // real eigenvalues ±3.1, ±3.5 1/s: a divergence and its decaying twin, one shape
+        assert!(f(&mode["eigenvalue"]["re"]).abs() > 3.0, "{mode}");
+        let theta = |c: &str| {
+            let (re, im) = (f(&mode["shape"][c]["re"]), f(&mode["shape"][c]["im"]));
+            (re, im)
+        };
+        let ((r1, i1), (r2, i2)) = (theta("p1.theta"), theta("p2.theta"));
+        let e_r = -9.81 * (r1 * r1 + i1 * i1 + 0.8 * (r2 * r2 + i2 * i2));
+        let e_c = 0.05 * ((r1 - r2).powi(2) + (i1 - i2).powi(2));
+        let total = (e_r + e_c).abs();
+        let shares = &mode["strain_energy_share"];
+        close(f(&shares["constraint reactions"]), e_r / total, 1e-8);
+        close(f(&shares["coupling"]), e_c / total, 1e-8);
+    }
+    let out = run(&["modes", file, "--set", "g=-9.81"]);
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(!text.contains("strain: none"), "{text}");
+    assert_eq!(
+        text.matches("strain: released, not stored").count(),
+        4,
+        "{text}"
+    );
+    assert!(text.contains("constraint reactions −10"), "{text}");
 }

@@ -919,3 +919,144 @@ fn the_tracking_plot_in_hz_says_f_n_and_places_its_crossing() {
     }
     assert!(!texts.iter().any(|t| t.contains("ω_n")), "{texts:?}");
 }
+
+/// Issue 10/13 leftovers (presentation): a plot's title names what its axis shows. An
+/// nfr panel "… amplitude against omega" over an `omega/2π [Hz]` axis says `omega/2π`;
+/// `against ω` over `f [Hz]` says `against f`; a name that only begins with the
+/// parameter's (`omega_r`) is left alone.
+#[test]
+fn a_title_names_the_quantity_its_axis_shows() {
+    use detune::output::plot::LinePlot;
+    use detune::output::units::FreqUnit;
+    let plot = |title: &str, x: &str| LinePlot {
+        title: title.into(),
+        x_label: x.into(),
+        ..Default::default()
+    };
+    let p = plot("bar1.theta amplitude against omega", "omega [rad/s]")
+        .in_frequency_unit(FreqUnit::Hertz);
+    assert_eq!(p.x_label, "omega/2π [Hz]");
+    assert_eq!(p.title, "bar1.theta amplitude against omega/2π");
+    let p = plot("natural frequencies against ω", "ω [rad/s]").in_frequency_unit(FreqUnit::Rpm);
+    assert_eq!(p.x_label, "f [rpm]");
+    assert_eq!(p.title, "natural frequencies against f");
+    let p = plot("x against omega_r, at omega", "omega [rad/s]").in_frequency_unit(FreqUnit::Hertz);
+    assert_eq!(p.title, "x against omega_r, at omega");
+    // rad/s: unchanged
+    let p = plot("x against omega", "omega [rad/s]").in_frequency_unit(FreqUnit::RadPerSecond);
+    assert_eq!(p.title, "x against omega");
+}
+
+/// One format for a located value (the peak lines of frf, sweep and nfr): the value to
+/// the digits its uncertainty supports (7 to 15 significant), the uncertainty to two,
+/// each with its unit; an unrefined one says what its ± is.
+#[test]
+fn a_located_value_has_one_format() {
+    use detune::output::units::located;
+    assert_eq!(
+        located(2.8284271247461903, 4.2e-8, "rad/s", None),
+        "2.82842712 rad/s (± 4.2e-8 rad/s)"
+    );
+    assert_eq!(
+        located(0.477464829275686, 0.0796, "Hz", Some("the grid's step")),
+        "0.4774648 Hz (not refined: ± 0.080 Hz, the grid's step)"
+    );
+    assert_eq!(located(1371.07, 0.0, "N", None), "1371.070 N (± 0 N)");
+}
+
+/// `frf`'s peak lines in the shared format, and the uncertainty they give holds: the six
+/// responses of the overcentre's one mode peak at one frequency, to within their stated
+/// ± (the located maximum of a flat peak moves with the amplitudes' round-off, √(2δ/κ):
+/// the half-bracket alone, 1.2e-10 rad/s, said less than the 1.3e-8 rad/s they differ).
+#[test]
+fn frf_peaks_agree_within_their_uncertainty() {
+    let (code, _, err) = detune(&[
+        "frf",
+        "models/overcentre.toml",
+        "--set",
+        "F0=1",
+        "--param",
+        "omega",
+        "--from",
+        "1",
+        "--to",
+        "6",
+        "--step",
+        "0.5",
+    ]);
+    assert_eq!(code, 0, "{err}");
+    let peaks: Vec<(f64, f64)> = err
+        .lines()
+        .filter(|l| l.starts_with("peak "))
+        .map(|l| {
+            assert!(
+                l.contains(" rad/s (± ") && l.contains(" rad/s), amplitude "),
+                "{l}"
+            );
+            let n = numbers(l.split_once(" = ").unwrap().1);
+            (n[0], n[1])
+        })
+        .collect();
+    assert_eq!(peaks.len(), 6, "{err}");
+    for (w, u) in &peaks {
+        assert!(*u < 1e-6, "{u}");
+        for (v, t) in &peaks {
+            assert!((w - v).abs() <= u + t, "{w} ± {u} vs {v} ± {t}");
+        }
+    }
+}
+
+/// A non-finite number with a unit is "not finite", as without one (it was "expected an
+/// operator, found `deg`").
+#[test]
+fn a_non_finite_quantity_is_not_finite() {
+    for (args, flag) in [
+        (
+            vec![
+                "sweep",
+                "models/overcentre.toml",
+                "--param",
+                "omega",
+                "--from",
+                "nan rad/s",
+                "--to",
+                "3",
+                "--step",
+                "0.5",
+            ],
+            "--from nan rad/s: not finite",
+        ),
+        (
+            vec![
+                "kinematics",
+                "models/overcentre.toml",
+                "--drive",
+                "bar1.theta",
+                "--from",
+                "0",
+                "--to",
+                "-inf deg",
+                "--step",
+                "0.1",
+            ],
+            "--to -inf deg: not finite",
+        ),
+        (
+            vec![
+                "simulate",
+                "models/overcentre.toml",
+                "--t-end",
+                "1e400 s",
+                "-o",
+                "never.csv",
+            ],
+            "--t-end 1e400 s: not finite",
+        ),
+    ] {
+        let (code, out, err) = detune(&args);
+        assert_eq!(code, 1, "{args:?}: {err}");
+        assert!(err.contains(flag), "{args:?}: {err}");
+        assert!(!err.contains("operator"), "{err}");
+        assert!(out.is_empty());
+    }
+}

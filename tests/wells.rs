@@ -85,6 +85,9 @@ fn snap_through_is_reported_by_well() {
     for (t, stable) in &truth {
         let e = &eqs[index_of(*t) as usize];
         assert_eq!(e["stable"].as_bool().unwrap(), *stable, "θ1 = {t}");
+        // and dynamically (as `equilibrium --json`): with the damper's c > 0 no mode of a
+        // minimum grows, and the saddle's divergence does
+        assert_eq!(e["dynamically_stable"].as_bool(), Some(*stable), "θ1 = {t}");
     }
     let upper = index_of(truth[2].0); // θ1 ≈ +0.644 rad
     let lower = index_of(truth[0].0); // θ1 ≈ −0.866 rad

@@ -193,6 +193,16 @@ pub fn quantity(flag: &str, text: &str, drive: &str, dim: Dim) -> Result<f64> {
     if text.trim().parse::<f64>().is_ok_and(|x| !x.is_finite()) {
         return Err(not_finite());
     }
+    // the same with a unit: `nan deg`, `inf Hz`, `1e400 rad/s` (the expression parser
+    // would take `nan` for a name and ask for an operator before the unit)
+    let number = text
+        .trim()
+        .split(|c: char| c.is_whitespace() || c == '*')
+        .next()
+        .unwrap_or_default();
+    if number.parse::<f64>().is_ok_and(|x| !x.is_finite()) {
+        return Err(not_finite());
+    }
     let e = expr::parse(text).map_err(|e| bad(e.message.clone(), e.help.clone()))?;
     if let Some((name, _)) = e.variables().first() {
         return Err(bad(
@@ -584,6 +594,26 @@ impl PlotSize {
     /// `--plot-size` (which needs `--plot`), and `-o` not named like a figure (it is CSV).
     /// Returns the size asked for.
     pub fn check(&self, plot: Option<&str>, csv: Option<&str>) -> Result<Option<(u32, u32)>> {
+        if let Some(p) = plot
+            && detune::output::commit::is_stdout(p)
+        {
+            return Err(Error::request(
+                format!(
+                    "--plot {p}: this command prints its results on standard output, where they would mix with the figure"
+                ),
+                "write the figure to a file (--plot figure.svg) or another stream (a FIFO, /dev/stderr); `simulate` and `draw` can write theirs to standard output",
+            ));
+        }
+        self.check_streamed(plot, csv)
+    }
+
+    /// [`PlotSize::check`] for a command that writes nothing else on standard output when
+    /// its figure goes there (`simulate`: its summary then goes to stderr).
+    pub fn check_streamed(
+        &self,
+        plot: Option<&str>,
+        csv: Option<&str>,
+    ) -> Result<Option<(u32, u32)>> {
         if let Some(o) = csv {
             csv_output(o)?;
         }

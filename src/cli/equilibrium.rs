@@ -117,11 +117,22 @@ pub fn run(a: EquilibriumArgs) -> Result<()> {
         // both truths, in the words `modes` uses; the static verdict alone when the modes
         // could not be computed
         let words = match &modal[k] {
-            Some(m) => detune::linear::stability_words(
-                Some(e.stable),
-                m.dynamically_stable(),
-                &detune::margins::unstable_modes(m, &[]),
-            ),
+            Some(m) => {
+                // the growing modes by the model's [[modes]] names, as `modes` names them
+                // (numbered by frequency where the names do not apply to this design)
+                let names: Vec<String> = if m.growing().is_empty() {
+                    Vec::new()
+                } else {
+                    detune::linear::tracking::name_modes(&sys, m)
+                        .map(|n| n.into_iter().map(|n| n.name).collect())
+                        .unwrap_or_default()
+                };
+                detune::linear::stability_words(
+                    Some(e.stable),
+                    m.dynamically_stable(),
+                    &detune::margins::unstable_modes(m, &names),
+                )
+            }
             None if e.stable => "stable (statically; modes not computed)".to_string(),
             None => "UNSTABLE".to_string(),
         };

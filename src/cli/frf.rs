@@ -198,11 +198,10 @@ pub fn run(a: FrfArgs) -> Result<()> {
     if !a.json {
         for p in &fr.peaks {
             eprintln!(
-                "peak {}: {} = {:.6} ± {:.1e} {sym}, amplitude {:.6e} {}",
+                "peak {}: {} = {}, amplitude {:.6e} {}",
                 p.response,
                 fu.quantity(&fr.param),
-                fu.of(p.omega),
-                fu.of(p.uncertainty),
+                detune::output::units::located(fu.of(p.omega), fu.of(p.uncertainty), sym, None),
                 p.amplitude,
                 amplitude_unit(&p.response)
             );

@@ -45,13 +45,7 @@ struct Stored {
 
 pub fn run(m: MergeArgs) -> Result<()> {
     // an output over a shard's checkpoint would destroy it
-    let same = |a: &str, b: &str| {
-        a == b
-            || matches!(
-                (std::fs::canonicalize(a), std::fs::canonicalize(b)),
-                (Ok(x), Ok(y)) if x == y
-            )
-    };
+    let same = detune::output::commit::same_file;
     for out in [&m.output, &m.plot, &m.checkpoint].into_iter().flatten() {
         if let Some(s) = m.shards.iter().find(|s| same(out, s)) {
             return Err(Error::request(

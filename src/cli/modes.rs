@@ -99,12 +99,20 @@ pub fn run(a: ModesArgs) -> Result<()> {
             .map(|n| n.name.name.clone())
             .collect::<Vec<_>>(),
     );
+    // the pose shown with its angles in (−π, π] where that is the same equilibrium, as
+    // `equilibrium` shows it (the slider-crank from th0 = 10 rad at −90°, not 630°):
+    // display only, the modes are those about the pose found
+    let shown_q = detune::dynamics::assemble_at_rest(&sys)
+        .ok()
+        .and_then(|rest| detune::statics::Statics::new(&sys, &rest.q).ok())
+        .map(|st| st.in_first_turn(m.equilibrium.clone()).q)
+        .unwrap_or_else(|| m.equilibrium.q.clone());
     if a.json {
         let units = Units::new().coordinates(&sys).with_all(MODE_UNITS);
-        print_json(&WithUnits {
-            doc: ModesReport::named(&m, &named, &Provenance::of(&model)),
-            units: &units,
-        });
+        let provenance = Provenance::of(&model);
+        let mut doc = ModesReport::named(&m, &named, &provenance);
+        doc.equilibrium = detune::output::json::Named::new(&m.coordinates, &shown_q);
+        print_json(&WithUnits { doc, units: &units });
         return Ok(());
     }
     let fu = a.freq.freq_unit;
@@ -121,16 +129,14 @@ pub fn run(a: ModesArgs) -> Result<()> {
     } else {
         println!("equilibrium ({words}):");
     }
-    for (c, v) in m.coordinates.iter().zip(&m.equilibrium.q) {
+    for (c, v) in m.coordinates.iter().zip(&shown_q) {
         println!(
             "  {c:<16} {v:>22.12}{}",
             super::unit_and_degrees(&sys, c, *v)
         );
     }
     if m.linearization.dof() == 0 {
-        println!(
-            "\nno degrees of freedom: the constraints fix every coordinate, so there are no modes"
-        );
+        println!("\n{}", detune::linear::no_modes_words(&sys));
         return Ok(());
     }
     println!("\nundamped: ω² = {:?} rad²/s²", m.undamped_omega2);
@@ -257,6 +263,24 @@ fn percent(x: f64) -> String {
     format!("{:.0} %", 100.0 * x)
 }
 
+/// Shares with their signs, `constraint reactions −104 %, coupling +4 %`.
+fn signed_list(s: &detune::linear::tracking::Shares) -> String {
+    s.0.iter()
+        .map(|(name, x)| {
+            let pc = format!("{:.0}", 100.0 * x.abs());
+            let sign = if pc == "0" {
+                ""
+            } else if *x < 0.0 {
+                "−"
+            } else {
+                "+"
+            };
+            format!("{name} {sign}{pc} %")
+        })
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
 /// Each mode's name, the body holding most of its kinetic energy, and its shares.
 fn print_names(named: &[detune::linear::tracking::NamedMode]) {
     println!("\nnames and energy shares (kinetic energy by body, strain energy by force element):");
@@ -281,6 +305,13 @@ fn print_names(named: &[detune::linear::tracking::NamedMode]) {
         println!("        kinetic: {}", list(&n.energy.kinetic));
         if n.energy.strain.0.is_empty() {
             println!("        strain: none (the mode stores no strain energy)");
+        } else if n.energy.strain_released() {
+            // a negative stiffness (a saddle's divergence): the mode lowers the potential
+            // energy; each share of the energy released, negative where it is released
+            println!(
+                "        strain: released, not stored (a negative stiffness: the mode lowers the potential energy): {} of the energy released (− releases, + stores)",
+                signed_list(&n.energy.strain)
+            );
         } else {
             println!("        strain: {}", list(&n.energy.strain));
         }

@@ -81,7 +81,11 @@ pub fn run(a: SensitivityArgs) -> Result<()> {
                 "--checkpoint goes with --method sweep|both",
             ));
         }
-        if [a.output.as_deref(), a.plot.as_deref()].contains(&Some(c.as_str())) {
+        if [a.output.as_deref(), a.plot.as_deref()]
+            .into_iter()
+            .flatten()
+            .any(|o| detune::output::commit::same_file(o, c))
+        {
             return Err(Error::request(
                 format!("--checkpoint {c} is also an output"),
                 "give the checkpoint its own file (e.g. sensitivity.ckpt)",
@@ -376,10 +380,13 @@ fn print_tables(s: &Sensitivity, unit: &dyn Fn(&str) -> String, fu: FreqUnit) {
                 }
             );
         }
+        // the derivative of the frequency shown: dω_n/dp in rad/s, df_n/dp in Hz or rpm
+        // (a cycle rate, as the table's f_n), per the parameter's SI unit
+        let nat = super::modes::natural(fu, "n");
         println!(
             "  {:<16} {:>22} {:>22} {:>11} {:>16} {:>16}",
             "parameter",
-            "dω_n/dp",
+            format!("d{nat}/dp [{sym}/p]"),
             "(central difference)",
             "elasticity",
             "dζ/dp",
@@ -474,7 +481,7 @@ fn print_tables(s: &Sensitivity, unit: &dyn Fn(&str) -> String, fu: FreqUnit) {
             }
         }
         println!(
-            "  (derivatives in {sym} and 1 per SI unit of the parameter; elasticity = (p/ω_n)·dω_n/dp, dimensionless)"
+            "  (d{nat}/dp in {sym} and dζ/dp in 1, per SI unit p of the parameter (each row's unit at its end); elasticity = (p/{nat})·d{nat}/dp, dimensionless)"
         );
         let w = &m.worst_case;
         println!(
@@ -598,7 +605,10 @@ fn nothing_to_vary(sys: &detune::System, study: &Sensitivity) -> Error {
         .unwrap_or(0);
     if dof == 0 {
         Error::request(
-            "nothing to compute: the model has no degrees of freedom (its constraints fix or drive every coordinate), so it has no modes whose frequencies could move",
+            format!(
+                "{}, so sensitivity has nothing to compute (no frequency to move)",
+                detune::linear::no_modes_words(sys)
+            ),
             "sensitivity studies a mechanism that can move: free a coordinate (a driven constraint fixes it), or use `detune simulate` for a driven mechanism; `detune check MODEL` shows the degrees of freedom",
         )
     } else {

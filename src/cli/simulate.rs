@@ -73,7 +73,36 @@ pub fn run(a: SimulateArgs) -> Result<()> {
             "give -o OUT.csv (the samples), --plot OUT.svg (a figure) or --json OUT.json (a summary)",
         ));
     }
-    let size = a.plot_size.check(a.plot.as_deref(), a.output.as_deref())?;
+    // an output on standard output (`--plot /dev/stdout`, `-o /dev/stdout`) is alone
+    // there: the summary then goes to stderr, as `draw -o /dev/stdout` does
+    let size = a
+        .plot_size
+        .check_streamed(a.plot.as_deref(), a.output.as_deref())?;
+    let streamed: Vec<&str> = [a.output.as_deref(), a.plot.as_deref(), a.json.as_deref()]
+        .into_iter()
+        .flatten()
+        .filter(|p| detune::output::commit::is_stdout(p))
+        .collect();
+    if streamed.len() > 1 {
+        return Err(detune::diag::Error::request(
+            format!(
+                "{} {} name standard output: the outputs would run into each other",
+                streamed.join(" and "),
+                if streamed.len() == 2 { "both" } else { "all" }
+            ),
+            "send at most one output to standard output, the others to files",
+        ));
+    }
+    let summary_to_stderr = !streamed.is_empty();
+    macro_rules! say {
+        ($($t:tt)*) => {
+            if summary_to_stderr {
+                eprintln!($($t)*)
+            } else {
+                println!($($t)*)
+            }
+        };
+    }
     if !a.plot_coordinate.is_empty() && a.plot.is_none() {
         return Err(detune::diag::Error::request(
             "--plot-coordinate without --plot: there is no figure to draw it on",
@@ -276,7 +305,7 @@ pub fn run(a: SimulateArgs) -> Result<()> {
         }
         .into());
     }
-    println!(
+    say!(
         "simulated {} s in {:.3} s: {} steps ({} rejected), {} right-hand sides, {} projections; largest constraint residual {:.2e} m or rad (drift before projection {:.2e} m or rad)",
         detune::diag::num(opts.t_end),
         began.elapsed().as_secs_f64(),
@@ -302,7 +331,7 @@ pub fn run(a: SimulateArgs) -> Result<()> {
                     .filter(|(c, _)| sys.coordinate_index(c).is_some_and(|i| sys.is_angle(i)))
                     .map(|(c, v)| format!("{c} = {v:.3} rad"))
                     .collect();
-                println!(
+                say!(
                     "well {k} of {}: {what} the {} equilibrium ({}){}",
                     wells.equilibria.len(),
                     if wells.equilibria[k].stable {
@@ -318,20 +347,20 @@ pub fn run(a: SimulateArgs) -> Result<()> {
                     }
                 );
             }
-            Err(_) => println!(
+            Err(_) => say!(
                 "well -1: the last forcing period spans two wells (of {} equilibria)",
                 wells.equilibria.len()
             ),
         }
     }
     if let Some(o) = &a.output {
-        println!("wrote {o}");
+        say!("wrote {o}");
     }
     if let Some(p) = &a.plot {
-        println!("wrote {p}");
+        say!("wrote {p}");
     }
     if let Some(j) = &a.json {
-        println!("wrote {j}");
+        say!("wrote {j}");
     }
     Ok(())
 }

@@ -167,7 +167,10 @@ pub fn execute(a: SweepArgs, source: Source) -> Result<()> {
         &[a.output.as_deref(), a.plot.as_deref()],
     )?;
     if let Some(c) = &a.checkpoint
-        && [a.output.as_deref(), a.plot.as_deref()].contains(&Some(c.as_str()))
+        && [a.output.as_deref(), a.plot.as_deref()]
+            .into_iter()
+            .flatten()
+            .any(|o| detune::output::commit::same_file(o, c))
     {
         return Err(Error::request(
             format!("--checkpoint {c} is also an output"),
@@ -516,13 +519,18 @@ pub fn execute(a: SweepArgs, source: Source) -> Result<()> {
                     .position(|r| *r == pk.response)
                     .map(|i| run.sweep.units[i])
                     .unwrap_or("");
+                // refined, or the grid's maximum (± its step), as `nfr` and `frf` say it
                 println!(
-                    "peak{tag} {} ({}): {} = {:.6} ± {:.1e} {sym}, amplitude {:.6e} {unit}",
+                    "peak{tag} {} ({}): {} = {}, amplitude {:.6e} {unit}",
                     pk.response,
                     pk.direction.name(),
                     fu.quantity(&a.grid.param),
-                    fu.of(pk.omega),
-                    fu.of(pk.uncertainty),
+                    detune::output::units::located(
+                        fu.of(pk.omega),
+                        fu.of(pk.uncertainty),
+                        sym,
+                        a.refine.is_none().then_some("the grid's step"),
+                    ),
                     pk.amplitude
                 );
             }

@@ -45,6 +45,10 @@ pub struct Wells {
     pub equilibria: Vec<Equilibrium>,
     /// The index of the equilibrium a sweep starts from.
     pub start: usize,
+    /// DYNAMIC stability of each equilibrium (no mode of the linearization about it
+    /// grows, as `equilibrium --json` gives it): `None` where its modes could not be
+    /// computed or it has no degrees of freedom.
+    pub dynamically_stable: Vec<Option<bool>>,
     /// Mass matrix (nv × nv) at each equilibrium.
     mass: Vec<DMatrix<f64>>,
 }
@@ -54,12 +58,12 @@ impl Wells {
     /// `start` among them (added when the search missed it). When the search for every
     /// equilibrium fails, `start` is the only one: every response is then in well 0.
     pub fn find(sys: &System, start: &Equilibrium) -> Wells {
-        let equilibria: Vec<Equilibrium> = assemble_at_rest(sys)
+        let statics = assemble_at_rest(sys)
             .ok()
-            .and_then(|rest| {
-                let st = Statics::new(sys, &rest.q).ok()?;
-                st.all(&rest).ok()
-            })
+            .and_then(|rest| Some((Statics::new(sys, &rest.q).ok()?, rest)));
+        let equilibria: Vec<Equilibrium> = statics
+            .as_ref()
+            .and_then(|(st, rest)| st.all(rest).ok())
             .unwrap_or_default();
         let mass: Vec<DMatrix<f64>> = equilibria
             .iter()
@@ -68,6 +72,7 @@ impl Wells {
         let mut wells = Wells {
             equilibria,
             start: 0,
+            dynamically_stable: Vec::new(),
             mass,
         };
         match wells.nearest(sys, &start.q, false) {
@@ -78,6 +83,18 @@ impl Wells {
                 wells.start = wells.equilibria.len() - 1;
             }
         }
+        // dynamic stability too, from the modes about each (as `equilibrium` gives it)
+        let reference = crate::linear::default_reference(sys);
+        wells.dynamically_stable = wells
+            .equilibria
+            .iter()
+            .map(|e| {
+                let (st, _) = statics.as_ref()?;
+                crate::linear::modal_analysis_at(sys, st, e.clone(), reference)
+                    .ok()?
+                    .dynamically_stable()
+            })
+            .collect();
         wells
     }
 

@@ -565,6 +565,17 @@ pub fn rate_text(rate: f64, decimals: usize, signed: bool) -> String {
     }
 }
 
+/// The one sentence every command gives for a model with no degrees of freedom (every
+/// coordinate fixed or driven by a constraint): `the model has no degrees of freedom (its
+/// constraints fix or drive every one of its 3 coordinates): it has no modes`. Each
+/// command adds what follows for it (`, so nothing can resonate`).
+pub fn no_modes_words(sys: &System) -> String {
+    format!(
+        "the model has no degrees of freedom (its constraints fix or drive every one of its {} coordinates): it has no modes",
+        sys.nq()
+    )
+}
+
 /// How a growing mode grows, in words: `mode 1 grows as e^(+0.1300 t), oscillating at
 /// 2.9703 rad/s`, or `mode 3 diverges as e^(+19.9950 t) without oscillating`.
 pub fn growth_words(u: &crate::margins::UnstableMode) -> String {
@@ -759,7 +770,8 @@ pub struct LinearPeak {
     pub omega: f64,
     /// SI (rad for an angle).
     pub amplitude: f64,
-    /// rad/s: the final bracket of the refinement.
+    /// rad/s: the larger of the refinement's final half-bracket and the shift of the
+    /// maximum that round-off in the amplitudes can cause (√(2δ/κ), κ = −A''/A there).
     pub uncertainty: f64,
 }
 
@@ -1027,12 +1039,25 @@ pub fn frequency_response_until(
             };
             let (lo, hi) = (values[k - 1], values[k + 1]);
             let tol = 1e-10 * hi.abs().max(1.0);
-            let (w, amplitude, half) = golden_max(amp, lo, hi, tol)?;
+            let mut amp = amp;
+            let (w, amplitude, half) = golden_max(&mut amp, lo, hi, tol)?;
+            // the bracket is not the whole error: near a maximum A ≈ A_p (1 − κ (ω − ω_p)²
+            // / 2), so a relative round-off δ of the amplitudes moves the located maximum by
+            // up to √(2δ/κ) (about 1e-8 rad/s where the bracket says 1e-10: the responses of
+            // one mode then differ in their 8th digit). κ from a second difference well
+            // above round-off; δ = 64 ε, the linear solve's.
+            let h = 0.01 * (hi - lo);
+            let curvature = (2.0 * amplitude - amp(w + h)? - amp(w - h)?) / (h * h * amplitude);
+            let floor = if curvature > 0.0 && curvature.is_finite() {
+                (2.0 * 64.0 * f64::EPSILON / curvature).sqrt()
+            } else {
+                0.0
+            };
             peaks.push(LinearPeak {
                 response: responses[r].clone(),
                 omega: w,
                 amplitude,
-                uncertainty: half,
+                uncertainty: half.max(floor),
             });
         }
     }

@@ -38,7 +38,11 @@
 //! `constraint reactions`. K = Σ_e K_e + K_reactions exactly (gravity's force does not
 //! depend on the coordinates, the CG positions, so gravity's stiffness is in the
 //! reactions'), so the strain shares sum to 1; a share is negative where the element
-//! softens the mode (a compressed spring, a reaction that destabilizes).
+//! softens the mode (a compressed spring, a reaction that destabilizes). Along a
+//! negative stiffness (the divergent modes of a saddle, an inverted pendulum) the total is
+//! negative: the mode releases potential energy rather than storing it, and the shares are
+//! each element's energy over the energy released, E_e / |E|, summing to −1 (negative
+//! where the element releases energy, positive where it stores some).
 //!
 //! **Tracking** ([`track_modes`]). From the baseline the parameter is stepped through
 //! the values; at each value the `[trim]` is re-solved and the equilibrium continued from
@@ -149,8 +153,19 @@ pub struct EnergyShares {
     /// Body → fraction of the kinetic energy (sums to 1).
     pub kinetic: Shares,
     /// Force element (and [`CONSTRAINT_REACTIONS`]) → fraction of the strain energy (sums
-    /// to 1; empty when the mode stores none, a rigid-body mode).
+    /// to 1; empty when the mode stores none, a rigid-body mode). Where the mode releases
+    /// potential energy instead (a negative stiffness along it: the divergent modes of a
+    /// saddle) each entry is the element's energy over the energy released, E_e / |E|,
+    /// and they sum to −1 ([`EnergyShares::strain_released`]).
     pub strain: Shares,
+}
+
+impl EnergyShares {
+    /// Whether the mode releases potential energy rather than storing it (a negative
+    /// stiffness along it): the strain shares then sum to −1.
+    pub fn strain_released(&self) -> bool {
+        self.strain.0.iter().map(|(_, x)| x).sum::<f64>() < 0.0
+    }
 }
 
 /// The stiffness of each force element alone, and of the constraint reactions, at an
@@ -256,10 +271,27 @@ pub fn shares_of(
         .iter()
         .map(|(name, k)| (name.clone(), quadratic(&x, k)))
         .collect();
+    // what the elements could store at this amplitude: a total below round-off of it is
+    // no energy (a rigid-body or neutral mode), whatever its sign
+    let reach = stiff.iter().map(|(_, k)| k.amax()).sum::<f64>() * x.norm_squared();
     EnergyShares {
         kinetic: normalized(kinetic),
-        strain: normalized(strain),
+        strain: strain_shares(strain, reach),
     }
+}
+
+/// The strain shares: fractions of the total when it is positive (as [`normalized`]);
+/// when it is negative beyond round-off of `reach` (a negative stiffness: the mode
+/// lowers the potential energy, a saddle's divergence), fractions of the energy released,
+/// E_e / |E|, which sum to −1 (negative where an element releases energy, positive where
+/// it stores some); empty when there is none.
+fn strain_shares(v: Vec<(String, f64)>, reach: f64) -> Shares {
+    let total: f64 = v.iter().map(|(_, x)| x).sum();
+    let scale = v.iter().fold(0.0f64, |a, (_, x)| a.max(x.abs()));
+    if total.is_finite() && total < -1e-12 * scale && -total > 1e-9 * reach {
+        return Shares(v.into_iter().map(|(n, x)| (n, x / -total)).collect());
+    }
+    normalized(v)
 }
 
 /// Fractions of the total (empty when the total is not positive: no energy to share).

@@ -284,12 +284,55 @@ fn resolve_links(given: &str) -> Result<PathBuf> {
     ))
 }
 
+/// Whether `a` and `b` name the same file, as the outputs are compared with the inputs
+/// and with each other: the same device and inode when both exist (symlinks followed:
+/// `./x`, `x`, a link to it, a hard link), else the same absolute path once the
+/// directory is canonicalized (`./new.ckpt` and `new.ckpt`). A path that exists and one
+/// that does not are different files.
+pub fn same_file(a: &str, b: &str) -> bool {
+    if a == b {
+        return true;
+    }
+    let (pa, pb) = (Path::new(a), Path::new(b));
+    match (file_id(pa), file_id(pb)) {
+        (Some(x), Some(y)) => x == y,
+        (None, None) => normalized(pa) == normalized(pb),
+        _ => false,
+    }
+}
+
+/// `p` absolute, its directory canonicalized where it exists.
+fn normalized(p: &Path) -> PathBuf {
+    let dir = parent_dir(p);
+    let dir = dir
+        .canonicalize()
+        .or_else(|_| std::path::absolute(&dir))
+        .unwrap_or(dir);
+    dir.join(p.file_name().unwrap_or_default())
+}
+
 /// The directory of `p` (`.` for a bare file name).
 fn parent_dir(p: &Path) -> PathBuf {
     match p.parent() {
         Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
         _ => PathBuf::from("."),
     }
+}
+
+/// Whether `path` names this process's standard output (`/dev/stdout`, `/dev/fd/1`,
+/// `/proc/self/fd/1`), written through it at commit: a command writing an output there
+/// prints its own text elsewhere (on stderr), as `draw -o /dev/stdout` does.
+pub fn is_stdout(path: &str) -> bool {
+    ["/dev/stdout", "/dev/fd/1", "/proc/self/fd/1"]
+        .iter()
+        .any(|n| Path::new(path) == Path::new(n))
+}
+
+/// Whether `path` is a special file an output is streamed into (a device such as
+/// `/dev/stdout`, or an existing FIFO, socket or device): not a regular file or a name to
+/// create.
+pub fn is_stream(path: &str) -> bool {
+    path.starts_with("/dev/") || std::fs::metadata(path).is_ok_and(|m| !m.is_file() && !m.is_dir())
 }
 
 /// A file's identity: (device, inode).

@@ -151,6 +151,7 @@ impl<'a> SimulationSummary<'a> {
                 index: k,
                 coordinates: Named::new(self.final_state.coordinates.names, &e.q),
                 stable: e.stable,
+                dynamically_stable: wells.dynamically_stable.get(k).copied().flatten(),
                 omega2: &e.omega2,
                 start: k == wells.start,
             })
@@ -441,7 +442,12 @@ impl<'a> FrfReport<'a> {
 pub struct WellJson<'a> {
     pub index: usize,
     pub coordinates: Named<'a, f64>,
+    /// STATIC stability (a minimum of the potential: every ω² positive).
     pub stable: bool,
+    /// DYNAMIC stability: no mode about it grows (as `equilibrium --json`'s); with negative
+    /// damping a `stable` equilibrium is not dynamically stable. `null` where its modes
+    /// could not be computed or it has no degrees of freedom.
+    pub dynamically_stable: Option<bool>,
     pub omega2: &'a [f64],
     pub start: bool,
 }
@@ -541,6 +547,7 @@ impl<'a> SweepReport<'a> {
                             index: k,
                             coordinates: Named::new(&r.sweep.coordinates, &e.q),
                             stable: e.stable,
+                            dynamically_stable: w.dynamically_stable.get(k).copied().flatten(),
                             omega2: &e.omega2,
                             start: k == w.start,
                         },

@@ -132,16 +132,50 @@ impl LinePlot {
             n.text = relabel(&n.text);
         }
         self.caption = relabel(&self.caption);
-        self.x_label = match self.x_label.strip_suffix(" [rad/s]") {
-            Some("ω") => format!("f [{}]", unit.symbol()),
-            Some(name) => format!("{} [{}]", unit.quantity(name), unit.symbol()),
+        // the title names what the axis shows: `… against omega` over an `omega/2π [Hz]`
+        // axis becomes `… against omega/2π` (`against ω`: `against f`)
+        let shown = match self.x_label.strip_suffix(" [rad/s]") {
+            Some("ω") => Some(("ω".to_string(), "f".to_string())),
+            Some(name) => Some((name.to_string(), unit.quantity(name))),
+            None => None,
+        };
+        self.x_label = match &shown {
+            Some((_, quantity)) => format!("{quantity} [{}]", unit.symbol()),
             None => self
                 .x_label
                 .replace("[rad/s]", &format!("[{}]", unit.symbol())),
         };
         self.title = relabel(&self.title);
+        if let Some((name, quantity)) = &shown {
+            self.title = against(&self.title, name, quantity);
+        }
         self
     }
+}
+
+/// `title` with each ` against NAME` (NAME a whole word: at the end, or followed by a
+/// space, a comma, a colon or a parenthesis) naming `quantity` instead.
+fn against(title: &str, name: &str, quantity: &str) -> String {
+    let pattern = format!(" against {name}");
+    let mut out = String::new();
+    let mut rest = title;
+    while let Some(at) = rest.find(&pattern) {
+        let end = at + pattern.len();
+        let whole = rest[end..]
+            .chars()
+            .next()
+            .is_none_or(|c| matches!(c, ' ' | ',' | ':' | ';' | '(' | ')'));
+        out.push_str(&rest[..at]);
+        if whole {
+            out.push_str(" against ");
+            out.push_str(quantity);
+        } else {
+            out.push_str(&pattern);
+        }
+        rest = &rest[end..];
+    }
+    out.push_str(rest);
+    out
 }
 
 /// A line plot (one panel of a figure).
@@ -189,7 +223,8 @@ pub enum Format {
 }
 
 impl Format {
-    /// `.svg` or `.png` (any case); anything else is refused, naming the flag.
+    /// `.svg` or `.png` (any case); a stream (`/dev/stdout`, a FIFO) without either is
+    /// SVG; anything else is refused, naming the flag.
     pub fn of(flag: &str, path: &str) -> Result<Format> {
         let ext = std::path::Path::new(path)
             .extension()
@@ -198,6 +233,9 @@ impl Format {
         match ext.as_deref() {
             Some("svg") => Ok(Format::Svg),
             Some("png") => Ok(Format::Png),
+            // a stream (`/dev/stdout`, a FIFO) has no extension to honour: SVG, as `draw`
+            // writes it there
+            _ if super::commit::is_stream(path) => Ok(Format::Svg),
             _ => Err(Error::request(
                 format!(
                     "{flag} {path}: a figure is written as .svg or .png, not {}",

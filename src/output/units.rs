@@ -314,3 +314,39 @@ mod tests {
         assert_eq!(text, r#"{"omega":"rad/s","bar1.theta":"rad"}"#);
     }
 }
+
+/// `x` to `digits` significant digits, in plain notation from 1e-4 to 1e7 (`2.968161`,
+/// `1371.071`), in scientific notation outside it.
+pub fn significant(x: f64, digits: usize) -> String {
+    let a = x.abs();
+    if x == 0.0 || !x.is_finite() {
+        return format!("{x}");
+    }
+    if !(1e-4..1e7).contains(&a) {
+        return format!("{x:.*e}", digits.saturating_sub(1));
+    }
+    let magnitude = a.log10().floor() as i64;
+    let decimals = (digits as i64 - 1 - magnitude).max(0) as usize;
+    format!("{x:.decimals$}")
+}
+
+/// A located value (a peak, a fold) and how well it is known, both in `unit` (already
+/// converted): `2.828427125 rad/s (± 2.4e-10 rad/s)`, the value to the digits its
+/// uncertainty supports (at least 7 significant, at most 15), the uncertainty to two.
+/// `not_refined` names what the uncertainty is when the value was not refined (`the grid's
+/// step`): `0.4774648 Hz (not refined: ± 0.080 Hz, the grid's step)`. The one format of
+/// the peak lines of `frf`, `sweep` and `nfr`.
+pub fn located(value: f64, uncertainty: f64, unit: &str, not_refined: Option<&str>) -> String {
+    let digits = if uncertainty > 0.0 && value != 0.0 && uncertainty.is_finite() {
+        ((value.abs() / uncertainty).log10().ceil() as i64 + 1).clamp(7, 15) as usize
+    } else {
+        7
+    };
+    let with_unit = |text: String| format!("{text} {unit}").trim_end().to_string();
+    let u = with_unit(significant(uncertainty, 2));
+    let how = match not_refined {
+        None => format!("± {u}"),
+        Some(what) => format!("not refined: ± {u}, {what}"),
+    };
+    format!("{} ({how})", with_unit(significant(value, digits)))
+}
