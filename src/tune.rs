@@ -544,10 +544,7 @@ impl Problem<'_> {
 /// a constraint): it has no modes, so `what` (the analysis's own words).
 pub fn no_degrees_of_freedom(sys: &System, what: &str) -> Error {
     Error::request(
-        format!(
-            "the model has no degrees of freedom (its constraints fix or drive every one of its {} coordinates): it has no modes, so {what}",
-            sys.nq()
-        ),
+        format!("{}, so {what}", crate::linear::no_modes_words(sys)),
         "check the model's constraints and fixed coordinates (`detune check` counts the degrees of freedom); a mechanism moved entirely by a prescribed motion has no dynamics of its own: simulate it instead",
     )
 }

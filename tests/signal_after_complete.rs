@@ -130,3 +130,19 @@ fn frf_signalled_after_its_results_exits_0() {
         "0.01",
     ]);
 }
+
+#[test]
+fn nfr_signalled_after_its_results_exits_0() {
+    signalled_after_complete(&[
+        "nfr",
+        "models/overcentre.toml",
+        "--set",
+        "F0=1",
+        "--param",
+        "omega",
+        "--from",
+        "0.5",
+        "--to",
+        "1",
+    ]);
+}

@@ -117,3 +117,30 @@ fn a_resumed_verification_writes_the_uninterrupted_output_and_a_foreign_checkpoi
         "{err}"
     );
 }
+
+/// A checkpoint that is the output under another name (`./x.json` for `x.json`, or a
+/// link to it) is refused before any work, and nothing is written (compared as the same
+/// file, device and inode, as the outputs are with the inputs).
+#[test]
+fn a_checkpoint_that_is_the_output_under_another_name_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("x.json");
+    let out_s = out.to_str().unwrap().to_string();
+    let dotted = format!("{}/./x.json", dir.path().to_str().unwrap());
+    let (code, _, err) = detune(&tune_args("D0=0.7 mm", &out_s, &["--checkpoint", &dotted]));
+    assert_eq!(code, 1, "{err}");
+    assert!(err.contains("is also the output"), "{err}");
+    assert!(!out.exists());
+    // an existing output reached through a link
+    std::fs::write(&out, "keep").unwrap();
+    let link = dir.path().join("link.ckpt");
+    std::os::unix::fs::symlink(&out, &link).unwrap();
+    let (code, _, err) = detune(&tune_args(
+        "D0=0.7 mm",
+        &out_s,
+        &["--checkpoint", link.to_str().unwrap()],
+    ));
+    assert_eq!(code, 1, "{err}");
+    assert!(err.contains("is also the output"), "{err}");
+    assert_eq!(std::fs::read_to_string(&out).unwrap(), "keep");
+}

@@ -127,7 +127,8 @@ pub fn run(a: MarginsArgs) -> Result<Outcome> {
         print_environment(&env, &lines, fu);
         if modal.linearization.dof() == 0 {
             println!(
-                "\nno degrees of freedom (the constraints fix or drive every coordinate): no modes, nothing can resonate with a forcing line"
+                "\n{}, nothing can resonate with a forcing line",
+                detune::linear::no_modes_words(&sys)
             );
         } else if modes.is_empty() {
             println!("\nno oscillatory modes: nothing can resonate with a forcing line");

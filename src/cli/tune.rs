@@ -152,7 +152,10 @@ pub fn run(a: TuneArgs) -> Result<super::Outcome> {
                 "--checkpoint goes with --verify sweep",
             ));
         }
-        if a.output.as_deref() == Some(c.as_str()) {
+        if a.output
+            .as_deref()
+            .is_some_and(|o| detune::output::commit::same_file(o, c))
+        {
             return Err(Error::request(
                 format!("--checkpoint {c} is also the output"),
                 "give the checkpoint its own file (e.g. tune.ckpt)",

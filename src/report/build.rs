@@ -510,7 +510,7 @@ pub fn build(inp: &ReportInputs) -> Result<Report> {
             .prose(format!(
                 "The static equilibrium nearest the initial pose, loads at their mean over a period: {}. Static residual {} (N and m mixed).",
                 match (eq.stable, eq.dynamically_stable) {
-                    (None, _) => "no degrees of freedom (the constraints fix every coordinate)".to_string(),
+                    (None, _) => crate::linear::no_modes_words(sys),
                     (Some(true), Some(true)) => "stable (every undamped ω² positive, and no mode grows)".to_string(),
                     _ => crate::linear::stability_words(eq.stable, eq.dynamically_stable, &eq.growing_modes),
                 },
