@@ -1060,3 +1060,54 @@ fn a_non_finite_quantity_is_not_finite() {
         assert!(out.is_empty());
     }
 }
+
+/// The same in an expression (`--set`, `--values`, a model file's value): `nan` and `inf`
+/// read as names were "unknown parameter `nan`" alone and "expected an operator, found
+/// `N`" with a unit; each is now "not finite", located.
+#[test]
+fn a_non_finite_value_in_an_expression_is_not_finite() {
+    for (args, word) in [
+        (
+            vec!["modes", "models/overcentre.toml", "--set", "k=nan"],
+            "`nan`",
+        ),
+        (
+            vec!["modes", "models/overcentre.toml", "--set", "k=inf N/m"],
+            "`inf`",
+        ),
+        (
+            vec!["modes", "models/overcentre.toml", "--set", "k=-Infinity*2"],
+            "`Infinity`",
+        ),
+        (
+            vec![
+                "sweep",
+                "models/overcentre.toml",
+                "--values",
+                "F0=nan N",
+                "--param",
+                "omega",
+                "--from",
+                "1",
+                "--to",
+                "2",
+                "--step",
+                "0.5",
+            ],
+            "`nan`",
+        ),
+    ] {
+        let (code, out, err) = detune(&args);
+        assert_eq!(code, 1, "{args:?}: {err}");
+        assert!(
+            err.contains(&format!("{word} is not finite")),
+            "{args:?}: {err}"
+        );
+        assert!(
+            !err.contains("operator") && !err.contains("unknown parameter"),
+            "{err}"
+        );
+        assert!(err.contains('^'), "not located: {err}");
+        assert!(out.is_empty());
+    }
+}

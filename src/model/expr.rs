@@ -735,6 +735,23 @@ pub fn parse(src: &str) -> Result<Expr, ExprError> {
     }
 }
 
+/// Whether `name` spells a non-finite number (`nan`, `inf`, `infinity`, any case): no
+/// value detune takes.
+pub fn is_non_finite_name(name: &str) -> bool {
+    ["nan", "inf", "infinity"]
+        .iter()
+        .any(|n| name.eq_ignore_ascii_case(n))
+}
+
+/// The error for a non-finite number written as a name (`nan`, `inf`), at `span`.
+pub fn non_finite_name(name: &str, span: Span) -> ExprError {
+    ExprError::new(
+        span,
+        format!("`{name}` is not finite: every value must be a finite number"),
+    )
+    .with_help("give a finite number, with its unit where the value has one")
+}
+
 /// Deepest nesting of parentheses and unary operators accepted.
 pub const MAX_DEPTH: usize = 200;
 
@@ -951,6 +968,14 @@ impl<'a> Parser<'a> {
 
     /// An operand is complete and `t` follows it, but is not an operator (nor `closing`).
     fn expected_operator(&self, t: &Token, closing: Option<&str>) -> ExprError {
+        // `nan N/m`, `inf deg`: a non-finite "number" with a unit (the name is read as a
+        // parameter, the unit as what follows it)
+        if let Some(prev) = self.pos.checked_sub(1).and_then(|i| self.toks.get(i))
+            && let Tok::Ident(name) = prev.tok
+            && is_non_finite_name(name)
+        {
+            return non_finite_name(name, join(&prev.span, &t.span));
+        }
         let what = match closing {
             Some(c) => format!("an operator or {c}"),
             None => "an operator".to_string(),

@@ -448,6 +448,9 @@ impl<'a> Evaluator<'a> {
 }
 
 fn unknown_name(name: &str, span: &expr::Span, list: &[Parameter]) -> ExprError {
+    if expr::is_non_finite_name(name) {
+        return expr::non_finite_name(name, span.clone());
+    }
     let message = if name == "t" {
         "a parameter cannot depend on time `t`".to_string()
     } else if name.contains('.') {
