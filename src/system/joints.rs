@@ -182,6 +182,22 @@ impl Joint {
     }
 }
 
+impl Joint {
+    /// Whether row `row` of this joint's column along tangent direction `d` (0 = x,
+    /// 1 = y, 2 = θ) of one of its bodies is zero at every pose: [`Joint::column`] writes
+    /// `0.0 − 0.0` there (a translation row along the other axis, the angle row along a
+    /// translation). The constraint solve skips these entries (`crate::dynamics`): its
+    /// sums start at +0 and adding ±0 to them changes nothing, so the numbers stay the same.
+    pub fn column_zero(&self, d: usize, row: usize) -> bool {
+        match self.translation {
+            Translation::Both if row < 2 => d < 2 && row != d,
+            Translation::Normal { .. } if row < 1 => false,
+            // the angle row
+            _ => d < 2,
+        }
+    }
+}
+
 /// A constraint of the model: a joint, or a user expression `expr = 0` (1 row).
 #[derive(Debug, Clone)]
 pub enum Constraint {
