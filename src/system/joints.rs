@@ -17,7 +17,9 @@
 //! frames and both points for one derivative; num-dual's multi-direction duals were
 //! slower still), and no crate gives the Jacobian of these few lines of geometry cheaper
 //! than writing them out. The column is written in the dual pass's order of operations,
-//! so it is the same to the last bit (tests/elements.rs).
+//! so it is the same to the last bit (tests/elements.rs). With it goes which of its
+//! entries are zero at every pose ([`Joint::column_zero`]), so that the constraint solve
+//! skips them (`crate::dynamics`).
 
 use super::frame::{Frames, SysPoint};
 use crate::model::expr::Compiled;
