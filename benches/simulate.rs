@@ -4,6 +4,9 @@
 //!
 //! * `detune_free_case`: the general path (Udwadia–Kalaba, A and b by dual numbers,
 //!   Cholesky pseudoinverse, projection) through `detune::simulate`;
+//! * `detune_free_case_streamed`: the same run with its samples streamed into one flat
+//!   buffer (`simulate_with`, the CLI's path) instead of a `Trajectory`'s two vectors per
+//!   sample;
 //! * `minimal_free_case`: a hand-written θ1-only Lagrange right-hand side integrated by
 //!   the same integrator wrapper (`integrate`: detune's DOP853 stepper, the same as
 //!   `detune_free_case` uses) with the same outputs: the price of generality;
@@ -12,6 +15,7 @@
 //! Figures are recorded in docs/performance.md. Run: `cargo bench --bench simulate`.
 
 use detune::dynamics::integrator::{IntegratorOptions, integrate};
+use detune::dynamics::simulate::simulate_with;
 use detune::dynamics::{DynWorkspace, accelerations, pinv_solve};
 use detune::{Model, SimOptions, State, System, assemble, simulate};
 use differential_equations::ode::ODE;
@@ -40,6 +44,38 @@ fn detune_free_case(bencher: divan::Bencher) {
         ..SimOptions::default()
     };
     bencher.bench_local(|| simulate(&sys, &state, &opts, &mut |_| true).unwrap());
+}
+
+/// `detune_free_case` streamed, as the CLI's `simulate` writes its CSV
+/// (`simulate_with`): every sample's t, q and v copied into one flat buffer reserved
+/// once, where `simulate`'s `Trajectory` allocates two vectors per sample (and frees
+/// them when it is dropped).
+#[divan::bench(sample_count = 50)]
+fn detune_free_case_streamed(bencher: divan::Bencher) {
+    let (sys, state) = overcentre();
+    let opts = SimOptions {
+        rtol: TOL,
+        atol: TOL,
+        ..SimOptions::default()
+    };
+    let width = 1 + sys.nq() + sys.nv();
+    bencher.bench_local(|| {
+        let mut out = Vec::with_capacity(2001 * width);
+        simulate_with(
+            &sys,
+            &state,
+            &opts,
+            &mut |t, q, v| {
+                out.push(t);
+                out.extend_from_slice(q);
+                out.extend_from_slice(v);
+                true
+            },
+            &mut |_| true,
+        )
+        .unwrap();
+        out
+    });
 }
 
 /// Baseline overcentre in θ1 alone (L1 = L2 = L, m = n = 0, force at J):

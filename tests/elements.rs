@@ -322,6 +322,17 @@ fn check_constraints(
                     "{at_state}\nA column {j} {} vs dual numbers {col:?}",
                     a.column(j)
                 );
+                // the entries the constraint solve skips as zero at every pose are
+                // zero here too, by the dual pass
+                for &(r, jj) in &sys.structural_zeros() {
+                    if jj == j {
+                        assert!(
+                            col[r] == 0.0,
+                            "{at_state}\nA[{r}, {j}] = {} is not a structural zero",
+                            col[r]
+                        );
+                    }
+                }
             }
         }
 

@@ -44,9 +44,16 @@ pub struct DynWorkspace {
     /// The sparse path: A W Aᵀ in envelope storage and the entries of each column of A.
     gram_env: Envelope,
     col_entries: Vec<Vec<(usize, usize)>>,
-    /// Planar models: the products that make A M⁻¹ Aᵀ, in the order of `col_entries`:
-    /// (envelope entry, A value, A value, column), so that assembling it is one flat loop.
-    gram_plan: Vec<[u32; 4]>,
+    /// Planar models: A's entries that are not zero at every pose
+    /// ([`System::structural_zeros`]), in block order: (index into the values by blocks,
+    /// column, row).
+    nz: Vec<[u32; 3]>,
+    /// Planar models: `nz`'s values weighted by M⁻¹, A_ij / m_j (per right-hand side).
+    wvals: Vec<f64>,
+    /// Planar models: the products that make A M⁻¹ Aᵀ, in the order of `col_entries`
+    /// without the structural zeros: (envelope entry, index into `wvals`, index into the
+    /// values by blocks), so that assembling it is one flat loop.
+    gram_plan: Vec<[u32; 3]>,
     y: Vec<f64>,
     /// Spatial models: M⁻¹ at the current pose by groups of velocities.
     minv: MassInverse,
@@ -166,12 +173,14 @@ impl DynWorkspace {
         } else {
             gram_envelope(sys.m(), &col_entries)
         };
-        let gram_plan = if sys.spatial {
-            Vec::new()
+        let (nz, gram_plan) = if sys.spatial {
+            (Vec::new(), Vec::new())
         } else {
-            gram_plan(&col_entries, &gram_env)
+            nonzero_plan(sys, &col_entries, &gram_env)
         };
         DynWorkspace {
+            wvals: vec![0.0; nz.len()],
+            nz,
             gram_plan,
             minv,
             sys: Workspace::new(sys),
@@ -203,21 +212,45 @@ fn column_entries(sys: &System) -> Vec<Vec<(usize, usize)>> {
     cols
 }
 
-/// The products of A M⁻¹ Aᵀ for a diagonal M, in the order [`weighted_solve`] once
-/// looped over `col_entries` (so the sums are the same): for each column j and each pair
-/// of its entries (row ra ≥ rb or the other way): the envelope entry, the two values'
-/// indices, j.
-fn gram_plan(cols: &[Vec<(usize, usize)>], env: &Envelope) -> Vec<[u32; 4]> {
-    let mut plan = Vec::new();
-    for (j, entries) in cols.iter().enumerate() {
-        for (k, &(ra, ia)) in entries.iter().enumerate() {
-            for &(rb, ib) in &entries[..=k] {
-                let (hi, lo) = if ra >= rb { (ra, rb) } else { (rb, ra) };
-                plan.push([env.index(hi, lo), ia, ib, j].map(|x| x as u32));
+/// A's entries that are not zero at every pose, in block order (`DynWorkspace::nz`), and
+/// the products of A M⁻¹ Aᵀ for a diagonal M over them, in the order [`weighted_solve`]
+/// once looped over `col_entries`: for each column j and each pair of its entries (row
+/// ra ≥ rb or the other way): the envelope entry, the first entry's index in the list,
+/// the second's index into the values. The structural zeros (a revolute's x row along y,
+/// about a third of a planar joint's entries) are left out: every sum they entered starts
+/// at +0, and adding ±0 to it changes nothing, so the numbers are the same bits.
+fn nonzero_plan(
+    sys: &System,
+    cols: &[Vec<(usize, usize)>],
+    env: &Envelope,
+) -> (Vec<[u32; 3]>, Vec<[u32; 3]>) {
+    let zeros = sys.structural_zeros();
+    let mut nz = Vec::new();
+    for b in sys.blocks() {
+        let nc = b.cols.len();
+        for r in 0..b.rows {
+            for (ci, &j) in b.cols.iter().enumerate() {
+                if !zeros.contains(&(b.row0 + r, j)) {
+                    nz.push([b.val0 + r * nc + ci, j, b.row0 + r].map(|x| x as u32));
+                }
             }
         }
     }
-    plan
+    let at = |ia: usize| nz.iter().position(|e| e[0] as usize == ia);
+    let mut plan = Vec::new();
+    for entries in cols {
+        let kept: Vec<(usize, usize, usize)> = entries
+            .iter()
+            .filter_map(|&(r, ia)| at(ia).map(|e| (r, ia, e)))
+            .collect();
+        for (k, &(ra, _, ea)) in kept.iter().enumerate() {
+            for &(rb, ib, _) in &kept[..=k] {
+                let (hi, lo) = if ra >= rb { (ra, rb) } else { (rb, ra) };
+                plan.push([env.index(hi, lo), ea, ib].map(|x| x as u32));
+            }
+        }
+    }
+    (nz, plan)
 }
 
 /// The inverse of a symmetric n × n matrix (n ≤ 3, row-major) in closed form, and its
@@ -365,22 +398,20 @@ fn weighted_solve(sys: &System, ws: &mut DynWorkspace, out: &mut [f64]) {
     }
     ws.gram_env.clear();
     let vals = &ws.sys.vals;
-    for &[at, ia, ib, j] in &ws.gram_plan {
-        let wa = vals[ia as usize] * sys.mass_inv_diag[j as usize];
-        ws.gram_env.add_at(at as usize, wa * vals[ib as usize]);
+    for (w, &[ia, j, _]) in ws.wvals.iter_mut().zip(&ws.nz) {
+        *w = vals[ia as usize] * sys.mass_inv_diag[j as usize];
+    }
+    for &[at, ea, ib] in &ws.gram_plan {
+        ws.gram_env
+            .add_at(at as usize, ws.wvals[ea as usize] * vals[ib as usize]);
     }
     if ws.gram_env.factor(CHOL_TOL) {
         ws.y.copy_from_slice(ws.r.as_slice());
         ws.gram_env.solve(&mut ws.y);
         out.fill(0.0);
-        for b in sys.blocks() {
-            let nc = b.cols.len();
-            for r in 0..b.rows {
-                let yr = ws.y[b.row0 + r];
-                for (ci, &j) in b.cols.iter().enumerate() {
-                    out[j] += sys.mass_inv_diag[j] * ws.sys.vals[b.val0 + r * nc + ci] * yr;
-                }
-            }
+        // M⁻¹ Aᵀ y over A's entries that are not always zero, in block order
+        for (&w, &[_, j, r]) in ws.wvals.iter().zip(&ws.nz) {
+            out[j as usize] += w * ws.y[r as usize];
         }
         return;
     }

@@ -17,7 +17,9 @@
 //! frames and both points for one derivative; num-dual's multi-direction duals were
 //! slower still), and no crate gives the Jacobian of these few lines of geometry cheaper
 //! than writing them out. The column is written in the dual pass's order of operations,
-//! so it is the same to the last bit (tests/elements.rs).
+//! so it is the same to the last bit (tests/elements.rs). With it goes which of its
+//! entries are zero at every pose ([`Joint::column_zero`]), so that the constraint solve
+//! skips them (`crate::dynamics`).
 
 use super::frame::{Frames, SysPoint};
 use crate::model::expr::Compiled;
@@ -178,6 +180,22 @@ impl Joint {
         if self.angle.is_some() {
             let turn = |body: Option<usize>| if body == Some(k) && d == 2 { 1.0 } else { 0.0 };
             out[r] = turn(self.a.body) - turn(self.b.body);
+        }
+    }
+}
+
+impl Joint {
+    /// Whether row `row` of this joint's column along tangent direction `d` (0 = x,
+    /// 1 = y, 2 = θ) of one of its bodies is zero at every pose: [`Joint::column`] writes
+    /// `0.0 − 0.0` there (a translation row along the other axis, the angle row along a
+    /// translation). The constraint solve skips these entries (`crate::dynamics`): its
+    /// sums start at +0 and adding ±0 to them changes nothing, so the numbers stay the same.
+    pub fn column_zero(&self, d: usize, row: usize) -> bool {
+        match self.translation {
+            Translation::Both if row < 2 => d < 2 && row != d,
+            Translation::Normal { .. } if row < 1 => false,
+            // the angle row
+            _ => d < 2,
         }
     }
 }

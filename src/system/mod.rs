@@ -788,6 +788,28 @@ impl System {
         &self.blocks
     }
 
+    /// The entries of A, as (row, column), that are zero at every pose: in planar joints'
+    /// blocks, those [`joints::Joint::column_zero`] names (a revolute's x row along y, …).
+    pub fn structural_zeros(&self) -> Vec<(usize, usize)> {
+        let mut out = Vec::new();
+        if self.spatial {
+            return out;
+        }
+        for (c, b) in self.constraints.iter().zip(&self.blocks) {
+            let joints::Constraint::Joint(joint) = c else {
+                continue;
+            };
+            for r in 0..b.rows {
+                for &j in &b.cols {
+                    if joint.column_zero(self.coord_body[j].1, r) {
+                        out.push((b.row0 + r, j));
+                    }
+                }
+            }
+        }
+        out
+    }
+
     /// A = ∂Φ/∂q by blocks into `ws.vals`: each element is differentiated over the
     /// coordinates it touches only (a joint: its two bodies), with each body's pose
     /// computed once and its derivative along a coordinate seeded without evaluating sin
