@@ -498,19 +498,13 @@ fn dot(a: &[f64], b: &[f64]) -> f64 {
 // ---- output ------------------------------------------------------------------------------
 
 impl KinematicPath {
-    /// The CSV header: the drive (named as the coordinate), every other coordinate, then
-    /// `d<drive>/d<name>` per ratio. The drive's own coordinate column would repeat the
-    /// first, value for value (the closure holds the drive at each value exactly): each
-    /// column appears once.
+    /// The CSV header: the drive (named as the coordinate), every coordinate, then
+    /// `d<drive>/d<name>` per ratio. The drive's name appears twice (first, and among the
+    /// coordinates, with the same values): the layout issue 9 specifies and scripts rely
+    /// on (the drive first, then every coordinate in the model's order).
     pub fn header(&self) -> Vec<String> {
         let mut h = vec![self.drive.clone()];
-        h.extend(
-            self.coordinates
-                .iter()
-                .enumerate()
-                .filter(|(i, _)| *i != self.drive_index)
-                .map(|(_, c)| c.clone()),
-        );
+        h.extend(self.coordinates.iter().cloned());
         h.extend(
             self.ratio_names
                 .iter()
@@ -525,10 +519,8 @@ impl KinematicPath {
             writeln!(w, "{}", self.header().join(","))?;
             for (k, d) in self.values.iter().enumerate() {
                 write!(w, "{}", num(*d))?;
-                for (i, x) in self.q[k].iter().enumerate() {
-                    if i != self.drive_index {
-                        write!(w, ",{}", num(*x))?;
-                    }
+                for x in &self.q[k] {
+                    write!(w, ",{}", num(*x))?;
                 }
                 for r in &self.ratios[k] {
                     write!(w, ",{}", num(*r))?;

@@ -27,7 +27,7 @@ pub struct KinematicsArgs {
     /// Report d<drive>/d<NAME> from the closure's tangent (repeatable).
     #[arg(long, value_name = "NAME")]
     pub ratio: Vec<String>,
-    /// CSV: `<drive>,<the other coordinates>...,d<drive>/d<NAME>...` in SI (angles in rad).
+    /// CSV: `<drive>,<coordinates>...,d<drive>/d<NAME>...` in SI (angles in rad).
     #[arg(short = 'o', long = "output", value_name = "OUT.csv")]
     pub output: Option<String>,
     /// SVG: the ratios (or, without --ratio, every coordinate) against the drive, angles
