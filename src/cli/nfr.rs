@@ -473,8 +473,6 @@ pub const HEARTBEAT: std::time::Duration = std::time::Duration::from_secs(10);
 /// stderr, where the spinner is hidden, a plain line `{label}: {message} ({elapsed} s)`
 /// every [`HEARTBEAT`] while the work lasts (none for a run shorter than that).
 pub fn with_heartbeat<T>(label: &str, first: String, work: impl FnOnce(&dyn Fn(String)) -> T) -> T {
-    use std::sync::{Condvar, Mutex};
-    let began = std::time::Instant::now();
     if std::io::IsTerminal::is_terminal(&std::io::stderr()) {
         let bar = indicatif::ProgressBar::new_spinner();
         bar.set_style(
@@ -489,31 +487,42 @@ pub fn with_heartbeat<T>(label: &str, first: String, work: impl FnOnce(&dyn Fn(S
         bar.finish_and_clear();
         return out;
     }
+    heartbeat_lines(label, first, HEARTBEAT, &mut std::io::stderr(), work)
+}
+
+/// [`with_heartbeat`] off a terminal: `label: message (elapsed s)` to `out` every `every`
+/// while `work` runs (the first after `every`).
+fn heartbeat_lines<T, W: std::io::Write + Send>(
+    label: &str,
+    first: String,
+    every: std::time::Duration,
+    out: &mut W,
+    work: impl FnOnce(&dyn Fn(String)) -> T,
+) -> T {
+    use std::sync::{Condvar, Mutex};
+    let began = std::time::Instant::now();
     let message = Mutex::new(first);
     let done = (Mutex::new(false), Condvar::new());
     std::thread::scope(|scope| {
         scope.spawn(|| {
             let (lock, cv) = &done;
             let mut finished = lock.lock().unwrap_or_else(|e| e.into_inner());
-            let mut next = began + HEARTBEAT;
-            loop {
+            let mut next = began + every;
+            while !*finished {
                 let now = std::time::Instant::now();
                 if now >= next {
                     let m = message.lock().map(|m| m.clone()).unwrap_or_default();
-                    eprintln!("{label}: {m} ({:.0} s)", began.elapsed().as_secs_f64());
-                    next += HEARTBEAT;
+                    let _ = writeln!(out, "{label}: {m} ({:.0} s)", began.elapsed().as_secs_f64());
+                    next += every;
                     continue;
                 }
-                let (guard, _) = cv
+                finished = cv
                     .wait_timeout(finished, next - now)
-                    .unwrap_or_else(|e| e.into_inner());
-                finished = guard;
-                if *finished {
-                    break;
-                }
+                    .unwrap_or_else(|e| e.into_inner())
+                    .0;
             }
         });
-        let out = work(&|m| {
+        let result = work(&|m| {
             if let Ok(mut slot) = message.lock() {
                 *slot = m;
             }
@@ -521,8 +530,50 @@ pub fn with_heartbeat<T>(label: &str, first: String, work: impl FnOnce(&dyn Fn(S
         let (lock, cv) = &done;
         *lock.lock().unwrap_or_else(|e| e.into_inner()) = true;
         cv.notify_all();
-        out
+        result
     })
+}
+
+#[cfg(test)]
+#[test]
+fn heartbeat_lines_say_the_latest_message_while_the_work_lasts() {
+    let mut out: Vec<u8> = Vec::new();
+    let every = std::time::Duration::from_millis(40);
+    let answer = heartbeat_lines(
+        "continuing",
+        "the first point".into(),
+        every,
+        &mut out,
+        |say| {
+            std::thread::sleep(5 * every);
+            say("3 points, omega = 2.5 rad/s".into());
+            std::thread::sleep(10 * every);
+            42
+        },
+    );
+    assert_eq!(answer, 42);
+    let text = String::from_utf8(out).unwrap();
+    // a line a tick, each with the message of its moment: the latest one too
+    assert!(
+        text.lines()
+            .all(|l| l.starts_with("continuing: ") && l.ends_with(" s)")),
+        "{text}"
+    );
+    assert!(
+        text.lines()
+            .any(|l| l.starts_with("continuing: 3 points, omega = 2.5 rad/s (")),
+        "{text}"
+    );
+    // and none after the work: a short run says nothing
+    let mut quiet: Vec<u8> = Vec::new();
+    heartbeat_lines(
+        "x",
+        "y".into(),
+        std::time::Duration::from_secs(60),
+        &mut quiet,
+        |_| (),
+    );
+    assert!(quiet.is_empty());
 }
 
 /// `--integrator` of the shooting (`nfr`, `backbone`): `dop853` only. `radau` is parsed
