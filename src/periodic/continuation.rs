@@ -29,8 +29,14 @@
 //! differences in their variational columns.
 //!
 //! Each is located by the Illinois variant of regula falsi on the arclength, every trial
-//! a corrected point of the branch (a bordered solve), to 1e-9 of the step in arclength:
-//! better than 1e-8 rad/s in ω. Peaks (interior maxima of an amplitude on a stable part)
+//! a corrected point of the branch (a bordered solve, from the nearest trial so far), to
+//! 1e-9 of the step in arclength: a fold to better than 1e-8 rad/s in ω; a period
+//! doubling's test function scatters by about 1e-6 between neighbouring orbits (source
+//! not found: docs/performance.md), ±8e-8 rad/s on the overcentre, stated ±1e-7 of ω.
+//!
+//! A curve point whose last Newton step was small is checked by its state's period alone
+//! (`NfrPoint::stale`: its multipliers and tangent are the iterate's before); where a test
+//! function changes sign next to one, it is integrated in full first. Peaks (interior maxima of an amplitude on a stable part)
 //! are located by successive parabolic interpolation on the arclength, every trial a
 //! corrected point, the amplitude measured on 2048 samples a period.
 //!
@@ -1483,6 +1489,7 @@ impl Tracer<'_> {
         let mut p_prev = f64::NAN;
         let mut change = f64::INFINITY;
         let mut converged = false;
+        let mut tried: Vec<Node> = Vec::new();
         for _ in 0..60 {
             let s = (sa * gb - sb * ga) / (gb - ga);
             let s = if s.is_finite() && s > sa && s < sb {
@@ -1490,13 +1497,26 @@ impl Tracer<'_> {
             } else {
                 0.5 * (sa + sb)
             };
-            let Some(mut n) = self.correct(a, None, s, None)? else {
+            // from the nearest orbit computed so far (a short predictor: the trials close
+            // to the zero converge in one period instead of two or three)
+            let from = tried
+                .iter()
+                .min_by(|x: &&Node, y: &&Node| {
+                    (x.point.s - a.point.s - s)
+                        .abs()
+                        .total_cmp(&(y.point.s - a.point.s - s).abs())
+                })
+                .filter(|n| (n.point.s - a.point.s - s).abs() < s.abs())
+                .unwrap_or(a)
+                .clone();
+            let Some(mut n) = self.correct(&from, None, a.point.s + s - from.point.s, None)? else {
                 break;
             };
             n.point.s = a.point.s + s;
             let Some(g) = test(kind, &n) else {
                 break;
             };
+            tried.push(n.clone());
             let p = n.point.value;
             if best.as_ref().is_none_or(|(b, _)| g.abs() < b.abs()) {
                 best = Some((g, n));
