@@ -41,8 +41,8 @@ pub struct BackboneArgs {
     pub atol: f64,
     /// The integrator: only `dop853` (the shooting integrates each period with its
     /// variational equations; see docs/reliability.md).
-    #[arg(long, value_enum, default_value_t = super::args::IntegratorChoice::Dop853, value_name = "METHOD")]
-    pub integrator: super::args::IntegratorChoice,
+    #[arg(long, value_enum, default_value_t = super::nfr::ShootingIntegrator::Dop853, value_name = "METHOD")]
+    pub integrator: super::nfr::ShootingIntegrator,
     /// Print JSON: {"mode", "points": [{"amplitude", "omega", "<response>_amplitude"...}],
     /// "units", ...}.
     #[arg(long)]
@@ -110,19 +110,16 @@ pub fn run(a: BackboneArgs) -> Result<()> {
         ..Default::default()
     };
     super::interrupt_on_ctrl_c();
-    let bar = super::progress_bar(
-        0,
-        "{spinner} backbone: {pos} orbits, amplitude {msg} [{elapsed_precise}]",
-    );
-    let show = std::io::IsTerminal::is_terminal(&std::io::stderr());
-    let progress = |k: usize, amp: f64| {
-        if show {
-            bar.set_position(k as u64);
-            bar.set_message(format!("{amp:.4e}"));
-        }
-    };
-    let bb = backbone(&sys, mode, to, &opts, &progress, &super::INTERRUPTED)?;
-    bar.finish_and_clear();
+    let bb = super::nfr::with_heartbeat("backbone", "the first orbit".to_string(), |say| {
+        backbone(
+            &sys,
+            mode,
+            to,
+            &opts,
+            &|k, amp| say(format!("{k} orbits, amplitude {amp:.4e}")),
+            &super::INTERRUPTED,
+        )
+    })?;
     if bb.stop.is_none() {
         // the whole backbone: a signal from now on stops nothing
         super::results_complete();

@@ -2,7 +2,7 @@
 //! stable and unstable, with folds, period doublings, Neimark–Sacker points and peaks
 //! located (see `detune::periodic`).
 
-use super::args::{IntegratorChoice, ModelArgs, frequency_value, param_value};
+use super::args::{ModelArgs, frequency_value, param_value};
 use super::{INTERRUPTED, interrupt_on_ctrl_c, print_json};
 use clap::Args;
 use detune::diag::{Error, Result};
@@ -95,8 +95,8 @@ pub struct CurveTolerances {
     pub atol: f64,
     /// The integrator: only `dop853` (the shooting integrates the variational equations
     /// with it).
-    #[arg(long, value_enum, default_value_t = IntegratorChoice::Dop853, value_name = "METHOD")]
-    pub integrator: IntegratorChoice,
+    #[arg(long, value_enum, default_value_t = ShootingIntegrator::Dop853, value_name = "METHOD")]
+    pub integrator: ShootingIntegrator,
 }
 
 pub fn run(a: NfrArgs) -> Result<()> {
@@ -210,11 +210,6 @@ pub fn run(a: NfrArgs) -> Result<()> {
     opts.max_points = a.max_points;
     opts.max_step = a.max_step;
     interrupt_on_ctrl_c();
-    let bar = indicatif::ProgressBar::new_spinner();
-    bar.set_style(
-        indicatif::ProgressStyle::with_template("continuing {spinner} {msg} {elapsed}")
-            .unwrap_or_else(|_| indicatif::ProgressStyle::default_spinner()),
-    );
     let began = std::time::Instant::now();
     let param = a.param.clone();
     let fu = a.freq.freq_unit;
@@ -270,16 +265,18 @@ pub fn run(a: NfrArgs) -> Result<()> {
             .trim_end()
             .to_string()
     };
-    let curve = nfr(
-        &sys,
-        &opts,
-        &|n, v| {
-            bar.set_message(format!("{n} points, {pn} = {}", shown(v)));
-            bar.tick();
+    let curve = with_heartbeat(
+        "continuing",
+        format!("the first point at {pn} = {}", shown(from)),
+        |say| {
+            nfr(
+                &sys,
+                &opts,
+                &|n, v| say(format!("{n} points, {pn} = {}", shown(v))),
+                &INTERRUPTED,
+            )
         },
-        &INTERRUPTED,
     );
-    bar.finish_and_clear();
     let curve = curve?;
     if curve.complete && a.backbone.is_empty() {
         // the whole curve: a signal from now on stops nothing
@@ -466,6 +463,129 @@ pub fn run(a: NfrArgs) -> Result<()> {
     Ok(())
 }
 
+/// How often a long run says where it is on a stderr that is not a terminal (a log
+/// file, a pipe, a batch job's output).
+pub const HEARTBEAT: std::time::Duration = std::time::Duration::from_secs(10);
+
+/// Run `work` with its progress shown: `work` is given `say(message)` to call as it moves
+/// on. On a terminal, a spinner `{label} ⠋ {message} {elapsed}` that ticks by itself (a
+/// slow point, seconds near the period floor, still shows time passing); on any other
+/// stderr, where the spinner is hidden, a plain line `{label}: {message} ({elapsed} s)`
+/// every [`HEARTBEAT`] while the work lasts (none for a run shorter than that).
+pub fn with_heartbeat<T>(label: &str, first: String, work: impl FnOnce(&dyn Fn(String)) -> T) -> T {
+    if std::io::IsTerminal::is_terminal(&std::io::stderr()) {
+        let bar = indicatif::ProgressBar::new_spinner();
+        bar.set_style(
+            indicatif::ProgressStyle::with_template(&format!(
+                "{label} {{spinner}} {{msg}} {{elapsed}}"
+            ))
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_spinner()),
+        );
+        bar.set_message(first);
+        bar.enable_steady_tick(std::time::Duration::from_millis(200));
+        let out = work(&|m| bar.set_message(m));
+        bar.finish_and_clear();
+        return out;
+    }
+    heartbeat_lines(label, first, HEARTBEAT, &mut std::io::stderr(), work)
+}
+
+/// [`with_heartbeat`] off a terminal: `label: message (elapsed s)` to `out` every `every`
+/// while `work` runs (the first after `every`).
+fn heartbeat_lines<T, W: std::io::Write + Send>(
+    label: &str,
+    first: String,
+    every: std::time::Duration,
+    out: &mut W,
+    work: impl FnOnce(&dyn Fn(String)) -> T,
+) -> T {
+    use std::sync::{Condvar, Mutex};
+    let began = std::time::Instant::now();
+    let message = Mutex::new(first);
+    let done = (Mutex::new(false), Condvar::new());
+    std::thread::scope(|scope| {
+        scope.spawn(|| {
+            let (lock, cv) = &done;
+            let mut finished = lock.lock().unwrap_or_else(|e| e.into_inner());
+            let mut next = began + every;
+            while !*finished {
+                let now = std::time::Instant::now();
+                if now >= next {
+                    let m = message.lock().map(|m| m.clone()).unwrap_or_default();
+                    let _ = writeln!(out, "{label}: {m} ({:.0} s)", began.elapsed().as_secs_f64());
+                    next += every;
+                    continue;
+                }
+                finished = cv
+                    .wait_timeout(finished, next - now)
+                    .unwrap_or_else(|e| e.into_inner())
+                    .0;
+            }
+        });
+        let result = work(&|m| {
+            if let Ok(mut slot) = message.lock() {
+                *slot = m;
+            }
+        });
+        let (lock, cv) = &done;
+        *lock.lock().unwrap_or_else(|e| e.into_inner()) = true;
+        cv.notify_all();
+        result
+    })
+}
+
+#[cfg(test)]
+#[test]
+fn heartbeat_lines_say_the_latest_message_while_the_work_lasts() {
+    let mut out: Vec<u8> = Vec::new();
+    let every = std::time::Duration::from_millis(40);
+    let answer = heartbeat_lines(
+        "continuing",
+        "the first point".into(),
+        every,
+        &mut out,
+        |say| {
+            std::thread::sleep(5 * every);
+            say("3 points, omega = 2.5 rad/s".into());
+            std::thread::sleep(10 * every);
+            42
+        },
+    );
+    assert_eq!(answer, 42);
+    let text = String::from_utf8(out).unwrap();
+    // a line a tick, each with the message of its moment: the latest one too
+    assert!(
+        text.lines()
+            .all(|l| l.starts_with("continuing: ") && l.ends_with(" s)")),
+        "{text}"
+    );
+    assert!(
+        text.lines()
+            .any(|l| l.starts_with("continuing: 3 points, omega = 2.5 rad/s (")),
+        "{text}"
+    );
+    // and none after the work: a short run says nothing
+    let mut quiet: Vec<u8> = Vec::new();
+    heartbeat_lines(
+        "x",
+        "y".into(),
+        std::time::Duration::from_secs(60),
+        &mut quiet,
+        |_| (),
+    );
+    assert!(quiet.is_empty());
+}
+
+/// `--integrator` of the shooting (`nfr`, `backbone`): `dop853` only. `radau` is parsed
+/// (hidden from `--help`'s possible values) to be refused with the reason
+/// ([`refuse_radau`]) rather than clap's bare "invalid value".
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum ShootingIntegrator {
+    Dop853,
+    #[value(hide = true)]
+    Radau,
+}
+
 /// `--integrator radau` for the shooting of periodic orbits (`nfr`, `backbone`): refused.
 /// The shooting integrates each period together with its variational equations (the
 /// monodromy's 2·DoF columns and the parameter's, each a directional difference of the
@@ -476,8 +596,8 @@ pub fn run(a: NfrArgs) -> Result<()> {
 /// variational part's structure (the same Jacobian repeated per column). The periods'
 /// step budget (`periodic::continuation::PERIOD_STEPS`) refuses at once what DOP853
 /// cannot cross.
-pub fn refuse_radau(choice: IntegratorChoice) -> Result<()> {
-    if choice == IntegratorChoice::Radau {
+pub fn refuse_radau(choice: ShootingIntegrator) -> Result<()> {
+    if choice == ShootingIntegrator::Radau {
         return Err(Error::request(
             "--integrator radau: the shooting integrates each period with its variational equations (the monodromy matrix) with the explicit DOP853 only; an implicit method would solve for that whole augmented state at every step, its Jacobian by finite differences",
             "leave --integrator out (or give dop853); for a stiff model, soften the stiff element or loosen --rtol/--atol, or use `detune sweep --integrator radau` (stable orbits only)",

@@ -29,8 +29,14 @@
 //! differences in their variational columns.
 //!
 //! Each is located by the Illinois variant of regula falsi on the arclength, every trial
-//! a corrected point of the branch (a bordered solve), to 1e-9 of the step in arclength:
-//! better than 1e-8 rad/s in ω. Peaks (interior maxima of an amplitude on a stable part)
+//! a corrected point of the branch (a bordered solve, from the nearest trial so far), to
+//! 1e-9 of the step in arclength: a fold to better than 1e-8 rad/s in ω; a period
+//! doubling's test function scatters by about 1e-6 between neighbouring orbits (source
+//! not found: docs/performance.md), ±8e-8 rad/s on the overcentre, stated ±1e-7 of ω.
+//!
+//! A curve point whose last Newton step was small is checked by its state's period alone
+//! (`NfrPoint::stale`: its multipliers and tangent are the iterate's before); where a test
+//! function changes sign next to one, it is integrated in full first. Peaks (interior maxima of an amplitude on a stable part)
 //! are located by successive parabolic interpolation on the arclength, every trial a
 //! corrected point, the amplitude measured on 2048 samples a period.
 //!
@@ -136,6 +142,10 @@ pub struct NfrPoint {
     pub branch: usize,
     /// The state at forcing phase 0 (q, v).
     pub x: Vec<f64>,
+    /// Its multipliers (and `stable`) are those of the Newton iterate before it, off by
+    /// that last step (relative to the orbit at most 1e-4): the orbit itself was checked
+    /// by integrating its state alone (`Tracer::correct_at`). Never for a located point.
+    pub stale: bool,
 }
 
 /// A located fold or bifurcation.
@@ -205,6 +215,13 @@ pub struct Nfr {
     pub unresolved_events: usize,
 }
 
+/// A Newton iterate is checked by the state's period alone (`Tracer::correct_at`) when
+/// the residual it was stepped from, squared, is this many times below the tolerance
+/// (quadratic convergence with room for the constant). 10 and 1: more checks fail and
+/// must be repeated with the full period (overcentre: 0.82 M, 1.04 M evaluations against
+/// 0.65 M); 1000: 0.74 M.
+const LIGHT_MARGIN: f64 = 100.0;
+
 /// A point with what the continuation needs of it.
 #[derive(Clone)]
 struct Node {
@@ -264,6 +281,8 @@ struct Tracer<'c> {
     /// How closely a corrected point meets the arclength condition (scaled units):
     /// `ARC_TOL` along the curve, 1e-10 for the located points (`Tracer::precise`).
     arc_tol: f64,
+    /// Every point with its full period (no light check): `Tracer::refresh`.
+    no_light: bool,
 }
 
 /// The arclength condition's tolerance along the curve: it only says where on the curve
@@ -376,6 +395,7 @@ pub fn nfr(
         cancel,
         unresolved: 0,
         arc_tol: ARC_TOL,
+        no_light: false,
     };
     let dof = {
         let b = tr.sh.tangent_basis(&x0);
@@ -438,6 +458,7 @@ pub fn nfr(
             cancel,
             unresolved: 0,
             arc_tol: ARC_TOL,
+            no_light: false,
         };
         if let Ok(start) = end_tr.start(guess.1, opts.to, opts.from, opts)
             && !on_branch(&start, &all)
@@ -831,6 +852,7 @@ impl Tracer<'_> {
                     s: 0.0,
                     branch: 0,
                     x,
+                    stale: false,
                 },
                 basis,
                 tangent,
@@ -926,7 +948,7 @@ impl Tracer<'_> {
             if self.cancel.load(std::sync::atomic::Ordering::Relaxed) {
                 return finish(nodes, located, BranchEnd::Interrupted);
             }
-            let last = nodes.last().expect("a start").clone();
+            let mut last = nodes.last().expect("a start").clone();
             let k = (nodes.len() >= 2).then(|| curvature(&nodes[nodes.len() - 2], &last));
             let next = match self.correct(&last, k.flatten().as_ref(), ds, None) {
                 Ok(n) => n,
@@ -957,11 +979,46 @@ impl Tracer<'_> {
                     .is_none_or(|m| m.norm() <= RESOLVED)
             };
             let mut found = events(&last, &next);
+            // A light point's multipliers are its last full period's (`correct_at`): where
+            // a test function changes sign next to one, its full period first, so that
+            // the bracket is the true one (and where the earlier point's sign was the
+            // stale one's error, the event lies in the step before it).
+            let mut brackets: Vec<(Located, Node, Node, f64)> = Vec::new();
+            if !found.is_empty() && (last.point.stale || next.point.stale) {
+                if next.point.stale
+                    && let Ok(Some(mut r)) = self.refresh(&next)
+                {
+                    r.point.s = next.point.s;
+                    next = r;
+                }
+                if last.point.stale
+                    && let Ok(Some(mut r)) = self.refresh(&last)
+                {
+                    r.point.s = last.point.s;
+                    if nodes.len() >= 2 {
+                        let prev = nodes[nodes.len() - 2].clone();
+                        let h = r.point.s - prev.point.s;
+                        for kind in events(&prev, &r) {
+                            if resolved(&prev) && resolved(&r) {
+                                brackets.push((kind, prev.clone(), r.clone(), h));
+                            }
+                        }
+                    }
+                    *nodes.last_mut().expect("a start") = r.clone();
+                    last = r;
+                }
+                found = events(&last, &next);
+            }
             if !(resolved(&last) && resolved(&next)) {
                 self.unresolved += found.len();
                 found.clear();
             }
-            for kind in found {
+            brackets.extend(
+                found
+                    .into_iter()
+                    .map(|kind| (kind, last.clone(), next.clone(), ds)),
+            );
+            for (kind, last, next, ds) in brackets {
                 // a count of multipliers can change by two with no crossing (a complex
                 // pair meeting on the real axis outside the circle): only a sign change
                 // of the test function is an event
@@ -1089,6 +1146,14 @@ impl Tracer<'_> {
         }
     }
 
+    /// A light point again with its full period (its own multipliers and tangent).
+    fn refresh(&mut self, n: &Node) -> Result<Option<Node>> {
+        self.no_light = true;
+        let out = self.correct(n, None, 0.0, Some(n.point.value));
+        self.no_light = false;
+        out
+    }
+
     /// The tangent of the first point pointing toward `to`.
     fn orient(&self, mut n: Node, guess: &Node) -> Node {
         if n.tp() * guess.tp() < 0.0 {
@@ -1178,13 +1243,27 @@ impl Tracer<'_> {
         let mut prev = f64::INFINITY;
         let mut worse = 0;
         let mut fresh = false;
-        for it in 0..12 {
+        // After a small Newton step the next residual is about its square: that iterate
+        // is checked by the state's period alone (1 evaluation a stage, not 2 + 2·DoF),
+        // its multipliers and tangent taken from the last full period (off by the step,
+        // O(δ); the located points are computed with full periods throughout).
+        let light_allowed = self.arc_tol == ARC_TOL && !self.no_light;
+        let mut light = false;
+        let mut light_tried = false;
+        let mut last_full: Option<(DMatrix<f64>, Flow)> = None;
+        let no_dirs = DMatrix::zeros(x.len(), 0);
+        for it in 0..14 {
             self.sh.set(p)?;
             let tb = self.sh.tangent_basis(&x);
             if tb.ncols() != d {
                 return Ok(None);
             }
-            let flow = match self.sh.flow(&x, &tb, true, self.cancel) {
+            let flow = if light {
+                self.sh.flow(&x, &no_dirs, false, self.cancel)
+            } else {
+                self.sh.flow(&x, &tb, true, self.cancel)
+            };
+            let flow = match flow {
                 Ok(f) => f,
                 Err(e) if is_interrupt(&e) => return Err(e),
                 Err(_) => return Ok(None),
@@ -1219,7 +1298,24 @@ impl Tracer<'_> {
                 && rel > 0.25 * prev
                 && arc.abs() <= 1e-6;
             if converged || noise {
+                if light && let Some((tb0, full)) = last_full.take() {
+                    let merged = Flow {
+                        end: flow.end,
+                        values: flow.values,
+                        scale: flow.scale,
+                        ..full
+                    };
+                    let mut nd = self.node(x, p, tb0, merged, base, (it + 1, rel));
+                    nd.point.stale = true;
+                    return Ok(Some(nd));
+                }
                 return Ok(Some(self.node(x, p, tb, flow, base, (it + 1, rel))));
+            }
+            if light {
+                // not converged after all: this iterate again with its full period
+                light = false;
+                last_full = None;
+                continue;
             }
             fresh = true;
             if !(rel < prev) {
@@ -1255,6 +1351,12 @@ impl Tracer<'_> {
                 *xi += s;
             }
             p += step[d];
+            if light_allowed && !light_tried && rel * rel * LIGHT_MARGIN <= tol && arc.abs() <= 1e-3
+            {
+                light = true;
+                light_tried = true;
+                last_full = Some((tb, flow));
+            }
             // onto the manifold of the new p (a moving constraint's depends on it)
             self.sh.set(p)?;
             self.sh.project(&mut x);
@@ -1313,6 +1415,7 @@ impl Tracer<'_> {
                 s: base.point.s,
                 branch: base.point.branch,
                 x,
+                stale: false,
             },
             basis: tb,
             tangent,
@@ -1386,6 +1489,7 @@ impl Tracer<'_> {
         let mut p_prev = f64::NAN;
         let mut change = f64::INFINITY;
         let mut converged = false;
+        let mut tried: Vec<Node> = Vec::new();
         for _ in 0..60 {
             let s = (sa * gb - sb * ga) / (gb - ga);
             let s = if s.is_finite() && s > sa && s < sb {
@@ -1393,13 +1497,26 @@ impl Tracer<'_> {
             } else {
                 0.5 * (sa + sb)
             };
-            let Some(mut n) = self.correct(a, None, s, None)? else {
+            // from the nearest orbit computed so far (a short predictor: the trials close
+            // to the zero converge in one period instead of two or three)
+            let from = tried
+                .iter()
+                .min_by(|x: &&Node, y: &&Node| {
+                    (x.point.s - a.point.s - s)
+                        .abs()
+                        .total_cmp(&(y.point.s - a.point.s - s).abs())
+                })
+                .filter(|n| (n.point.s - a.point.s - s).abs() < s.abs())
+                .unwrap_or(a)
+                .clone();
+            let Some(mut n) = self.correct(&from, None, a.point.s + s - from.point.s, None)? else {
                 break;
             };
             n.point.s = a.point.s + s;
             let Some(g) = test(kind, &n) else {
                 break;
             };
+            tried.push(n.clone());
             let p = n.point.value;
             if best.as_ref().is_none_or(|(b, _)| g.abs() < b.abs()) {
                 best = Some((g, n));
