@@ -1111,3 +1111,20 @@ fn a_non_finite_value_in_an_expression_is_not_finite() {
         assert!(out.is_empty());
     }
 }
+
+/// In a model file's element expressions too (`mass = "nan"`, `stiffness = "k*inf"`): each
+/// is "not finite" at its line and column (it was "unknown parameter `nan`").
+#[test]
+fn a_non_finite_value_in_a_model_file_is_not_finite() {
+    let (code, _, err) = detune(&["check", "tests/data/non_finite_values.toml"]);
+    assert_eq!(code, 1, "{err}");
+    assert!(
+        err.contains("non_finite_values.toml:6:9: `nan` is not finite"),
+        "{err}"
+    );
+    assert!(
+        err.contains("non_finite_values.toml:22:16: `inf` is not finite"),
+        "{err}"
+    );
+    assert!(!err.contains("unknown parameter"), "{err}");
+}

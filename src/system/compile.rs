@@ -206,6 +206,9 @@ impl Compiler<'_> {
                 help: Some("use parameters only here".into()),
             });
         }
+        if crate::model::expr::is_non_finite_name(name) {
+            return Err(crate::model::expr::non_finite_name(name, span.clone()));
+        }
         let mut cands: Vec<&str> = params.names().collect();
         if coords {
             cands.extend(self.coordinates.iter().map(|s| s.as_str()));
