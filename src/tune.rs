@@ -232,6 +232,10 @@ pub enum Blocked {
     /// at `point` (a corner `k=1.1, c=-2.5`, or a point along one range) a mode grows at
     /// `growth_rate_1_s` = Re λ > 0 (1/s).
     UnstableOverTolerances { point: String, growth_rate_1_s: f64 },
+    /// `mode`'s first-order interval over the tolerance box reaches `low_rad_s` ≤ 0: the
+    /// tolerances are too wide for a first-order spread about the design (the box may
+    /// reach an unstable design, or one with no equilibrium near the design's).
+    SpreadReachesZero { mode: String, low_rad_s: f64 },
 }
 
 impl Blocked {
@@ -309,11 +313,15 @@ impl Blocked {
                 "the design found is unstable: {mode} grows at Re λ = {} 1/s (the equilibrium is unstable), so it cannot pass",
                 num("growth_rate_1_s", *growth_rate_1_s, 4),
             ),
+            Blocked::SpreadReachesZero { mode, low_rad_s } => format!(
+                "{mode}'s first-order interval over the tolerance box reaches {} rad/s (ω_n ≤ 0): the tolerances are too wide for a spread about the design (the box may reach an unstable design, or one with no equilibrium near it)",
+                num("low_rad_s", *low_rad_s, 4),
+            ),
             Blocked::UnstableOverTolerances {
                 point,
                 growth_rate_1_s,
             } => format!(
-                "the design found is stable, but its tolerance box reaches an unstable design: at {point} a mode grows at Re λ = {} 1/s, so a part within tolerance can leave its equilibrium and the design cannot pass",
+                "the design found (the smallest change that clears the bands) is stable, but its tolerance box reaches an unstable design: at {point} a mode grows at Re λ = {} 1/s, so a part within tolerance can leave its equilibrium and the design cannot pass (the search keeps the modes clear of the bands over the box, not the box stable: a larger change may be stable over it)",
                 num("growth_rate_1_s", *growth_rate_1_s, 4),
             ),
         }
@@ -1023,7 +1031,14 @@ fn solve_choice(
                     over_tolerances: !opts.tolerances.is_empty(),
                 })
             };
-            if a < gap.lo * (1.0 - 0.5 * opts.clearance) {
+            if a <= 0.0 && gap.below.is_empty() {
+                // no line below: the first-order spread itself reaches ω_n ≤ 0, the box
+                // is too wide for a spread about the design to mean anything
+                Some(Blocked::SpreadReachesZero {
+                    mode: names[m].clone(),
+                    low_rad_s: a,
+                })
+            } else if a < gap.lo * (1.0 - 0.5 * opts.clearance) {
                 stays(a, gap.lo, gap.below.last(), true)
             } else if b > gap.hi * (1.0 + 0.5 * opts.clearance) {
                 stays(b, gap.hi, gap.above.first(), false)

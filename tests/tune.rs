@@ -459,4 +459,21 @@ fn a_tolerance_box_reaching_an_unstable_design_fails_the_tuning() {
     margins.extend(base);
     margins.extend(["--vary", "c=±150%"]);
     assert_eq!(detune(&margins).0, 3);
+    // a stiffness tolerance of ±150 % spreads the mode (first order) below 0 rad/s: the
+    // box is too wide to tune over, said so (it read "stays at -1.8947 rad/s …, below
+    // 0.0000 rad/s: it cannot be raised above  by the margin")
+    let mut args = vec!["tune"];
+    args.extend(base);
+    args.extend(["--vary", "c=80%..120%", "--tolerance", "k=±150%"]);
+    let (code, out, err) = detune(&args);
+    assert_eq!(code, 3, "{out}{err}");
+    assert!(out.contains("(ω_n ≤ 0)"), "{out}");
+    assert!(
+        out.contains("the tolerance box is too wide to tune over"),
+        "{out}"
+    );
+    assert!(
+        !out.contains("stays at") && !out.contains("above  by"),
+        "{out}"
+    );
 }

@@ -387,17 +387,27 @@ pub fn run(a: TuneArgs) -> Result<super::Outcome> {
             }
         }
         if t.designs.is_empty() {
-            // every choice blocked by an unstable point of the tolerance box: the remedy
-            // is the tolerances, not the ranges
-            let unstable_box = t.infeasible.iter().all(|i| {
-                matches!(
-                    i.blocked,
-                    Some(detune::tune::Blocked::UnstableOverTolerances { .. })
-                )
-            });
-            if unstable_box {
+            // every choice blocked by the tolerance box (an unstable point of it, or a
+            // spread too wide to estimate): the remedy is the tolerances, not the ranges
+            use detune::tune::Blocked;
+            let all = |f: &dyn Fn(&Blocked) -> bool| {
+                !t.infeasible.is_empty()
+                    && t.infeasible
+                        .iter()
+                        .all(|i| i.blocked.as_ref().is_some_and(f))
+            };
+            if all(&|b| matches!(b, Blocked::SpreadReachesZero { .. })) {
                 println!(
-                    "\nno design within the bounds is stable over its tolerance box: narrow the --tolerance that reaches the unstable point (a damping tolerance below 100 % keeps every damper passive), or vary a parameter that stabilizes it"
+                    "\nthe tolerance box is too wide to tune over: narrow the --tolerance ranges (`detune margins MODEL --vary ...` with the same tolerances shows what the box reaches)"
+                );
+            } else if all(&|b| {
+                matches!(
+                    b,
+                    Blocked::UnstableOverTolerances { .. } | Blocked::SpreadReachesZero { .. }
+                )
+            }) {
+                println!(
+                    "\nno design found is stable over its tolerance box (tune minimizes the change and does not search for stability over the tolerances: check a larger change with `detune margins MODEL --set NAME=VALUE --vary ...` and the same tolerances); or narrow the --tolerance that reaches the unstable point (a damping tolerance below 100 % keeps every damper passive)"
                 );
             } else {
                 println!(
