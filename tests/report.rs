@@ -904,9 +904,11 @@ fn freq_unit_shows_the_pages_frequencies_in_the_unit_with_rad_s_beside() {
             (x - wd * scale).abs() < 1e-3 * wd * scale,
             "{shown} vs {wd} rad/s"
         );
-        // headers: the unit, rad/s beside it; the sentences too
+        // headers: the unit (the cycle rate named f, as the CLI's tables), rad/s beside
+        // it; the sentences too
+        assert!(!page.contains(&format!("ω_d [{unit}]")), "{unit}: ω_d in {unit}");
         for h in [
-            "ω_d [UNIT]",
+            "f_d [UNIT]",
             "ω_d [rad/s]",
             "band low [UNIT]",
             "band low [rad/s]",
