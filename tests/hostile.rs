@@ -446,6 +446,15 @@ fn tune_and_backbone_say_a_model_has_no_degrees_of_freedom() {
     let o = run(&["backbone", "driven.toml", "--of-mode", "1"], &model);
     refused(&o, &[said, "so no backbone"]);
     assert!(!o.stderr.contains(": \n"), "{}", o.stderr);
+    // equilibrium and margins say it in the same words (exit 0: nothing can resonate)
+    for args in [
+        &["equilibrium", "driven.toml"][..],
+        &["margins", "driven.toml", "--environment", "uh60"][..],
+    ] {
+        let o = run(args, &model);
+        assert_eq!(o.code, Some(0), "{args:?}: {}", o.stderr);
+        assert!(o.stdout.contains(said), "{args:?}: {}", o.stdout);
+    }
 }
 
 /// Issue 13 point 3 (`--integrator` on every time-domain command), last audit point 4:

@@ -906,7 +906,10 @@ fn freq_unit_shows_the_pages_frequencies_in_the_unit_with_rad_s_beside() {
         );
         // headers: the unit (the cycle rate named f, as the CLI's tables), rad/s beside
         // it; the sentences too
-        assert!(!page.contains(&format!("ω_d [{unit}]")), "{unit}: ω_d in {unit}");
+        assert!(
+            !page.contains(&format!("ω_d [{unit}]")),
+            "{unit}: ω_d in {unit}"
+        );
         for h in [
             "f_d [UNIT]",
             "ω_d [rad/s]",

@@ -109,8 +109,10 @@ pub fn run(a: EquilibriumArgs) -> Result<()> {
         if e.omega2.is_empty() {
             // nothing can move: the constraints (perhaps driven in time) fix the pose
             println!(
-                "  no degrees of freedom: the constraints fix the pose; residual {:.2e} (SI: N, N·m, m, rad) after {} iterations",
-                e.residual, e.iterations
+                "  {}; residual {:.2e} (SI: N, N·m, m, rad) after {} iterations",
+                detune::linear::no_modes_words(&sys),
+                e.residual,
+                e.iterations
             );
             continue;
         }

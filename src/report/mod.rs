@@ -448,8 +448,10 @@ fn table_in(data: &Sidecar, t: &mut Table, unit: FreqUnit) {
             Some(rest) if !shown_beside => {
                 // the converted column names the cycle rate it shows (f_n in Hz, as the
                 // CLI's tables: `ω_n` → `f_n`, `dω_n/dp` → `df_n/dp`)
-                let converted =
-                    Column::new(c.title.replace('ω', "f"), format!("{}{rest}", unit.symbol()));
+                let converted = Column::new(
+                    c.title.replace('ω', "f"),
+                    format!("{}{rest}", unit.symbol()),
+                );
                 t.columns.insert(i, converted);
                 for row in &mut t.rows {
                     if let Some(cell) = row.get(i) {
