@@ -609,3 +609,38 @@ fn the_well_summary_lists_runs_of_frequencies() {
         assert!(all.contains(&format!("{r} {words}")), "{r} {words}\n{all}");
     }
 }
+
+/// With a negative damper (c = −1 N·s/m) every well's oscillation grows: each equilibrium
+/// keeps its static verdict (`stable`, the closed form's) and is dynamically unstable
+/// (`dynamically_stable` false), in `simulate`'s JSON as in `equilibrium --json` (a copy
+/// of `stable` would fail here).
+#[test]
+fn a_negative_damper_makes_every_well_dynamically_unstable() {
+    let dir = tempfile::tempdir().unwrap();
+    let (csv, json) = (dir.path().join("s.csv"), dir.path().join("s.json"));
+    let (code, _, err) = detune(&[
+        "simulate",
+        "models/overcentre.toml",
+        "--set",
+        "c=-1",
+        "--t-end",
+        "1",
+        "-o",
+        csv.to_str().unwrap(),
+        "--json",
+        json.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 0, "{err}");
+    let j: Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let eqs = j["equilibria"].as_array().unwrap();
+    let truth = closed_form_equilibria();
+    assert_eq!(eqs.len(), truth.len());
+    for (t, stable) in &truth {
+        let e = eqs
+            .iter()
+            .find(|e| (e["coordinates"]["bar1.theta"].as_f64().unwrap() - t).abs() < 1e-8)
+            .unwrap_or_else(|| panic!("no equilibrium at θ1 = {t}: {eqs:?}"));
+        assert_eq!(e["stable"].as_bool(), Some(*stable), "θ1 = {t}");
+        assert_eq!(e["dynamically_stable"].as_bool(), Some(false), "θ1 = {t}");
+    }
+}
