@@ -9,7 +9,7 @@ use detune::diag::{Error, Result};
 use detune::output::figures::Case;
 use detune::output::nfr::{NfrReport, jump_words, nfr_figures, write_nfr_csv};
 use detune::output::plot::write_panels_sized;
-use detune::output::units::{Units, WithUnits};
+use detune::output::units::{Units, WithUnits, significant};
 use detune::output::{Provenance, check_outputs};
 use detune::periodic::continuation::{NfrOptions, nfr};
 
@@ -616,32 +616,5 @@ fn located_to(refined: bool, uncertainty: f64, shown: &dyn Fn(f64) -> String) ->
             "not refined: ± {}, the continuation's step",
             shown(uncertainty)
         )
-    }
-}
-
-/// `x` to `digits` significant digits, in plain notation from 1e-4 to 1e7 (`2.968161`,
-/// `1371.071`), in scientific notation outside it.
-fn significant(x: f64, digits: usize) -> String {
-    let a = x.abs();
-    if x == 0.0 || !x.is_finite() {
-        return format!("{x}");
-    }
-    if !(1e-4..1e7).contains(&a) {
-        return format!("{x:.*e}", digits.saturating_sub(1));
-    }
-    let magnitude = a.log10().floor() as i64;
-    let decimals = (digits as i64 - 1 - magnitude).max(0) as usize;
-    format!("{x:.decimals$}")
-}
-
-#[cfg(test)]
-mod tests {
-    use super::significant;
-
-    #[test]
-    fn significant_digits() {
-        assert_eq!(significant(1.371070973412056, 7), "1.371071");
-        assert_eq!(significant(-1371.070973412056, 7), "-1371.071");
-        assert_eq!(significant(2.5e-7, 3), "2.50e-7");
     }
 }

@@ -350,3 +350,15 @@ pub fn located(value: f64, uncertainty: f64, unit: &str, not_refined: Option<&st
     };
     format!("{} ({how})", with_unit(significant(value, digits)))
 }
+
+#[cfg(test)]
+mod significant_tests {
+    use super::significant;
+
+    #[test]
+    fn significant_digits() {
+        assert_eq!(significant(1.371070973412056, 7), "1.371071");
+        assert_eq!(significant(-1371.070973412056, 7), "-1371.071");
+        assert_eq!(significant(2.5e-7, 3), "2.50e-7");
+    }
+}
