@@ -160,7 +160,29 @@ pub fn mode_points_named(
 /// cases inside the box (a case at an end of a single parameter's range is one of the
 /// corners already listed, so it is not listed again). Any of them fails a margins check
 /// over the box ([`MarginCheck::with_unstable_corners`]), as an unstable nominal design
-/// does: `margins --vary` and `tune --tolerance` check the same points.
+/// does: `margins --vary`, `tune --tolerance` and the report check the same points.
+/// A box with points that could not be solved (no equilibrium near the nominal one) is
+/// refused: its intervals and stability would be no guarantee.
+pub fn box_unstable_points(
+    study: &crate::linear::sensitivity::Sensitivity,
+    varies: &[crate::linear::sensitivity::Vary],
+) -> Result<Vec<crate::linear::sensitivity::UnstableCorner>> {
+    let failed: usize = study
+        .modes
+        .first()
+        .map_or(0, |m| m.worst_case.corners_failed);
+    if failed > 0 {
+        return Err(crate::diag::Error::request(
+            format!(
+                "the tolerance box cannot be verified: at {failed} of its corners or samples no equilibrium was found near the nominal one (the ranges reach past a fold, or a linkage that no longer closes)"
+            ),
+            "narrow the --vary ranges (detune sensitivity with the same --vary shows the box), or check the failing values with --set",
+        ));
+    }
+    Ok(unstable_points(study, varies))
+}
+
+/// [`box_unstable_points`] without the check that every point of the box was solved.
 pub fn unstable_points(
     study: &crate::linear::sensitivity::Sensitivity,
     varies: &[crate::linear::sensitivity::Vary],

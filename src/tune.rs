@@ -1196,15 +1196,8 @@ fn verify_design(
             .map(|t| t.at(sys.param(t.vary.param), s.param(t.vary.param)))
             .collect();
         let study = crate::linear::sensitivity::sensitivity(&s, &box_, Some(&names), None)?;
-        if let Some(m) = study.modes.iter().find(|m| m.worst_case.corners_failed > 0) {
-            return Err(Error::request(
-                format!(
-                    "{} corner(s) of the tolerance box about the design cannot be solved (no equilibrium near the design's, or a linkage that no longer closes): its intervals are no guarantee",
-                    m.worst_case.corners_failed
-                ),
-                "narrow the tolerances or the ranges",
-            ));
-        }
+        // a box with unsolved points is refused, as `margins --vary` refuses it
+        unstable_points = crate::margins::box_unstable_points(&study, &box_)?;
         for m in &study.modes {
             intervals.insert(
                 m.name.clone(),
@@ -1212,7 +1205,6 @@ fn verify_design(
             );
         }
         points = crate::margins::with_intervals(points, &study);
-        unstable_points = crate::margins::unstable_points(&study, &box_);
     }
     // an unstable design fails, whatever its separations; so does one whose tolerance
     // box reaches an unstable design (as `margins --vary` checks it)

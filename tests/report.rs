@@ -939,7 +939,9 @@ fn freq_unit_shows_the_pages_frequencies_in_the_unit_with_rad_s_beside() {
             .find(|s| s.contains("linear response to"))
             .unwrap();
         assert!(
-            frf.contains(&format!("ω [{unit}]")) && !frf.contains("rad/s"),
+            frf.contains(&format!("f [{unit}]"))
+                && !frf.contains(&format!("ω [{unit}]"))
+                && !frf.contains("rad/s"),
             "{unit}: FRF axis"
         );
         let campbell = svgs

@@ -476,4 +476,15 @@ fn a_tolerance_box_reaching_an_unstable_design_fails_the_tuning() {
         !out.contains("stays at") && !out.contains("above  by"),
         "{out}"
     );
+    // ±90 %: the box's case k = 5 N/m has no equilibrium near the design's; the remedy
+    // is the tolerance too (it said "widen the ranges … or lower the margin")
+    let last = args.len() - 1;
+    args[last] = "k=±90%";
+    let (code, out, err) = detune(&args);
+    assert_eq!(code, 3, "{out}{err}");
+    assert!(
+        out.contains("the tolerance box is too wide to tune over"),
+        "{out}"
+    );
+    assert!(!out.contains("widen the ranges"), "{out}");
 }

@@ -172,20 +172,9 @@ fn intervals(
     }
     let vs = super::args::varies(model, sys, vary)?;
     let study = detune::linear::sensitivity::sensitivity(sys, &vs, None, None)?;
-    let failed: usize = study
-        .modes
-        .first()
-        .map_or(0, |m| m.worst_case.corners_failed);
-    if failed > 0 {
-        return Err(Error::request(
-            format!(
-                "the tolerance box cannot be verified: at {failed} of its corners or samples no equilibrium was found near the nominal one (the ranges reach past a fold, or a linkage that no longer closes)"
-            ),
-            "narrow the --vary ranges (detune sensitivity with the same --vary shows the box), or check the failing values with --set",
-        ));
-    }
-    // the unstable points fail the check (named in its summary), no longer only a warning
-    let unstable = detune::margins::unstable_points(&study, &vs);
+    // the unstable points fail the check (named in its summary), no longer only a warning;
+    // a box with unsolved points is refused
+    let unstable = detune::margins::box_unstable_points(&study, &vs)?;
     for m in &study.modes {
         if !m.worst_case.non_monotone.is_empty() {
             eprintln!(

@@ -396,7 +396,13 @@ pub fn run(a: TuneArgs) -> Result<super::Outcome> {
                         .iter()
                         .all(|i| i.blocked.as_ref().is_some_and(f))
             };
-            if all(&|b| matches!(b, Blocked::SpreadReachesZero { .. })) {
+            // (with tolerances, a design that does not verify failed on its box: a case
+            // of it with no equilibrium)
+            let tolerated = !a.tolerance.is_empty();
+            if all(&|b| {
+                matches!(b, Blocked::SpreadReachesZero { .. })
+                    || (tolerated && matches!(b, Blocked::DoesNotVerify { .. }))
+            }) {
                 println!(
                     "\nthe tolerance box is too wide to tune over: narrow the --tolerance ranges (`detune margins MODEL --vary ...` with the same tolerances shows what the box reaches)"
                 );

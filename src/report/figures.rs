@@ -222,7 +222,15 @@ impl Figure for FrfPlot {
         let lay = layout(root, &p.title, &entries, &f)?;
         let px = axes(
             &lay.chart,
-            &format!("ω [{sym}]"),
+            // the cycle rate in Hz or rpm is f, as the tables name it
+            &format!(
+                "{} [{sym}]",
+                if p.freq_unit == FreqUnit::RadPerSecond {
+                    "ω"
+                } else {
+                    "f"
+                }
+            ),
             &format!("amplitude [{}]", p.unit),
             (x0, x1),
             (y0, y1),

@@ -778,7 +778,7 @@ mod tests {
         report.in_frequency_unit(FreqUnit::Hertz);
         let page = report.document.html();
         // the column: Hz then rad/s; the row with a rad/s unit cell: Hz, rad/s named
-        assert!(page.contains("ω [Hz]</th><th>ω [rad/s]"), "{page}");
+        assert!(page.contains("f [Hz]</th><th>ω [rad/s]"), "{page}");
         assert!(page.contains(r#"<td class="num" data-key="m/w" data-unit="Hz">1.0000</td><td class="num" data-key="m/w">6.283</td>"#), "{page}");
         assert!(page.contains(r#"<td class="num" data-key="m/w" data-unit="Hz">1.00000</td><td>Hz (<span class="num" data-key="m/w">6.2832</span> rad/s)</td>"#), "{page}");
         // the sentence: the number followed by rad/s, not the ratio

@@ -158,7 +158,7 @@ pub fn add_studies(report: &mut Report, s: &Studies) -> Result<()> {
     // with the user's tolerances, an unstable point of the box fails it too (as `margins
     // --vary` does)
     if let (true, Some(study)) = (s.given, &study) {
-        check = check.with_unstable_corners(study.unstable_corners.clone());
+        check = check.with_unstable_corners(crate::margins::box_unstable_points(study, s.varies)?);
     }
     report.add_data("margins", &check)?;
     if let Some(profile) = &env.profile {
