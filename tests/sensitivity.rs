@@ -323,6 +323,13 @@ fn bad_varies_are_refused_with_advice() {
         ),
         (vec!["--vary", "k=100%..100%"], "has one level"),
         (vec!["--vary", "k=10%"], "without a sign: write ±10%"),
+        // an absolute change that is negative, zero or not finite (±-3 was taken as ±3)
+        (
+            vec!["--vary", "c=±-3"],
+            "is negative: ± already gives both signs, write ±3",
+        ),
+        (vec!["--vary", "c=±0 N*s/m"], "varies nothing"),
+        (vec!["--vary", "c=±nan"], "the change ±nan is not finite"),
         // past a fold: the first case in order is named, and the advice is the range's
         (
             vec!["--vary", "L2=±90%"],

@@ -409,6 +409,20 @@ pub fn vary(model: &Model, sys: &System, text: &str) -> Result<detune::linear::s
         } else {
             let d = value(rest)?;
             let r = rest.trim();
+            if !d.is_finite() {
+                return Err(bad(format!("the change ±{r} is not finite")));
+            }
+            if d == 0.0 {
+                return Err(bad(format!(
+                    "a change of ±{r} varies nothing: give a change > 0"
+                )));
+            }
+            if d < 0.0 {
+                return Err(bad(format!(
+                    "a change of ±{r} is negative: ± already gives both signs, write ±{}",
+                    rest.trim().trim_start_matches('-').trim()
+                )));
+            }
             cases.push((format!("{name}+{r}"), p0 + d));
             cases.push((format!("{name}-{r}"), p0 - d));
         }
