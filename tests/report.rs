@@ -1075,3 +1075,36 @@ fn a_divergent_mode_is_a_growth_rate_in_the_report() {
     let bad = mismatches(&page, &json);
     assert!(bad.is_empty(), "{}", bad.join("\n"));
 }
+
+/// The linear response plots the coordinates the modes move: on the single-DoF slider
+/// (tests/data/sdof.toml: m = 2 kg, k = 800 N/m, c = 6 N·s/m) that is `block.x`, not the
+/// block's angle, which the prismatic joint holds at 0 (it plotted a line of zeros with no
+/// peak). Its peak is the closed form's √(k/m − c²/(2m²)) within its stated ±.
+#[test]
+fn the_frf_section_plots_the_coordinates_the_modes_move() {
+    let dir = tempfile::tempdir().unwrap();
+    let html = dir.path().join("sdof.html");
+    let m = format!("{}/tests/data/sdof.toml", env!("CARGO_MANIFEST_DIR"));
+    let out = run(&["report", &m, "-o", html.to_str().unwrap()]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let json: Value =
+        serde_json::from_str(&std::fs::read_to_string(html.with_extension("json")).unwrap())
+            .unwrap();
+    let responses: Vec<&str> = json["frf"]["responses"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|r| r["name"].as_str().unwrap())
+        .collect();
+    assert_eq!(responses, ["block.x"]);
+    let peak = &json["frf"]["peaks"][0];
+    let (m, k, c) = (2.0f64, 800.0f64, 6.0f64);
+    let truth = (k / m - c * c / (2.0 * m * m)).sqrt();
+    let got = peak["omega"].as_f64().unwrap();
+    let u = peak["uncertainty"].as_f64().unwrap();
+    assert!((got - truth).abs() <= u, "{got} vs {truth} (± {u})");
+}

@@ -722,14 +722,28 @@ pub fn build(inp: &ReportInputs) -> Result<Report> {
         oscillating.iter().map(|x| x.1).reduce(f64::max),
     ) {
         let values = log_grid(0.2 * lo, 2.5 * hi, FRF_POINTS);
-        let angles: Vec<String> = (0..sys.n())
-            .filter(|&i| sys.is_angle(i))
-            .map(|i| sys.coordinates[i].clone())
+        // the coordinates some oscillating mode moves (a coordinate the constraints hold,
+        // a slider's angle, would plot a line of zeros); the angles among them, else all
+        let moves = |i: usize| {
+            oscillating.iter().any(|&(k, _)| {
+                m.modes[k]
+                    .shape
+                    .get(i)
+                    .is_some_and(|z| z.re.hypot(z.im) > 1e-9)
+            })
+        };
+        let moving: Vec<usize> = (0..sys.n()).filter(|&i| moves(i)).collect();
+        let angles: Vec<String> = moving
+            .iter()
+            .filter(|&&i| sys.is_angle(i))
+            .map(|&i| sys.coordinates[i].clone())
             .collect();
-        let responses = if angles.is_empty() {
-            sys.coordinates.clone()
-        } else {
+        let responses = if !angles.is_empty() {
             angles
+        } else if !moving.is_empty() {
+            moving.iter().map(|&i| sys.coordinates[i].clone()).collect()
+        } else {
+            sys.coordinates.clone()
         };
         match frf_with_forcing(model, sys, &values, &responses) {
             Ok((fr, unit_forcing)) => {
