@@ -183,7 +183,7 @@ pub fn box_unstable_points(
 }
 
 /// [`box_unstable_points`] without the check that every point of the box was solved.
-pub fn unstable_points(
+fn unstable_points(
     study: &crate::linear::sensitivity::Sensitivity,
     varies: &[crate::linear::sensitivity::Vary],
 ) -> Vec<crate::linear::sensitivity::UnstableCorner> {

@@ -183,11 +183,7 @@ pub fn run(a: BackboneArgs) -> Result<()> {
         println!(
             "{:>16} {:>16}  {}",
             format!("amplitude [{ref_unit}]"),
-            if fu == detune::output::units::FreqUnit::RadPerSecond {
-                "ω [rad/s]".to_string()
-            } else {
-                format!("f [{}]", fu.symbol())
-            },
+            format!("{} [{}]", fu.rate(), fu.symbol()),
             head.join(" ")
         );
         for p in &bb.points {

@@ -312,14 +312,7 @@ fn print_table(check: &MarginCheck, fu: FreqUnit) {
         },
         "line",
         // a line's frequency: ω in rad/s, f (a cycle rate) in Hz or rpm
-        format!(
-            "{} [{sym}]",
-            if fu == FreqUnit::RadPerSecond {
-                "ω"
-            } else {
-                "f"
-            }
-        ),
+        format!("{} [{sym}]", fu.rate()),
         ctitle,
         "separation",
         "side",

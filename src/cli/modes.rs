@@ -252,10 +252,7 @@ pub fn run(a: ModesArgs) -> Result<()> {
 /// A natural (`which` "n") or damped ("d") frequency's symbol in `fu`: ω_n in rad/s, f_n
 /// in Hz or rpm (cycle rates; docs/units.md).
 pub(crate) fn natural(fu: FreqUnit, which: &str) -> String {
-    match fu {
-        FreqUnit::RadPerSecond => format!("ω_{which}"),
-        _ => format!("f_{which}"),
-    }
+    format!("{}_{which}", fu.rate())
 }
 
 /// `percent` of a fraction, `55 %`.

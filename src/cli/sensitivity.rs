@@ -303,11 +303,7 @@ fn print_tables(s: &Sensitivity, unit: &dyn Fn(&str) -> String, fu: FreqUnit) {
     let sym = fu.symbol();
     // ω_n in rad/s, f_n in Hz or rpm (cycle rates); the undamped frequency likewise
     let nat = super::modes::natural(fu, "n");
-    let undamped = if fu == FreqUnit::RadPerSecond {
-        "ω"
-    } else {
-        "f"
-    };
+    let undamped = fu.rate();
     let beside = |w: f64, d: usize| {
         if fu == FreqUnit::RadPerSecond {
             format!(" ({:.d$} Hz)", hz(w))

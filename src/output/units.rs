@@ -57,6 +57,16 @@ impl FreqUnit {
         }
     }
 
+    /// The symbol of a frequency shown in this unit: `ω` (an angular frequency) in rad/s,
+    /// `f` (a cycle rate) in Hz and rpm, as tables, axes and words name it (`ω_n [rad/s]`,
+    /// `f_n [Hz]`; docs/units.md).
+    pub fn rate(self) -> &'static str {
+        match self {
+            FreqUnit::RadPerSecond => "ω",
+            FreqUnit::Hertz | FreqUnit::Rpm => "f",
+        }
+    }
+
     /// What a frequency parameter `param` (an angular frequency, rad/s) is called once
     /// shown in this unit: `omega` in rad/s, `omega/2π` in Hz and rpm (cycles, not
     /// radians: "omega = 0.4 Hz" would read as an angular frequency).

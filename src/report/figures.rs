@@ -223,14 +223,7 @@ impl Figure for FrfPlot {
         let px = axes(
             &lay.chart,
             // the cycle rate in Hz or rpm is f, as the tables name it
-            &format!(
-                "{} [{sym}]",
-                if p.freq_unit == FreqUnit::RadPerSecond {
-                    "ω"
-                } else {
-                    "f"
-                }
-            ),
+            &format!("{} [{sym}]", p.freq_unit.rate()),
             &format!("amplitude [{}]", p.unit),
             (x0, x1),
             (y0, y1),

@@ -449,7 +449,7 @@ fn table_in(data: &Sidecar, t: &mut Table, unit: FreqUnit) {
                 // the converted column names the cycle rate it shows (f_n in Hz, as the
                 // CLI's tables: `ω_n` → `f_n`, `dω_n/dp` → `df_n/dp`)
                 let converted = Column::new(
-                    c.title.replace('ω', "f"),
+                    c.title.replace('ω', unit.rate()),
                     format!("{}{rest}", unit.symbol()),
                 );
                 t.columns.insert(i, converted);
