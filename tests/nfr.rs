@@ -459,7 +459,7 @@ fn command_outputs_and_bad_input() {
 
 /// The command's wording and requests (a fresh-eyes review): values of another parameter
 /// with units, printed in its unit to sensible digits; requests that did nothing said so
-/// (--backbone without --plot, a --max-points too small to make a curve, radau, F0 from
+/// (--backbone without --plot, a --max-points too small to make a curve, F0 from
 /// 0) before any work; Ctrl-C says the continuation was interrupted, and the branch's
 /// end is printed in the --freq-unit.
 #[test]
@@ -505,21 +505,6 @@ fn command_wording_and_requests() {
                 "1",
             ],
             "the least useful value is 26",
-        ),
-        (
-            &[
-                "--set",
-                "F0=4",
-                "--param",
-                "omega",
-                "--from",
-                "3",
-                "--to",
-                "4",
-                "--integrator",
-                "radau",
-            ],
-            "DOP853",
         ),
         (
             &[

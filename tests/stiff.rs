@@ -363,3 +363,84 @@ fn sensitivity_and_tune_sweeps_use_the_integrator_asked_for() {
     let got = doc["designs"][0]["sweep_peaks_rad_s"][0].as_f64().unwrap();
     assert!((got - peak).abs() < 0.012, "peak {got}, closed form {peak}");
 }
+
+/// `nfr` on the stiff model: DOP853 cannot cross a forcing period (|λ| = 1e6 1/s against
+/// T ≈ 0.3 s) and is refused at once with `--integrator radau` as the advice; with
+/// `--integrator radau` the curve runs and, the model being linear, its peak is the
+/// linear frequency response's (`frf`, a second formulation: K − ω²M + iωC solved in the
+/// frequency domain): the amplitude to 1e-6 relative, the frequency within the stated ±.
+#[test]
+fn nfr_on_a_stiff_model_runs_with_radau_and_equals_the_frf() {
+    let range = [
+        "--param",
+        "omega",
+        "--from",
+        "19.5",
+        "--to",
+        "20.3",
+        "--response",
+        "block.x",
+    ];
+    let explicit = Command::new(bin())
+        .arg("nfr")
+        .arg(stiff_sdof())
+        .args(range)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&explicit.stderr);
+    assert_eq!(explicit.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("use --integrator radau") && err.contains("1000000 1/s"),
+        "{err}"
+    );
+    let json = |cmd: &str, more: &[&str]| -> serde_json::Value {
+        let o = Command::new(bin())
+            .arg(cmd)
+            .arg(stiff_sdof())
+            .args(more)
+            .arg("--json")
+            .output()
+            .unwrap();
+        assert!(
+            o.status.success(),
+            "{cmd}: {}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+        serde_json::from_slice(&o.stdout).unwrap()
+    };
+    let mut implicit: Vec<&str> = range.to_vec();
+    implicit.extend(["--integrator", "radau"]);
+    let nfr = json("nfr", &implicit);
+    assert_eq!(nfr["complete"], true);
+    let frf = json(
+        "frf",
+        &[
+            "--param",
+            "omega",
+            "--from",
+            "19.5",
+            "--to",
+            "20.3",
+            "--step",
+            "0.05",
+            "--response",
+            "block.x",
+        ],
+    );
+    let (p, q) = (&nfr["peaks"][0], &frf["peaks"][0]);
+    let amp = |v: &serde_json::Value| v["amplitude"].as_f64().unwrap();
+    let at = |v: &serde_json::Value| v["omega"].as_f64().unwrap();
+    assert!(
+        (amp(p) / amp(q) - 1.0).abs() < 1e-6,
+        "nfr {} against frf {}",
+        amp(p),
+        amp(q)
+    );
+    let pm = p["uncertainty"].as_f64().unwrap() + q["uncertainty"].as_f64().unwrap();
+    assert!(
+        (at(p) - at(q)).abs() <= pm && pm < 1e-3,
+        "nfr {} against frf {} (± {pm})",
+        at(p),
+        at(q)
+    );
+}

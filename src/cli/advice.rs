@@ -43,7 +43,7 @@ pub fn advice(f: &Failure) -> Option<String> {
         PeriodUnresolved { lambda, max_steps, .. } => {
             let floor = detune::failure::period_floor(*lambda, *max_steps);
             format!(
-                "the forcing frequency must be above {} rad/s ({} Hz) here: with --param omega start --from above it, else --set the forcing frequency above it; that floor is set by the model's fastest motion ({} 1/s): if a very stiff element sets it, soften it, or compute the stepped sine with `detune sweep --integrator radau` (implicit); far below the natural frequencies the response is quasi-static: `detune continue --param <forcing amplitude>` computes it as equilibria",
+                "use --integrator radau (implicit: stable at any step), or soften the element that sets the model's fastest motion ({2} 1/s); with the explicit dop853 the forcing frequency must be above {0} rad/s ({1} Hz) here: with --param omega start --from above it, else --set the forcing frequency above it; far below the natural frequencies the response is quasi-static: `detune continue --param <forcing amplitude>` computes it as equilibria",
                 detune::diag::about(floor),
                 detune::diag::about(floor / std::f64::consts::TAU),
                 detune::diag::about(*lambda)

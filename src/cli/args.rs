@@ -107,14 +107,21 @@ pub enum IntegratorChoice {
     Radau,
 }
 
-impl Tolerances {
+impl IntegratorChoice {
     /// The library's integration method.
-    pub fn integrator(&self) -> detune::dynamics::integrator::Integrator {
+    pub fn method(self) -> detune::dynamics::integrator::Integrator {
         use detune::dynamics::integrator::Integrator;
-        match self.integrator {
+        match self {
             IntegratorChoice::Dop853 => Integrator::Dop853,
             IntegratorChoice::Radau => Integrator::Radau,
         }
+    }
+}
+
+impl Tolerances {
+    /// The library's integration method.
+    pub fn integrator(&self) -> detune::dynamics::integrator::Integrator {
+        self.integrator.method()
     }
 
     /// The steady-state settings of a sweep with these tolerances and integrator (the

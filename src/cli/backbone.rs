@@ -39,10 +39,11 @@ pub struct BackboneArgs {
     /// Absolute error tolerance of the integration per step (SI).
     #[arg(long, default_value_t = 1e-12, value_name = "A")]
     pub atol: f64,
-    /// The integrator: only `dop853` (the shooting integrates each period with its
-    /// variational equations; see docs/reliability.md).
-    #[arg(long, value_enum, default_value_t = super::nfr::ShootingIntegrator::Dop853, value_name = "METHOD")]
-    pub integrator: super::nfr::ShootingIntegrator,
+    /// The integrator of each period and its variational equations: `dop853` (explicit)
+    /// or `radau` (Radau IIA, implicit: for a model too stiff for DOP853; slower
+    /// otherwise).
+    #[arg(long, value_enum, default_value_t = super::args::IntegratorChoice::Dop853, value_name = "METHOD")]
+    pub integrator: super::args::IntegratorChoice,
     /// Print JSON: {"mode", "points": [{"amplitude", "omega", "<response>_amplitude"...}],
     /// "units", ...}.
     #[arg(long)]
@@ -60,7 +61,6 @@ pub struct BackboneArgs {
 }
 
 pub fn run(a: BackboneArgs) -> Result<()> {
-    super::nfr::refuse_radau(a.integrator)?;
     let (model, sys) = a.model.load()?;
     let size = a.plot_size.check(a.plot.as_deref(), a.output.as_deref())?;
     let outputs = check_outputs(
@@ -105,6 +105,7 @@ pub fn run(a: BackboneArgs) -> Result<()> {
         shooting: detune::periodic::ShootingOptions {
             rtol: a.rtol,
             atol: a.atol,
+            integrator: a.integrator.method(),
             ..Default::default()
         },
         ..Default::default()

@@ -2,7 +2,7 @@
 //! stable and unstable, with folds, period doublings, Neimark–Sacker points and peaks
 //! located (see `detune::periodic`).
 
-use super::args::{ModelArgs, frequency_value, param_value};
+use super::args::{IntegratorChoice, ModelArgs, frequency_value, param_value};
 use super::{INTERRUPTED, interrupt_on_ctrl_c, print_json};
 use clap::Args;
 use detune::diag::{Error, Result};
@@ -32,8 +32,7 @@ pub struct NfrArgs {
     /// name `sweep --response` takes.
     #[arg(long, value_name = "NAME")]
     pub response: Vec<String>,
-    /// The integration's tolerances and method (the shooting needs the explicit
-    /// `dop853`).
+    /// The integration's tolerances and method.
     #[command(flatten)]
     pub tol: CurveTolerances,
     /// Give up after this many points (the curve is then written, marked incomplete); at
@@ -93,10 +92,12 @@ pub struct CurveTolerances {
     /// located points' is 10⁴ times tighter.
     #[arg(long, default_value = CURVE_ATOL_TEXT, value_name = "A", allow_hyphen_values = true)]
     pub atol: f64,
-    /// The integrator: only `dop853` (the shooting integrates the variational equations
-    /// with it).
-    #[arg(long, value_enum, default_value_t = ShootingIntegrator::Dop853, value_name = "METHOD")]
-    pub integrator: ShootingIntegrator,
+    /// The integrator of each period and its variational equations: `dop853` (explicit,
+    /// the fastest for most models) or `radau` (Radau IIA, implicit: for a stiff model, a
+    /// very stiff spring or damper on a light body, whose forcing periods DOP853 cannot
+    /// cross; several times slower otherwise).
+    #[arg(long, value_enum, default_value_t = IntegratorChoice::Dop853, value_name = "METHOD")]
+    pub integrator: IntegratorChoice,
 }
 
 pub fn run(a: NfrArgs) -> Result<()> {
@@ -110,7 +111,7 @@ pub fn run(a: NfrArgs) -> Result<()> {
             "add --plot curve.svg (or .png), or leave --backbone out (`detune backbone` computes it on its own)",
         ));
     }
-    refuse_radau(a.tol.integrator)?;
+
     for (flag, v) in [
         ("--rtol", a.tol.rtol),
         ("--atol", a.tol.atol),
@@ -207,6 +208,7 @@ pub fn run(a: NfrArgs) -> Result<()> {
     let mut opts = NfrOptions::new(&a.param, from, to, responses);
     opts.shooting.rtol = a.tol.rtol;
     opts.shooting.atol = a.tol.atol;
+    opts.shooting.integrator = a.tol.integrator.method();
     opts.max_points = a.max_points;
     opts.max_step = a.max_step;
     interrupt_on_ctrl_c();
@@ -574,36 +576,6 @@ fn heartbeat_lines_say_the_latest_message_while_the_work_lasts() {
         |_| (),
     );
     assert!(quiet.is_empty());
-}
-
-/// `--integrator` of the shooting (`nfr`, `backbone`): `dop853` only. `radau` is parsed
-/// (hidden from `--help`'s possible values) to be refused with the reason
-/// ([`refuse_radau`]) rather than clap's bare "invalid value".
-#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
-pub enum ShootingIntegrator {
-    Dop853,
-    #[value(hide = true)]
-    Radau,
-}
-
-/// `--integrator radau` for the shooting of periodic orbits (`nfr`, `backbone`): refused.
-/// The shooting integrates each period together with its variational equations (the
-/// monodromy's 2·DoF columns and the parameter's, each a directional difference of the
-/// right-hand side at every stage: 2n(2·DoF + 2) unknowns). Radau IIA would solve a
-/// Newton system of that whole augmented state at every step, its Jacobian by finite
-/// differences (one augmented right-hand side per unknown: 204 for the inceptor, against
-/// DOP853's 12 stages), and differential-equations' Radau5 offers no way to pass the
-/// variational part's structure (the same Jacobian repeated per column). The periods'
-/// step budget (`periodic::continuation::PERIOD_STEPS`) refuses at once what DOP853
-/// cannot cross.
-pub fn refuse_radau(choice: ShootingIntegrator) -> Result<()> {
-    if choice == ShootingIntegrator::Radau {
-        return Err(Error::request(
-            "--integrator radau: the shooting integrates each period with its variational equations (the monodromy matrix) with the explicit DOP853 only; an implicit method would solve for that whole augmented state at every step, its Jacobian by finite differences",
-            "leave --integrator out (or give dop853); for a stiff model, soften the stiff element or loosen --rtol/--atol, or use `detune sweep --integrator radau` (stable orbits only)",
-        ));
-    }
-    Ok(())
 }
 
 /// How well a located point is known: "± 2.5e-5 rad/s", or, where locating failed,

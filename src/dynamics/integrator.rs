@@ -223,6 +223,17 @@ impl<F: ODE<f64, Vec<f64>>, Y: Slice> ODE<f64, Y> for Guarded<'_, F> {
             }
         }
     }
+
+    /// The wrapped right-hand side's Jacobian (Radau's Newton matrix): its own where it
+    /// has one (the shooting's variational equations give theirs by blocks), else the
+    /// crate's forward differences, which are 1 + dim evaluations, counted as such.
+    fn jacobian(&self, t: f64, y: &Y, j: &mut differential_equations::linalg::Matrix<f64>) {
+        self.ode.jacobian(t, y.vec(), j);
+        self.evals.set(self.evals.get() + 1 + y.len());
+        if j.data.iter().any(|x| !x.is_finite()) {
+            self.non_finite.set(true);
+        }
+    }
 }
 
 /// A state vector the integrators share: `Vec<f64>` for DOP853, [`RState`] for Radau.

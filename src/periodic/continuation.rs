@@ -353,7 +353,9 @@ pub fn nfr(
     } else {
         omega0
     };
-    check_period(&lin, slowest)?;
+    if opts.shooting.integrator == crate::dynamics::integrator::Integrator::Dop853 {
+        check_period(&lin, slowest)?;
+    }
     let n = sys0.nq();
     // The scales: the parameter's range, and the largest linear state over it.
     let sp = (opts.to - opts.from).abs();

@@ -67,6 +67,9 @@ pub struct ShootingOptions {
     /// ~1e-11 of a column, 2 evaluations a column); false: forward differences (~1e-8,
     /// 1 evaluation), enough for Newton's matrix and the tangent, not for locating.
     pub central: bool,
+    /// The integrator of the periods and their variational equations: DOP853, or Radau
+    /// IIA for a stiff model.
+    pub integrator: Integrator,
 }
 
 impl Default for ShootingOptions {
@@ -77,6 +80,7 @@ impl Default for ShootingOptions {
             samples: 128,
             tol: 1e-9,
             central: true,
+            integrator: Integrator::Dop853,
         }
     }
 }
@@ -315,7 +319,7 @@ impl Shooting {
             } else {
                 1_000_000
             },
-            method: Integrator::Dop853,
+            method: self.opts.integrator,
         };
         let n = self.sys.nq();
         let sys = &self.sys;
@@ -579,5 +583,36 @@ impl ODE<f64, Vec<f64>> for Variational<'_> {
             }
         }
         self.evals.set(self.evals.get() + evals);
+    }
+
+    /// Radau IIA's Newton matrix for the augmented state: the state's Jacobian J (forward
+    /// differences, the crate's own rule: 1 + 2n evaluations) on every diagonal block.
+    /// Each column's equation is J times the column (plus the parameter's term), so its
+    /// block is J; the columns' dependence on the state (second derivatives times a
+    /// column scaled to `tiny`) is below the Newton iteration's resolution and left out,
+    /// which a simplified Newton iteration allows. The crate's default would difference
+    /// the whole augmented right-hand side along each of its 2n(1 + k) unknowns.
+    fn jacobian(&self, t: f64, y: &Vec<f64>, j: &mut differential_equations::linalg::Matrix<f64>) {
+        let n2 = self.n2;
+        let blocks = 1 + self.k + usize::from(self.perturbed.is_some());
+        let mut buf = self.buf.borrow_mut();
+        let (xs, up, _, f0) = &mut *buf;
+        xs.copy_from_slice(&y[..n2]);
+        self.base.diff(t, xs, f0);
+        j.fill(0.0);
+        let eps = f64::EPSILON.sqrt();
+        for c in 0..n2 {
+            let h = eps * y[c].abs().max(1.0);
+            xs[c] = y[c] + h;
+            self.base.diff(t, xs, up);
+            xs[c] = y[c];
+            for r in 0..n2 {
+                let d = (up[r] - f0[r]) / h;
+                for b in 0..blocks {
+                    j[(b * n2 + r, b * n2 + c)] = d;
+                }
+            }
+        }
+        self.evals.set(self.evals.get() + 1 + n2);
     }
 }
