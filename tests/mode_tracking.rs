@@ -462,3 +462,34 @@ fn sensitivity_cases_follow_the_labels_through_the_veering() {
     assert!((one.worst_case.min_rad_s - lo_end.min(lo_start)).abs() < 1e-7);
     assert!(one.worst_case.max_rad_s < hi_start);
 }
+
+/// Over the push-rod length l2 (its `[trim]` re-solving L0 at every step) the tracking
+/// used to stop at the first step ("no equilibrium found" from the last step's pose): it
+/// now starts each step from the trimmed datum, as the sensitivity cases do. Each step's
+/// eigenvalues equal the model built afresh at that l2 and trimmed (a second path:
+/// file → system → trim → modes), to 1e-9.
+#[test]
+fn inceptor_tracks_over_the_push_rod_length() {
+    let sys = inceptor(&[]);
+    let values = [0.12, 0.12375, 0.13, 0.14, 0.15];
+    let t = track_modes(&sys, "l2", &values, &TrackOptions::default()).unwrap();
+    assert_eq!(t.labels, ["in-phase", "shaft-twist"]);
+    for s in t.steps.iter().filter(|s| s.requested) {
+        let fresh = inceptor(&[("l2", &s.value.to_string())]);
+        let want = modal_analysis(&fresh, None).unwrap();
+        for (l, w) in want.modes.iter().enumerate() {
+            let e = s.modes[l].as_ref().unwrap().eigenvalue;
+            let (got, w) = (
+                Complex::new(e.re, e.im),
+                Complex::new(w.eigenvalue.re, w.eigenvalue.im),
+            );
+            assert!(
+                (got - w).norm() < 1e-9 * w.norm(),
+                "{} at l2 = {}: λ = {got} vs {w}",
+                t.labels[l],
+                s.value
+            );
+        }
+    }
+    assert_eq!(t.steps.iter().filter(|s| s.requested).count(), values.len());
+}

@@ -651,10 +651,20 @@ fn solve_at(
         v: vec![0.0; sys.nv()],
     };
     let (at, _) = crate::statics::trim::trimmed(&at, &start)?;
-    let st = Statics::new(&at, q)?;
-    let equilibrium = match st.solve(q) {
+    // a trimmed datum is an equilibrium already (the trim solved it, as
+    // `sensitivity::modes_at` takes it); else Newton from the last step's equilibrium
+    let q0 = if at.trim_solved().is_some() {
+        at.initial.q.clone()
+    } else {
+        q.to_vec()
+    };
+    let st = Statics::new(&at, &q0)?;
+    let equilibrium = match st.solve(&q0) {
         Ok(e) => e,
-        Err(_) => st.nearest(&start)?,
+        Err(_) => st.nearest(&State {
+            q: q0.clone(),
+            ..start
+        })?,
     };
     let linearization = Linearization::new(&st, &equilibrium);
     let modes = linearization.modes(reference)?;
@@ -826,17 +836,25 @@ impl Path<'_> {
     fn step_to(&mut self, target: f64, depth: usize) -> Result<()> {
         let last = self.solved.last().expect("a path starts solved");
         let from = last.value;
-        let modal = solve_at(
+        let modal = match solve_at(
             self.sys,
             self.index,
             target,
             &last.modal.equilibrium.q,
             self.reference,
-        )
-        .map_err(|e| {
-            let name = &self.sys.param_names()[self.index];
-            e.context(&format!("tracking the modes, at {name} = {target}"))
-        })?;
+        ) {
+            Ok(m) => m,
+            // a step too long for Newton from the last equilibrium: halve it
+            Err(_) if depth < self.opts.max_halvings => {
+                let mid = 0.5 * (from + target);
+                self.step_to(mid, depth + 1)?;
+                return self.step_to(target, depth + 1);
+            }
+            Err(e) => {
+                let name = &self.sys.param_names()[self.index];
+                return Err(e.context(&format!("tracking the modes, at {name} = {target}")));
+            }
+        };
         let predicted = self.predictor.predict(self.sys, &self.solved, target);
         let last = self.solved.last().expect("a path starts solved");
         let (modes, macs, poor) = assign(last, &modal, &predicted, self.opts);
