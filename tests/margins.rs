@@ -471,6 +471,12 @@ fn bad_requests_are_refused_before_any_output() {
         (&["--margin", "100%"], "is 100 % or more"),
         (&["--margin", "ten"], "expected a percentage or a fraction"),
         (&["--vary", "kt=±10%"], "no parameter `kt`"),
+        // a case the trim cannot hold (the baseline can): narrow that range
+        (
+            &["--vary", "l2=±80%"],
+            "the trim does not converge: no value of L0",
+        ),
+        (&["--vary", "l2=±80%"], "narrow the range of --vary l2"),
         (&["--environment", "CH-47"], "UH-60, UH-1N"),
         (&["--environment", "nope.toml"], "nope.toml"),
     ];

@@ -856,6 +856,68 @@ fn tune_without_its_arguments_is_a_usage_error() {
     assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
 }
 
+/// A bad `--tune-vary` is named as the user typed it (it said `--vary k_fz: ...`, a
+/// flag `report` does not have); so is `tune --tolerance`.
+#[test]
+fn a_bad_tune_vary_or_tolerance_names_its_own_flag() {
+    let dir = tempfile::tempdir().unwrap();
+    let html = dir.path().join("r.html");
+    let m = model("inceptor");
+    for (extra, said) in [
+        (
+            vec![
+                "report",
+                m.as_str(),
+                "--environment",
+                "UH-60",
+                "--tune",
+                "--tune-vary",
+                "k_fz=50%..200%",
+            ],
+            "--tune-vary k_fz: the model has no parameter `k_fz`",
+        ),
+        (
+            vec![
+                "report",
+                m.as_str(),
+                "--environment",
+                "UH-60",
+                "--tune",
+                "--tune-vary",
+                "k_fs=50%..200%",
+                "--tune-vary",
+                "k_fs=60%..100%",
+            ],
+            "--tune-vary k_fs=60%..100%: `k_fs` is varied twice",
+        ),
+        (
+            vec![
+                "tune",
+                m.as_str(),
+                "--environment",
+                "UH-60",
+                "--vary",
+                "k_fs=50%..200%",
+                "--tolerance",
+                "kfs=±5%",
+            ],
+            "--tolerance kfs: the model has no parameter `kfs`",
+        ),
+    ] {
+        let mut args = extra.clone();
+        args.extend(["-o", html.to_str().unwrap()]);
+        let out = run(&args);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(1), "{err}");
+        assert!(err.contains(said) && err.contains("help:"), "{err}");
+        assert!(
+            !err.contains("--vary k_f") && !err.contains("one --vary"),
+            "{err}"
+        );
+    }
+    assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
+}
+
 #[test]
 fn freq_unit_shows_the_pages_frequencies_in_the_unit_with_rad_s_beside() {
     let (_d, _, base_page, base) = report("inceptor", &["--environment", "UH-60"]);

@@ -73,7 +73,9 @@ pub fn advice(f: &Failure) -> Option<String> {
 pub fn vary_advice(f: &Failure, context: &[String]) -> Option<String> {
     use Failure::*;
     let no_equilibrium = matches!(f, NoEquilibrium { .. });
+    let no_trim = matches!(f, TrimFailed { .. });
     if !no_equilibrium
+        && !no_trim
         && !matches!(
             f,
             NoAssembly { .. } | UndefinedGuess { .. } | UndefinedConstraint { .. }
@@ -84,6 +86,23 @@ pub fn vary_advice(f: &Failure, context: &[String]) -> Option<String> {
     let name = context
         .iter()
         .find_map(|c| c.split_once(": the case ").map(|(n, _)| n.trim()))?;
+    if no_trim {
+        // the baseline trims: the change takes the held pose out of the trim's reach
+        let (which, range) = if name.contains(' ') {
+            (
+                "at that corner of the tolerance box".to_string(),
+                "the --vary ranges".to_string(),
+            )
+        } else {
+            (
+                format!("at that value of `{name}`"),
+                format!("the range of --vary {name} (e.g. --vary {name}=80%..120%, or ±10%)"),
+            )
+        };
+        return Some(format!(
+            "{which} no value of the trimmed parameters holds the datum pose in equilibrium, though the baseline's does (each case starts from the baseline's pose, on its branch of the linkage): narrow {range}"
+        ));
+    }
     if no_equilibrium {
         // each case starts from the baseline's equilibrium: none near it means the
         // change takes the mechanism past a fold (another initial pose is no remedy)

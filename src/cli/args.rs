@@ -516,6 +516,31 @@ pub fn varies(
     Ok(out)
 }
 
+/// [`varies`] for another flag that takes `--vary`'s NAME=CHANGE (`--tolerance`,
+/// `--tune-vary`): its errors name that flag, not `--vary`, which the user did not type.
+pub fn varies_as(
+    model: &Model,
+    sys: &System,
+    texts: &[String],
+    flag: &str,
+) -> Result<Vec<detune::linear::sensitivity::Vary>> {
+    let renamed = |message: String, help: Option<String>| Error::Request {
+        message: match message.strip_prefix("--vary ") {
+            Some(rest) => format!("{flag} {rest}"),
+            None => format!("{flag}: {message}"),
+        },
+        help: help.map(|h| h.replace("one --vary", &format!("one {flag}"))),
+    };
+    varies(model, sys, texts).map_err(|e| match e {
+        Error::Request { message, help } => renamed(message, help),
+        Error::Invalid { invalid, context } => match super::advice::wording(&invalid) {
+            Some(w) => renamed(w.message, Some(w.help)),
+            None => Error::Invalid { invalid, context }.context(flag),
+        },
+        other => other.context(flag),
+    })
+}
+
 /// [`varies`] without the warnings (parsed again for a document's `warnings`).
 pub fn varies_quietly(
     model: &Model,

@@ -96,7 +96,7 @@ pub fn run(a: ReportArgs) -> Result<()> {
             "add --tune",
         ));
     }
-    let tune_varies = super::args::varies(&model, &sys, &a.tune_vary)?;
+    let tune_varies = super::args::varies_as(&model, &sys, &a.tune_vary, "--tune-vary")?;
     let given = !a.vary.is_empty();
     let (varies, dropped) = if given {
         (super::args::varies(&model, &sys, &a.vary)?, Vec::new())

@@ -436,7 +436,7 @@ fn tolerances(
     sys: &detune::System,
     texts: &[String],
 ) -> Result<Vec<Tolerance>> {
-    let vs = varies(model, sys, texts).map_err(|e| e.context("--tolerance"))?;
+    let vs = super::args::varies_as(model, sys, texts, "--tolerance")?;
     Ok(vs
         .into_iter()
         .zip(texts)
