@@ -83,7 +83,10 @@ fn sweep_2_threads() -> Sweep {
 }
 
 /// `detune report models/inceptor.toml --environment UH-60` without the file writes: the
-/// modes, the 400-point linear response with its peaks refined, the figures, the page.
+/// modes with their names, the 400-point linear response with its peaks refined, the
+/// figures, the sensitivity section (each design parameter ±10 %, its cases, analytic
+/// derivatives and their finite-difference checks, the tolerance box) and the margins
+/// section, the page and its sidecar: the whole report the command makes (no sweep).
 #[divan::bench(sample_count = 20)]
 fn report_uh60() -> usize {
     let path = format!("{}/models/inceptor.toml", env!("CARGO_MANIFEST_DIR"));
@@ -91,15 +94,42 @@ fn report_uh60() -> usize {
     let sys = detune::statics::trim::trim(&System::new(&model).unwrap())
         .unwrap()
         .0;
-    let env = detune::report::environment::resolve("UH-60").unwrap();
-    let report = detune::report::build(&detune::report::ReportInputs {
+    let full_env = detune::environment::resolve("UH-60").unwrap();
+    let env = detune::report::environment::from_environment(&full_env);
+    let extras = detune::linear::modal_analysis(&sys, None)
+        .ok()
+        .and_then(|m| detune::linear::tracking::describe_modes(&sys, &m).ok())
+        .map(|d| detune::report::build::ModeExtras {
+            names: d.iter().map(|x| Some(x.name.name.clone())).collect(),
+            energy_shares: d.iter().map(|x| x.energy.kinetic.0.clone()).collect(),
+        });
+    let mut report = detune::report::build(&detune::report::ReportInputs {
         model: &model,
         sys: &sys,
         environment: Some(&env),
-        mode_extras: None,
+        mode_extras: extras.as_ref(),
         generated_utc: "2026-11-23T00:00:00Z".into(),
         freq_unit: Default::default(),
     })
+    .unwrap();
+    let (varies, dropped) = detune::report::studies::default_varies(&sys, None);
+    let unit = |name: &str| -> String { model.param_unit(name) };
+    detune::report::studies::add_studies(
+        &mut report,
+        &detune::report::studies::Studies {
+            sys: &sys,
+            varies: &varies,
+            given: false,
+            dropped: &dropped,
+            environment: Some(&full_env),
+            margin: 0.1,
+            tune: false,
+            tune_varies: &[],
+            units: &unit,
+            vary_texts: &[],
+            command_words: &|_: &[&str]| String::from("models/inceptor.toml"),
+        },
+    )
     .unwrap();
     report.document.html().len() + report.sidecar.to_json().len()
 }
