@@ -9,7 +9,8 @@
 //! (k = 2..4), when points k periods apart agree. Convergence of the lightly damped
 //! transients is accelerated by minimal polynomial extrapolation (MPE) of the Poincaré
 //! sequence, projected back onto the constraint manifold; an extrapolation that does not
-//! reduce the next period's change is discarded and plain iteration continues. Settling
+//! reduce the next period's change, or whose run cannot be integrated, is discarded and
+//! plain iteration continues from the last integrated state. Settling
 //! is always verified by integrated periods, never assumed.
 //!
 //! Written by hand: no crate does stepped-sine analysis of constrained mechanisms.
