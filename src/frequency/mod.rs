@@ -9,7 +9,8 @@
 //! (k = 2..4), when points k periods apart agree. Convergence of the lightly damped
 //! transients is accelerated by minimal polynomial extrapolation (MPE) of the Poincaré
 //! sequence, projected back onto the constraint manifold; an extrapolation that does not
-//! reduce the next period's change is discarded and plain iteration continues. Settling
+//! reduce the next period's change, or whose run cannot be integrated, is discarded and
+//! plain iteration continues from the last integrated state. Settling
 //! is always verified by integrated periods, never assumed.
 //!
 //! Written by hand: no crate does stepped-sine analysis of constrained mechanisms.
@@ -149,6 +150,8 @@ pub fn steady_state_watched(
     let mut done = 0; // periods integrated
     let mut rhs_evaluations = 0;
     let mut outcome: Option<SteadyState> = None;
+    // The integrated state an extrapolation replaced, while the run goes on from it.
+    let mut before_extrapolation: Option<State> = None;
     while done < total && outcome.is_none() {
         if cancel.load(Ordering::Relaxed) {
             return Err(Failure::SweepInterrupted.into());
@@ -167,7 +170,7 @@ pub fn steady_state_watched(
         let mut vals: Vec<Vec<f64>> = Vec::with_capacity(per + 1);
         let mut restart: Option<State> = None;
         let mut last = state.clone();
-        let stats = crate::dynamics::simulate::simulate_watched(
+        let run = crate::dynamics::simulate::simulate_watched(
             sys,
             &state,
             &sim,
@@ -206,9 +209,27 @@ pub fn steady_state_watched(
             },
             &mut |_| !cancel.load(Ordering::Relaxed),
             &mut |s| stiff(s),
-        )?;
+        );
+        let stats = match run {
+            Ok(stats) => stats,
+            // A run from an extrapolated state that cannot be integrated (MPE of a
+            // transient far from settled can guess a wild state that still lies on the
+            // constraints) is undone, as a worse one is: plain iteration goes on from the
+            // integrated state the extrapolation replaced. A failure of plain iteration
+            // is the motion's own, and is returned.
+            Err(_) if !cancel.load(Ordering::Relaxed) && before_extrapolation.is_some() => {
+                let fallback = before_extrapolation.take().expect("checked");
+                map.undo_extrapolation(&fallback);
+                state = fallback;
+                continue;
+            }
+            Err(e) => return Err(e),
+        };
         rhs_evaluations += stats.rhs_evaluations;
         state = restart.unwrap_or(last);
+        // the next run starts from an extrapolation (to be checked), or from an
+        // integrated state (plain iteration, or an extrapolation undone)
+        before_extrapolation = map.pending_check.as_ref().map(|(_, end)| end.clone());
     }
     if let Some(mut s) = outcome {
         s.rhs_evaluations = rhs_evaluations;
@@ -283,6 +304,14 @@ impl Poincare<'_> {
         }
     }
 
+    /// Give up extrapolating: the sequence starts again at `fallback`, the integrated
+    /// state an extrapolation replaced, and plain iteration goes on from it.
+    fn undo_extrapolation(&mut self, fallback: &State) {
+        self.extrapolate = false;
+        self.pending_check = None;
+        self.points = vec![self.pack(fallback)];
+    }
+
     /// The end of period `p` (`buf` its samples, `vals` the responses at them, `end` its
     /// end state).
     fn period_end(
@@ -305,8 +334,7 @@ impl Poincare<'_> {
         if let Some((before, fallback)) = self.pending_check.take()
             && change > before
         {
-            self.extrapolate = false;
-            self.points = vec![self.pack(&fallback)];
+            self.undo_extrapolation(&fallback);
             return Action::Restart(fallback);
         }
         self.points.push(y.clone());
