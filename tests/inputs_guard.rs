@@ -349,3 +349,51 @@ fn a_doubled_sigterm_keeps_the_partial_results() {
     assert!(csv.starts_with("t,"), "{csv:.200}");
     assert!(csv.contains("# incomplete"), "{csv:.200}");
 }
+
+/// Thousands of broken definitions: the first problems, at once (each one searched all
+/// names for a suggestion and rendered an excerpt of the whole file: minutes).
+#[test]
+fn twenty_thousand_broken_parameters_are_reported_briefly() {
+    let dir = tempfile::tempdir().unwrap();
+    let with = |f: &dyn Fn(usize) -> String| {
+        let lines: Vec<String> = (0..20_000).map(f).collect();
+        SDOF.replace(
+            "[parameters]\n",
+            &format!("[parameters]\n{}\n", lines.join("\n")),
+        )
+    };
+    std::fs::write(
+        dir.path().join("unknown.toml"),
+        with(&|i| format!("p{i} = \"zz{i} + 1\"")),
+    )
+    .unwrap();
+    std::fs::write(
+        dir.path().join("units.toml"),
+        with(&|i| format!("p{i} = \"3 furlong\"")),
+    )
+    .unwrap();
+    let o = run(dir.path(), &["check", "unknown.toml"]);
+    refused(
+        &o,
+        &["unknown parameter `zz", "(20005 in all, in [parameters])"],
+    );
+    assert!(
+        o.stderr.len() < 100_000,
+        "{} bytes of error",
+        o.stderr.len()
+    );
+    let o = run(dir.path(), &["check", "units.toml"]);
+    refused(
+        &o,
+        &[
+            "unknown unit `furlong`",
+            "… 19970 more problems not shown: fix these first",
+            "20000 problems in units.toml",
+        ],
+    );
+    assert!(
+        o.stderr.len() < 100_000,
+        "{} bytes of error",
+        o.stderr.len()
+    );
+}

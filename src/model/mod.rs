@@ -116,18 +116,24 @@ pub fn expr_diag(e: &ExprError, offset: usize) -> Diagnostic {
 
 /// `did you mean ...?` from a list of candidates.
 pub fn suggest<'a>(name: &str, candidates: impl IntoIterator<Item = &'a str>) -> Option<String> {
+    // called once per unknown name over all the model's names: `name` lowered once, the
+    // edit distance only where the lengths allow one edit
+    let a = name.to_lowercase();
+    let mut b = String::new();
     let mut scored: Vec<(f64, &str)> = candidates
         .into_iter()
         .map(|c| {
-            let (a, b) = (name.to_lowercase(), c.to_lowercase());
+            b.clear();
+            b.extend(c.chars().flat_map(char::to_lowercase));
+            let (a, b) = (a.as_str(), b.as_str());
             let score = if a == b {
                 1.0
-            } else if strsim::osa_distance(&a, &b) == 1 {
+            } else if a.len().abs_diff(b.len()) <= 4 && strsim::osa_distance(a, b) == 1 {
                 // one typo, also in short names (`Fz` for `Fs`), or two letters swapped
                 // (`rmp` for `rpm`: Jaro–Winkler scores a swap in a short name low)
                 0.95
             } else {
-                strsim::jaro_winkler(&a, &b)
+                strsim::jaro_winkler(a, b)
             };
             (score, c)
         })

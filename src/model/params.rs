@@ -313,6 +313,11 @@ fn name_index(list: &[Parameter]) -> HashMap<String, usize> {
     map
 }
 
+/// The problems found in `[parameters]` before evaluation stops (as many as an error
+/// shows): a file with 100,000 broken definitions gets the first ones, fast (each unknown name's suggestion searches
+/// every name).
+const MAX_PROBLEMS: usize = 30;
+
 /// Evaluate every parameter in dependency order: a depth-first walk with cycle detection,
 /// on an explicit stack (a chain `p_i = p_{i-1}` of any length needs no deeper call
 /// stack), each parameter evaluated once all it uses are.
@@ -333,6 +338,9 @@ fn evaluate(
         problems: Vec::new(),
     };
     for i in 0..list.len() {
+        if ev.problems.len() >= MAX_PROBLEMS {
+            break;
+        }
         ev.walk(i);
     }
     if ev.problems.is_empty() {
@@ -440,6 +448,11 @@ impl<'a> Evaluator<'a> {
 
     /// Evaluate parameter `i`, all it uses being evaluated (or failed).
     fn finish(&mut self, i: usize) {
+        if self.problems.len() >= MAX_PROBLEMS {
+            // enough to fix first: the rest is not evaluated (nor its help searched for)
+            self.state[i] = State::Failed;
+            return;
+        }
         let list: &'a [Parameter] = self.list;
         let (expr, from_set) = self.definition(i);
         let mut failed_dep = false;
@@ -526,13 +539,18 @@ fn unknown_name(name: &str, span: &expr::Span, list: &[Parameter]) -> ExprError 
         format!("unknown parameter `{name}`")
     };
     let help = suggest(name, list.iter().map(|p| p.name.as_str())).or_else(|| {
-        Some(format!(
-            "parameters are: {}",
-            list.iter()
-                .map(|p| p.name.as_str())
-                .collect::<Vec<_>>()
-                .join(", ")
-        ))
+        // the names, unless there are too many to read
+        const LISTED: usize = 30;
+        let names: Vec<&str> = list.iter().take(LISTED).map(|p| p.name.as_str()).collect();
+        Some(if list.len() > LISTED {
+            format!(
+                "parameters are: {}, … ({} in all, in [parameters])",
+                names.join(", "),
+                list.len()
+            )
+        } else {
+            format!("parameters are: {}", names.join(", "))
+        })
     });
     ExprError {
         span: span.clone(),
