@@ -314,8 +314,17 @@ impl Error {
                 diagnostics,
             } => {
                 let mut out = String::new();
-                for d in diagnostics {
+                // the first ones: each excerpt indexes the whole file, and thousands of
+                // problems are fixed from the first few anyway
+                const SHOWN: usize = 30;
+                for d in diagnostics.iter().take(SHOWN) {
                     out.push_str(&render_diagnostic(source, d, color));
+                }
+                if diagnostics.len() > SHOWN {
+                    out.push_str(&format!(
+                        "… {} more problems not shown: fix these first\n",
+                        diagnostics.len() - SHOWN
+                    ));
                 }
                 if diagnostics.len() > 1 {
                     out.push_str(&format!(

@@ -23,7 +23,7 @@ pub mod simulate;
 pub mod sweep;
 pub mod tune;
 
-use std::sync::atomic::{AtomicBool, AtomicI32, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicI32, AtomicI64, Ordering};
 
 /// How a command that ran to its end finished, for a command that checks something
 /// (`margins`): the check passed (exit 0) or failed (exit 3). An error is not an outcome:
@@ -52,6 +52,25 @@ pub static INTERRUPTED: AtomicBool = AtomicBool::new(false);
 static SIGNAL: AtomicI32 = AtomicI32::new(0);
 /// The running command checks [`INTERRUPTED`] between its steps.
 static POLLS: AtomicBool = AtomicBool::new(false);
+/// When the first signal came (CLOCK_MONOTONIC, ms).
+static FIRST_AT_MS: AtomicI64 = AtomicI64::new(0);
+
+/// A repeat of the first signal within this time is the same request, not a second one:
+/// GNU `timeout` sends its SIGTERM twice (to the process, then to its process group), and
+/// a shell or a scheduler may do the same.
+const REPEAT_MS: i64 = 1000;
+
+/// Milliseconds of CLOCK_MONOTONIC (async-signal-safe: clock_gettime is).
+#[cfg(unix)]
+fn monotonic_ms() -> i64 {
+    let mut ts = libc::timespec {
+        tv_sec: 0,
+        tv_nsec: 0,
+    };
+    // SAFETY: clock_gettime writes the timespec it is given; it is async-signal-safe.
+    unsafe { libc::clock_gettime(libc::CLOCK_MONOTONIC, &mut ts) };
+    ts.tv_sec as i64 * 1000 + ts.tv_nsec as i64 / 1_000_000
+}
 
 /// SIGINT, SIGTERM and SIGHUP, handled alike from the start of `main`: a command that
 /// checks [`INTERRUPTED`] (it called [`interrupt_on_ctrl_c`]) gets the flag set, stops
@@ -59,7 +78,8 @@ static POLLS: AtomicBool = AtomicBool::new(false);
 /// signal (130, 143, 129: [`interrupted_by`]). Any other command, or a second signal
 /// (during the write, say), ends the process at once with that code after unlinking its
 /// temporary files ([`detune::output::commit::remove_temps_now`]), so no `.detune-*`
-/// file lingers.
+/// file lingers. The first signal repeated within a second ([`REPEAT_MS`]) is not a
+/// second signal: GNU `timeout` sends SIGTERM twice.
 ///
 /// Written with `libc::sigaction` rather than `ctrlc`: ctrlc's handler is not told which
 /// signal came, and the exit code must say it.
@@ -81,9 +101,19 @@ pub fn handle_signals() {
 #[cfg(unix)]
 extern "C" fn on_signal(sig: libc::c_int) {
     INTERRUPTED.store(true, Ordering::SeqCst);
+    let now = monotonic_ms();
     let first = SIGNAL
         .compare_exchange(0, sig, Ordering::SeqCst, Ordering::SeqCst)
         .is_ok();
+    if first {
+        FIRST_AT_MS.store(now, Ordering::SeqCst);
+    }
+    // the same signal again at once: the same request (a handler runs with its own signal
+    // blocked, so the first one's time is stored before a repeat is handled)
+    let repeat = !first
+        && SIGNAL.load(Ordering::SeqCst) == sig
+        && now - FIRST_AT_MS.load(Ordering::SeqCst) < REPEAT_MS;
+    let first = first || repeat;
     // blocked on a FIFO with no reader (or one that does not read): the run polls no
     // more, so the first signal ends it
     let blocked = detune::output::commit::writing_special();

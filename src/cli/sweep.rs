@@ -11,12 +11,13 @@ use detune::diag::{Error, Result};
 use detune::frequency::checkpoint::{self, CaseLog, Checkpoint, Header, NoLog, Shard};
 use detune::frequency::study::SweepStudy;
 use detune::frequency::{Progress, SteadyOptions, SweepMode, SweepOptions};
+use detune::output::Provenance;
+use detune::output::commit::OutputSet;
 use detune::output::figures::{Case, sweep_figures};
 use detune::output::json::SweepReport;
 use detune::output::plot::write_panels_sized;
 use detune::output::results::write_sweep_csv;
 use detune::output::units::{Units, WithUnits};
-use detune::output::{Provenance, check_outputs};
 use std::sync::atomic::{AtomicBool, Ordering};
 
 /// The units of `sweep --json`: the CSV's columns (the frequency in rad/s, each response's
@@ -162,10 +163,12 @@ pub fn execute(a: SweepArgs, source: Source) -> Result<()> {
     }
     let (model, compiled) = a.model.load()?;
     let size = a.plot_size.check(a.plot.as_deref(), a.output.as_deref())?;
-    let outputs = check_outputs(
-        &model.source.path,
-        &[a.output.as_deref(), a.plot.as_deref()],
-    )?;
+    // an output over the --refine-from CSV would replace the study it refines
+    let mut inputs = vec![("model file", model.source.path.as_str())];
+    if let Some(csv) = &a.refine_from {
+        inputs.push(("--refine-from CSV", csv.as_str()));
+    }
+    let outputs = OutputSet::plan(&inputs, &[a.output.as_deref(), a.plot.as_deref()])?;
     if let Some(c) = &a.checkpoint
         && [a.output.as_deref(), a.plot.as_deref()]
             .into_iter()
@@ -259,7 +262,7 @@ pub fn execute(a: SweepArgs, source: Source) -> Result<()> {
                 let header = Header {
                     format: checkpoint::FORMAT.into(),
                     format_version: checkpoint::FORMAT_VERSION,
-                    detune_version: env!("CARGO_PKG_VERSION").into(),
+                    detune_version: checkpoint::detune_version(),
                     model_file: model.source.path.clone(),
                     model_sha256: model.hash.clone(),
                     overrides: Provenance::of(&model).overrides,
@@ -720,7 +723,30 @@ fn refine_from(path: &str, a: &SweepArgs, study: &SweepStudy) -> Result<CsvCases
             "give the CSV written by the same sweep (or by `detune merge`), without --refine",
         )
     };
-    let text = std::fs::read_to_string(path).map_err(|e| bad(e.to_string()))?;
+    // bounded: `--refine-from /dev/zero` or an endless pipe is refused, not read forever
+    let give = "give the CSV written by the same sweep (or by `detune merge`), without --refine";
+    let bytes = detune::model::read_bounded(
+        path,
+        &detune::model::Bounded {
+            what: "sweep CSV",
+            limit: detune::model::MAX_DATA_BYTES,
+            pipes: true,
+            give,
+            shorter: give,
+        },
+    )
+    .map_err(|e| match e {
+        Error::Io { message, .. } => bad(message),
+        Error::Request { message, help } => Error::Request {
+            message: format!("--refine-from {message}"),
+            help,
+        },
+        e => e,
+    })?;
+    let text = detune::model::utf8(path, "sweep CSV", bytes).map_err(|e| match e {
+        Error::Io { message, .. } => bad(message),
+        e => e,
+    })?;
     let mut lines = text.lines();
     let opts = &study.options;
     let names: Vec<&str> = study.runs[0]

@@ -263,14 +263,38 @@ impl Line {
 
 type Case = (CaseKey, SteadyState, isize);
 
+/// This build of detune: a hash of its sources (`src/`, `Cargo.toml`, `Cargo.lock`, made
+/// by `build.rs`), so that it changes whenever the code does, also in a build from a
+/// source archive without git.
+pub const BUILD_ID: &str = env!("DETUNE_BUILD_ID");
+
+/// The version a checkpoint records and requires: the crate's version and [`BUILD_ID`]
+/// as semver build metadata (`0.1.0+1a2b3c4d5e6f7a8b`). A checkpoint's cases are reused
+/// only by the build that computed them: another build may compute them differently.
+pub fn detune_version() -> String {
+    format!("{}+{BUILD_ID}", env!("CARGO_PKG_VERSION"))
+}
+
 /// A checkpoint file's header and cases (a torn last line ignored), and the length of
 /// its whole lines (where new lines go).
 pub fn read(path: &str) -> Result<(Header, Vec<Case>, u64)> {
-    let bytes = std::fs::read(path).map_err(|e| {
-        Error::request(
-            format!("cannot read the checkpoint {path}: {e}"),
+    let bytes = crate::model::read_bounded(
+        path,
+        &crate::model::Bounded {
+            what: "sweep checkpoint",
+            limit: crate::model::MAX_DATA_BYTES,
+            // appended to in place: a pipe or a device is never a checkpoint
+            pipes: false,
+            give: "give the checkpoint files the runs wrote (--checkpoint FILE): regular files",
+            shorter: "give the checkpoint files the runs wrote (--checkpoint FILE)",
+        },
+    )
+    .map_err(|e| match e {
+        Error::Io { message, .. } => Error::request(
+            format!("cannot read the checkpoint {path}: {message}"),
             "give the checkpoint files the shards wrote (--checkpoint FILE)",
-        )
+        ),
+        e => e,
     })?;
     let not_ours = |why: String| {
         Error::request(
@@ -341,10 +365,21 @@ impl Checkpoint {
     /// Open `path` for the study `header` describes: resumed if the file is a checkpoint
     /// of the same study (anything else refused, with the reason: the file is never
     /// overwritten), else created with the header.
-    pub fn open(path: &str, header: Header, grid: &[f64]) -> Result<Checkpoint> {
-        let exists = std::fs::metadata(path)
-            .map(|m| m.len() > 0)
-            .unwrap_or(false);
+    pub fn open(path: &str, mut header: Header, grid: &[f64]) -> Result<Checkpoint> {
+        header.detune_version = detune_version();
+        let meta = std::fs::metadata(path).ok();
+        if let Some(m) = &meta
+            && !m.is_file()
+        {
+            // a FIFO would block the open, a device swallow the lines
+            return Err(Error::request(
+                format!(
+                    "the checkpoint {path} is not a regular file: a checkpoint is a file read back and appended to"
+                ),
+                "give a --checkpoint FILE that does not exist yet (it is created) or a checkpoint written before",
+            ));
+        }
+        let exists = meta.map(|m| m.len() > 0).unwrap_or(false);
         let (cases, file) = if exists {
             let (old, cases, end) = read(path)?;
             refuse_other(path, &old, &header)?;
@@ -411,6 +446,16 @@ impl Checkpoint {
             ));
         };
         let (p0, h0) = (p0.clone(), h0.clone());
+        let this = detune_version();
+        if h0.detune_version != this {
+            return Err(Error::request(
+                format!(
+                    "{p0} was written by detune {}; this is detune {this} (another build): its cases may differ",
+                    h0.detune_version
+                ),
+                "merge with the detune that ran the shards, or run the shards again with this one",
+            ));
+        }
         let n = h0.shard.n;
         let mut seen: Vec<Option<String>> = vec![None; n];
         for (p, h, _) in &parts {
@@ -550,7 +595,7 @@ fn refuse_other(path: &str, old: &Header, want: &Header) -> Result<()> {
     if old.detune_version != want.detune_version {
         return Err(Error::request(
             format!(
-                "the checkpoint {path} was written by detune {}; this is detune {}: its cases may differ",
+                "the checkpoint {path} was written by detune {}; this is detune {} (another build): its cases may differ",
                 old.detune_version, want.detune_version
             ),
             afresh,

@@ -116,18 +116,24 @@ pub fn expr_diag(e: &ExprError, offset: usize) -> Diagnostic {
 
 /// `did you mean ...?` from a list of candidates.
 pub fn suggest<'a>(name: &str, candidates: impl IntoIterator<Item = &'a str>) -> Option<String> {
+    // called once per unknown name over all the model's names: `name` lowered once, the
+    // edit distance only where the lengths allow one edit
+    let a = name.to_lowercase();
+    let mut b = String::new();
     let mut scored: Vec<(f64, &str)> = candidates
         .into_iter()
         .map(|c| {
-            let (a, b) = (name.to_lowercase(), c.to_lowercase());
+            b.clear();
+            b.extend(c.chars().flat_map(char::to_lowercase));
+            let (a, b) = (a.as_str(), b.as_str());
             let score = if a == b {
                 1.0
-            } else if strsim::osa_distance(&a, &b) == 1 {
+            } else if a.len().abs_diff(b.len()) <= 4 && strsim::osa_distance(a, b) == 1 {
                 // one typo, also in short names (`Fz` for `Fs`), or two letters swapped
                 // (`rmp` for `rpm`: Jaro–Winkler scores a swap in a short name low)
                 0.95
             } else {
-                strsim::jaro_winkler(&a, &b)
+                strsim::jaro_winkler(a, b)
             };
             (score, c)
         })
@@ -736,6 +742,7 @@ impl Model {
         };
         if let Some(f) = &raw.model.forcing_frequency
             && model.parameters.index(f.get_ref()).is_none()
+            && !model.parameters.is_rejected(f.get_ref())
         {
             diags.push(
                 Diagnostic::new(format!(
@@ -753,7 +760,9 @@ impl Model {
             );
         }
         if let Some(f) = &raw.model.forcing_amplitude {
-            if model.parameters.index(f.get_ref()).is_none() {
+            if model.parameters.is_rejected(f.get_ref()) {
+                // its definition is reported already
+            } else if model.parameters.index(f.get_ref()).is_none() {
                 diags.push(
                     Diagnostic::new(format!(
                         "`forcing_amplitude` names `{}`, which is not a parameter",
@@ -1070,7 +1079,7 @@ impl Builder<'_> {
 
     fn check_trim(&mut self, t: &TrimDef, bodies: &[Body], params: &Parameters) {
         for (name, span) in &t.solve {
-            if params.index(name).is_none() {
+            if params.index(name).is_none() && !params.is_rejected(name) {
                 self.diags.push(
                     Diagnostic::new(format!(
                         "`[trim] solve` names `{name}`, which is not a parameter"
@@ -1587,12 +1596,63 @@ impl Builder<'_> {
 /// the limit keeps `detune check /dev/zero` or a wrong file from eating the memory.
 pub const MAX_INPUT_BYTES: u64 = 16 * 1024 * 1024;
 
+/// The most a data file detune reads back (a sweep checkpoint, the CSV of
+/// `--refine-from`) may hold: 256 MiB, some hundred thousand steady states.
+pub const MAX_DATA_BYTES: u64 = 256 * 1024 * 1024;
+
 /// Read an input file (`what`: "model file", "environment file") as UTF-8 text: a
 /// regular file or a pipe (`-` is not special, but `/dev/stdin` and `<(…)` work), at most
 /// [`MAX_INPUT_BYTES`]. A directory, a character or block device (`/dev/zero`) or a
 /// socket is refused before reading, a longer file when the limit is passed; each error
 /// names the file and says what to give instead.
 pub fn read_input(path: &str, what: &str) -> Result<String> {
+    let bytes = read_bounded(
+        path,
+        &Bounded {
+            what,
+            limit: MAX_INPUT_BYTES,
+            pipes: true,
+            give: &format!(
+                "give the path of a {what} (TOML text); a pipe such as <(...) works too"
+            ),
+            shorter: &format!("give the right file: a {what} is TOML text of a few kB"),
+        },
+    )?;
+    utf8(path, what, bytes)
+}
+
+/// `bytes` read from `path` as UTF-8 text, or an error naming the first byte that is not.
+pub fn utf8(path: &str, what: &str, bytes: Vec<u8>) -> Result<String> {
+    String::from_utf8(bytes).map_err(|e| {
+        Error::io(
+            path,
+            format!(
+                "not UTF-8 text (byte {}): is this a {what}?",
+                e.utf8_error().valid_up_to()
+            ),
+        )
+    })
+}
+
+/// What [`read_bounded`] accepts and how it advises.
+pub struct Bounded<'a> {
+    /// What the file should be ("model file", "sweep checkpoint").
+    pub what: &'a str,
+    /// The most it may hold (bytes).
+    pub limit: u64,
+    /// Whether a pipe (FIFO, `<(…)`) is read; if not, only a regular file is.
+    pub pipes: bool,
+    /// Help when the file is of the wrong kind (a directory, a device, ...).
+    pub give: &'a str,
+    /// Help when it is longer than `limit`.
+    pub shorter: &'a str,
+}
+
+/// The bytes of an input file, at most `b.limit` of them (reading stops there: an
+/// endless pipe cannot exhaust the memory); a directory, a device or a socket is refused
+/// before it is opened (opening or reading one may block or never end), a pipe too unless
+/// `b.pipes`.
+pub fn read_bounded(path: &str, b: &Bounded) -> Result<Vec<u8>> {
     use std::io::Read;
     let meta = std::fs::metadata(path).map_err(|e| Error::io(path, e))?;
     let kind = {
@@ -1606,6 +1666,8 @@ pub fn read_input(path: &str, what: &str) -> Result<String> {
                 Some("a block device")
             } else if t.is_socket() {
                 Some("a socket")
+            } else if t.is_fifo() && !b.pipes {
+                Some("a pipe (FIFO)")
             } else {
                 None
             }
@@ -1614,33 +1676,30 @@ pub fn read_input(path: &str, what: &str) -> Result<String> {
         None::<&str>
     };
     let kind = kind.or(meta.is_dir().then_some("a directory"));
+    let what = b.what;
     if let Some(kind) = kind {
         return Err(Error::request(
             format!("{path}: is {kind}, not a {what}"),
-            format!("give the path of a {what} (TOML text); a pipe such as <(...) works too"),
+            b.give,
         ));
+    }
+    let too_long = || {
+        let mib = b.limit / (1024 * 1024);
+        Error::request(
+            format!("{path}: longer than the {mib} MiB a {what} may have (reading stopped there)"),
+            b.shorter,
+        )
+    };
+    if meta.is_file() && meta.len() > b.limit {
+        return Err(too_long());
     }
     let file = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
     let mut bytes = Vec::new();
-    file.take(MAX_INPUT_BYTES + 1)
+    file.take(b.limit + 1)
         .read_to_end(&mut bytes)
         .map_err(|e| Error::io(path, e))?;
-    if bytes.len() as u64 > MAX_INPUT_BYTES {
-        return Err(Error::request(
-            format!(
-                "{path}: longer than the {} MiB a {what} may have (reading stopped there)",
-                MAX_INPUT_BYTES / (1024 * 1024)
-            ),
-            format!("give the right file: a {what} is TOML text of a few kB"),
-        ));
+    if bytes.len() as u64 > b.limit {
+        return Err(too_long());
     }
-    String::from_utf8(bytes).map_err(|e| {
-        Error::io(
-            path,
-            format!(
-                "not UTF-8 text (byte {}): is this a {what}?",
-                e.utf8_error().valid_up_to()
-            ),
-        )
-    })
+    Ok(bytes)
 }

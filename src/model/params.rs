@@ -6,7 +6,7 @@ use super::file::{RawParam, RawValue};
 use super::units::{self, Dim};
 use super::{Field, expr_diag, suggest};
 use crate::diag::{Diagnostic, Error, Result, SourceFile};
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, HashMap};
 use toml::Spanned;
 
 /// One parameter as written.
@@ -32,13 +32,24 @@ pub struct Parameters {
     /// The parsed `--set` expression in force, per parameter (one that named the
     /// parameter itself is already evaluated to a number).
     pub override_exprs: Vec<Option<Expr>>,
+    /// Name → index into `list` (a model may have many parameters: no linear search).
+    by_name: HashMap<String, usize>,
+    /// Names in `[parameters]` whose definitions were refused (already reported) and are
+    /// therefore not in `list`: a use of one elsewhere is not reported again.
+    pub rejected: Vec<String>,
 }
 
 const RESERVED: &[&str] = &["t", "pi"];
 
 impl Parameters {
     pub fn index(&self, name: &str) -> Option<usize> {
-        self.list.iter().position(|p| p.name == name)
+        self.by_name.get(name).copied()
+    }
+
+    /// Whether `name` is a parameter of the file whose definition was refused (and
+    /// reported): a use of it elsewhere is not an unknown name.
+    pub fn is_rejected(&self, name: &str) -> bool {
+        self.rejected.iter().any(|b| b == name)
     }
 
     /// SI value of a parameter.
@@ -145,15 +156,20 @@ impl Parameters {
             });
         }
         let n = list.len();
+        let by_name = name_index(&list);
         let mut params = Parameters {
             list,
             values: vec![f64::NAN; n],
             dims: vec![None; n],
             overridden: vec![None; n],
             override_exprs: vec![None; n],
+            by_name,
+            rejected: Vec::new(),
         };
         let overrides = vec![None; n];
-        match evaluate(&params.list, &overrides, &broken) {
+        let evaluated = evaluate(&params.list, &params.by_name, &overrides, &broken);
+        params.rejected = broken;
+        match evaluated {
             Ok((values, dims)) => {
                 params.values = values;
                 params.dims = dims;
@@ -227,13 +243,15 @@ impl Parameters {
             exprs[i] = Some(expr);
             texts[i] = Some(value.clone());
         }
-        match evaluate(&self.list, &exprs, &[]) {
+        match evaluate(&self.list, &self.by_name, &exprs, &[]) {
             Ok((values, dims)) => Ok(Parameters {
                 list: self.list.clone(),
                 values,
                 dims,
                 overridden: texts,
                 override_exprs: exprs,
+                by_name: self.by_name.clone(),
+                rejected: self.rejected.clone(),
             }),
             Err(problems) => {
                 let mut file = Vec::new();
@@ -287,24 +305,43 @@ enum State {
     Failed,
 }
 
-/// Evaluate every parameter in dependency order (depth first, with cycle detection).
+fn name_index(list: &[Parameter]) -> HashMap<String, usize> {
+    let mut map = HashMap::with_capacity(list.len());
+    for (i, p) in list.iter().enumerate() {
+        map.entry(p.name.clone()).or_insert(i);
+    }
+    map
+}
+
+/// The problems found in `[parameters]` before evaluation stops (as many as an error
+/// shows): a file with 100,000 broken definitions gets the first ones, fast (each unknown name's suggestion searches
+/// every name).
+const MAX_PROBLEMS: usize = 30;
+
+/// Evaluate every parameter in dependency order: a depth-first walk with cycle detection,
+/// on an explicit stack (a chain `p_i = p_{i-1}` of any length needs no deeper call
+/// stack), each parameter evaluated once all it uses are.
 fn evaluate(
     list: &[Parameter],
+    by_name: &HashMap<String, usize>,
     overrides: &[Option<Expr>],
     broken: &[String],
 ) -> std::result::Result<(Vec<f64>, Vec<Option<Dim>>), Vec<Problem>> {
     let mut ev = Evaluator {
         list,
+        by_name,
         overrides,
         broken,
         state: vec![State::Todo; list.len()],
         values: vec![f64::NAN; list.len()],
         dims: vec![None; list.len()],
-        stack: Vec::new(),
         problems: Vec::new(),
     };
     for i in 0..list.len() {
-        ev.visit(i);
+        if ev.problems.len() >= MAX_PROBLEMS {
+            break;
+        }
+        ev.walk(i);
     }
     if ev.problems.is_empty() {
         Ok((ev.values, ev.dims))
@@ -315,67 +352,120 @@ fn evaluate(
 
 struct Evaluator<'a> {
     list: &'a [Parameter],
+    by_name: &'a HashMap<String, usize>,
     overrides: &'a [Option<Expr>],
     /// Names whose definitions failed to parse (already reported).
     broken: &'a [String],
     state: Vec<State>,
     values: Vec<f64>,
     dims: Vec<Option<Dim>>,
-    stack: Vec<usize>,
     problems: Vec<Problem>,
 }
 
 impl<'a> Evaluator<'a> {
-    /// Value of parameter `i`, or None if it (or something it uses) failed.
-    fn visit(&mut self, i: usize) -> Option<f64> {
-        match self.state[i] {
-            State::Done => return Some(self.values[i]),
-            State::Failed => return None,
-            State::Visiting => {
-                let from = self.stack.iter().position(|&j| j == i).unwrap_or(0);
-                let mut path: Vec<&str> = self.stack[from..]
-                    .iter()
-                    .map(|&j| self.list[j].name.as_str())
-                    .collect();
-                path.push(&self.list[i].name);
-                let p = &self.list[i];
-                self.problems.push(Problem::File(
-                    Diagnostic::new(format!("parameter cycle: {}", path.join(" → ")))
-                        .at(p.field.span.clone())
-                        .label("defined from itself")
-                        .help("define one of these parameters by a number"),
-                ));
-                for &j in &self.stack[from..] {
-                    self.state[j] = State::Failed;
-                }
-                return None;
-            }
-            State::Todo => {}
-        }
-        self.state[i] = State::Visiting;
-        self.stack.push(i);
-        let list: &'a [Parameter] = self.list;
+    /// The definition in force of parameter `i` and whether it came from `--set`.
+    fn definition(&self, i: usize) -> (&'a Expr, bool) {
         let overrides: &'a [Option<Expr>] = self.overrides;
-        let (expr, from_set) = match &overrides[i] {
+        let list: &'a [Parameter] = self.list;
+        match &overrides[i] {
             Some(e) => (e, true),
             None => (&list[i].field.expr, false),
-        };
-        let mut failed_dep = false;
-        let result = expr::eval_const(expr, &mut |name, span| match list
+        }
+    }
+
+    /// The parameters that the definition of `i` uses, in source order.
+    fn uses(&self, i: usize) -> Vec<usize> {
+        let (expr, _) = self.definition(i);
+        expr.variables()
             .iter()
-            .position(|p| p.name == name)
-        {
-            Some(j) => match self.visit(j) {
-                Some(v) => Ok(v),
-                None => {
-                    failed_dep = true;
-                    Err(ExprError {
-                        span: span.clone(),
-                        message: String::new(),
-                        help: None,
-                    })
+            .filter_map(|(n, _)| self.by_name.get(*n).copied())
+            .collect()
+    }
+
+    /// Evaluate `i` and everything it uses (iteratively: stack frames are (parameter,
+    /// its uses, next use to look at)).
+    fn walk(&mut self, root: usize) {
+        if self.state[root] != State::Todo {
+            return;
+        }
+        let mut stack: Vec<(usize, Vec<usize>, usize)> = Vec::new();
+        self.state[root] = State::Visiting;
+        stack.push((root, self.uses(root), 0));
+        while let Some(top) = stack.last_mut() {
+            let (i, next) = (top.0, top.1.get(top.2).copied());
+            if self.state[i] == State::Failed {
+                // In a cycle, reported: what else it uses is walked from the top.
+                stack.pop();
+                continue;
+            }
+            let Some(j) = next else {
+                stack.pop();
+                if self.state[i] == State::Visiting {
+                    self.finish(i);
                 }
-            },
+                continue;
+            };
+            top.2 += 1;
+            match self.state[j] {
+                State::Done | State::Failed => {}
+                State::Todo => {
+                    self.state[j] = State::Visiting;
+                    let uses = self.uses(j);
+                    stack.push((j, uses, 0));
+                }
+                State::Visiting => {
+                    // A cycle (or a parameter using itself): j is on the stack.
+                    let from = stack.iter().position(|f| f.0 == j).unwrap_or(0);
+                    let mut path: Vec<&str> = stack[from..]
+                        .iter()
+                        .map(|f| self.list[f.0].name.as_str())
+                        .collect();
+                    path.push(&self.list[j].name);
+                    // a long cycle is shown by its ends
+                    let shown = if path.len() > 12 {
+                        let more = format!("… {} more …", path.len() - 10);
+                        let mut short: Vec<&str> = path[..5].to_vec();
+                        short.push(&more);
+                        short.extend(&path[path.len() - 5..]);
+                        short.join(" → ")
+                    } else {
+                        path.join(" → ")
+                    };
+                    let p = &self.list[j];
+                    self.problems.push(Problem::File(
+                        Diagnostic::new(format!("parameter cycle: {shown}"))
+                            .at(p.field.span.clone())
+                            .label("defined from itself")
+                            .help("define one of these parameters by a number"),
+                    ));
+                    for f in &stack[from..] {
+                        self.state[f.0] = State::Failed;
+                    }
+                }
+            }
+        }
+    }
+
+    /// Evaluate parameter `i`, all it uses being evaluated (or failed).
+    fn finish(&mut self, i: usize) {
+        if self.problems.len() >= MAX_PROBLEMS {
+            // enough to fix first: the rest is not evaluated (nor its help searched for)
+            self.state[i] = State::Failed;
+            return;
+        }
+        let list: &'a [Parameter] = self.list;
+        let (expr, from_set) = self.definition(i);
+        let mut failed_dep = false;
+        let result = expr::eval_const(expr, &mut |name, span| match self.by_name.get(name) {
+            Some(&j) if self.state[j] == State::Done => Ok(self.values[j]),
+            Some(_) => {
+                failed_dep = true;
+                Err(ExprError {
+                    span: span.clone(),
+                    message: String::new(),
+                    help: None,
+                })
+            }
             None if self.broken.iter().any(|b| b == name) => {
                 failed_dep = true;
                 Err(ExprError {
@@ -386,20 +476,12 @@ impl<'a> Evaluator<'a> {
             }
             None => Err(unknown_name(name, span, list)),
         });
-        self.stack.pop();
-        if self.state[i] == State::Failed {
-            return None;
-        }
         match result {
             Ok(v) => {
-                let var_dim = |n: &str| {
-                    list.iter()
-                        .position(|p| p.name == n)
-                        .and_then(|j| self.dims[j])
-                };
+                let var_dim = |n: &str| self.by_name.get(n).and_then(|&j| self.dims[j]);
                 if let Err(e) = expr.check_dims(&var_dim) {
                     self.fail(i, from_set, e);
-                    return None;
+                    return;
                 }
                 let found = expr.dim(&var_dim);
                 let p = &list[i];
@@ -417,12 +499,11 @@ impl<'a> Evaluator<'a> {
                         .help(format!("give the value in {si}, or change `unit`")),
                     ));
                     self.state[i] = State::Failed;
-                    return None;
+                    return;
                 }
                 self.dims[i] = p.unit.as_ref().map(|u| u.1).or(found);
                 self.values[i] = v;
                 self.state[i] = State::Done;
-                Some(v)
             }
             Err(e) => {
                 if failed_dep {
@@ -430,7 +511,6 @@ impl<'a> Evaluator<'a> {
                 } else {
                     self.fail(i, from_set, e);
                 }
-                None
             }
         }
     }
@@ -459,13 +539,18 @@ fn unknown_name(name: &str, span: &expr::Span, list: &[Parameter]) -> ExprError 
         format!("unknown parameter `{name}`")
     };
     let help = suggest(name, list.iter().map(|p| p.name.as_str())).or_else(|| {
-        Some(format!(
-            "parameters are: {}",
-            list.iter()
-                .map(|p| p.name.as_str())
-                .collect::<Vec<_>>()
-                .join(", ")
-        ))
+        // the names, unless there are too many to read
+        const LISTED: usize = 30;
+        let names: Vec<&str> = list.iter().take(LISTED).map(|p| p.name.as_str()).collect();
+        Some(if list.len() > LISTED {
+            format!(
+                "parameters are: {}, … ({} in all, in [parameters])",
+                names.join(", "),
+                list.len()
+            )
+        } else {
+            format!("parameters are: {}", names.join(", "))
+        })
     });
     ExprError {
         span: span.clone(),
