@@ -90,6 +90,41 @@ pub struct NaturalFrequency {
     pub run: Option<String>,
 }
 
+/// Where the entry `v` (a piece of `spec`'s list, trimmed) starts in `spec`, in bytes.
+fn entry_at(spec: &str, v: &str) -> usize {
+    let start = v.as_ptr() as usize - spec.as_ptr() as usize;
+    start + (v.len() - v.trim_start().len())
+}
+
+/// A `--set NAME=VALUE` message about one entry of a family, quoting the `--values` flag
+/// as typed: the `--set` line becomes `--values SPEC`, and a caret line under it moves to
+/// the entry (which starts at byte `at` of `spec`).
+fn requoted(message: &str, name: &str, value: &str, spec: &str, at: usize) -> String {
+    let set = format!("--set {name}={value}");
+    let values = format!("--values {spec}");
+    let mut out: Vec<String> = Vec::new();
+    // columns the entry moves right by in the line just replaced
+    let mut moved: Option<isize> = None;
+    for line in message.lines() {
+        let shift = moved.take();
+        let carets = !line.trim().is_empty() && line.trim().chars().all(|c| c == '^');
+        if let (Some(shift), true) = (shift, carets) {
+            let indent = (line.len() - line.trim_start().len()) as isize;
+            let indent = (indent + shift).max(0) as usize;
+            out.push(format!("{}{}", " ".repeat(indent), line.trim_start()));
+        } else if line.contains(&set) {
+            // the value was at column i + len(`--set NAME=`); the entry is at
+            // i + len(`--values `) + at
+            let old = (set.len() - value.len()) as isize;
+            moved = Some("--values ".len() as isize + at as isize - old);
+            out.push(line.replacen(&set, &values, 1));
+        } else {
+            out.push(line.to_string());
+        }
+    }
+    out.join("\n")
+}
+
 /// The models of a family: `spec` is `PARAM=v1,v2,...` (the `--values` flag), each value
 /// a number (SI), a quantity or an expression, as with `--set`; `swept` is the swept
 /// parameter, which the family may not vary.
@@ -120,7 +155,7 @@ pub fn family(model: &Model, spec: &str, swept: &str) -> Result<Vec<(String, f64
                 // a bad value quotes the override it was given as (`--set NAME=VALUE`):
                 // here, the family's entry
                 Error::Request { message, help } => Error::Request {
-                    message: message.replace("--set ", "--values "),
+                    message: requoted(&message, name, v.trim(), spec, entry_at(spec, v)),
                     help,
                 },
                 other => other.in_run(name, v.trim()),
