@@ -12,6 +12,11 @@
 //! plotters' own legend is drawn inside the plot area (over the data) with a plain line
 //! whatever the series' style: the legend here sits below the plot area and draws each
 //! entry in its curve's pen (colour, width, dash pattern, marker).
+//!
+//! Also hand-written, as plotters has neither: titles and captions wrapped to the
+//! figure's width, and the placement of the notes (peaks, jumps, folds) near their points
+//! but clear of the curves, the vertical lines and each other (a leader line when one is
+//! set away). [`Panels::check`] refuses a `--plot-size` whose panels cannot hold a plot.
 
 use super::style::{self, Fonts, Marker};
 use crate::diag::{Error, Result};
