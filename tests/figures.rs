@@ -690,3 +690,313 @@ fn grid_peaks_name_every_value_and_the_hz_axis_is_omega_over_two_pi() {
         s.texts
     );
 }
+
+/// The y coordinates of every curve polyline of an SVG (px).
+fn curve_ys(svg: &str) -> Vec<f64> {
+    let doc = roxmltree::Document::parse(svg).expect("well-formed SVG");
+    let mut ys = Vec::new();
+    for n in doc.descendants() {
+        if n.tag_name().name() == "polyline" && n.attribute("class") == Some("curve") {
+            for p in n.attribute("points").unwrap().split_whitespace() {
+                ys.push(p.split(',').nth(1).unwrap().parse::<f64>().unwrap());
+            }
+        }
+    }
+    ys
+}
+
+/// The numbers of `text` (`jump up 0.6366→0.6525 Hz`: 0.6366, 0.6525).
+fn numbers(text: &str) -> Vec<f64> {
+    text.split(|c: char| !(c.is_ascii_digit() || c == '.' || c == '-'))
+        .filter_map(|w| w.parse().ok())
+        .collect()
+}
+
+/// Issue 10 acceptance F1: `--freq-unit Hz` on a sweep with jumps (a `→` in the label)
+/// draws, and every frequency its labels write is the rad/s value over 2π to four
+/// significant digits, both ends of a jump included (it panicked, and a peak at 4 rad/s
+/// read "peak 1 Hz"). The jumps and the peak are grid frequencies, so their Hz values
+/// are known exactly: 4.0/2π, 4.1/2π, 3.2/2π, 3.1/2π.
+#[test]
+fn frequency_labels_in_hz_name_the_right_values() {
+    let tau = std::f64::consts::TAU;
+    let dir = tempfile::tempdir().unwrap();
+    let svg = dir.path().join("hz.svg");
+    let csv = dir.path().join("hz.csv");
+    let base = [
+        "sweep",
+        "models/overcentre.toml",
+        "--set",
+        "theta1_0=-0.85",
+        "--set",
+        "c=1",
+        "--set",
+        "F0=4",
+        "--param",
+        "omega",
+        "--from",
+        "2.5",
+        "--to",
+        "5",
+        "--step",
+        "0.1",
+        "--response",
+        "bar1.theta",
+        "--freq-unit",
+        "Hz",
+    ];
+    let mut args = base.to_vec();
+    args.extend(["--mode", "both", "--plot", svg.to_str().unwrap()]);
+    args.extend(["-o", csv.to_str().unwrap()]);
+    let (code, _, err) = detune(&args);
+    assert_eq!(code, 0, "{err}");
+    assert!(csv.exists(), "the results are written");
+    let s = read(&std::fs::read_to_string(&svg).unwrap());
+    let jump = |dir: &str| -> Vec<f64> {
+        let t = s
+            .texts
+            .iter()
+            .find(|(t, _)| t.starts_with(&format!("jump {dir} ")))
+            .unwrap_or_else(|| panic!("no jump {dir} in {:?}", s.texts));
+        assert!(t.0.ends_with(" Hz") && t.0.contains('→'), "{}", t.0);
+        numbers(&t.0)
+    };
+    let close = |got: f64, want: f64| (got - want).abs() <= 5e-5 + 1e-4 * want;
+    let up = jump("up");
+    assert!(close(up[0], 4.0 / tau) && close(up[1], 4.1 / tau), "{up:?}");
+    let down = jump("down");
+    assert!(
+        close(down[0], 3.2 / tau) && close(down[1], 3.1 / tau),
+        "{down:?}"
+    );
+    assert!(!has(&s, "rad/s") && !has(&s, "ω_n"), "{:?}", s.texts);
+    // the linear natural frequency as f_n, its Hz value that of the rad/s one
+    let f_n = s
+        .texts
+        .iter()
+        .find(|(t, _)| t.starts_with("linear f_n = "))
+        .map(|(t, _)| numbers(t)[0])
+        .expect("f_n in the legend");
+    let mut args = base[..base.len() - 2].to_vec();
+    args.extend(["--mode", "up", "--plot", svg.to_str().unwrap()]);
+    let (code, _, err) = detune(&args);
+    assert_eq!(code, 0, "{err}");
+    let s = read(&std::fs::read_to_string(&svg).unwrap());
+    let omega_n = s
+        .texts
+        .iter()
+        .find(|(t, _)| t.starts_with("linear ω_n = "))
+        .map(|(t, _)| numbers(t)[0])
+        .expect("ω_n in the rad/s legend");
+    assert!(close(f_n, omega_n / tau), "{f_n} Hz for {omega_n} rad/s");
+    // the peak of well 0 at F0=10, the grid's 4 rad/s: 0.6366 Hz (it read "peak 1 Hz")
+    let (code, _, err) = detune(&[
+        "sweep",
+        "models/overcentre.toml",
+        "--set",
+        "F0=10",
+        "--param",
+        "omega",
+        "--from",
+        "0.5",
+        "--to",
+        "6",
+        "--step",
+        "0.25",
+        "--response",
+        "bar1.theta",
+        "--mode",
+        "up",
+        "--freq-unit",
+        "Hz",
+        "--plot",
+        svg.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 0, "{err}");
+    let s = read(&std::fs::read_to_string(&svg).unwrap());
+    let peak = s
+        .texts
+        .iter()
+        .find(|(t, _)| t.starts_with("peak "))
+        .map(|(t, _)| t.clone())
+        .expect("a peak note");
+    assert!(peak.contains(" Hz, "), "{peak}");
+    assert!(close(numbers(&peak)[0], 4.0 / tau), "{peak}");
+}
+
+/// Issue 10 acceptance F2: a `--plot-size` of any shape either draws a plot area (the
+/// curves span more than a line) or is refused naming the flag and a size that works,
+/// and that size then draws. 8000x300 panicked; 1500x300 drew the plot as a line.
+#[test]
+fn every_plot_size_draws_a_plot_or_is_refused_with_one_that_does() {
+    let dir = tempfile::tempdir().unwrap();
+    let svg = dir.path().join("size.svg");
+    let path = svg.to_str().unwrap();
+    let simulate = |size: &str| {
+        detune(&[
+            "simulate",
+            "models/overcentre.toml",
+            "--t-end",
+            "1",
+            "--plot-size",
+            size,
+            "--plot",
+            path,
+        ])
+    };
+    let span = || {
+        let ys = curve_ys(&std::fs::read_to_string(&svg).unwrap());
+        ys.iter().cloned().fold(f64::NEG_INFINITY, f64::max)
+            - ys.iter().cloned().fold(f64::INFINITY, f64::min)
+    };
+    // the size a refusal suggests
+    let suggested = |err: &str| -> String {
+        err.split("e.g. --plot-size ")
+            .nth(1)
+            .and_then(|t| t.split([',', ' ', '\n']).next())
+            .unwrap_or_else(|| panic!("no size suggested: {err}"))
+            .to_string()
+    };
+    for size in ["8000x300", "4000x300", "1500x300"] {
+        let (code, _, err) = simulate(size);
+        assert_eq!(code, 0, "{size}: {err}");
+        // the two angles apart by most of the plot area, at least 90 px tall
+        assert!(span() > 60.0, "{size}: the curves span {} px", span());
+    }
+    // the smallest size: its title and caption wrap to two lines each and its legend
+    // to two rows, which leaves no plot area: refused, with a size that draws
+    let (code, _, err) = simulate("300x300");
+    assert_ne!(code, 0);
+    assert!(
+        err.contains("--plot-size 300x300") && !err.contains("panicked"),
+        "{err}"
+    );
+    let (code, _, err) = simulate(&suggested(&err));
+    assert_eq!(code, 0, "{err}");
+    assert!(span() > 60.0, "the curves span {} px", span());
+    // four panels (two responses, their amplitudes per unit of F0) in 1000 px: refused
+    let sweep = |size: &str| {
+        detune(&[
+            "sweep",
+            "models/overcentre.toml",
+            "--param",
+            "omega",
+            "--from",
+            "2",
+            "--to",
+            "4",
+            "--step",
+            "1",
+            "--values",
+            "F0=0.5,1",
+            "--response",
+            "bar1.theta",
+            "--response",
+            "bar2.theta",
+            "--plot-size",
+            size,
+            "--plot",
+            path,
+        ])
+    };
+    let (code, _, err) = sweep("1600x1000");
+    assert_ne!(code, 0);
+    assert!(!err.contains("panicked"), "{err}");
+    assert!(err.contains("--plot-size 1600x1000"), "{err}");
+    let (code, _, err) = sweep(&suggested(&err));
+    assert_eq!(code, 0, "{err}");
+    assert!(span() > 60.0, "the curves span {} px", span());
+}
+
+/// Issue 10 acceptance F3: a sweep whose every point is in well 0 though it starts in
+/// well 2 names the well its curve is in and marks that well's ω_n (the square root of
+/// `equilibrium --all`'s undamped ω² for it), not the starting well's.
+#[test]
+fn a_sweep_that_leaves_its_starting_well_marks_the_well_it_is_in() {
+    let dir = tempfile::tempdir().unwrap();
+    let svg = dir.path().join("up.svg");
+    let (code, out, err) = detune(&[
+        "sweep",
+        "models/overcentre.toml",
+        "--set",
+        "F0=10",
+        "--param",
+        "omega",
+        "--from",
+        "0.5",
+        "--to",
+        "6",
+        "--step",
+        "0.25",
+        "--response",
+        "bar1.theta",
+        "--mode",
+        "up",
+        "--plot",
+        svg.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 0, "{err}");
+    assert!(
+        out.contains("at 23 of 23 frequencies (up): 0.5–6 rad/s in well 0"),
+        "{out}"
+    );
+    let (code, json, err) = detune(&[
+        "equilibrium",
+        "models/overcentre.toml",
+        "--set",
+        "F0=10",
+        "--all",
+        "--json",
+    ]);
+    assert_eq!(code, 0, "{err}");
+    let j: serde_json::Value = serde_json::from_str(&json).unwrap();
+    let eq = j["equilibria"].as_array().unwrap();
+    let omega_n = |k: usize| eq[k]["undamped_omega2"][0].as_f64().unwrap().sqrt();
+    let s = check(&svg, 1);
+    assert!(
+        has(&s, "(up), well 0 (bar1.theta = -0.866 rad)"),
+        "{:?}",
+        s.texts
+    );
+    assert!(has(&s, "starting in well 2"), "{:?}", s.texts);
+    let mark = format!("linear ω_n = {:.4} rad/s (well 0)", omega_n(0));
+    assert!(has(&s, &mark), "{mark} not in {:?}", s.texts);
+    let start = format!("{:.4} rad/s", omega_n(2));
+    assert!(!has(&s, &start), "well 2's {start} marked: {:?}", s.texts);
+}
+
+/// Issue 10 acceptance D5: a long caption wraps to the figure's width instead of being
+/// cut: every override is drawn whole.
+#[test]
+fn a_long_caption_wraps() {
+    let dir = tempfile::tempdir().unwrap();
+    let svg = dir.path().join("wrap.svg");
+    let sets = [
+        "theta1_0=0.800000",
+        "c=4.000000",
+        "k=51.000000",
+        "m1=1.100000",
+        "m2=0.900000",
+        "L0=2.010000",
+        "g=9.800000",
+    ];
+    let mut args = vec!["simulate", "models/overcentre.toml", "--t-end", "0.5"];
+    for s in &sets {
+        args.extend(["--set", s]);
+    }
+    args.extend(["--plot", svg.to_str().unwrap()]);
+    let (code, _, err) = detune(&args);
+    assert_eq!(code, 0, "{err}");
+    let s = check(&svg, 1);
+    let caption: Vec<&str> = s
+        .texts
+        .iter()
+        .filter(|(_, size)| (*size - 17.0).abs() < 1e-9)
+        .map(|(t, _)| t.as_str())
+        .collect();
+    assert!(caption.len() >= 2, "one line: {caption:?}");
+    let words: Vec<&str> = caption.iter().flat_map(|l| l.split(' ')).collect();
+    for set in &sets {
+        assert!(words.contains(set), "{set} not drawn whole: {caption:?}");
+    }
+}

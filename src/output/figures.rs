@@ -9,7 +9,8 @@
 //! references thin dash-dot, forcing lines orange, events (peaks, folds, branch points,
 //! jumps) black-edged markers with their values written beside them.
 
-use super::plot::{LinePlot, Note, Scale, Series, Style};
+use super::plot::{LinePlot, Note, Relabel, Scale, Series, Style};
+use super::units::FreqUnit;
 use crate::dynamics::simulate::Trajectory;
 use crate::frequency::Direction;
 use crate::frequency::study::{NaturalFrequency, SweepRun};
@@ -144,6 +145,26 @@ pub fn branch_figure(
     angle: bool,
     param_unit: &str,
 ) -> LinePlot {
+    let plot = branch_figure_in(case, b, idx, angle, param_unit, FreqUnit::RadPerSecond);
+    let again = std::sync::Arc::new((case.clone(), b.clone(), param_unit.to_string()));
+    with_relabel(vec![plot], move |unit| {
+        let (case, b, param_unit) = &*again;
+        vec![branch_figure_in(case, b, idx, angle, param_unit, unit)]
+    })
+    .pop()
+    .unwrap_or_default()
+}
+
+/// [`branch_figure`] of a frequency parameter (rad/s) drawn in `unit` (`--freq-unit`):
+/// the axis, the fold and branch point labels (made in the unit) and the data.
+pub fn branch_figure_in(
+    case: &Case,
+    b: &Branch,
+    idx: usize,
+    angle: bool,
+    param_unit: &str,
+    unit_f: FreqUnit,
+) -> LinePlot {
     let mut series = Vec::new();
     let mut seg: Vec<&BranchPoint> = Vec::new();
     let flush = |seg: &mut Vec<&BranchPoint>, series: &mut Vec<Series>| {
@@ -198,14 +219,17 @@ pub fn branch_figure(
                     x: p.value,
                     y: p.q[idx],
                     text: format!(
-                        "{} {} = {} {pu}",
+                        "{} {} = {}",
                         if label == "folds" {
                             "fold"
                         } else {
                             "branch point"
                         },
-                        b.param,
-                        short(p.value)
+                        unit_f.quantity(&b.param),
+                        match unit_f {
+                            FreqUnit::RadPerSecond => format!("{} {pu}", short(p.value)),
+                            u => freq(p.value, u),
+                        }
                     )
                     .trim_end()
                     .to_string(),
@@ -222,6 +246,7 @@ pub fn branch_figure(
         notes,
         ..LinePlot::default()
     }
+    .rescaled(unit_f)
 }
 
 /// A number in at most 4 significant decimals, trailing zeros trimmed.
@@ -289,16 +314,84 @@ pub fn sweep_figures(
     marks: &[(String, f64)],
     forcing: Option<&str>,
 ) -> Vec<LinePlot> {
+    let plots = sweep_figures_in(case, runs, natural, marks, forcing, FreqUnit::RadPerSecond);
+    let again = std::sync::Arc::new((
+        case.clone(),
+        runs.to_vec(),
+        natural.to_vec(),
+        marks.to_vec(),
+        forcing.map(str::to_string),
+    ));
+    with_relabel(plots, move |unit| {
+        let (case, runs, natural, marks, forcing) = &*again;
+        sweep_figures_in(case, runs, natural, marks, forcing.as_deref(), unit)
+    })
+}
+
+/// Each plot of `plots` made again in another frequency unit by `make` (the same
+/// builder, the same panels in the same order).
+pub(crate) fn with_relabel(
+    plots: Vec<LinePlot>,
+    make: impl Fn(FreqUnit) -> Vec<LinePlot> + Send + Sync + 'static,
+) -> Vec<LinePlot> {
+    let make = std::sync::Arc::new(make);
+    plots
+        .into_iter()
+        .enumerate()
+        .map(|(k, mut p)| {
+            let make = make.clone();
+            p.relabel = Some(Relabel(std::sync::Arc::new(move |unit| {
+                make(unit).into_iter().nth(k).unwrap_or_default()
+            })));
+            p
+        })
+        .collect()
+}
+
+/// A frequency (rad/s) as a figure's label writes it in `unit`: in rad/s `short`
+/// (`4.1 rad/s`), in Hz and rpm to four significant digits (`0.6525 Hz`).
+pub(crate) fn freq(w: f64, unit: FreqUnit) -> String {
+    format!("{} {}", short(unit.of(w)), unit.symbol())
+}
+
+/// A natural frequency or a forcing line (rad/s) as a legend writes it in `unit`: with
+/// four decimals in every unit (`2.9732 rad/s`, `0.4732 Hz`, `28.3935 rpm`), as precise
+/// as a reference line is read.
+fn line_freq(w: f64, unit: FreqUnit) -> String {
+    format!("{:.4} {}", unit.of(w), unit.symbol())
+}
+
+/// [`sweep_figures`] with every frequency in `unit` (`--freq-unit`): the axis, the labels
+/// (made in the unit, with significant digits) and the data drawn; CSV and JSON stay in
+/// rad/s.
+pub fn sweep_figures_in(
+    case: &Case,
+    runs: &[SweepRun],
+    natural: &[NaturalFrequency],
+    marks: &[(String, f64)],
+    forcing: Option<&str>,
+    unit_f: FreqUnit,
+) -> Vec<LinePlot> {
     let first = &runs[0].sweep;
-    // the wells the responses visit: with more than one, each curve is split by well and
-    // each well's linear natural frequencies are marked, named by the well
+    let rate = unit_f.rate();
+    // the wells the responses visit: when that is not the starting well alone, each
+    // curve is split by well and named by it, and the linear natural frequencies of the
+    // wells visited are marked, named by the well (those of a well no point is in are
+    // not: they would mark a resonance the curves cannot show)
     let visited = |run: &SweepRun| -> Vec<isize> {
         let mut w: Vec<isize> = run.sweep.points.iter().map(|p| p.well).collect();
         w.sort();
         w.dedup();
         w
     };
-    let several = runs.iter().any(|r| visited(r).len() > 1);
+    let several = runs.iter().any(|r| {
+        let v = visited(r);
+        v.len() > 1 || v.iter().any(|k| *k != r.sweep.wells.start as isize)
+    });
+    let in_start = !several
+        || runs
+            .iter()
+            .any(|r| visited(r).contains(&(r.sweep.wells.start as isize)));
     let start_tag = if several {
         format!(", well {}", first.wells.start)
     } else {
@@ -306,6 +399,7 @@ pub fn sweep_figures(
     };
     let mut vertical: Vec<(f64, String)> = natural
         .iter()
+        .filter(|_| in_start)
         .map(|n| {
             let tag = n
                 .run
@@ -318,25 +412,67 @@ pub fn sweep_figures(
                         String::new()
                     }
                 });
-            (n.omega, format!("linear ω_n = {:.4} rad/s{tag}", n.omega))
+            (
+                n.omega,
+                format!("linear {rate}_n = {}{tag}", line_freq(n.omega, unit_f)),
+            )
         })
         .collect();
-    if several && runs.len() == 1 {
-        let w = &first.wells;
-        for k in visited(&runs[0]) {
-            let Ok(k) = usize::try_from(k) else { continue };
-            if k == w.start || !w.equilibria[k].stable {
-                continue;
+    if several {
+        // the other wells visited, per run: one line per well's frequency, named by the
+        // run when the runs' frequencies differ
+        let close = |x: f64, y: f64| (x - y).abs() <= 1e-6 * x.abs().max(y.abs());
+        let mut others: Vec<(usize, Vec<(f64, Option<String>)>)> = Vec::new();
+        for run in runs {
+            let w = &run.sweep.wells;
+            for k in visited(run) {
+                let Ok(k) = usize::try_from(k) else { continue };
+                if k == w.start || k >= w.equilibria.len() || !w.equilibria[k].stable {
+                    continue;
+                }
+                let label = (!run.values.is_empty())
+                    .then(|| crate::frequency::study::values_label(&run.values));
+                let entry = match others.iter_mut().find(|(j, _)| *j == k) {
+                    Some(e) => e,
+                    None => {
+                        others.push((k, Vec::new()));
+                        others.last_mut().expect("pushed")
+                    }
+                };
+                for w2 in w.equilibria[k].omega2.iter().filter(|x| **x > 0.0) {
+                    entry.1.push((w2.sqrt(), label.clone()));
+                }
             }
-            for w2 in w.equilibria[k].omega2.iter().filter(|x| **x > 0.0) {
-                let omega = w2.sqrt();
-                vertical.push((omega, format!("linear ω_n = {omega:.4} rad/s (well {k})")));
+        }
+        for (k, lines) in others {
+            // a frequency every run visiting the well has is named by the well alone
+            let runs_here = {
+                let mut l: Vec<&Option<String>> = lines.iter().map(|(_, l)| l).collect();
+                l.dedup();
+                l.len()
+            };
+            let mut shown: Vec<(f64, String)> = Vec::new();
+            for (omega, label) in &lines {
+                let shared = lines.iter().filter(|(o, _)| close(*o, *omega)).count() >= runs_here;
+                let tag = match label {
+                    Some(l) if !shared => format!("{l}, well {k}"),
+                    _ => format!("well {k}"),
+                };
+                if !shown.iter().any(|(o, t)| close(*o, *omega) && *t == tag) {
+                    shown.push((*omega, tag));
+                }
+            }
+            for (omega, tag) in shown {
+                vertical.push((
+                    omega,
+                    format!("linear {rate}_n = {} ({tag})", line_freq(omega, unit_f)),
+                ));
             }
         }
     }
     let marks: Vec<(f64, String)> = marks
         .iter()
-        .map(|(label, w)| (*w, format!("{label} ({w:.4} rad/s)")))
+        .map(|(label, w)| (*w, format!("{label} ({})", line_freq(*w, unit_f))))
         .collect();
     let complete = runs.iter().all(|r| r.sweep.complete);
     let computed: usize = runs.iter().map(|r| r.sweep.points.len()).sum();
@@ -344,8 +480,11 @@ pub fn sweep_figures(
     let incomplete = match (complete, failed) {
         (true, _) => String::new(),
         (false, Some(f)) => format!(
-            " — INCOMPLETE: failed at {} rad/s after {computed} frequencies",
-            crate::diag::num(f.omega)
+            " — INCOMPLETE: failed at {} after {computed} frequencies",
+            match unit_f {
+                FreqUnit::RadPerSecond => format!("{} rad/s", crate::diag::num(f.omega)),
+                u => freq(f.omega, u),
+            }
         ),
         (false, None) => format!(" — INCOMPLETE: interrupted after {computed} frequencies"),
     };
@@ -443,8 +582,8 @@ pub fn sweep_figures(
                     x: pk.omega,
                     y: pk.amplitude * scale,
                     text: format!(
-                        "peak {} rad/s, {} {unit}{tag}",
-                        short(pk.omega),
+                        "peak {}, {} {unit}{tag}",
+                        freq(pk.omega, unit_f),
                         short(pk.amplitude * scale)
                     ),
                 });
@@ -458,10 +597,10 @@ pub fn sweep_figures(
                     x: j.to,
                     y: j.amplitude_after * scale,
                     text: format!(
-                        "jump {} {}→{} rad/s{tag}",
+                        "jump {} {}→{}{tag}",
                         j.direction.name(),
-                        short(j.from),
-                        short(j.to)
+                        short(unit_f.of(j.from)),
+                        freq(j.to, unit_f)
                     ),
                 });
             }
@@ -531,7 +670,7 @@ pub fn sweep_figures(
             });
         }
     }
-    plots
+    plots.into_iter().map(|p| p.rescaled(unit_f)).collect()
 }
 
 /// How `frf --plot` draws amplitudes.
@@ -558,13 +697,51 @@ pub fn frf_figures(
     marks: &[(String, f64)],
     scale: AmplitudeScale,
 ) -> Vec<LinePlot> {
+    let plots = frf_figures_in(
+        case,
+        fr,
+        units,
+        natural,
+        marks,
+        scale,
+        FreqUnit::RadPerSecond,
+    );
+    let again = std::sync::Arc::new((
+        case.clone(),
+        fr.clone(),
+        units.iter().map(|u| u.to_string()).collect::<Vec<_>>(),
+        natural.to_vec(),
+        marks.to_vec(),
+    ));
+    with_relabel(plots, move |unit| {
+        let (case, fr, units, natural, marks) = &*again;
+        let units: Vec<&str> = units.iter().map(String::as_str).collect();
+        frf_figures_in(case, fr, &units, natural, marks, scale, unit)
+    })
+}
+
+/// [`frf_figures`] with every frequency in `unit` (`--freq-unit`): the axis, the labels
+/// (made in the unit: `f_n = |λ|/2π = 0.4732 Hz`) and the data drawn.
+pub fn frf_figures_in(
+    case: &Case,
+    fr: &crate::linear::FrequencyResponse,
+    units: &[&str],
+    natural: &[f64],
+    marks: &[(String, f64)],
+    scale: AmplitudeScale,
+    unit_f: FreqUnit,
+) -> Vec<LinePlot> {
+    let natural_name = match unit_f {
+        FreqUnit::RadPerSecond => "ω_n = |λ|",
+        _ => "f_n = |λ|/2π",
+    };
     let vertical: Vec<(f64, String)> = natural
         .iter()
-        .map(|w| (*w, format!("ω_n = |λ| = {w:.4} rad/s")))
+        .map(|w| (*w, format!("{natural_name} = {}", line_freq(*w, unit_f))))
         .collect();
     let marks: Vec<(f64, String)> = marks
         .iter()
-        .map(|(label, w)| (*w, format!("{label} ({w:.4} rad/s)")))
+        .map(|(label, w)| (*w, format!("{label} ({})", line_freq(*w, unit_f))))
         .collect();
     let db = |a: f64| 20.0 * a.log10();
     let mut plots = Vec::new();
@@ -608,8 +785,8 @@ pub fn frf_figures(
                     x: p.omega,
                     y: amp(p.amplitude),
                     text: format!(
-                        "peak {} rad/s, {} {amp_unit}",
-                        short(p.omega),
+                        "peak {}, {} {amp_unit}",
+                        freq(p.omega, unit_f),
                         short(amp(p.amplitude))
                     ),
                 });
@@ -621,7 +798,7 @@ pub fn frf_figures(
                 let lines = if natural.is_empty() {
                     vec![]
                 } else {
-                    vec!["dash-dot: ω_n = |λ| of the damped modes".to_string()]
+                    vec![format!("dash-dot: {natural_name} of the damped modes")]
                 };
                 case.caption(&lines)
             } else {
@@ -638,6 +815,7 @@ pub fn frf_figures(
             vertical: vertical.clone(),
             marks: marks.clone(),
             notes,
+            ..LinePlot::default()
         });
         plots.push(LinePlot {
             title: format!("{name}: phase"),
@@ -657,7 +835,7 @@ pub fn frf_figures(
             ..LinePlot::default()
         });
     }
-    plots
+    plots.into_iter().map(|p| p.rescaled(unit_f)).collect()
 }
 
 /// A mode tracking: ω_n against the parameter, one curve per label (every value solved,

@@ -5,6 +5,7 @@ use super::Provenance;
 use super::figures::{Case, short, with_unit};
 use super::plot::{LinePlot, Note, Series, Style};
 use super::results::{Cell, MEASURES, measure_values, write_rows};
+use super::units::FreqUnit;
 use crate::diag::Result;
 use crate::periodic::continuation::{BranchSummary, Located, Nfr, NfrPeak, Special};
 use nalgebra::Complex;
@@ -231,6 +232,32 @@ pub fn nfr_figures(
     param_unit: &str,
     backbones: &[BackboneLine],
 ) -> Vec<LinePlot> {
+    let plots = nfr_figures_in(case, c, param_unit, backbones, FreqUnit::RadPerSecond);
+    let again = std::sync::Arc::new((
+        case.clone(),
+        c.clone(),
+        param_unit.to_string(),
+        backbones.to_vec(),
+    ));
+    super::figures::with_relabel(plots, move |unit| {
+        let (case, c, param_unit, backbones) = &*again;
+        nfr_figures_in(case, c, param_unit, backbones, unit)
+    })
+}
+
+/// [`nfr_figures`] of a curve over the forcing frequency (rad/s) drawn in `unit`
+/// (`--freq-unit`): the axis, the labels (made in the unit) and the data.
+pub fn nfr_figures_in(
+    case: &Case,
+    c: &Nfr,
+    param_unit: &str,
+    backbones: &[BackboneLine],
+    unit_f: FreqUnit,
+) -> Vec<LinePlot> {
+    let at = |v: f64| match unit_f {
+        FreqUnit::RadPerSecond => format!("{} {param_unit}", short(v)).trim_end().to_string(),
+        u => super::figures::freq(v, u),
+    };
     (0..c.responses.len())
         .map(|r| {
             let unit = c.units.get(r).copied().unwrap_or("");
@@ -308,9 +335,7 @@ pub fn nfr_figures(
                     notes.push(Note {
                         x: s.value,
                         y: s.amplitude[r],
-                        text: format!("{word} {} {param_unit}", short(s.value))
-                            .trim_end()
-                            .to_string(),
+                        text: format!("{word} {}", at(s.value)),
                     });
                 }
             }
@@ -333,9 +358,7 @@ pub fn nfr_figures(
                     notes.push(Note {
                         x: p.value,
                         y: p.amplitude,
-                        text: format!("peak {} {param_unit}", short(p.value))
-                            .trim_end()
-                            .to_string(),
+                        text: format!("peak {}", at(p.value)),
                     });
                 }
             }
@@ -348,6 +371,7 @@ pub fn nfr_figures(
                 notes,
                 ..LinePlot::default()
             }
+            .rescaled(unit_f)
         })
         .collect()
 }

@@ -12,6 +12,11 @@
 //! plotters' own legend is drawn inside the plot area (over the data) with a plain line
 //! whatever the series' style: the legend here sits below the plot area and draws each
 //! entry in its curve's pen (colour, width, dash pattern, marker).
+//!
+//! Also hand-written, as plotters has neither: titles and captions wrapped to the
+//! figure's width, and the placement of the notes (peaks, jumps, folds) near their points
+//! but clear of the curves, the vertical lines and each other (a leader line when one is
+//! set away). [`Panels::check`] refuses a `--plot-size` whose panels cannot hold a plot.
 
 use super::style::{self, Fonts, Marker};
 use crate::diag::{Error, Result};
@@ -80,58 +85,70 @@ pub struct Note {
 }
 
 impl LinePlot {
-    /// The plot of a frequency axis in rad/s redrawn in `unit` (`--freq-unit`): the
-    /// series' x, the vertical lines and the marks rescaled, `[rad/s]` in the x label and
-    /// every `<number> rad/s` in the labels rewritten in the unit. A cyclic unit's
-    /// natural frequency is f_n, not ω_n: `ω_n = 0.4732 Hz` would read as an angular
-    /// frequency, so `ω_n` becomes `f_n` (`ω_n = |λ|` becomes `f_n = |λ|/2π`) in Hz and in
-    /// rpm alike, an axis `ω [rad/s]` becomes `f [Hz]` and one named after a parameter,
-    /// `omega [rad/s]`, becomes `omega/2π [Hz]`. Only the picture changes: the
-    /// data written to CSV/JSON stay in rad/s.
-    pub fn in_frequency_unit(mut self, unit: super::units::FreqUnit) -> Self {
+    /// The plot of a frequency axis in rad/s redrawn in `unit` (`--freq-unit`). A plot
+    /// made by a figure builder ([`super::figures`]) is made again by it in the unit
+    /// ([`LinePlot::relabel`]): its labels are written in the unit where they are made,
+    /// with significant digits (`jump up 0.6366→0.6525 Hz`). A plot made by hand has its
+    /// series' x, the vertical lines and the marks rescaled ([`LinePlot::rescaled`]) and
+    /// every `<number> rad/s` in its labels rewritten in the unit, with as many decimals
+    /// as it had. A cyclic unit's natural frequency is f_n, not ω_n: `ω_n = 0.4732 Hz`
+    /// would read as an angular frequency, so `ω_n` becomes `f_n` (`ω_n = |λ|` becomes
+    /// `f_n = |λ|/2π`) in Hz and in rpm alike. Only the picture changes: the data written
+    /// to CSV/JSON stay in rad/s.
+    pub fn in_frequency_unit(self, unit: super::units::FreqUnit) -> Self {
         if unit == super::units::FreqUnit::RadPerSecond {
             return self;
+        }
+        if let Some(again) = &self.relabel {
+            return (again.0)(unit);
         }
         let relabel = |text: &str| -> String {
             // each `<number> rad/s` becomes `<number in unit> <unit>`, with as many
             // decimals as it had
             let mut out = String::new();
-            let mut rest = text;
-            while let Some(at) = rest.find(" rad/s") {
-                let (before, after) = rest.split_at(at);
-                let start = before
-                    .rfind(|c: char| !(c.is_ascii_digit() || c == '.' || c == '-' || c == 'e'))
-                    .map_or(0, |i| i + 1);
-                match before[start..].parse::<f64>() {
-                    Ok(w) if start < before.len() => {
-                        let decimals = before[start..].split_once('.').map_or(0, |(_, d)| d.len());
-                        out.push_str(&before[..start]);
-                        out.push_str(&unit.show(w, decimals));
-                    }
-                    _ => {
-                        out.push_str(before);
-                        out.push_str(" rad/s");
-                    }
-                }
-                rest = &after[" rad/s".len()..];
+            let mut last = 0;
+            for (range, w, decimals) in super::units::rad_s_in_text(text) {
+                out.push_str(&text[last..range.start]);
+                out.push_str(&unit.show(w, decimals));
+                last = range.end + " rad/s".len();
             }
-            out.push_str(rest);
+            out.push_str(&text[last..]);
             out.replace("ω_n = |λ|", "f_n = |λ|/2π")
                 .replace("ω_n", "f_n")
         };
-        for s in &mut self.series {
-            s.x.iter_mut().for_each(|x| *x = unit.of(*x));
+        let mut p = self;
+        for s in &mut p.series {
             s.label = relabel(&s.label);
         }
-        for (x, label) in self.vertical.iter_mut().chain(self.marks.iter_mut()) {
-            *x = unit.of(*x);
+        for (_, label) in p.vertical.iter_mut().chain(p.marks.iter_mut()) {
             *label = relabel(label);
+        }
+        for n in &mut p.notes {
+            n.text = relabel(&n.text);
+        }
+        p.caption = relabel(&p.caption);
+        p.title = relabel(&p.title);
+        p.rescaled(unit)
+    }
+
+    /// The plot's frequency axis in `unit`, its labels left as they are (written in the
+    /// unit already): the series' x, the vertical lines, the marks and the notes
+    /// rescaled; the x label `ω [rad/s]` becomes `f [Hz]` and one named after a
+    /// parameter, `omega [rad/s]`, becomes `omega/2π [Hz]`; the title names what the
+    /// axis shows (`… against omega/2π`).
+    pub fn rescaled(mut self, unit: super::units::FreqUnit) -> Self {
+        if unit == super::units::FreqUnit::RadPerSecond {
+            return self;
+        }
+        for s in &mut self.series {
+            s.x.iter_mut().for_each(|x| *x = unit.of(*x));
+        }
+        for (x, _) in self.vertical.iter_mut().chain(self.marks.iter_mut()) {
+            *x = unit.of(*x);
         }
         for n in &mut self.notes {
             n.x = unit.of(n.x);
-            n.text = relabel(&n.text);
         }
-        self.caption = relabel(&self.caption);
         // the title names what the axis shows: `… against omega` over an `omega/2π [Hz]`
         // axis becomes `… against omega/2π` (`against ω`: `against f`)
         let shown = match self.x_label.strip_suffix(" [rad/s]") {
@@ -145,11 +162,22 @@ impl LinePlot {
                 .x_label
                 .replace("[rad/s]", &format!("[{}]", unit.symbol())),
         };
-        self.title = relabel(&self.title);
         if let Some((name, quantity)) = &shown {
             self.title = against(&self.title, name, quantity);
         }
+        self.relabel = None;
         self
+    }
+}
+
+/// How a figure builder makes a panel again in another frequency unit (see
+/// [`LinePlot::in_frequency_unit`]).
+#[derive(Clone)]
+pub struct Relabel(pub std::sync::Arc<dyn Fn(super::units::FreqUnit) -> LinePlot + Send + Sync>);
+
+impl std::fmt::Debug for Relabel {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("Relabel")
     }
 }
 
@@ -196,6 +224,9 @@ pub struct LinePlot {
     pub marks: Vec<(f64, String)>,
     /// Labels beside marked points.
     pub notes: Vec<Note>,
+    /// The figure builder's way to make this panel again in another frequency unit
+    /// (None: a plot made by hand).
+    pub relabel: Option<Relabel>,
 }
 
 impl LinePlot {
@@ -354,9 +385,20 @@ impl Frame {
     pub fn map(&self, x: f64, y: f64) -> Option<(f64, f64)> {
         let tx = Self::frac(x, self.x, self.x_log)?;
         let ty = Self::frac(y, self.y, self.y_log)?;
+        // (a degenerate area, right < left or bottom < top, maps to its edge: never a
+        // panic)
+        let within = |v: f64, a: f64, b: f64| v.max(a.min(b)).min(a.max(b));
         Some((
-            (self.left + tx * (self.right - self.left)).clamp(self.left, self.right),
-            (self.bottom - ty * (self.bottom - self.top)).clamp(self.top, self.bottom),
+            within(
+                self.left + tx * (self.right - self.left),
+                self.left,
+                self.right,
+            ),
+            within(
+                self.bottom - ty * (self.bottom - self.top),
+                self.top,
+                self.bottom,
+            ),
         ))
     }
     /// The pixel column of x (None outside the axis).
@@ -769,6 +811,89 @@ pub fn write_figure<F: Figure>(path: &str, fig: &F) -> Result<()> {
 pub struct Panels<'a> {
     pub plots: &'a [LinePlot],
     pub size: (u32, u32),
+    /// How many times larger than asked the figure is drawn (3 for a supersampled PNG,
+    /// see [`Figure::resized`]; 1 otherwise).
+    pub zoom: f64,
+}
+
+impl<'a> Panels<'a> {
+    /// `plots` stacked at `size`.
+    pub fn new(plots: &'a [LinePlot], size: (u32, u32)) -> Panels<'a> {
+        Panels {
+            plots,
+            size,
+            zoom: 1.0,
+        }
+    }
+
+    fn fonts(&self) -> Fonts {
+        let n = self.plots.len().max(1) as f64;
+        Fonts::for_panel(self.size.0, self.size.1 as f64 / n, self.zoom)
+    }
+
+    /// The panels that lack room for a plot area of [`MIN_PLOT`] at this size: for each,
+    /// its index and the height it needs, px.
+    fn cramped(&self) -> Vec<(usize, f64, f64)> {
+        style::register_font();
+        let mut svg = String::new();
+        let root = SVGBackend::with_string(&mut svg, self.size).into_drawing_area();
+        let f = self.fonts();
+        let areas = root.split_evenly((self.plots.len().max(1), 1));
+        let mut out = Vec::new();
+        for (k, (plot, area)) in self.plots.iter().zip(areas.iter()).enumerate() {
+            let l = panel_layout(plot, area, &f);
+            let h = area.dim_in_pixel().1 as f64;
+            if l.needed > h || l.plot_w < MIN_PLOT.1 * f.scale {
+                out.push((k, l.needed, h));
+            }
+        }
+        out
+    }
+
+    /// Refuse a size whose panels cannot hold a plot (`--plot-size`), naming the
+    /// smallest height that can at this width.
+    pub fn check(&self) -> Result<()> {
+        let cramped = self.cramped();
+        if cramped.is_empty() {
+            return Ok(());
+        }
+        let (w, h) = self.size;
+        let n = self.plots.len().max(1) as u32;
+        // the smallest height that fits (text grows with the panel height up to the
+        // width's scale, so try heights upwards)
+        let mut fit = None;
+        let mut tall = h;
+        while tall < MAX_SIDE {
+            tall = (tall + 20 * n).min(MAX_SIDE);
+            let wider = Panels::new(self.plots, (w, tall));
+            if wider.cramped().is_empty() {
+                fit = Some(tall);
+                break;
+            }
+        }
+        let narrow = (w as f64) < MIN_PLOT.1 + 300.0;
+        let panels = if n == 1 {
+            "its one panel".to_string()
+        } else {
+            format!("each of its {n} panels")
+        };
+        let (k, needed, has) = cramped[0];
+        Err(Error::request(
+            format!(
+                "--plot-size {w}x{h}: the figure has no room for its plot: {panels} gets {} px, and panel {} needs {:.0} px for its title, axes, legend and a plot area",
+                has.round(),
+                k + 1,
+                needed.ceil()
+            ),
+            match fit {
+                Some(t) => format!(
+                    "give the figure at least {t} px of height at this width, e.g. --plot-size {w}x{t}{}, or leave out --plot-size",
+                    if narrow { " (or make it wider)" } else { "" }
+                ),
+                None => "plot fewer responses at a time, or leave out --plot-size".to_string(),
+            },
+        ))
+    }
 }
 
 impl Figure for Panels<'_> {
@@ -779,6 +904,7 @@ impl Figure for Panels<'_> {
         Some(Panels {
             plots: self.plots,
             size,
+            zoom: self.zoom * size.0 as f64 / self.size.0 as f64,
         })
     }
     fn draw<DB: DrawingBackend>(
@@ -786,7 +912,7 @@ impl Figure for Panels<'_> {
         root: &DrawingArea<DB, Shift>,
         painter: &mut Painter<'_, DB>,
     ) -> std::result::Result<(), String> {
-        let fonts = Fonts::for_width(self.size.0);
+        let fonts = self.fonts();
         let areas = root.split_evenly((self.plots.len().max(1), 1));
         for (k, (plot, area)) in self.plots.iter().zip(areas.iter()).enumerate() {
             draw_panel(plot, area, &fonts, painter, k)?;
@@ -802,10 +928,7 @@ pub fn line_plot_svg(plot: &LinePlot) -> std::result::Result<String, String> {
 
 /// Render plots stacked vertically in one SVG (default size).
 pub fn panels_svg(plots: &[LinePlot]) -> std::result::Result<String, String> {
-    let fig = Panels {
-        plots,
-        size: default_size(plots.len()),
-    };
+    let fig = Panels::new(plots, default_size(plots.len()));
     render(&fig, Format::Svg).map(|b| String::from_utf8_lossy(&b).into_owned())
 }
 
@@ -821,13 +944,11 @@ pub fn write_panels(path: &str, plots: &[LinePlot]) -> Result<()> {
 
 /// [`write_panels`] at a size (px; None: [`default_size`]).
 pub fn write_panels_sized(path: &str, plots: &[LinePlot], size: Option<(u32, u32)>) -> Result<()> {
-    write_figure(
-        path,
-        &Panels {
-            plots,
-            size: size.unwrap_or_else(|| default_size(plots.len())),
-        },
-    )
+    let fig = Panels::new(plots, size.unwrap_or_else(|| default_size(plots.len())));
+    if size.is_some() {
+        fig.check()?;
+    }
+    write_figure(path, &fig)
 }
 
 fn range(values: impl Iterator<Item = f64>, log: bool) -> (f64, f64) {
@@ -1120,6 +1241,10 @@ pub(crate) fn axes<DB: DrawingBackend>(
     let y_area = (f.tick * 4.4 + f.label * 1.9) as u32;
     let grid = style::GRID.stroke_width(1);
     let edge = RGBColor(60, 60, 60).stroke_width(1);
+    // as many x ticks as their labels have room for (8 at the default width)
+    let x_ticks = ((area.dim_in_pixel().0 as f64 - y_area as f64 - 32.0 * s) / (85.0 * s))
+        .floor()
+        .clamp(3.0, 8.0) as usize;
     macro_rules! mesh {
         ($chart:expr, $xf:expr, $yf:expr) => {{
             let mut chart = $chart;
@@ -1134,7 +1259,7 @@ pub(crate) fn axes<DB: DrawingBackend>(
                 .light_line_style(WHITE)
                 .bold_line_style(grid)
                 .axis_style(edge)
-                .x_labels(8)
+                .x_labels(x_ticks)
                 .y_labels(7)
                 .draw()
                 .map_err(err)?;
@@ -1182,7 +1307,74 @@ pub(crate) fn axes<DB: DrawingBackend>(
     })
 }
 
-/// Title and caption of a panel at its top; returns the height they take, px.
+/// `text` broken at spaces into lines no wider than `width` px in `font` (a word longer
+/// than the width stays whole on its line).
+fn wrap<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    text: &str,
+    font: &FontDesc<'_>,
+    width: f64,
+) -> Vec<String> {
+    let measure = |t: &str| {
+        area.estimate_text_size(t, &font.clone().into())
+            .map(|(w, _)| w as f64)
+            .unwrap_or(t.chars().count() as f64 * font.get_size() * 0.5)
+    };
+    let mut lines: Vec<String> = Vec::new();
+    let mut line = String::new();
+    for word in text.split(' ') {
+        let candidate = if line.is_empty() {
+            word.to_string()
+        } else {
+            format!("{line} {word}")
+        };
+        if !line.is_empty() && measure(&candidate) > width {
+            lines.push(std::mem::take(&mut line));
+            line = word.to_string();
+        } else {
+            line = candidate;
+        }
+    }
+    if !line.is_empty() {
+        lines.push(line);
+    }
+    lines
+}
+
+/// The title's and the caption's lines, wrapped to the width of `area`.
+fn header_lines<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    title: &str,
+    caption: &str,
+    f: &Fonts,
+) -> (Vec<String>, Vec<String>) {
+    let width = area.dim_in_pixel().0 as f64 - 24.0 * f.scale;
+    let title_font = font(f.title).style(FontStyle::Bold);
+    let lines = |text: &str, fd: &FontDesc<'_>| {
+        if text.is_empty() {
+            Vec::new()
+        } else {
+            wrap(area, text, fd, width)
+        }
+    };
+    (lines(title, &title_font), lines(caption, &font(f.caption)))
+}
+
+/// Height the title and caption of a panel take, px (see [`draw_header`]).
+fn header_height(title_lines: usize, caption_lines: usize, f: &Fonts) -> f64 {
+    let s = f.scale;
+    let mut y = 8.0 * s;
+    if title_lines > 0 {
+        y += f.title * (1.55 + 1.25 * (title_lines - 1) as f64);
+    }
+    if caption_lines > 0 {
+        y += f.caption * (1.55 + 1.25 * (caption_lines - 1) as f64);
+    }
+    y + 2.0 * s
+}
+
+/// Title and caption of a panel at its top, each wrapped to the panel's width; returns
+/// the height they take, px.
 pub fn draw_header<DB: DrawingBackend>(
     area: &DrawingArea<DB, Shift>,
     title: &str,
@@ -1190,39 +1382,65 @@ pub fn draw_header<DB: DrawingBackend>(
     f: &Fonts,
 ) -> std::result::Result<f64, String> {
     let s = f.scale;
+    let (title_lines, caption_lines) = header_lines(area, title, caption, f);
     let mut y = 8.0 * s;
     let x = (12.0 * s) as i32;
-    if !title.is_empty() {
+    for (i, line) in title_lines.iter().enumerate() {
+        if i > 0 {
+            y += f.title * 1.25;
+        }
         area.draw(&Text::new(
-            title.to_string(),
+            line.clone(),
             (x, y as i32),
             font(f.title).style(FontStyle::Bold),
         ))
         .map_err(err)?;
+    }
+    if !title_lines.is_empty() {
         y += f.title * 1.55;
     }
-    if !caption.is_empty() {
+    for (i, line) in caption_lines.iter().enumerate() {
+        if i > 0 {
+            y += f.caption * 1.25;
+        }
         area.draw(&Text::new(
-            caption.to_string(),
+            line.clone(),
             (x, y as i32),
             font(f.caption).color(&RGBColor(50, 50, 50)),
         ))
         .map_err(err)?;
-        y += f.caption * 1.55;
     }
-    Ok(y + 2.0 * s)
+    let h = header_height(title_lines.len(), caption_lines.len(), f);
+    debug_assert!(caption_lines.is_empty() || (h - (y + f.caption * 1.55 + 2.0 * s)).abs() < 1.0);
+    Ok(h)
 }
 
-/// Place note texts beside their points, avoiding each other (a few tries).
+/// Where a note's text goes: its top-left corner, and whether it sits away from its point
+/// (drawn with a leader line).
+struct Placed {
+    text: String,
+    at: (f64, f64),
+    point: (f64, f64),
+    size: (f64, f64),
+    leader: bool,
+}
+
+/// Place note texts near their points, clear of each other, of the curves and of the
+/// vertical lines where a place near the point allows (tried in order: beside the point
+/// above and below, on either side, then further up and down), else in the least crowded
+/// of those places, with a leader line to the point when it sits away from it.
 fn place_notes<DB: DrawingBackend>(
     area: &DrawingArea<DB, Shift>,
     frame: &Frame,
     notes: &[Note],
+    obstacles: &[(f64, f64)],
+    columns: &[f64],
     f: &Fonts,
-) -> Vec<(String, (f64, f64))> {
+) -> Vec<Placed> {
     let s = f.scale;
-    let mut placed: Vec<(f64, f64, f64, f64)> = Vec::new();
+    let mut boxes: Vec<(f64, f64, f64, f64)> = Vec::new();
     let mut out = Vec::new();
+    let pad = 3.0 * s;
     for n in notes {
         let Some((px, py)) = frame.map(n.x, n.y) else {
             continue;
@@ -1231,29 +1449,153 @@ fn place_notes<DB: DrawingBackend>(
             .estimate_text_size(&n.text, &font(f.note).into())
             .map(|(w, h)| (w as f64, h as f64))
             .unwrap_or((n.text.chars().count() as f64 * f.note * 0.6, f.note));
-        let mut x = px + 10.0 * s;
-        if x + tw > frame.right {
-            x = px - 10.0 * s - tw;
+        let gap = 9.0 * s;
+        let xs = [px + gap, px - gap - tw, px - tw / 2.0];
+        let mut ys = vec![py - th - gap, py + gap];
+        for k in 1..=8 {
+            let step = k as f64 * (th + 4.0 * s);
+            ys.push(py - th - gap - step);
+            ys.push(py + gap + step);
         }
-        x = x.max(frame.left + 2.0);
-        let mut y = py - th - 8.0 * s;
-        if y < frame.top {
-            y = py + 8.0 * s;
-        }
-        for _ in 0..6 {
-            let clash = placed
-                .iter()
-                .any(|&(a, b, c, d)| x < c && x + tw > a && y < d && y + th > b);
-            if !clash {
-                break;
+        let mut best: Option<(f64, (f64, f64))> = None;
+        'search: for (iy, y) in ys.iter().enumerate() {
+            for x in xs {
+                let (x, y) = (
+                    x.min(frame.right - tw).max(frame.left + 2.0),
+                    y.min(frame.bottom - th).max(frame.top + 1.0),
+                );
+                let (x0, y0, x1, y1) = (x - pad, y - pad, x + tw + pad, y + th + pad);
+                let inside = |(a, b): (f64, f64)| a >= x0 && a <= x1 && b >= y0 && b <= y1;
+                let labels = boxes
+                    .iter()
+                    .filter(|&&(a, b, c, d)| x < c && x + tw > a && y < d && y + th > b)
+                    .count() as f64;
+                let curves = obstacles.iter().filter(|p| inside(**p)).count() as f64;
+                let lines = columns.iter().filter(|c| **c >= x0 && **c <= x1).count() as f64;
+                // the marked point itself, and a place far from it, count against
+                let covers = if inside((px, py)) { 1.0 } else { 0.0 };
+                let score =
+                    1000.0 * labels + curves + 30.0 * lines + 50.0 * covers + 0.5 * iy as f64;
+                if best.is_none_or(|(b, _)| score < b) {
+                    best = Some((score, (x, y)));
+                }
+                if labels + curves + lines + covers == 0.0 {
+                    break 'search;
+                }
             }
-            y += th * 1.2;
         }
-        y = y.min(frame.bottom - th).max(frame.top);
-        placed.push((x, y, x + tw, y + th));
-        out.push((n.text.clone(), (x, y)));
+        let Some((_, (x, y))) = best else { continue };
+        boxes.push((x, y, x + tw, y + th));
+        // away from the point: more than a text height off it
+        let dx = if px < x {
+            x - px
+        } else if px > x + tw {
+            px - x - tw
+        } else {
+            0.0
+        };
+        let dy = if py < y {
+            y - py
+        } else if py > y + th {
+            py - y - th
+        } else {
+            0.0
+        };
+        out.push(Placed {
+            text: n.text.clone(),
+            at: (x, y),
+            point: (px, py),
+            size: (tw, th),
+            leader: dx.hypot(dy) > th + gap * 1.5,
+        });
     }
     out
+}
+
+/// Points along the curves of a plot every few pixels (what a note should not cover).
+fn curve_points(frame: &Frame, plot: &LinePlot, step: f64) -> Vec<(f64, f64)> {
+    let mut out = Vec::new();
+    for series in &plot.series {
+        let pts: Vec<Option<(f64, f64)>> = series
+            .x
+            .iter()
+            .zip(&series.y)
+            .map(|(x, y)| frame.map(*x, *y))
+            .collect();
+        for w in pts.windows(2) {
+            if let [Some(a), Some(b)] = w {
+                let len = (b.0 - a.0).hypot(b.1 - a.1);
+                let n = (len / step).ceil().max(1.0) as usize;
+                for k in 0..n {
+                    let t = k as f64 / n as f64;
+                    out.push((a.0 + (b.0 - a.0) * t, a.1 + (b.1 - a.1) * t));
+                }
+            }
+        }
+        if let Some(Some(last)) = pts.last() {
+            out.push(*last);
+        }
+    }
+    out
+}
+
+/// The smallest plot area a panel keeps, px at scale 1 (height, width).
+const MIN_PLOT: (f64, f64) = (90.0, 120.0);
+
+/// How a panel's height is shared: the header, the chart (axes and plot area), the legend.
+struct PanelLayout {
+    entries: Vec<Entry>,
+    pens: Vec<(Pen, usize)>,
+    placed: Vec<Option<(f64, usize)>>,
+    chart_h: f64,
+    /// The height the panel needs for a plot area of [`MIN_PLOT`], px.
+    needed: f64,
+    /// The plot area's width, px.
+    plot_w: f64,
+}
+
+/// The x range of a plot's data.
+fn x_range(plot: &LinePlot) -> (f64, f64) {
+    range(plot.series.iter().flat_map(|s| s.x.iter().copied()), false)
+}
+
+fn panel_layout<DB: DrawingBackend>(
+    plot: &LinePlot,
+    area: &DrawingArea<DB, Shift>,
+    f: &Fonts,
+) -> PanelLayout {
+    let s = f.scale;
+    let (w, h) = area.dim_in_pixel();
+    let (t, c) = header_lines(area, &plot.title, &plot.caption, f);
+    let head = header_height(t.len(), c.len(), f);
+    let (pens, mut entries) = pens(plot, f);
+    // reference and forcing lines outside the x range are not drawn: nor listed
+    let xr = x_range(plot);
+    let n_lines = plot.vertical.len() + plot.marks.len();
+    let first_line = entries.len() - n_lines;
+    for (i, (x, _)) in plot.vertical.iter().chain(&plot.marks).enumerate() {
+        let lo = xr.0.min(xr.1) - 1e-9 * xr.0.abs().max(xr.1.abs());
+        let hi = xr.0.max(xr.1) + 1e-9 * xr.0.abs().max(xr.1.abs());
+        if !(lo..=hi).contains(x) {
+            entries[first_line + i].label.clear();
+        }
+    }
+    let margin = 12.0 * s;
+    let (placed, rows) = legend_layout(area, &entries, w as f64 - 2.0 * margin, f);
+    let legend_h = legend_height(rows, f);
+    let x_area = f.tick * 1.6 + f.label * 1.7 + 4.0 * s;
+    let y_area = f.tick * 4.4 + f.label * 1.9;
+    let frame_v = x_area + 8.0 * s + 2.0;
+    let needed = head + legend_h + frame_v + MIN_PLOT.0 * s;
+    let chart_h = (h as f64 - head - legend_h).max(frame_v + 1.0);
+    PanelLayout {
+        entries,
+        pens,
+        placed,
+        chart_h,
+        needed,
+        plot_w: w as f64 - y_area - 32.0 * s,
+    }
 }
 
 fn draw_panel<DB: DrawingBackend>(
@@ -1264,17 +1606,15 @@ fn draw_panel<DB: DrawingBackend>(
     panel: usize,
 ) -> std::result::Result<(), String> {
     let s = f.scale;
-    let (w, h) = area.dim_in_pixel();
+    let layout = panel_layout(plot, area, f);
     let head = draw_header(area, &plot.title, &plot.caption, f)?;
-    let (pens, entries) = pens(plot, f);
+    let (pens, entries, placed) = (&layout.pens, &layout.entries, &layout.placed);
     let margin = 12.0 * s;
-    let (placed, rows) = legend_layout(area, &entries, w as f64 - 2.0 * margin, f);
-    let legend_h = legend_height(rows, f);
-    let chart_h = (h as f64 - head - legend_h).max(80.0);
+    let chart_h = layout.chart_h;
     let (_, rest) = area.split_vertically(head.round() as i32);
     let (chart_area, _) = rest.split_vertically(chart_h.round() as i32);
     let log = plot.y_scale == Scale::Log;
-    let xr = range(plot.series.iter().flat_map(|s| s.x.iter().copied()), false);
+    let xr = x_range(plot);
     let yr = range(plot.series.iter().flat_map(|s| s.y.iter().copied()), log);
     let px = axes(
         &chart_area,
@@ -1290,8 +1630,10 @@ fn draw_panel<DB: DrawingBackend>(
     let key = |k: usize| format!("{panel}-{k}");
     let n_series_entries = entries.len() - plot.vertical.len() - plot.marks.len();
     // references and forcing lines first (under the curves)
+    let mut columns = Vec::new();
     for (i, (x, _)) in plot.vertical.iter().enumerate() {
         if let Some(cx) = frame.column(*x) {
+            columns.push(cx);
             painter.line(
                 &[(cx, frame.bottom), (cx, frame.top)],
                 &entries[n_series_entries + i].pen,
@@ -1303,6 +1645,7 @@ fn draw_panel<DB: DrawingBackend>(
     for (i, (x, _)) in plot.marks.iter().enumerate() {
         let k = n_series_entries + plot.vertical.len() + i;
         if let Some(cx) = frame.column(*x) {
+            columns.push(cx);
             painter.line(
                 &[(cx, frame.bottom), (cx, frame.top)],
                 &entries[k].pen,
@@ -1313,7 +1656,7 @@ fn draw_panel<DB: DrawingBackend>(
     }
     // curves (split where a value cannot be drawn), then event markers on top
     for pass in [false, true] {
-        for (i, (series, (pen, k))) in plot.series.iter().zip(&pens).enumerate() {
+        for (i, (series, (pen, k))) in plot.series.iter().zip(pens).enumerate() {
             if (series.style == Style::Markers) != pass {
                 continue;
             }
@@ -1343,15 +1686,38 @@ fn draw_panel<DB: DrawingBackend>(
             }
         }
     }
-    // notes beside their points
+    // notes near their points, clear of the curves, the lines and each other
     let (ax, ay) = {
         let (x, y) = area.get_pixel_range();
         (x.start as f64, y.start as f64)
     };
-    for (text, (x, y)) in place_notes(area, &frame, &plot.notes, f) {
+    let obstacles = curve_points(&frame, plot, 3.0 * s);
+    let leader_pen = Pen {
+        color: style::EVENT,
+        width: 1.0 * s,
+        dash: Vec::new(),
+        marker: None,
+        marker_spacing: 0.0,
+    };
+    for (k, p) in place_notes(area, &frame, &plot.notes, &obstacles, &columns, f)
+        .into_iter()
+        .enumerate()
+    {
+        if p.leader {
+            // from the point to the nearest point of the text's box
+            let (x, y) = p.at;
+            let (tw, th) = p.size;
+            let end = (p.point.0.clamp(x, x + tw), p.point.1.clamp(y, y + th));
+            painter.line(
+                &[p.point, end],
+                &leader_pen,
+                "leader",
+                &format!("{panel}-note{k}"),
+            )?;
+        }
         area.draw(&Text::new(
-            text,
-            ((x - ax).round() as i32, (y - ay).round() as i32),
+            p.text,
+            ((p.at.0 - ax).round() as i32, (p.at.1 - ay).round() as i32),
             font(f.note).color(&style::EVENT),
         ))
         .map_err(err)?;
@@ -1360,8 +1726,8 @@ fn draw_panel<DB: DrawingBackend>(
     draw_legend(
         area,
         painter,
-        &entries,
-        &placed,
+        entries,
+        placed,
         ax + margin,
         ay + head + chart_h + 4.0 * s,
         f,

@@ -3,8 +3,9 @@
 //!
 //! * **Fonts** are sized for a figure shown at half a slide's width: at the default
 //!   900 px width no text is smaller than [`MIN_TEXT`] px; a larger `--plot-size` scales
-//!   every size with the width ([`Fonts::for_width`]), so a figure looks the same at any
-//!   size. The font is DejaVu Sans, embedded in the binary (`assets/fonts/`, Bitstream Vera
+//!   every size with the width and the panel height, whichever grows less
+//!   ([`Fonts::for_panel`]), so a figure looks the same at any size and a wide, low one
+//!   keeps room for its plot. The font is DejaVu Sans, embedded in the binary (`assets/fonts/`, Bitstream Vera
 //!   licence): PNG output needs no system font library and SVG names the same family.
 //! * **Colours** are the Okabe–Ito palette (colour-blind safe). Each curve also carries a
 //!   marker shape of its own ([`MARKERS`]), so curves stay apart in greyscale print.
@@ -20,6 +21,8 @@ use plotters::style::{FontStyle, RGBColor};
 pub const MIN_TEXT: f64 = 16.0;
 /// The default figure width, px.
 pub const BASE_WIDTH: u32 = 900;
+/// The default height of a panel, px.
+pub const PANEL_HEIGHT: f64 = 520.0;
 /// The font family every figure uses (registered from the embedded font).
 pub const FAMILY: &str = "sans-serif";
 /// The embedded font: DejaVu Sans (assets/fonts/LICENSE-DejaVu.txt).
@@ -67,7 +70,21 @@ pub struct Fonts {
 
 impl Fonts {
     pub fn for_width(width: u32) -> Fonts {
-        let s = (width as f64 / BASE_WIDTH as f64).max(1.0);
+        Fonts::scaled((width as f64 / BASE_WIDTH as f64).max(1.0))
+    }
+
+    /// The text of a figure `width` px wide whose panels are `panel_height` px tall,
+    /// drawn `zoom` times larger than asked (a supersampled PNG: 3): text scales with the
+    /// width and with the panel height, whichever is smaller (a wide, low panel keeps room
+    /// for its plot), never below the default size.
+    pub fn for_panel(width: u32, panel_height: f64, zoom: f64) -> Fonts {
+        let zoom = zoom.max(1.0);
+        let by_width = width as f64 / zoom / BASE_WIDTH as f64;
+        let by_height = panel_height / zoom / PANEL_HEIGHT;
+        Fonts::scaled(zoom * by_width.min(by_height).max(1.0))
+    }
+
+    fn scaled(s: f64) -> Fonts {
         Fonts {
             title: 22.0 * s,
             caption: 17.0 * s,
