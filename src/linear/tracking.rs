@@ -835,7 +835,10 @@ impl Path<'_> {
         )
         .map_err(|e| {
             let name = &self.sys.param_names()[self.index];
-            e.context(&format!("tracking the modes, at {name} = {target}"))
+            e.context(&format!(
+                "tracking the modes, at {name} = {}",
+                crate::diag::num(target)
+            ))
         })?;
         let predicted = self.predictor.predict(self.sys, &self.solved, target);
         let last = self.solved.last().expect("a path starts solved");
