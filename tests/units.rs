@@ -1147,6 +1147,7 @@ fn a_flag_value_in_a_wrong_dimension_says_what_the_flag_takes() {
     refused(
         &[
             "frf", oc, "--set", "F0=1", "--param", "omega", "--from", "3 kg", "--to", "2",
+            "--step", "0.1",
         ],
         "--from 3 kg: --from takes a frequency (rad/s, Hz or rpm); the value given is in kg",
     );
@@ -1157,7 +1158,7 @@ fn a_flag_value_in_a_wrong_dimension_says_what_the_flag_takes() {
         "--step 0.5 s: --step takes a frequency (rad/s, Hz or rpm); the value given is a time",
     );
     refused(
-        &["simulate", oc, "--t-end", "2 Hz"],
+        &["simulate", oc, "--t-end", "2 Hz", "-o", "s.csv"],
         "--t-end 2 Hz: --t-end takes a time (s, ms or min); the value given is a frequency",
     );
     refused(
@@ -1172,6 +1173,8 @@ fn a_flag_value_in_a_wrong_dimension_says_what_the_flag_takes() {
             "1",
             "--step",
             "0.1",
+            "-o",
+            "q.csv",
         ],
         "--from 3 kg: `bar1.theta` is an angle (rad or deg), the value given is in kg",
     );
