@@ -440,6 +440,26 @@ mod tests {
     use super::*;
     use crate::request::{Argument, Invalid};
 
+    #[test]
+    fn numbers_for_messages_are_short_at_any_magnitude() {
+        // ordinary magnitudes as before: shortest round trip, or `{:.6}`
+        assert_eq!(num(0.01), "0.01");
+        assert_eq!(num(4.3e-5), "0.000043");
+        assert_eq!(num(1e300), "1e300");
+        assert_eq!(fixed(0.25, 6), "0.250000");
+        assert_eq!(fixed(0.0, 6), "0.000000");
+        assert_eq!(fixed(-3.5, 9), "-3.500000000");
+        // computed huge and tiny values: a few digits, not 300 (2π/1e-199, 2π·1e-193)
+        assert_eq!(num(std::f64::consts::TAU / 1e-199 / 4.0), "1.570796e199");
+        assert_eq!(num(std::f64::consts::TAU * 1e-193), "6.283185e-193");
+        assert_eq!(num(3.0000000000000004e306), "3e306");
+        assert_eq!(fixed(1e308, 6), "1e308");
+        assert_eq!(fixed(2.3999999999999998e307, 9), "2.4e307");
+        assert_eq!(fixed(-1.25e20, 6), "-1.25e20");
+        assert_eq!(fixed(3.2e-9, 6), "3.2e-9");
+        assert_eq!(fixed(f64::NAN, 6), "NaN");
+    }
+
     /// Words a run as a command line might.
     struct Flags;
     impl Advice for Flags {
@@ -488,12 +508,45 @@ mod tests {
 /// A number for a message: shortest round-trip decimal for ordinary magnitudes
 /// (`0.01`, `4.3e-5` as `0.000043`), and the shortest round-trip scientific form outside
 /// 1e-6 ≤ |x| < 1e15, so that `1e300` prints as `1e300`, not as 301 digits.
+///
+/// A scientific form with more than seven significant digits (a computed value such as
+/// 2π/1e-199 = 6.283185307179587e199) is rounded to seven (`6.283185e199`).
 pub fn num(x: f64) -> String {
     let a = x.abs();
     if x == 0.0 || !x.is_finite() || (1e-6..1e15).contains(&a) {
         format!("{x}")
     } else {
-        format!("{x:e}")
+        let s = format!("{x:e}");
+        let mantissa = s.split('e').next().unwrap_or_default();
+        if mantissa.chars().filter(|c| c.is_ascii_digit()).count() > 7 {
+            trim_exp(&format!("{x:.6e}"))
+        } else {
+            s
+        }
+    }
+}
+
+/// A number for a message with `decimals` places, as `format!("{x:.6}")` gives for an
+/// ordinary magnitude (`t = 0.250000 s`), and in scientific form with `decimals`
+/// significant places, trailing zeros dropped, outside 1e-4 ≤ |x| < 1e15: `1e300`, not a
+/// 301-digit decimal; `2.4e307`; `3.2e-9`, not `0.000000`.
+pub fn fixed(x: f64, decimals: usize) -> String {
+    let a = x.abs();
+    if x == 0.0 || !x.is_finite() || (1e-4..1e15).contains(&a) {
+        format!("{x:.decimals$}")
+    } else {
+        trim_exp(&format!("{x:.decimals$e}"))
+    }
+}
+
+/// `2.400000e307` as `2.4e307`, `1.000e-9` as `1e-9`.
+fn trim_exp(s: &str) -> String {
+    match s.split_once('e') {
+        Some((m, e)) if m.contains('.') => {
+            let m = m.trim_end_matches('0').trim_end_matches('.');
+            format!("{m}e{e}")
+        }
+        _ => s.to_string(),
     }
 }
 

@@ -27,9 +27,9 @@ fn given_velocity(given: &Option<GivenVelocity>) -> String {
 /// A computation that could not be completed.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum Failure {
-    #[error("the integration stopped at t = {t:.6} s after {steps} steps")]
+    #[error("the integration stopped at t = {} s after {steps} steps", crate::diag::fixed(*.t, 6))]
     StepLimit { t: f64, steps: usize },
-    #[error("interrupted at t = {t:.6} s")]
+    #[error("interrupted at t = {} s", crate::diag::fixed(*.t, 6))]
     Interrupted { t: f64 },
     #[error("the sweep was interrupted")]
     SweepInterrupted,
@@ -39,20 +39,22 @@ pub enum Failure {
     #[error("{what} was interrupted")]
     StudyInterrupted { what: String, kept: bool },
     /// A simulation stopped by a signal at model time `t` (s), its samples up to `t` kept.
-    #[error("the simulation was interrupted at model time t = {t:.6} s")]
+    #[error("the simulation was interrupted at model time t = {} s", crate::diag::fixed(*.t, 6))]
     SimulationInterrupted { t: f64 },
     /// The right-hand side stays non-finite however small the step: at the accepted state
     /// at `t`, or just after it (the step size fell to `h`, s, trying to avoid it).
     #[error(
-        "the equations of motion produced a non-finite value (NaN or infinity) at t = {t:.6} s (steps down to {h:.3e} s could not avoid it)"
+        "the equations of motion produced a non-finite value (NaN or infinity) at t = {} s (steps down to {h:.3e} s could not avoid it)",
+        crate::diag::fixed(*.t, 6)
     )]
     NonFinite { t: f64, h: f64 },
     #[error(
-        "the mass matrix of `{body}`'s angles became singular at t = {t:.6} s (reciprocal condition number {rcond:.3e}): its rotation sequence is at a singular pose (gimbal lock)"
+        "the mass matrix of `{body}`'s angles became singular at t = {} s (reciprocal condition number {rcond:.3e}): its rotation sequence is at a singular pose (gimbal lock)",
+        crate::diag::fixed(*.t, 6)
     )]
     SingularMass { t: f64, body: String, rcond: f64 },
     /// The step size fell below the integrator's floor (`h`, s; 0 when unknown).
-    #[error("the step size fell to zero at t = {t:.6} s{}", step_size(*.h))]
+    #[error("the step size fell to zero at t = {} s{}", crate::diag::fixed(*.t, 6), step_size(*.h))]
     StepSizeUnderflow { t: f64, h: f64 },
     /// A run of more forcing periods than the integrator may take steps (it resolves the
     /// forcing only with at least one step per period).
@@ -86,9 +88,9 @@ pub enum Failure {
         steps: f64,
         max_steps: usize,
     },
-    #[error("too many steps at t = {t:.6} s")]
+    #[error("too many steps at t = {} s", crate::diag::fixed(*.t, 6))]
     TooManySteps { t: f64 },
-    #[error("the problem became stiff at t = {t:.6} s")]
+    #[error("the problem became stiff at t = {} s", crate::diag::fixed(*.t, 6))]
     Stiff { t: f64 },
     #[error("integration failed: {message}")]
     Integrator { message: String, bad_input: bool },
@@ -97,7 +99,8 @@ pub enum Failure {
     )]
     UndefinedGuess { coordinate: String },
     #[error(
-        "the initial pose cannot be assembled: the constraint `{constraint}` is undefined ({value}) at the pose reached after {iterations} iterations"
+        "the initial pose cannot be assembled: the constraint `{constraint}` is undefined ({}) at the pose reached after {iterations} iterations",
+        crate::diag::num(*.value)
     )]
     UndefinedConstraint {
         constraint: String,
@@ -132,7 +135,8 @@ pub enum Failure {
     )]
     ConstraintsNotKept { residual: f64 },
     #[error(
-        "continuation stopped at {param} = {value}: the corrector does not converge even with steps of {min_step:.3e} (the largest step {step:.3e} / 1e6)"
+        "continuation stopped at {param} = {}: the corrector does not converge even with steps of {min_step:.3e} (the largest step {step:.3e} / 1e6)",
+        crate::diag::num(*.value)
     )]
     ContinuationStalled {
         param: String,
@@ -140,7 +144,10 @@ pub enum Failure {
         step: f64,
         min_step: f64,
     },
-    #[error("continuation stopped at {param} = {value}: the branch turns too sharply to follow")]
+    #[error(
+        "continuation stopped at {param} = {}: the branch turns too sharply to follow",
+        crate::diag::num(*.value)
+    )]
     BranchTurns { param: String, value: f64 },
     #[error(
         "no equilibrium found: the initial pose is (next to) a singular pose of the constraints, where their Jacobian loses rank and the assembly is ambiguous"
@@ -158,12 +165,27 @@ pub enum Failure {
         "no equilibrium found: the equilibrium equations are undefined (NaN) after {iterations} iterations, at the pose {pose}"
     )]
     UndefinedEquilibrium { iterations: usize, pose: String },
+    /// A computation whose inputs were finite produced an infinity (or the NaN of one):
+    /// a term beyond the largest double (about 1.8e308). `what` names the equations
+    /// ("equilibrium equations", "equations of motion"), `t` the time where known, `huge`
+    /// the parameters beyond [`HUGE`] that caused it (largest first; may be empty).
+    #[error(
+        "the {what} overflow{}: {}",
+        .t.map(|t| format!(" at t = {} s", crate::diag::fixed(t, 6))).unwrap_or_default(),
+        overflow_cause(.huge)
+    )]
+    Overflow {
+        what: String,
+        t: Option<f64>,
+        huge: Vec<(String, f64)>,
+    },
     #[error("no equilibrium found on the assembly branch of the initial pose")]
     NoEquilibriumOnBranch,
     /// A continuation's start: Newton from the initial pose at p = `from` finds no
     /// equilibrium (its last iterate is not one, often not even assembled: not shown).
     #[error(
-        "continuation cannot start at {param} = {value}: no equilibrium near the initial pose ({why} after {iterations} Newton iterations; the last iterate is not an equilibrium)"
+        "continuation cannot start at {param} = {}: no equilibrium near the initial pose ({why} after {iterations} Newton iterations; the last iterate is not an equilibrium)",
+        crate::diag::num(*.value)
     )]
     NoStartEquilibrium {
         param: String,
@@ -187,14 +209,15 @@ pub enum Failure {
     NoConvergence { what: String, iterations: usize },
     /// A result about to be reported holds a NaN or an infinity: `quantity` names the
     /// first one.
-    #[error("the result is not finite: {quantity} = {value}")]
+    #[error("the result is not finite: {quantity} = {}", crate::diag::num(*.value))]
     NonFiniteResult { quantity: String, value: f64 },
     #[error(
         "the trim does not converge: no value of {params} makes the held pose a static equilibrium (residual {residual:.3e})"
     )]
     TrimFailed { params: String, residual: f64 },
     #[error(
-        "the linear system is singular at ω = {omega} rad/s (an undamped resonance: the response is unbounded)"
+        "the linear system is singular at ω = {} rad/s (an undamped resonance: the response is unbounded)",
+        crate::diag::num(*.omega)
     )]
     UndampedResonance { omega: f64 },
     /// A kinematic path ends where the closure, with the driven coordinate held, has no
@@ -250,6 +273,42 @@ pub enum Failure {
     },
 }
 
+/// A parameter's magnitude beyond which it is named as the cause of an overflow: the
+/// product of two such values exceeds the largest double (about 1.8e308).
+pub const HUGE: f64 = 1e150;
+
+/// The parameters (`names`, `values`: a system's) whose magnitude is beyond [`HUGE`],
+/// largest first, at most four: the likely cause of an overflow.
+pub fn huge_parameters(names: &[String], values: &[f64]) -> Vec<(String, f64)> {
+    let mut huge: Vec<(String, f64)> = names
+        .iter()
+        .zip(values)
+        .filter(|(_, v)| v.abs() > HUGE && v.is_finite())
+        .map(|(n, v)| (n.clone(), *v))
+        .collect();
+    huge.sort_by(|a, b| b.1.abs().total_cmp(&a.1.abs()));
+    huge.truncate(4);
+    huge
+}
+
+fn overflow_cause(huge: &[(String, f64)]) -> String {
+    let names: Vec<String> = huge
+        .iter()
+        .map(|(n, v)| format!("{n} = {}", crate::diag::num(*v)))
+        .collect();
+    match names.len() {
+        0 => "a term exceeds the largest number a double holds (about 1.8e308)".into(),
+        1 => format!(
+            "{} is too large for double precision (a term exceeds about 1.8e308)",
+            names[0]
+        ),
+        _ => format!(
+            "{} are too large for double precision (a term exceeds about 1.8e308)",
+            names.join(", ")
+        ),
+    }
+}
+
 /// The step size a step size failure reached, when known.
 fn step_size(h: f64) -> String {
     if h > 0.0 {
@@ -270,10 +329,16 @@ fn list_macs(macs: &[f64]) -> String {
 
 /// A value of a driven coordinate in words: SI, and degrees for an angle.
 fn drive_value(x: f64, angle: bool) -> String {
-    if angle {
-        format!("{x:.9} rad ({:.6}°)", x.to_degrees())
+    if angle && x.to_degrees().is_finite() {
+        format!(
+            "{} rad ({}°)",
+            crate::diag::fixed(x, 9),
+            crate::diag::fixed(x.to_degrees(), 6)
+        )
+    } else if angle {
+        format!("{} rad", crate::diag::fixed(x, 9))
     } else {
-        format!("{x:.9} m")
+        format!("{} m", crate::diag::fixed(x, 9))
     }
 }
 
@@ -319,7 +384,7 @@ impl Failure {
                 } else {
                     fixed
                         .iter()
-                        .map(|(c, v)| format!("{c} = {v}"))
+                        .map(|(c, v)| format!("{c} = {}", crate::diag::num(*v)))
                         .collect::<Vec<_>>()
                         .join(", ")
                 }
@@ -337,6 +402,11 @@ impl Failure {
             NonFiniteMatrix { .. } | NonFiniteResult { .. } => "a parameter is too large or too small for double precision (beyond about 1e150, a product of two such overflows): give it a physical value".into(),
             NoConvergence { .. } => "the matrix is badly scaled: parameters differing by many orders of magnitude; give them physical values".into(),
             NoEquilibriumOnBranch => "check the loads: the mechanism may have no static equilibrium (e.g. a force larger than any spring can hold)".into(),
+            Overflow { huge, .. } if !huge.is_empty() => format!(
+                "give {} a physical value: beyond about 1e150 the product of two such overflows",
+                huge.iter().map(|(n, _)| format!("`{n}`")).collect::<Vec<_>>().join(", ")
+            ),
+            Overflow { .. } => "a parameter, load or coordinate is too large for double precision: give the parameters physical values".into(),
             UndampedResonance { .. } => "add damping or step around that frequency".into(),
             DeadPoint { drive, .. } => format!(
                 "beyond it the mechanism locks, a link cannot reach, or the branch to follow is ambiguous: end the range before it, or drive another coordinate than `{drive}`"
@@ -444,6 +514,16 @@ mod tests {
                 pose: "b.x = 1".into(),
             },
             Failure::UndampedResonance { omega: 4.0 },
+            Failure::Overflow {
+                what: "equilibrium equations".into(),
+                t: None,
+                huge: vec![("Fs".into(), 1e308)],
+            },
+            Failure::Overflow {
+                what: "equations of motion".into(),
+                t: Some(0.0),
+                huge: Vec::new(),
+            },
             Failure::DeadPoint {
                 drive: "bar1.theta".into(),
                 value: 0.78,

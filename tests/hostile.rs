@@ -102,8 +102,59 @@ fn huge_force_does_not_hang_any_analysis() {
 fn huge_stiffness_is_refused() {
     for set in ["k=1e308", "k=-1e308"] {
         let o = run(&["equilibrium", "oc.toml", "--set", set], &[]);
-        refused(&o, &["no equilibrium found"]);
+        refused(
+            &o,
+            &[
+                "the equilibrium equations overflow",
+                set.replace('=', " = ").as_str(),
+            ],
+        );
     }
+}
+
+/// An overflow from finite inputs (a force or stiffness of ±1e308) is said to be one,
+/// naming the parameter, not "undefined (NaN) … sqrt or ln of a negative number" nor, in
+/// a simulation, "a singular pose".
+#[test]
+fn an_overflow_is_called_an_overflow_and_names_the_huge_parameter() {
+    for (cmd, set, name) in [
+        ("modes", "Fs=1e308", "Fs = 1e308"),
+        ("equilibrium", "Fs=-1e308", "Fs = -1e308"),
+        ("modes", "k=-1e308", "k = -1e308"),
+    ] {
+        let o = run(&[cmd, "oc.toml", "--set", set], &[]);
+        refused(
+            &o,
+            &[
+                "the equilibrium equations overflow",
+                &format!("{name} is too large for double precision"),
+                "give `",
+            ],
+        );
+        for wrong in ["NaN", "sqrt", "division by zero"] {
+            assert!(!o.stderr.contains(wrong), "{}", o.stderr);
+        }
+    }
+    let o = run(
+        &[
+            "sweep", "oc.toml", "--set", "k=1e308", "--param", "omega", "--from", "1", "--to", "2",
+            "--step", "1", "-o", "out.csv",
+        ],
+        &[],
+    );
+    refused(&o, &["the equilibrium equations overflow", "k = 1e308"]);
+    let o = run(
+        &["simulate", "oc.toml", "--set", "Fs=1e300", "-o", "out.csv"],
+        &[],
+    );
+    refused(
+        &o,
+        &[
+            "the equations of motion overflow at t = 0.000000 s",
+            "Fs = 1e300 is too large for double precision",
+        ],
+    );
+    assert!(!o.stderr.contains("singular pose"), "{}", o.stderr);
 }
 
 #[test]
@@ -134,7 +185,7 @@ fn report_with_an_overflowing_mode_shape_is_refused() {
     assert_eq!(o.code, Some(1), "{}", o.stderr);
     assert!(
         o.stderr
-            .contains("the shape of the mode at λ = -1.1111111111111113e160 1/s"),
+            .contains("the shape of the mode at λ = -1.111111e160 1/s"),
         "{}",
         o.stderr
     );
@@ -522,5 +573,78 @@ fn backbone_and_nfr_take_either_integrator() {
         o.stdout.contains("reached omega = 1.000000 rad/s"),
         "{}",
         o.stdout
+    );
+}
+
+/// Numbers in errors come out in a few digits at any magnitude (issue 13, point 6): a
+/// parameter value of a mode tracking or a continuation's start, a driven coordinate's
+/// end, the forcing's turns and the run's limit, computed as 2π/ω (not 1.5915494309189534e199).
+#[test]
+fn huge_and_tiny_numbers_in_errors_are_short() {
+    let long = |o: &Outcome| {
+        assert!(
+            !o.stderr.contains("0000000000") && !o.stdout.contains("0000000000"),
+            "{}{}",
+            o.stdout,
+            o.stderr
+        )
+    };
+    let o = run(
+        &[
+            "modes", "oc.toml", "--param", "k", "--from", "1", "--to", "1e308", "--step", "1e306",
+        ],
+        &[],
+    );
+    refused(&o, &["tracking the modes, at k = 1e306"]);
+    long(&o);
+    let o = run(
+        &[
+            "continue", "oc.toml", "--param", "k", "--from", "1e200", "--to", "1e201", "--step",
+            "1e200", "-o", "out.csv",
+        ],
+        &[],
+    );
+    refused(&o, &["continuation cannot start at k = 1e200:"]);
+    long(&o);
+    let o = run(
+        &[
+            "kinematics",
+            "oc.toml",
+            "--drive",
+            "bar1.theta",
+            "--from",
+            "0",
+            "--to",
+            "1e308",
+            "--step",
+            "1e306",
+            "-o",
+            "out.csv",
+        ],
+        &[],
+    );
+    // 24 steps of 1e306 from 0 (the degrees of 2.4e307 rad overflow: not shown as inf°)
+    refused(&o, &["the branch ends at bar1.theta = 2.4e307 rad:"]);
+    assert!(!o.stderr.contains("inf"), "{}", o.stderr);
+    long(&o);
+    let o = run(
+        &[
+            "simulate",
+            "oc.toml",
+            "--set",
+            "omega=1e200",
+            "-o",
+            "out.csv",
+        ],
+        &[],
+    );
+    // 1e200 rad/s over the 20 s run: 1e200·20/2π = 3.183099e200 turns; 1e7 periods last
+    // 2π·1e7/1e200 = 6.283185e-193 s
+    refused(
+        &o,
+        &[
+            "turns 3.183099e200 times in the run of 20 s",
+            "below 6.283185e-193 s",
+        ],
     );
 }

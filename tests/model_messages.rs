@@ -211,6 +211,67 @@ fn a_misspelt_velocity_in_a_load_is_suggested_as_a_velocity() {
     assert!(err.contains("did you mean `bar.theta`?"), "{err}");
 }
 
+/// A velocity asked for by a name the body does not have (`bar.vx`, `bar.omega`): not
+/// "did you mean `bar.x`?" (a position) but how velocities are named and the body's own;
+/// a free body's velocities are `<body>.vx` ... `<body>.wz` (docs/model-format.md).
+#[test]
+fn a_velocity_by_another_name_is_told_how_velocities_are_named() {
+    for wrong in ["bar.vx", "bar.omega", "bar.w"] {
+        let text = edit(
+            PENDULUM,
+            "torque = \"T\"",
+            &format!("torque = \"T - 0.1*{wrong}\""),
+        );
+        let err = load_error(&text);
+        let (line, col) = line_col(&text, wrong);
+        assert!(
+            err.starts_with(&format!(
+                "error: bad.toml:{line}:{col}: unknown coordinate `{wrong}`"
+            )),
+            "{err}"
+        );
+        assert!(
+            err.contains(
+                "forces may use velocities as NAME_dot: bar.x_dot, bar.y_dot, bar.theta_dot"
+            ) && err.contains("the coordinates of `bar` are bar.x, bar.y, bar.theta"),
+            "{err}"
+        );
+        assert!(!err.contains("did you mean"), "{err}");
+    }
+    // a near miss of a velocity keeps its suggestion
+    let text = edit(
+        PENDULUM,
+        "torque = \"T\"",
+        "torque = \"T - 0.1*bar.thetadot\"",
+    );
+    assert!(load_error(&text).contains("`bar.theta_dot`?"));
+    // a free body (spatial): its velocities by their own names
+    let free = r#"
+[[bodies]]
+name = "top"
+rotation = "free"
+mass = 1
+inertia = [0.004, 0.004, 0.006]
+
+[[forces]]
+name = "drag"
+type = "point_force"
+body = "top"
+force = ["-0.1*top.omega", 0, 0]
+"#;
+    let err = load_error(free);
+    assert!(err.contains("unknown coordinate `top.omega`"), "{err}");
+    assert!(
+        err.contains("forces may use a free body's velocities as `top.vx` ... `top.wz`: top.vx, top.vy, top.vz, top.wx, top.wy, top.wz"),
+        "{err}"
+    );
+    // a velocity that loads: the same force with `top.vx`
+    let ok = free.replace("top.omega", "top.vx");
+    Model::from_str("ok.toml", &ok)
+        .and_then(|m| System::new(&m))
+        .unwrap();
+}
+
 /// Coordinates and velocities carry their dimensions in a load: x, y in m, θ in rad
 /// (none), their rates per second, in an expression that has a dimension of its own (a
 /// quantity or a parameter with a unit). A wrong product is refused where it is written;

@@ -1128,3 +1128,54 @@ fn a_non_finite_value_in_a_model_file_is_not_finite() {
     );
     assert!(!err.contains("unknown parameter"), "{err}");
 }
+
+/// A flag's value in a wrong dimension names the flag and what it takes, in the units it
+/// may be given in (a frequency in rad/s, Hz or rpm, not "1/s"); a named parameter's or
+/// coordinate's value names it.
+#[test]
+fn a_flag_value_in_a_wrong_dimension_says_what_the_flag_takes() {
+    let refused = |args: &[&str], says: &str| {
+        let (code, _, err) = detune(args);
+        assert_eq!(code, 1, "{args:?}: {err}");
+        assert!(err.contains(says), "{args:?}: {err}");
+        assert!(
+            !err.contains("1/s") && !err.contains("`a "),
+            "{args:?}: {err}"
+        );
+    };
+    let oc = "models/overcentre.toml";
+    refused(
+        &[
+            "frf", oc, "--set", "F0=1", "--param", "omega", "--from", "3 kg", "--to", "2",
+            "--step", "0.1",
+        ],
+        "--from 3 kg: --from takes a frequency (rad/s, Hz or rpm); the value given is in kg",
+    );
+    refused(
+        &[
+            "sweep", oc, "--param", "omega", "--from", "1", "--to", "2", "--step", "0.5 s",
+        ],
+        "--step 0.5 s: --step takes a frequency (rad/s, Hz or rpm); the value given is a time",
+    );
+    refused(
+        &["simulate", oc, "--t-end", "2 Hz", "-o", "s.csv"],
+        "--t-end 2 Hz: --t-end takes a time (s, ms or min); the value given is a frequency",
+    );
+    refused(
+        &[
+            "kinematics",
+            oc,
+            "--drive",
+            "bar1.theta",
+            "--from",
+            "3 kg",
+            "--to",
+            "1",
+            "--step",
+            "0.1",
+            "-o",
+            "q.csv",
+        ],
+        "--from 3 kg: `bar1.theta` is an angle (rad or deg), the value given is in kg",
+    );
+}

@@ -222,20 +222,29 @@ pub fn quantity(flag: &str, text: &str, drive: &str, dim: Dim) -> Result<f64> {
     if let Some(got) = e.dim(&|_| None)
         && got != dim
     {
-        let what = if dim == Dim::NONE {
-            "an angle".to_string()
-        } else {
-            format!("a quantity in {dim}")
-        };
         let given = if got == Dim::NONE {
             "an angle".to_string()
+        } else if got == Dim::FREQUENCY {
+            "a frequency".to_string()
+        } else if got == Dim::TIME {
+            "a time".to_string()
         } else {
             format!("in {got}")
         };
-        return Err(bad(
-            format!("`{drive}` is {what}, the value given is {given}"),
-            None,
-        ));
+        // a flag that takes a frequency or a time (`--from` of a sweep) names itself; a
+        // value of a named parameter or coordinate names it
+        let message = if drive.starts_with("--") {
+            format!(
+                "{drive} takes {}; the value given is {given}",
+                dim_words(dim)
+            )
+        } else {
+            format!(
+                "`{drive}` is {}, the value given is {given}",
+                dim_words(dim)
+            )
+        };
+        return Err(bad(message, None));
     }
     let x = expr::eval_const(&e, &mut |n, span| {
         Err(expr::ExprError::new(
@@ -262,12 +271,7 @@ pub fn frequency_mark(text: &str) -> Result<(String, f64)> {
     let v = value.trim();
     let w = match v.parse::<f64>() {
         Ok(x) => x,
-        Err(_) => quantity(
-            "--mark",
-            v,
-            "a forcing frequency",
-            detune::model::units::Dim::FREQUENCY,
-        )?,
+        Err(_) => quantity("--mark", v, "--mark", detune::model::units::Dim::FREQUENCY)?,
     };
     if !(w.is_finite() && w > 0.0) {
         return Err(Error::request(
@@ -600,6 +604,20 @@ pub fn set_forcing_amplitude(model: &Model, sys: &System) -> String {
     }
 }
 
+/// What a value of dimension `dim` is, in words, with the units it may be given in:
+/// "a frequency (rad/s, Hz or rpm)", not "a quantity in 1/s".
+fn dim_words(dim: Dim) -> String {
+    if dim == Dim::NONE {
+        "an angle (rad or deg)".to_string()
+    } else if dim == Dim::FREQUENCY {
+        "a frequency (rad/s, Hz or rpm)".to_string()
+    } else if dim == Dim::TIME {
+        "a time (s, ms or min)".to_string()
+    } else {
+        format!("a quantity in {dim}")
+    }
+}
+
 /// An SI unit to suggest for a dimension in a hint.
 fn dim_unit(dim: Dim) -> String {
     if dim == Dim::NONE {
@@ -614,7 +632,7 @@ fn dim_unit(dim: Dim) -> String {
 pub fn frequency_value(flag: &str, text: &str) -> Result<f64> {
     match text.trim().parse::<f64>() {
         Ok(x) => Ok(x),
-        Err(_) => quantity(flag, text.trim(), "a frequency", Dim::FREQUENCY),
+        Err(_) => quantity(flag, text.trim(), flag, Dim::FREQUENCY),
     }
 }
 
@@ -622,7 +640,7 @@ pub fn frequency_value(flag: &str, text: &str) -> Result<f64> {
 pub fn time_value(flag: &str, text: &str) -> Result<f64> {
     match text.trim().parse::<f64>() {
         Ok(x) => Ok(x),
-        Err(_) => quantity(flag, text.trim(), "a time", Dim::TIME),
+        Err(_) => quantity(flag, text.trim(), flag, Dim::TIME),
     }
 }
 

@@ -454,8 +454,8 @@ fn print_tracking(t: &ModeTracking, unit: &str, fu: FreqUnit) {
             .map(|m| match m {
                 // (a ζ of rounding size printed as 0, not -0.000000)
                 Some(m) => format!(
-                    "{:>16.6} {:>9.6}",
-                    fu.of(m.omega_n_rad_s),
+                    "{:>16} {:>9.6}",
+                    detune::diag::fixed(fu.of(m.omega_n_rad_s), 6),
                     if m.damping_ratio.abs() < 5e-7 {
                         0.0
                     } else {
@@ -465,7 +465,11 @@ fn print_tracking(t: &ModeTracking, unit: &str, fu: FreqUnit) {
                 None => format!("{:>26}", "(lost)"),
             })
             .collect();
-        println!("{:>14.6}  {}", s.value, cols.join(" "));
+        println!(
+            "{:>14}  {}",
+            detune::diag::fixed(s.value, 6),
+            cols.join(" ")
+        );
     }
     let inserted = t.steps.iter().filter(|s| !s.requested).count();
     if inserted > 0 {
@@ -477,12 +481,12 @@ fn print_tracking(t: &ModeTracking, unit: &str, fu: FreqUnit) {
         println!("\ncrossings (two modes' {nat} swap order):");
         for c in &t.crossings {
             println!(
-                "  {} and {} at {} = {:.6}{u}, {nat} = {:.6} {sym}",
+                "  {} and {} at {} = {}{u}, {nat} = {} {sym}",
                 c.labels[0],
                 c.labels[1],
                 t.param,
-                c.value,
-                fu.of(c.omega_n_rad_s)
+                detune::diag::fixed(c.value, 6),
+                detune::diag::fixed(fu.of(c.omega_n_rad_s), 6)
             );
         }
     }
@@ -492,16 +496,16 @@ fn print_tracking(t: &ModeTracking, unit: &str, fu: FreqUnit) {
         println!("veerings (two modes approach without crossing and exchange shapes):");
         for v in &t.veerings {
             println!(
-                "  {} and {} at {} = {:.6}{u}: {nat} = {:.6} and {:.6} {sym}, least relative gap {:.2} %, shapes exchanged over {:.6} to {:.6}{u}",
+                "  {} and {} at {} = {}{u}: {nat} = {} and {} {sym}, least relative gap {:.2} %, shapes exchanged over {} to {}{u}",
                 v.labels[0],
                 v.labels[1],
                 t.param,
-                v.value,
-                fu.of(v.omega_n_rad_s[0]),
-                fu.of(v.omega_n_rad_s[1]),
+                detune::diag::fixed(v.value, 6),
+                detune::diag::fixed(fu.of(v.omega_n_rad_s[0]), 6),
+                detune::diag::fixed(fu.of(v.omega_n_rad_s[1]), 6),
                 100.0 * v.relative_gap,
-                v.window[0],
-                v.window[1]
+                detune::diag::fixed(v.window[0], 6),
+                detune::diag::fixed(v.window[1], 6)
             );
         }
     }

@@ -326,6 +326,23 @@ pub fn simulate_stoppable(
             },
             Some(f),
         ) => f.into(),
+        // a non-finite value or a collapsed step with a parameter beyond double
+        // precision's range (a force of 1e300: accelerations the step size estimate
+        // cannot take): an overflow, not an undefined expression or a singular pose
+        (
+            crate::diag::Error::Failed {
+                failure: Failure::NonFinite { t, .. } | Failure::StepSizeUnderflow { t, .. },
+                ..
+            },
+            _,
+        ) if !crate::failure::huge_parameters(sys.param_names(), sys.params()).is_empty() => {
+            Failure::Overflow {
+                what: "equations of motion".into(),
+                t: Some(*t),
+                huge: crate::failure::huge_parameters(sys.param_names(), sys.params()),
+            }
+            .into()
+        }
         _ => e,
     })?;
     // The projection keeps written states on the constraints to `projection_tol`; a

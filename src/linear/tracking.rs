@@ -852,7 +852,10 @@ impl Path<'_> {
             }
             Err(e) => {
                 let name = &self.sys.param_names()[self.index];
-                return Err(e.context(&format!("tracking the modes, at {name} = {target}")));
+                return Err(e.context(&format!(
+                    "tracking the modes, at {name} = {}",
+                    crate::diag::num(target)
+                )));
             }
         };
         let predicted = self.predictor.predict(self.sys, &self.solved, target);

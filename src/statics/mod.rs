@@ -665,11 +665,23 @@ impl<'a> Statics<'a> {
                     .map(|(c, v)| format!("{c} = {v:.6}"))
                     .collect();
                 let residual = amax(r.as_slice());
+                // from finite inputs, an infinity (or the NaN of inf − inf) is an overflow,
+                // not an undefined expression: a parameter near the largest double (a
+                // stiffness of 1e308 times a stretch) names itself
+                let huge =
+                    crate::failure::huge_parameters(self.sys.param_names(), self.sys.params());
+                let infinite = r.iter().any(|v| v.is_infinite());
                 return Err(if residual.is_finite() {
                     Failure::NoEquilibrium {
                         residual,
                         iterations: it,
                         pose: pose.join(", "),
+                    }
+                } else if !huge.is_empty() || infinite {
+                    Failure::Overflow {
+                        what: "equilibrium equations".into(),
+                        t: None,
+                        huge,
                     }
                 } else {
                     Failure::UndefinedEquilibrium {

@@ -228,7 +228,52 @@ impl Compiler<'_> {
         } else {
             format!("unknown parameter `{name}`")
         };
-        let help = suggest(name, cands.iter().copied()).unwrap_or_else(|| {
+        let suggestion = suggest(name, cands.iter().copied());
+        // `bar.vx`, `bar.omega` in a load: a velocity asked for by a name it does not
+        // have. "did you mean `bar.x`?" would offer a position; say how velocities are
+        // named and which the body has (a near miss of a velocity keeps its suggestion)
+        let body_velocities: Vec<&str> = self
+            .velocity_names
+            .iter()
+            .filter(|v| v.split('.').next() == Some(body))
+            .map(|v| v.as_str())
+            .collect();
+        if coords
+            && self.allow_velocities
+            && name.contains('.')
+            && !body_velocities.is_empty()
+            && !suggestion.as_ref().is_some_and(|s| {
+                body_velocities
+                    .iter()
+                    .any(|v| s.contains(&format!("`{v}`")))
+            })
+        {
+            let body_coordinates: Vec<&str> = self
+                .coordinates
+                .iter()
+                .filter(|c| c.split('.').next() == Some(body))
+                .map(|c| c.as_str())
+                .collect();
+            let how = if body_velocities.iter().all(|v| v.ends_with("_dot")) {
+                "forces may use velocities as NAME_dot".to_string()
+            } else if body_velocities.iter().any(|v| v.ends_with("_dot")) {
+                format!(
+                    "forces may use velocities as NAME_dot, and body `{body}`'s own as named here"
+                )
+            } else {
+                format!("forces may use a free body's velocities as `{body}.vx` ... `{body}.wz`")
+            };
+            return Err(ExprError {
+                span: span.clone(),
+                message,
+                help: Some(format!(
+                    "{how}: {} (the coordinates of `{body}` are {})",
+                    body_velocities.join(", "),
+                    body_coordinates.join(", ")
+                )),
+            });
+        }
+        let help = suggestion.unwrap_or_else(|| {
             if coords && self.allow_velocities {
                 format!(
                     "names here: parameters ({}), coordinates ({}), velocities ({}) and time `t`",
