@@ -595,7 +595,9 @@ fn huge_and_tiny_numbers_in_errors_are_short() {
         ],
         &[],
     );
-    refused(&o, &["tracking the modes, at k = 1e306"]);
+    // the step 1 → 1e306 is halved 8 times (a solve that fails halves the step) before
+    // the tracking gives up at 1e306/2^8
+    refused(&o, &["tracking the modes, at k = 3.90625e303"]);
     long(&o);
     let o = run(
         &[
