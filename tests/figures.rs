@@ -501,6 +501,45 @@ fn bad_extensions_and_sizes_are_refused_before_any_work() {
     assert_ne!(code, 0);
     assert!(err.contains("-o writes the CSV table"), "{err}");
     assert!(!svg.exists());
+    // a size whose panels (one per response) have no room for a plot is refused before
+    // the sweep, not after it: no case reaches the checkpoint
+    let ckpt = dir.path().join("s.ckpt");
+    let (code, _, err) = detune(&[
+        "sweep",
+        "models/overcentre.toml",
+        "--set",
+        "F0=1",
+        "--param",
+        "omega",
+        "--from",
+        "2",
+        "--to",
+        "4",
+        "--step",
+        "0.5",
+        "--response",
+        "bar1.theta",
+        "--response",
+        "bar2.theta",
+        "--plot",
+        dir.path().join("s.svg").to_str().unwrap(),
+        "--plot-size",
+        "3000x400",
+        "-o",
+        csv.to_str().unwrap(),
+        "--checkpoint",
+        ckpt.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 1, "{err}");
+    assert!(
+        err.contains("--plot-size 3000x400: the figure has no room for its plot")
+            && err.contains("e.g. --plot-size 3000x"),
+        "{err}"
+    );
+    assert!(
+        !ckpt.exists() && !csv.exists(),
+        "the sweep ran before the refusal"
+    );
 }
 
 #[test]

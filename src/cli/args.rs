@@ -695,6 +695,18 @@ impl PlotSize {
     }
 }
 
+/// Before a long run (a sweep): a figure of `panels` stacked panels at `size` must have
+/// room for a plot in each, or the run's results would be lost with the figure refused at
+/// the end. Checked on empty panels with a one-line title (a lower bound: the figure
+/// itself is checked again when it is drawn, with its own titles and legends).
+pub fn check_panels(size: Option<(u32, u32)>, panels: usize) -> Result<()> {
+    let Some(size) = size else { return Ok(()) };
+    let plots: Vec<detune::output::plot::LinePlot> = (0..panels.max(1))
+        .map(|_| detune::output::plot::LinePlot::new("a response", "omega [rad/s]", "amplitude"))
+        .collect();
+    detune::output::plot::Panels::new(&plots, size).check()
+}
+
 /// `-o`: a CSV is never written into a file named like a figure.
 pub fn csv_output(path: &str) -> Result<()> {
     let ext = std::path::Path::new(path)

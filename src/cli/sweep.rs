@@ -181,6 +181,8 @@ pub fn execute(a: SweepArgs, source: Source) -> Result<()> {
         ));
     }
     let (values, responses) = a.grid.resolve(&model)?;
+    // a figure size with no room for the panels must not cost a sweep either
+    super::args::check_panels(size, responses.len())?;
     // checked before any simulation: a bad mark must not cost a sweep
     let marks = super::args::frequency_marks(&a.mark, &values, a.plot.is_some())?;
     let opts = SweepOptions {
