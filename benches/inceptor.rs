@@ -96,13 +96,7 @@ fn report_uh60() -> usize {
         .0;
     let full_env = detune::environment::resolve("UH-60").unwrap();
     let env = detune::report::environment::from_environment(&full_env);
-    let extras = detune::linear::modal_analysis(&sys, None)
-        .ok()
-        .and_then(|m| detune::linear::tracking::describe_modes(&sys, &m).ok())
-        .map(|d| detune::report::build::ModeExtras {
-            names: d.iter().map(|x| Some(x.name.name.clone())).collect(),
-            energy_shares: d.iter().map(|x| x.energy.kinetic.0.clone()).collect(),
-        });
+    let extras = detune::report::build::ModeExtras::of(&sys);
     let mut report = detune::report::build(&detune::report::ReportInputs {
         model: &model,
         sys: &sys,

@@ -105,13 +105,7 @@ pub fn run(a: ReportArgs) -> Result<()> {
     };
     let start = Instant::now();
     // names and energy shares of the modes (the model's [[modes]], mode tracking)
-    let extras = detune::linear::modal_analysis(&sys, None)
-        .ok()
-        .and_then(|m| detune::linear::tracking::describe_modes(&sys, &m).ok())
-        .map(|d| detune::report::build::ModeExtras {
-            names: d.iter().map(|x| Some(x.name.name.clone())).collect(),
-            energy_shares: d.iter().map(|x| x.energy.kinetic.0.clone()).collect(),
-        });
+    let extras = detune::report::build::ModeExtras::of(&sys);
     let mut report = build(&ReportInputs {
         model: &model,
         sys: &sys,

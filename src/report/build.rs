@@ -47,6 +47,26 @@ pub struct ModeExtras {
     pub energy_shares: Vec<Vec<(String, f64)>>,
 }
 
+impl ModeExtras {
+    /// The names (the model's `[[modes]]`, else from mode tracking's description) and
+    /// kinetic-energy shares of the modes of `sys` about its equilibrium; None where the
+    /// modes cannot be described (the report then numbers them).
+    pub fn of(sys: &crate::System) -> Option<ModeExtras> {
+        let modal = crate::linear::modal_analysis(sys, None).ok()?;
+        let described = crate::linear::tracking::describe_modes(sys, &modal).ok()?;
+        Some(ModeExtras {
+            names: described
+                .iter()
+                .map(|x| Some(x.name.name.clone()))
+                .collect(),
+            energy_shares: described
+                .iter()
+                .map(|x| x.energy.kinetic.0.clone())
+                .collect(),
+        })
+    }
+}
+
 // ---- sidecar records ---------------------------------------------------------------
 
 #[derive(Serialize)]
