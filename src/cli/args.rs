@@ -699,12 +699,30 @@ impl PlotSize {
 /// room for a plot in each, or the run's results would be lost with the figure refused at
 /// the end. Checked on empty panels with a one-line title (a lower bound: the figure
 /// itself is checked again when it is drawn, with its own titles and legends).
-pub fn check_panels(size: Option<(u32, u32)>, panels: usize) -> Result<()> {
+pub fn check_panels(size: Option<(u32, u32)>, panels: usize, curves: usize) -> Result<()> {
+    use detune::output::plot::{LinePlot, Panels, Series, Style};
     let Some(size) = size else { return Ok(()) };
-    let plots: Vec<detune::output::plot::LinePlot> = (0..panels.max(1))
-        .map(|_| detune::output::plot::LinePlot::new("a response", "omega [rad/s]", "amplitude"))
+    let plots: Vec<LinePlot> = (0..panels.max(1))
+        .map(|_| {
+            let mut p = LinePlot::new("a response", "omega [rad/s]", "amplitude");
+            // the caption naming the model, and the linear ω_n's legend line
+            p.caption = "model (model.toml)".into();
+            p.vertical = vec![(0.5, "linear ω_n = 1 rad/s".into())];
+            // a legend entry per curve (per --values run), as the figure will have
+            p.series = (0..curves.max(1))
+                .map(|k| {
+                    Series::new(
+                        format!("r{k} [rad]"),
+                        vec![0.0, 1.0],
+                        vec![0.0, 1.0],
+                        Style::Solid,
+                    )
+                })
+                .collect();
+            p
+        })
         .collect();
-    detune::output::plot::Panels::new(&plots, size).check()
+    Panels::new(&plots, size).check()
 }
 
 /// `-o`: a CSV is never written into a file named like a figure.

@@ -181,8 +181,20 @@ pub fn execute(a: SweepArgs, source: Source) -> Result<()> {
         ));
     }
     let (values, responses) = a.grid.resolve(&model)?;
-    // a figure size with no room for the panels must not cost a sweep either
-    super::args::check_panels(size, responses.len())?;
+    // a figure size with no room for the panels must not cost a sweep either: a panel per
+    // response, and as many again normalized by the forcing amplitude when --values
+    // varies it (`output::figures::sweep_figures`)
+    let normalized = a
+        .values
+        .first()
+        .and_then(|v| v.split_once('='))
+        .is_some_and(|(name, _)| Some(name.trim()) == model.forcing_amplitude.as_deref());
+    let runs = a
+        .values
+        .iter()
+        .map(|v| v.split(',').count())
+        .product::<usize>();
+    super::args::check_panels(size, responses.len() * if normalized { 2 } else { 1 }, runs)?;
     // checked before any simulation: a bad mark must not cost a sweep
     let marks = super::args::frequency_marks(&a.mark, &values, a.plot.is_some())?;
     let opts = SweepOptions {
