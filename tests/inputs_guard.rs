@@ -322,6 +322,13 @@ fn a_doubled_sigterm_keeps_the_partial_results() {
     // SAFETY: kill(2) on the child this test spawned.
     unsafe {
         libc::kill(pid, libc::SIGTERM);
+    }
+    // apart, so that the second is delivered on its own (back to back, the kernel may
+    // merge it into the first, still pending, and the test would pass without the fix),
+    // as GNU timeout's kill(pid) then kill(0) are; well inside the 1 s window
+    std::thread::sleep(Duration::from_millis(50));
+    // SAFETY: as above.
+    unsafe {
         libc::kill(pid, libc::SIGTERM);
     }
     let start = Instant::now();

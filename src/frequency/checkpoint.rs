@@ -447,11 +447,12 @@ impl Checkpoint {
         };
         let (p0, h0) = (p0.clone(), h0.clone());
         let this = detune_version();
-        if h0.detune_version != this {
+        // every part, whatever its order: one of another build is that, not "another study"
+        if let Some((p, h, _)) = parts.iter().find(|(_, h, _)| h.detune_version != this) {
             return Err(Error::request(
                 format!(
-                    "{p0} was written by detune {}; this is detune {this} (another build): its cases may differ",
-                    h0.detune_version
+                    "{p} was written by detune {}; this is detune {this} (another build): its cases may differ",
+                    h.detune_version
                 ),
                 "merge with the detune that ran the shards, or run the shards again with this one",
             ));
