@@ -903,6 +903,20 @@ fn a_bad_tune_vary_or_tolerance_names_its_own_flag() {
             ],
             "--tolerance kfs: the model has no parameter `kfs`",
         ),
+        // a tuning range the trim cannot hold: the advice names --tune-vary, not the
+        // tolerances' --vary
+        (
+            vec![
+                "report",
+                m.as_str(),
+                "--environment",
+                "UH-60",
+                "--tune",
+                "--tune-vary",
+                "l2=±80%",
+            ],
+            "narrow the range of --tune-vary l2",
+        ),
     ] {
         let mut args = extra.clone();
         args.extend(["-o", html.to_str().unwrap()]);

@@ -86,17 +86,23 @@ pub fn vary_advice(f: &Failure, context: &[String]) -> Option<String> {
     let name = context
         .iter()
         .find_map(|c| c.split_once(": the case ").map(|(n, _)| n.trim()))?;
+    // the report's tuning ranges are its --tune-vary, not its --vary (the tolerances)
+    let flag = if context.iter().any(|c| c == detune::report::studies::TUNING) {
+        "--tune-vary"
+    } else {
+        "--vary"
+    };
     if no_trim {
         // the baseline trims: the change takes the held pose out of the trim's reach
         let (which, range) = if name.contains(' ') {
             (
                 "at that corner of the tolerance box".to_string(),
-                "the --vary ranges".to_string(),
+                format!("the {flag} ranges"),
             )
         } else {
             (
                 format!("at that value of `{name}`"),
-                format!("the range of --vary {name} (e.g. --vary {name}=80%..120%, or ±10%)"),
+                format!("the range of {flag} {name} (e.g. {flag} {name}=80%..120%, or ±10%)"),
             )
         };
         return Some(format!(
@@ -112,9 +118,9 @@ pub fn vary_advice(f: &Failure, context: &[String]) -> Option<String> {
             format!("at that value of `{name}`")
         };
         let range = if name.contains(' ') {
-            "the --vary ranges".to_string()
+            format!("the {flag} ranges")
         } else {
-            format!("the range of --vary {name} (e.g. --vary {name}=80%..120%, or ±10%)")
+            format!("the range of {flag} {name} (e.g. {flag} {name}=80%..120%, or ±10%)")
         };
         let continued = if name.contains(' ') { "NAME" } else { name };
         return Some(format!(
@@ -123,10 +129,12 @@ pub fn vary_advice(f: &Failure, context: &[String]) -> Option<String> {
     }
     if name.contains(' ') {
         // a corner of the tolerance box (`the tolerance box's corner: the case a=1, b=2`)
-        return Some("at that corner of the tolerance box the linkage no longer closes: narrow the --vary ranges (e.g. NAME=80%..120%, or ±10%), or check the values with --set and `detune check`".into());
+        return Some(format!(
+            "at that corner of the tolerance box the linkage no longer closes: narrow the {flag} ranges (e.g. NAME=80%..120%, or ±10%), or check the values with --set and `detune check`"
+        ));
     }
     Some(format!(
-        "at that value of `{name}` the linkage no longer closes: narrow the range of --vary {name} (e.g. --vary {name}=80%..120%, or ±10%), or check the value with --set and `detune check`"
+        "at that value of `{name}` the linkage no longer closes: narrow the range of {flag} {name} (e.g. {flag} {name}=80%..120%, or ±10%), or check the value with --set and `detune check`"
     ))
 }
 

@@ -130,6 +130,10 @@ fn cols(c: &[(&str, &str)]) -> Vec<Column> {
     c.iter().map(|(t, u)| Column::new(*t, *u)).collect()
 }
 
+/// The context of an error of the report's tuning (its ranges are not the sensitivity's:
+/// a front end names them apart).
+pub const TUNING: &str = "the tuning";
+
 /// Add the sensitivity, margins and (when asked) tuning sections to `report`.
 pub fn add_studies(report: &mut Report, s: &Studies) -> Result<()> {
     let study = if s.varies.is_empty() {
@@ -313,7 +317,8 @@ pub fn add_studies(report: &mut Report, s: &Studies) -> Result<()> {
             tolerances,
             ..Default::default()
         };
-        let t = crate::tune::tune(s.sys, s.tune_varies, &lines, &opts)?;
+        let t = crate::tune::tune(s.sys, s.tune_varies, &lines, &opts)
+            .map_err(|e| e.context(TUNING))?;
         report.add_data("tuning", &t)?;
         report.add_data("tuning_clearance", &opts.clearance)?;
         let baseline: serde_json::Map<String, serde_json::Value> = s
