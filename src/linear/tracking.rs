@@ -852,9 +852,11 @@ impl Path<'_> {
             }
             Err(e) => {
                 let name = &self.sys.param_names()[self.index];
+                // a halved step's value, to 12 digits (0.10875, not 0.10875000000000001)
+                let shown: f64 = format!("{target:.11e}").parse().unwrap_or(target);
                 return Err(e.context(&format!(
                     "tracking the modes, at {name} = {}",
-                    crate::diag::num(target)
+                    crate::diag::num(shown)
                 )));
             }
         };
