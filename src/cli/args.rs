@@ -697,8 +697,9 @@ impl PlotSize {
 
 /// Before a long run (a sweep): a figure of `panels` stacked panels at `size` must have
 /// room for a plot in each, or the run's results would be lost with the figure refused at
-/// the end. Checked on empty panels with a one-line title (a lower bound: the figure
-/// itself is checked again when it is drawn, with its own titles and legends).
+/// the end. Checked on stand-in panels (a one-line title, the caption, a short legend
+/// entry per curve and the ω_n line: a lower bound; the figure itself is checked again
+/// when it is drawn, with its own titles and legends).
 pub fn check_panels(size: Option<(u32, u32)>, panels: usize, curves: usize) -> Result<()> {
     use detune::output::plot::{LinePlot, Panels, Series, Style};
     let Some(size) = size else { return Ok(()) };

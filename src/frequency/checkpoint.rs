@@ -460,12 +460,8 @@ impl Checkpoint {
         let n = h0.shard.n;
         let mut seen: Vec<Option<String>> = vec![None; n];
         for (p, h, _) in &parts {
-            let differs = if h.detune_version != h0.detune_version {
-                Some(format!(
-                    "detune {} wrote {p}, detune {} wrote {p0}",
-                    h.detune_version, h0.detune_version
-                ))
-            } else if h.model_sha256 != h0.model_sha256 || h.model_file != h0.model_file {
+            // (every part is of this build: checked above)
+            let differs = if h.model_sha256 != h0.model_sha256 || h.model_file != h0.model_file {
                 Some(format!(
                     "{p} is of model {} (sha256 {}), {p0} of {} (sha256 {})",
                     h.model_file,
