@@ -5,8 +5,6 @@
 //! no output file is left behind.
 
 use std::path::Path;
-use std::process::{Command, Stdio};
-use std::time::{Duration, Instant};
 
 mod common;
 
@@ -37,32 +35,11 @@ fn run(args: &[&str], extra: &[(&str, &str)]) -> Outcome {
     for (name, text) in extra {
         std::fs::write(dir.path().join(name), text).unwrap();
     }
-    let out_path = dir.path().join("stdout.txt");
-    let err_path = dir.path().join("stderr.txt");
-    let mut child = Command::new(env!("CARGO_BIN_EXE_detune"))
-        .current_dir(dir.path())
-        .args(args)
-        .stdin(Stdio::null())
-        .stdout(std::fs::File::create(&out_path).unwrap())
-        .stderr(std::fs::File::create(&err_path).unwrap())
-        .spawn()
-        .unwrap();
-    let start = Instant::now();
-    let status = loop {
-        if let Some(s) = child.try_wait().unwrap() {
-            break s;
-        }
-        if start.elapsed() > Duration::from_secs(20) {
-            let _ = child.kill();
-            let _ = child.wait();
-            panic!("detune {:.200?} did not return within 20 s", args);
-        }
-        std::thread::sleep(Duration::from_millis(20));
-    };
+    let (code, stdout, stderr) = common::run_within_20s(dir.path(), args);
     Outcome {
-        code: status.code(),
-        stdout: std::fs::read_to_string(&out_path).unwrap(),
-        stderr: std::fs::read_to_string(&err_path).unwrap(),
+        code,
+        stdout,
+        stderr,
         dir,
     }
 }

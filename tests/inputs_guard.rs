@@ -4,6 +4,8 @@
 //! against the outputs, checkpoints refused across builds, and GNU `timeout`'s double
 //! SIGTERM. Each runs the built binary under a 20 s limit (a hang fails the test).
 
+mod common;
+
 use std::path::Path;
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
@@ -18,32 +20,11 @@ struct Outcome {
 
 /// Run `detune ARGS` in `dir`; kill it and fail after 20 s.
 fn run(dir: &Path, args: &[&str]) -> Outcome {
-    let out_path = dir.join("stdout.txt");
-    let err_path = dir.join("stderr.txt");
-    let mut child = Command::new(env!("CARGO_BIN_EXE_detune"))
-        .current_dir(dir)
-        .args(args)
-        .stdin(Stdio::null())
-        .stdout(std::fs::File::create(&out_path).unwrap())
-        .stderr(std::fs::File::create(&err_path).unwrap())
-        .spawn()
-        .unwrap();
-    let start = Instant::now();
-    let status = loop {
-        if let Some(s) = child.try_wait().unwrap() {
-            break s;
-        }
-        if start.elapsed() > Duration::from_secs(20) {
-            let _ = child.kill();
-            let _ = child.wait();
-            panic!("detune {:.200?} did not return within 20 s", args);
-        }
-        std::thread::sleep(Duration::from_millis(20));
-    };
+    let (code, stdout, stderr) = common::run_within_20s(dir, args);
     Outcome {
-        code: status.code(),
-        stdout: std::fs::read_to_string(&out_path).unwrap(),
-        stderr: std::fs::read_to_string(&err_path).unwrap(),
+        code,
+        stdout,
+        stderr,
     }
 }
 
