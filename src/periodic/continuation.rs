@@ -503,6 +503,7 @@ pub fn nfr(
                     && all[i + 1].point.stable
                     && a(i) > a(i - 1)
                     && a(i) >= a(i + 1)
+                    && prominent(&all, i, r, tr.sh.opts.tol.max(100.0 * tr.sh.opts.rtol))
                 {
                     match tr.peak(&all, i, r) {
                         Ok(Some((mut nd, uncertainty, refined))) => {
@@ -559,6 +560,39 @@ pub fn nfr(
         rhs_evaluations: tr.sh.rhs_evaluations,
         unresolved_events: tr.unresolved,
     })
+}
+
+/// Whether the local maximum of response `r`'s amplitude at `all[i]` stands above the
+/// points' noise: on each side, along its stable part of the same branch, the amplitude
+/// falls by more than its noise (`noise` or the point's own Newton residual, relative to
+/// the amplitude) before it rises above the maximum again. A wiggle of a flank or of a
+/// flat stretch at the integration's noise is not a peak: at `--rtol 1e-6` the inceptor's
+/// curve (7 mm, breakout) showed twelve such maxima besides its one peak, each with a
+/// higher point a few points away and differences of 1e-7 to 1e-6 of the amplitude.
+/// (A side whose stable part ends first, at a fold or bifurcation, stands.)
+fn prominent(all: &[Node], i: usize, r: usize, noise: f64) -> bool {
+    let a = |k: usize| all[k].point.measures[r].amplitude;
+    let top = a(i);
+    let delta = top * noise.max(all[i].residual);
+    let on = |k: usize| all[k].point.branch == all[i].point.branch && all[k].point.stable;
+    let side = |mut k: usize, step: isize| -> bool {
+        loop {
+            let Some(next) = k
+                .checked_add_signed(step)
+                .filter(|&j| j < all.len() && on(j))
+            else {
+                return true;
+            };
+            k = next;
+            if a(k) > top {
+                return false;
+            }
+            if top - a(k) > delta {
+                return true;
+            }
+        }
+    };
+    side(i, -1) && side(i, 1)
 }
 
 /// The most steps the shooting's integrator may need for one forcing period, by the
@@ -815,6 +849,11 @@ fn test(kind: Located, n: &Node) -> Option<f64> {
         Located::Peak => None,
     }
 }
+
+/// The stated relative uncertainty of a located period doubling or Neimark–Sacker point:
+/// its test function, from the monodromy, scatters by about 1e-6 between orbits 1e-9
+/// apart (±8e-8 rad/s on the overcentre's period doubling; docs/performance.md).
+const BIFURCATION_REL: f64 = 1e-7;
 
 /// The largest multiplier modulus up to which the others are resolved: the monodromy's
 /// relative error (1e-8 to 1e-6 with forward-difference columns and the integration)
@@ -1528,10 +1567,20 @@ impl Tracer<'_> {
             // the arclength, so it settles long before the arclength does
             // (two trials either side of a fold can also share a value: the test
             // function must be small too)
+            // A bifurcation's test function scatters between neighbouring orbits (its
+            // value's stated uncertainty `BIFURCATION_REL`): two trials that agree to a
+            // third of that have found the zero as well as it can be found, and the
+            // trials after them only chase the scatter (the overcentre's period
+            // doubling: 6 of its 11 trials, about 55 000 evaluations).
             change = (p - p_prev).abs();
+            let settled = if kind == Located::Fold {
+                1e-10 * p.abs().max(self.sp)
+            } else {
+                (0.3 * BIFURCATION_REL * p.abs()).max(1e-10 * self.sp)
+            };
             if g.abs() <= small
                 || (s - s_prev).abs() < 1e-10 * ds
-                || (change <= 1e-10 * p.abs().max(self.sp) && g.abs() <= 1e-4 * scale)
+                || (change <= settled && g.abs() <= 1e-4 * scale)
             {
                 converged = true;
                 break;
@@ -1565,7 +1614,11 @@ impl Tracer<'_> {
             // continuation's steps): 1e-9 of the value for a fold (the tangent's own
             // zero), 1e-7 for a bifurcation (the multipliers' errors), and the orbit's
             // own Newton residual
-            let rel: f64 = if kind == Located::Fold { 1e-9 } else { 1e-7 };
+            let rel: f64 = if kind == Located::Fold {
+                1e-9
+            } else {
+                BIFURCATION_REL
+            };
             let floor = rel.max(n.residual) * n.point.value.abs();
             let u = if change.is_finite() {
                 change.max(floor)
@@ -1713,5 +1766,63 @@ fn peak_uncertainty(around: &[Node], r: usize, da: f64) -> f64 {
     } else {
         // a vertical flank or a flat top: no better than the bracket
         0.5 * (w[2] - w[0]).abs()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Nodes of one stable branch with these amplitudes (Newton residual 1e-12).
+    fn nodes(amplitudes: &[f64]) -> Vec<Node> {
+        amplitudes
+            .iter()
+            .enumerate()
+            .map(|(i, &a)| Node {
+                point: NfrPoint {
+                    value: i as f64,
+                    omega: i as f64,
+                    measures: vec![Measures::of(&[a, -a], 1)],
+                    multipliers: Vec::new(),
+                    stable: true,
+                    located: None,
+                    s: i as f64,
+                    branch: 0,
+                    x: Vec::new(),
+                    stale: false,
+                },
+                basis: DMatrix::zeros(0, 0),
+                tangent: DVector::zeros(1),
+                iterations: 1,
+                residual: 1e-12,
+            })
+            .collect()
+    }
+
+    fn maxima(amplitudes: &[f64], noise: f64) -> Vec<usize> {
+        let all = nodes(amplitudes);
+        let a = |k: usize| all[k].point.measures[0].amplitude;
+        (1..all.len() - 1)
+            .filter(|&i| a(i) > a(i - 1) && a(i) >= a(i + 1) && prominent(&all, i, 0, noise))
+            .collect()
+    }
+
+    #[test]
+    fn a_peak_stands_and_the_noise_about_it_does_not() {
+        // a clean peak
+        assert_eq!(maxima(&[1.0, 2.0, 3.0, 2.0, 1.0], 1e-6), vec![2]);
+        // a flat top with wiggles of 1e-7 of the amplitude: one peak, the highest
+        let top = [1.0, 2.0, 3.0, 3.0 + 3e-7, 3.0 - 3e-7, 3.0 + 6e-7, 2.0, 1.0];
+        assert_eq!(maxima(&top, 1e-6), vec![5]);
+        // wiggles on a falling flank: none of them
+        let flank = [3.0, 2.9, 2.8, 2.8 + 1e-6, 2.8 - 2e-6, 2.8 - 1e-6, 2.7, 2.6];
+        assert_eq!(maxima(&flank, 1e-6), Vec::<usize>::new());
+        // the same wiggle larger than the noise is a peak of its own
+        let bump = [3.0, 2.9, 2.8, 2.85, 2.7, 2.75, 2.6, 2.5];
+        assert_eq!(maxima(&bump, 1e-6), vec![3, 5]);
+        // a side whose stable part ends before it falls by the noise stands
+        let mut edge = nodes(&[1.0, 2.0, 3.0, 3.0 - 1e-9, 5.0]);
+        edge[4].point.stable = false;
+        assert!(prominent(&edge, 2, 0, 1e-6));
     }
 }
