@@ -234,6 +234,10 @@ struct Node {
     iterations: usize,
     /// The Newton residual it was accepted at, relative to the orbit's amplitude.
     residual: f64,
+    /// The point's move on the manifold with p where the constraints move with p
+    /// (`Flow::start_dp`), in scaled units (dx/dp·σ_p/σ_x): the state changes by
+    /// σ_x·(basis·t_ξ + shift·t_p) per unit arclength.
+    shift: Option<DVector<f64>>,
 }
 
 impl Node {
@@ -241,7 +245,10 @@ impl Node {
     /// different charts.
     fn ambient(&self) -> DVector<f64> {
         let d = self.basis.ncols();
-        let t = self.basis.clone() * self.tangent.rows(0, d);
+        let mut t = self.basis.clone() * self.tangent.rows(0, d);
+        if let Some(shift) = &self.shift {
+            t += shift * self.tangent[d];
+        }
         let mut a = DVector::zeros(t.len() + 1);
         a.rows_mut(0, t.len()).copy_from(&t);
         a[t.len()] = self.tangent[d];
@@ -899,6 +906,7 @@ impl Tracer<'_> {
                 tangent,
                 iterations: 0,
                 residual: f64::INFINITY,
+                shift: None,
             })
         };
         let guess = base(&mut self.sh, x0)?;
@@ -1271,6 +1279,11 @@ impl Tracer<'_> {
             }
             p += sp * h * k[n];
         }
+        // the start's own move with p, where the constraints move with it (without it
+        // the predicted point lies off the arclength and the first residual is larger)
+        if let Some(shift) = base.shift.as_ref().filter(|_| fixed.is_none()) {
+            step += shift * (sx * (p - base.point.value) / sp);
+        }
         let mut x: Vec<f64> = base
             .point
             .x
@@ -1311,7 +1324,12 @@ impl Tracer<'_> {
             };
             let rel = self.sh.relative(&flow.end, &x, &flow.scale);
             let diff = DVector::from_fn(x.len(), |i, _| flow.end[i] - x[i]);
-            let dx = DVector::from_fn(x.len(), |i, _| x[i] - base.point.x[i]);
+            // the state's change in the tangent's coordinates: less the base's own move
+            // with p (`Node::shift`)
+            let mut dx = DVector::from_fn(x.len(), |i, _| x[i] - base.point.x[i]);
+            if let Some(shift) = &base.shift {
+                dx -= shift * (sx * (p - base.point.value) / sp);
+            }
             let arc = match fixed {
                 None => {
                     tx.dot(&(base.basis.transpose() * &dx)) / sx
@@ -1376,7 +1394,17 @@ impl Tracer<'_> {
                 None => {
                     let row = (tx.transpose() * base.basis.transpose() * &tb) / sx;
                     jm.view_mut((d, 0), (1, d)).copy_from(&row);
-                    jm[(d, d)] = tpar / sp;
+                    // a change of p moves the start too, where the constraints move with
+                    // p (the projection onto the new manifold: `Flow::start_dp`), and with
+                    // it the arclength
+                    let mut moved = flow
+                        .start_dp
+                        .clone()
+                        .unwrap_or_else(|| DVector::zeros(x.len()));
+                    if let Some(shift) = &base.shift {
+                        moved -= shift * (sx / sp);
+                    }
+                    jm[(d, d)] = tpar / sp + tx.dot(&(base.basis.transpose() * moved)) / sx;
                 }
                 Some(_) => jm[(d, d)] = 1.0 / sp,
             }
@@ -1462,6 +1490,7 @@ impl Tracer<'_> {
             tangent,
             iterations,
             residual,
+            shift: flow.start_dp.map(|s| s * (self.sp / self.sx)),
         };
         if base.ambient().dot(&nd.ambient()) < 0.0 {
             nd.tangent.neg_mut();
@@ -1795,6 +1824,7 @@ mod tests {
                 tangent: DVector::zeros(1),
                 iterations: 1,
                 residual: 1e-12,
+                shift: None,
             })
             .collect()
     }
