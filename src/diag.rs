@@ -42,6 +42,9 @@ pub struct Diagnostic {
     pub label: Option<String>,
     /// What to do about it.
     pub help: Option<String>,
+    /// Not a problem but the end of the list: the check stopped after the problems before
+    /// it, and more may follow once they are fixed.
+    pub stop: bool,
 }
 
 impl Diagnostic {
@@ -51,6 +54,14 @@ impl Diagnostic {
             span: None,
             label: None,
             help: None,
+            stop: false,
+        }
+    }
+    /// The end of a list that was not checked to its end (`message` says where it stopped).
+    pub fn stop(message: impl Into<String>) -> Self {
+        Diagnostic {
+            stop: true,
+            ..Diagnostic::new(message)
         }
     }
     pub fn at(mut self, span: Range<usize>) -> Self {
@@ -317,21 +328,26 @@ impl Error {
                 // the first ones: each excerpt indexes the whole file, and thousands of
                 // problems are fixed from the first few anyway
                 const SHOWN: usize = 30;
-                for d in diagnostics.iter().take(SHOWN) {
+                let problems: Vec<&Diagnostic> = diagnostics.iter().filter(|d| !d.stop).collect();
+                let stop = diagnostics.iter().find(|d| d.stop);
+                for d in problems.iter().take(SHOWN) {
                     out.push_str(&render_diagnostic(source, d, color));
                 }
-                if diagnostics.len() > SHOWN {
+                if problems.len() > SHOWN {
                     out.push_str(&format!(
                         "… {} more problems not shown: fix these first\n",
-                        diagnostics.len() - SHOWN
+                        problems.len() - SHOWN
                     ));
                 }
-                if diagnostics.len() > 1 {
-                    out.push_str(&format!(
-                        "{} problems in {}\n",
-                        diagnostics.len(),
-                        source.path
-                    ));
+                if problems.len() > 1 || stop.is_some() {
+                    out.push_str(&format!("{} problems in {}", problems.len(), source.path));
+                    match stop {
+                        Some(d) => out.push_str(&format!(
+                            " ({}: more may follow once these are fixed)\n",
+                            d.message
+                        )),
+                        None => out.push('\n'),
+                    }
                 }
                 out
             }

@@ -361,15 +361,33 @@ fn twenty_thousand_broken_parameters_are_reported_briefly() {
     )
     .unwrap();
     let o = run(dir.path(), &["check", "unknown.toml"]);
+    // the evaluation stops at the first 30: the count says it is not of all
     refused(
         &o,
-        &["unknown parameter `zz", "(20005 in all, in [parameters])"],
+        &[
+            "unknown parameter `zz",
+            "(20005 in all, in [parameters])",
+            "30 problems in unknown.toml (the check of [parameters] stopped after 30: more may follow once these are fixed)",
+        ],
     );
     assert!(
         o.stderr.len() < 100_000,
         "{} bytes of error",
         o.stderr.len()
     );
+    // exactly 30: all of them, no "stopped"
+    let thirty: Vec<String> = (0..30).map(|i| format!("p{i} = \"zz{i} + 1\"")).collect();
+    std::fs::write(
+        dir.path().join("thirty.toml"),
+        SDOF.replace(
+            "[parameters]\n",
+            &format!("[parameters]\n{}\n", thirty.join("\n")),
+        ),
+    )
+    .unwrap();
+    let o = run(dir.path(), &["check", "thirty.toml"]);
+    refused(&o, &["30 problems in thirty.toml\n"]);
+    assert!(!o.stderr.contains("stopped"), "{}", o.stderr);
     let o = run(dir.path(), &["check", "units.toml"]);
     refused(
         &o,

@@ -336,12 +336,20 @@ fn evaluate(
         values: vec![f64::NAN; list.len()],
         dims: vec![None; list.len()],
         problems: Vec::new(),
+        cut: false,
     };
     for i in 0..list.len() {
         if ev.problems.len() >= MAX_PROBLEMS {
+            ev.cut |= ev.state[i..].contains(&State::Todo);
             break;
         }
         ev.walk(i);
+    }
+    // say so: the count is of the problems found, not of all
+    if ev.cut {
+        ev.problems.push(Problem::File(Diagnostic::stop(format!(
+            "the check of [parameters] stopped after {MAX_PROBLEMS}"
+        ))));
     }
     if ev.problems.is_empty() {
         Ok((ev.values, ev.dims))
@@ -360,6 +368,8 @@ struct Evaluator<'a> {
     values: Vec<f64>,
     dims: Vec<Option<Dim>>,
     problems: Vec<Problem>,
+    /// Parameters were left unchecked at `MAX_PROBLEMS`.
+    cut: bool,
 }
 
 impl<'a> Evaluator<'a> {
@@ -451,6 +461,7 @@ impl<'a> Evaluator<'a> {
         if self.problems.len() >= MAX_PROBLEMS {
             // enough to fix first: the rest is not evaluated (nor its help searched for)
             self.state[i] = State::Failed;
+            self.cut = true;
             return;
         }
         let list: &'a [Parameter] = self.list;
