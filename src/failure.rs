@@ -24,6 +24,26 @@ fn given_velocity(given: &Option<GivenVelocity>) -> String {
     }
 }
 
+impl Failure {
+    /// The same failure with its model time `t` (where it has one) moved later by `dt`:
+    /// a run that started `dt` after the motion's own start (a sweep's steady state
+    /// restarted after an extrapolation).
+    pub fn later_by(mut self, dt: f64) -> Failure {
+        match &mut self {
+            Failure::StepLimit { t, .. }
+            | Failure::Interrupted { t }
+            | Failure::SimulationInterrupted { t }
+            | Failure::NonFinite { t, .. }
+            | Failure::SingularMass { t, .. }
+            | Failure::StepSizeUnderflow { t, .. }
+            | Failure::TooManySteps { t }
+            | Failure::Stiff { t } => *t += dt,
+            _ => {}
+        }
+        self
+    }
+}
+
 /// A computation that could not be completed.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum Failure {
@@ -562,5 +582,27 @@ mod tests {
             fixed: vec![("bar1.theta".into(), 0.7)],
         };
         assert!(f.to_string().contains("1.500e-3") && f.hint().contains("bar1.theta = 0.7"));
+    }
+}
+
+#[cfg(test)]
+mod later_tests {
+    use super::Failure;
+
+    /// A failure in a restarted run says its time from the motion's start.
+    #[test]
+    fn a_failure_moved_later_says_the_later_time() {
+        let f = Failure::StepSizeUnderflow { t: 1.25, h: 3e-11 }.later_by(20.0);
+        assert_eq!(f, Failure::StepSizeUnderflow { t: 21.25, h: 3e-11 });
+        assert!(f.to_string().contains("at t = 21.250000 s"), "{f}");
+        assert_eq!(
+            Failure::NonFinite { t: 2.0, h: 1e-9 }.later_by(0.5),
+            Failure::NonFinite { t: 2.5, h: 1e-9 }
+        );
+        // no time: unchanged
+        assert_eq!(
+            Failure::SweepInterrupted.later_by(3.0),
+            Failure::SweepInterrupted
+        );
     }
 }

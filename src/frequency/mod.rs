@@ -170,6 +170,8 @@ pub fn steady_state_watched(
         let mut vals: Vec<Vec<f64>> = Vec::with_capacity(per + 1);
         let mut restart: Option<State> = None;
         let mut last = state.clone();
+        // this run's t = 0, in the time integrated at this frequency so far
+        let t0 = done as f64 * period;
         let run = crate::dynamics::simulate::simulate_watched(
             sys,
             &state,
@@ -222,6 +224,19 @@ pub fn steady_state_watched(
                 map.undo_extrapolation(&fallback);
                 state = fallback;
                 continue;
+            }
+            // its time counted from this frequency's first period, not from the run's
+            // restart
+            Err(crate::diag::Error::Failed {
+                failure,
+                context,
+                at,
+            }) => {
+                return Err(crate::diag::Error::Failed {
+                    failure: failure.later_by(t0),
+                    context,
+                    at,
+                });
             }
             Err(e) => return Err(e),
         };
