@@ -585,6 +585,16 @@ fn huge_and_tiny_numbers_in_errors_are_short() {
     );
     refused(&o, &["continuation cannot start at k = 1e200:"]);
     long(&o);
+    // a residual no load can have: the advice is the precision limit, not "start closer"
+    let o = run(&["equilibrium", "oc.toml", "--set", "k=1e200"], &[]);
+    refused(
+        &o,
+        &[
+            "no equilibrium found: residual 3.806e184",
+            "it is the round-off of the equilibrium equations",
+        ],
+    );
+    assert!(!o.stderr.contains("start closer"), "{}", o.stderr);
     let o = run(
         &[
             "kinematics",
