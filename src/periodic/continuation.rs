@@ -573,9 +573,10 @@ pub fn nfr(
 /// points' noise: on each side, along its stable part of the same branch, the amplitude
 /// falls by more than its noise (`noise` or the point's own Newton residual, relative to
 /// the amplitude) before it rises above the maximum again. A wiggle of a flank or of a
-/// flat stretch at the integration's noise is not a peak: at `--rtol 1e-6` the inceptor's
-/// curve (7 mm, breakout) showed twelve such maxima besides its one peak, each with a
-/// higher point a few points away and differences of 1e-7 to 1e-6 of the amplitude.
+/// flat stretch at the integration's noise is not a peak: at `--rtol 1e-6`, before the
+/// arclength row carried a base motion's move, the inceptor's curve (7 mm, breakout)
+/// crawled and showed eleven such maxima besides its one peak, each with a higher point a
+/// few points away and differences of 1e-7 to 1e-6 of the amplitude.
 /// (A side whose stable part ends first, at a fold or bifurcation, stands.)
 fn prominent(all: &[Node], i: usize, r: usize, noise: f64) -> bool {
     let a = |k: usize| all[k].point.measures[r].amplitude;
@@ -1014,7 +1015,10 @@ impl Tracer<'_> {
                 continue;
             };
             // a sharp turn: a smaller step
-            if last.ambient().dot(&next.ambient()) < 0.9 && ds > 1e-6 {
+            // (the cosine: an ambient tangent is not of unit length where the start
+            // moves with p, `Node::shift`)
+            let (ta, tb) = (last.ambient(), next.ambient());
+            if ta.dot(&tb) < 0.9 * ta.norm() * tb.norm() && ds > 1e-6 {
                 ds *= 0.5;
                 continue;
             }
@@ -1557,6 +1561,7 @@ impl Tracer<'_> {
         let mut side = 0;
         let mut s_prev = f64::NAN;
         let mut p_prev = f64::NAN;
+        let mut g_prev = f64::NAN;
         let mut change = f64::INFINITY;
         let mut converged = false;
         let mut tried: Vec<Node> = Vec::new();
@@ -1600,22 +1605,25 @@ impl Tracer<'_> {
             // value's stated uncertainty `BIFURCATION_REL`): two trials that agree to a
             // third of that have found the zero as well as it can be found, and the
             // trials after them only chase the scatter (the overcentre's period
-            // doubling: 6 of its 11 trials, about 55 000 evaluations).
+            // doubling: 6 of its 11 trials, about 55 000 evaluations), provided they lie
+            // either side of the zero.
             change = (p - p_prev).abs();
             let settled = if kind == Located::Fold {
                 1e-10 * p.abs().max(self.sp)
             } else {
                 (0.3 * BIFURCATION_REL * p.abs()).max(1e-10 * self.sp)
             };
+            let straddle = kind == Located::Fold || g * g_prev <= 0.0;
             if g.abs() <= small
                 || (s - s_prev).abs() < 1e-10 * ds
-                || (change <= settled && g.abs() <= 1e-4 * scale)
+                || (change <= settled && g.abs() <= 1e-4 * scale && straddle)
             {
                 converged = true;
                 break;
             }
             s_prev = s;
             p_prev = p;
+            g_prev = g;
             if g * ga > 0.0 {
                 sa = s;
                 ga = g;
