@@ -367,7 +367,7 @@ fn twenty_thousand_broken_parameters_are_reported_briefly() {
         &[
             "unknown parameter `zz",
             "(20005 in all, in [parameters])",
-            "30 problems in unknown.toml (the check of [parameters] stopped after 30: more may follow once these are fixed)",
+            "30 problems in unknown.toml (the evaluation of [parameters] stopped at its 30th problem: more may follow once these are fixed)",
         ],
     );
     assert!(

@@ -348,7 +348,7 @@ fn evaluate(
     // say so: the count is of the problems found, not of all
     if ev.cut {
         ev.problems.push(Problem::File(Diagnostic::stop(format!(
-            "the check of [parameters] stopped after {MAX_PROBLEMS}"
+            "the evaluation of [parameters] stopped at its {MAX_PROBLEMS}th problem"
         ))));
     }
     if ev.problems.is_empty() {
