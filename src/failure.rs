@@ -180,6 +180,10 @@ pub enum Failure {
         residual: f64,
         iterations: usize,
         pose: String,
+        /// The residual is at the round-off of the equations' largest terms (1e-13 of
+        /// them or less): no pose lowers it (a parameter far beyond physical size, such as
+        /// a stiffness of 1e40 N/m against loads of newtons).
+        round_off: bool,
     },
     #[error(
         "no equilibrium found: the equilibrium equations are undefined (NaN) after {iterations} iterations, at the pose {pose}"
@@ -415,6 +419,7 @@ impl Failure {
             ContinuationStalled { .. } => "the branch may end here (a singular pose or no equilibrium), or the step is far too large for this model: try a smaller one".into(),
             BranchTurns { .. } => "the branch may end here (a singular pose); try a smaller step".into(),
             SingularStart => "start away from it: change the coordinate the model fixes for assembly".into(),
+            NoEquilibrium { residual, round_off: true, .. } => format!("the residual {residual:.3e} is the round-off of the equilibrium equations (about 1e-16 of their largest term), which no pose lowers: a parameter is far beyond physical size; give the parameters physical values"),
             NoEquilibrium { .. } => "start closer to an equilibrium (another initial pose), or check that one exists for these loads".into(),
             UndefinedEquilibrium { .. } => "a load or a moving constraint is undefined there at some time of the forcing period (statics averages them over it): sqrt or ln of a negative number, or a division by zero".into(),
             TrimFailed { .. } => "check that the solved parameters can balance the held pose (a stiffness of zero, or a load the parameter does not act on, cannot be trimmed), or fix their values".into(),
@@ -517,6 +522,7 @@ mod tests {
                 residual: 1.0,
                 iterations: 50,
                 pose: "b.x = 1".into(),
+                round_off: false,
             },
             Failure::NoEquilibriumOnBranch,
             Failure::NoStartEquilibrium {

@@ -61,9 +61,8 @@ pub fn advice(f: &Failure) -> Option<String> {
         BranchTurns { .. } => "the branch may end here (a singular pose); try a smaller --step".into(),
         SingularStart => "start away from it: --set the initial value of the coordinate the model fixes for assembly to another value".into(),
         NoStartEquilibrium { .. } => "start --from where the mechanism has an equilibrium near its initial pose, or --set the initial angle or the loads; the branch is followed from there".into(),
-        // no load of a mechanism comes near 1e30 N: the residual is the equations'
-        // round-off (1e-16 of their largest term), not a pose too far off
-        NoEquilibrium { residual, .. } if *residual > 1e30 => format!("a residual of {residual:.3e} cannot be a load of this mechanism: it is the round-off of the equilibrium equations (about 1e-16 of their largest term), which no pose lowers; a parameter is far beyond physical size (a stiffness of 1e200 N/m does this): give the parameters physical values"),
+        // the equations' round-off, not a pose too far off
+        NoEquilibrium { residual, round_off: true, .. } => format!("the residual {residual:.3e} is the round-off of the equilibrium equations (about 1e-16 of their largest term), which no pose lowers: a parameter is far beyond physical size (--set it to a physical value)"),
         NoEquilibrium { .. } => "start closer to an equilibrium (e.g. --set the initial angle), or check that one exists for these loads".into(),
         DeadPoint { .. } => "beyond it the mechanism locks, a link cannot reach, or the branch to follow is ambiguous: end --from/--to before it, or drive another coordinate (--drive)".into(),
         _ => return None,

@@ -671,11 +671,20 @@ impl<'a> Statics<'a> {
                 let huge =
                     crate::failure::huge_parameters(self.sys.param_names(), self.sys.params());
                 let infinite = r.iter().any(|v| v.is_infinite());
+                // the round-off of the force rows: 1e-16 of their largest term (a row of
+                // the Jacobian times the coordinates' size)
+                let round_off = residual.is_finite() && {
+                    let j = self.kkt_jacobian_with(&x, &ar);
+                    let qs = 1.0 + x[..n].iter().fold(0.0f64, |a, v| a.max(v.abs()));
+                    let term = j.rows(0, n).amax() * qs;
+                    term.is_finite() && residual <= 1e-13 * term
+                };
                 return Err(if residual.is_finite() {
                     Failure::NoEquilibrium {
                         residual,
                         iterations: it,
                         pose: pose.join(", "),
+                        round_off,
                     }
                 } else if !huge.is_empty() || infinite {
                     Failure::Overflow {
@@ -707,6 +716,7 @@ impl<'a> Statics<'a> {
                         residual: amax(r.as_slice()),
                         iterations: it,
                         pose: String::new(),
+                        round_off: false,
                     }
                     .into());
                 }
