@@ -216,6 +216,8 @@ pub enum Failure {
         value: f64,
         why: String,
         iterations: usize,
+        /// The residual is the equations' round-off (`NoEquilibrium::round_off`).
+        round_off: bool,
     },
     /// A matrix handed to a decomposition (SVD, eigenvalues) holds a NaN or an infinity:
     /// `what` names the matrix, `row`, `col` (from 0) and `value` the first bad entry.
@@ -423,6 +425,7 @@ impl Failure {
             NoEquilibrium { .. } => "start closer to an equilibrium (another initial pose), or check that one exists for these loads".into(),
             UndefinedEquilibrium { .. } => "a load or a moving constraint is undefined there at some time of the forcing period (statics averages them over it): sqrt or ln of a negative number, or a division by zero".into(),
             TrimFailed { .. } => "check that the solved parameters can balance the held pose (a stiffness of zero, or a load the parameter does not act on, cannot be trimmed), or fix their values".into(),
+            NoStartEquilibrium { round_off: true, .. } => "the residual is the round-off of the equilibrium equations (about 1e-16 of their largest term), which no pose lowers: a parameter (the range's start, or another) is far beyond physical size; give physical values".into(),
             NoStartEquilibrium { .. } => "start the range where the mechanism has an equilibrium near its initial pose (change the start value, the initial pose, or the loads); the branch is followed from there".into(),
             NonFiniteMatrix { .. } | NonFiniteResult { .. } => "a parameter is too large or too small for double precision (beyond about 1e150, a product of two such overflows): give it a physical value".into(),
             NoConvergence { .. } => "the matrix is badly scaled: parameters differing by many orders of magnitude; give them physical values".into(),
@@ -530,6 +533,7 @@ mod tests {
                 value: 100.0,
                 why: "residual 1.000e0".into(),
                 iterations: 60,
+                round_off: false,
             },
             Failure::TrimFailed {
                 params: "L0".into(),

@@ -60,6 +60,7 @@ pub fn advice(f: &Failure) -> Option<String> {
         SimulationInterrupted { .. } => "the samples computed up to then were written, the CSV ending with a line `# incomplete: ...` and the JSON summary saying \"complete\": false (exit 130 SIGINT, 143 SIGTERM, 129 SIGHUP)".into(),
         BranchTurns { .. } => "the branch may end here (a singular pose); try a smaller --step".into(),
         SingularStart => "start away from it: --set the initial value of the coordinate the model fixes for assembly to another value".into(),
+        NoStartEquilibrium { round_off: true, .. } => "the residual is the round-off of the equilibrium equations (about 1e-16 of their largest term), which no pose lowers: a parameter (--from, or one given by --set) is far beyond physical size; give physical values".into(),
         NoStartEquilibrium { .. } => "start --from where the mechanism has an equilibrium near its initial pose, or --set the initial angle or the loads; the branch is followed from there".into(),
         // the equations' round-off, not a pose too far off
         NoEquilibrium { residual, round_off: true, .. } => format!("the residual {residual:.3e} is the round-off of the equilibrium equations (about 1e-16 of their largest term), which no pose lowers: a parameter is far beyond physical size (--set it to a physical value)"),

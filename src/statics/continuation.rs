@@ -406,18 +406,21 @@ pub fn continue_equilibria_until(
         Some(Failure::NoEquilibrium {
             residual,
             iterations,
+            round_off,
             ..
         }) => Failure::NoStartEquilibrium {
             param: opts.param.clone(),
             value: opts.from,
             why: format!("residual {residual:.3e}"),
             iterations: *iterations,
+            round_off: *round_off,
         }
         .into(),
         Some(Failure::UndefinedEquilibrium { iterations, .. }) => Failure::NoStartEquilibrium {
             param: opts.param.clone(),
             value: opts.from,
             why: "the equations undefined (NaN)".into(),
+            round_off: false,
             iterations: *iterations,
         }
         .into(),
