@@ -264,6 +264,12 @@ impl Node {
             .fold(1.0f64, |m, mu| m.max(mu.norm()))
     }
 
+    /// The state's move with a change `dp` of the parameter where the constraints move
+    /// with it (`shift` in state units; None where they do not).
+    fn start_move(&self, dp: f64, sx: f64, sp: f64) -> Option<DVector<f64>> {
+        self.shift.as_ref().map(|shift| shift * (sx * dp / sp))
+    }
+
     fn tp(&self) -> f64 {
         self.tangent[self.tangent.len() - 1]
     }
@@ -510,7 +516,7 @@ pub fn nfr(
                     && all[i + 1].point.stable
                     && a(i) > a(i - 1)
                     && a(i) >= a(i + 1)
-                    && prominent(&all, i, r, tr.sh.opts.tol.max(100.0 * tr.sh.opts.rtol))
+                    && prominent(&all, i, r, tr.sh.opts.newton_tol(1.0))
                 {
                     match tr.peak(&all, i, r) {
                         Ok(Some((mut nd, uncertainty, refined))) => {
@@ -1285,8 +1291,11 @@ impl Tracer<'_> {
         }
         // the start's own move with p, where the constraints move with it (without it
         // the predicted point lies off the arclength and the first residual is larger)
-        if let Some(shift) = base.shift.as_ref().filter(|_| fixed.is_none()) {
-            step += shift * (sx * (p - base.point.value) / sp);
+        if let Some(moved) = base
+            .start_move(p - base.point.value, sx, sp)
+            .filter(|_| fixed.is_none())
+        {
+            step += moved;
         }
         let mut x: Vec<f64> = base
             .point
@@ -1331,8 +1340,8 @@ impl Tracer<'_> {
             // the state's change in the tangent's coordinates: less the base's own move
             // with p (`Node::shift`)
             let mut dx = DVector::from_fn(x.len(), |i, _| x[i] - base.point.x[i]);
-            if let Some(shift) = &base.shift {
-                dx -= shift * (sx * (p - base.point.value) / sp);
+            if let Some(moved) = base.start_move(p - base.point.value, sx, sp) {
+                dx -= moved;
             }
             let arc = match fixed {
                 None => {
@@ -1344,11 +1353,7 @@ impl Tracer<'_> {
             };
             // the integration's error, amplified by the orbit's unstable multipliers,
             // bounds the residual that the fixed point can be found to
-            let tol = self
-                .sh
-                .opts
-                .tol
-                .max(100.0 * self.sh.opts.rtol * base.growth());
+            let tol = self.sh.opts.newton_tol(base.growth());
             // The integration's noise: P is no smoother than its error control, which is
             // relative to the coordinates' size, not to the orbit's amplitude; where the
             // coordinates are large against a small orbit (a base-driven mechanism) and a
@@ -1405,8 +1410,8 @@ impl Tracer<'_> {
                         .start_dp
                         .clone()
                         .unwrap_or_else(|| DVector::zeros(x.len()));
-                    if let Some(shift) = &base.shift {
-                        moved -= shift * (sx / sp);
+                    if let Some(own) = base.start_move(1.0, sx, sp) {
+                        moved -= own;
                     }
                     jm[(d, d)] = tpar / sp + tx.dot(&(base.basis.transpose() * moved)) / sx;
                 }
@@ -1697,7 +1702,7 @@ impl Tracer<'_> {
         let reach = peak_uncertainty(
             &all[i - 1..=i + 1],
             r,
-            (100.0 * self.sh.opts.rtol).max(self.sh.opts.tol) * all[i].point.measures[r].amplitude,
+            self.sh.opts.newton_tol(1.0) * all[i].point.measures[r].amplitude,
         );
         let mut converged = false;
         // the vertex's last move
@@ -1758,10 +1763,7 @@ impl Tracer<'_> {
         let best = pts.swap_remove(imax).2;
         // the amplitude is known to the orbit's convergence: the Newton tolerance it was
         // corrected to, at least (a residual far below it is luck, not precision)
-        let noise = best
-            .residual
-            .max(100.0 * self.sh.opts.rtol)
-            .max(self.sh.opts.tol);
+        let noise = best.residual.max(self.sh.opts.newton_tol(1.0));
         let u = peak_uncertainty(
             &all[i - 1..=i + 1],
             r,

@@ -72,6 +72,16 @@ pub struct ShootingOptions {
     pub integrator: Integrator,
 }
 
+impl ShootingOptions {
+    /// The Newton tolerance of an orbit (relative to its amplitude) whose largest
+    /// multiplier's modulus is `growth` (at least 1): `tol`, or the integration's error
+    /// amplified over the period, 100·rtol·growth, if larger. With growth 1 it is the
+    /// noise of a stable orbit's amplitude.
+    pub fn newton_tol(&self, growth: f64) -> f64 {
+        self.tol.max(100.0 * self.rtol * growth)
+    }
+}
+
 impl Default for ShootingOptions {
     fn default() -> Self {
         ShootingOptions {

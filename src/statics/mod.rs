@@ -607,7 +607,7 @@ impl<'a> Statics<'a> {
     /// relative to the coordinates.
     pub(crate) fn converged(&self, r: &DVector<f64>, x: &[f64], force_scale: f64) -> bool {
         let n = self.sys.n();
-        let qs = 1.0 + x[..n].iter().fold(0.0f64, |a, v| a.max(v.abs()));
+        let qs = coordinate_size(&x[..n]);
         let fr = r.rows(0, n).amax();
         let cr = r.rows(n, self.rows.len()).amax();
         // an overflowing load scale (a load near f64::MAX) accepts nothing
@@ -675,7 +675,7 @@ impl<'a> Statics<'a> {
                 // the Jacobian times the coordinates' size)
                 let round_off = residual.is_finite() && {
                     let j = self.kkt_jacobian_with(&x, &ar);
-                    let qs = 1.0 + x[..n].iter().fold(0.0f64, |a, v| a.max(v.abs()));
+                    let qs = coordinate_size(&x[..n]);
                     let term = j.rows(0, n).amax() * qs;
                     term.is_finite() && residual <= 1e-13 * term
                 };
@@ -727,7 +727,7 @@ impl<'a> Statics<'a> {
             // Trust region: no coordinate moves more than 0.2 (rad, or m scaled by the
             // model's size, at most 10) in one iteration, so Newton does not leap to a far
             // equilibrium, yet can travel far when the equilibrium is far.
-            let size = (1.0 + x[..n].iter().fold(0.0f64, |a, v| a.max(v.abs()))).min(10.0);
+            let size = coordinate_size(&x[..n]).min(10.0);
             let biggest = dx.rows(0, n).amax();
             let mut step = if biggest > 0.2 * size {
                 0.2 * size / biggest
@@ -1184,4 +1184,9 @@ pub fn independent_rows(sys: &System, q: &[f64]) -> Vec<usize> {
         }
     }
     rows
+}
+
+/// 1 + the largest |q_i|: the size the equilibrium's tolerances and steps are relative to.
+fn coordinate_size(q: &[f64]) -> f64 {
+    1.0 + q.iter().fold(0.0f64, |a, v| a.max(v.abs()))
 }
