@@ -34,11 +34,33 @@
 //! doubling's test function scatters by about 1e-6 between neighbouring orbits (source
 //! not found: docs/performance.md), ±8e-8 rad/s on the overcentre, stated ±1e-7 of ω.
 //!
-//! A curve point whose last Newton step was small is checked by its state's period alone
-//! (`NfrPoint::stale`: its multipliers and tangent are the iterate's before); where a test
-//! function changes sign next to one, it is integrated in full first. Peaks (interior maxima of an amplitude on a stable part)
-//! are located by successive parabolic interpolation on the arclength, every trial a
-//! corrected point, the amplitude measured on 2048 samples a period.
+//! # Chords: most periods without their variational columns
+//!
+//! A full period (the state with its 2·DoF directions and the parameter's) costs
+//! 2 + 2·DoF evaluations a stage; the state's period alone, 1. Newton needs the full
+//! ones for its matrix, not for every iterate:
+//! - **From the last point** (where a full period costs at least 5: two DoF or more,
+//!   `CHORD_FULL_COST`; and the last orbit is not unstable, `CHORD_GROWTH`): chord
+//!   iterations with the last point's bordered Jacobian, updated by Broyden's secant
+//!   along the iterates, each the state's period alone, until the residual is at the
+//!   tolerance; then one full period at the converged orbit gives the point its own
+//!   multipliers and tangent. The inceptor's 7 mm curve: four of the state's periods and
+//!   1.2 full ones a point, against 2.5 full and one state's before.
+//! - **After a full Newton period** within 1e-4 of the orbit (`LIGHT_MARGIN`): chords from that
+//!   period's Jacobian; the point is `stale` (`NfrPoint::stale`: its multipliers and
+//!   tangent are that iterate's). Where a test function changes sign next to a stale
+//!   point, it is integrated in full first.
+//! - **A peak's trials** (below) by chords from the nearest orbit so far; the peak's own
+//!   orbit gets its full period.
+//!
+//! A chord that stops converging (a residual not halved) hands over to Newton with full
+//! periods; the located folds and bifurcations use full periods throughout.
+//!
+//! # Peaks
+//!
+//! Peaks (interior maxima of an amplitude on a stable part) are located by successive
+//! parabolic interpolation on the arclength, every trial a corrected point, the
+//! amplitude measured on 2048 samples a period, integrated at 1e-11 (`PEAK_PRECISE`).
 //!
 //! Written by hand: no crate continues periodic orbits of a model given as a file.
 
@@ -100,6 +122,12 @@ pub const CURVE_ATOL: f64 = 1e-10;
 /// How much tighter than the curve's the integration of the located points is.
 const PRECISE: f64 = 1e-4;
 
+/// How much tighter than the curve's the integration of a peak's orbits is: 1e-11, where
+/// the integration's noise (100·rtol) meets the Newton tolerance (1e-9) that a peak's
+/// amplitudes are converged to. At 1e-12 (`PRECISE`) the inceptor's peak came out 2e-6
+/// rad/s apart with the same uncertainty (7.0e-5), for 15 000 evaluations more.
+const PEAK_PRECISE: f64 = 1e-3;
+
 /// What a located point is.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
 #[serde(rename_all = "snake_case")]
@@ -142,9 +170,9 @@ pub struct NfrPoint {
     pub branch: usize,
     /// The state at forcing phase 0 (q, v).
     pub x: Vec<f64>,
-    /// Its multipliers (and `stable`) are those of the Newton iterate before it, off by
-    /// that last step (relative to the orbit at most 1e-4): the orbit itself was checked
-    /// by integrating its state alone (`Tracer::correct_at`). Never for a located point.
+    /// Its multipliers (and `stable`) are those of a Newton iterate before it, at most
+    /// 1e-4 of the orbit away (`LIGHT_MARGIN`): the orbit itself was found by chords, the
+    /// state's period alone (`Tracer::chord`). Never for a located point.
     pub stale: bool,
 }
 
@@ -215,12 +243,33 @@ pub struct Nfr {
     pub unresolved_events: usize,
 }
 
-/// A Newton iterate is checked by the state's period alone (`Tracer::correct_at`) when
-/// the residual it was stepped from, squared, is this many times below the tolerance
-/// (quadratic convergence with room for the constant). 10 and 1: more checks fail and
-/// must be repeated with the full period (overcentre: 0.82 M, 1.04 M evaluations against
-/// 0.65 M); 1000: 0.74 M.
+/// A chord iteration must cut the residual at least this much, else the full Newton
+/// takes over.
+const CHORD_CONTRACTION: f64 = 0.5;
+/// A full period's iterate goes on by chords (and the point gets its multipliers: stale
+/// by this step, `NfrPoint::stale`) when its residual, squared, is this many times below
+/// the tolerance: the next residual, about its square, then meets the tolerance with
+/// room for Newton's constant (a step of at most 1e-4 of the orbit at the curve's 1e-6).
+/// Farther, Newton's next full period (a chord from 1e-3 put the overcentre's multipliers
+/// 2 % off). 10 and 1: more chords fail and must be repeated with the full period
+/// (overcentre: 0.82 M, 1.04 M evaluations against 0.65 M); 1000: 0.74 M.
 const LIGHT_MARGIN: f64 = 100.0;
+/// The chord from the last point hands over to the converged orbit's full period when
+/// its next residual, at the last contraction, is below this fraction of the Newton
+/// tolerance (saves a check of the state's period).
+const CHORD_HANDOFF: f64 = 0.3;
+/// Chords from the last point only where a full period costs at least this many times
+/// the state's alone. A point by chords takes about four of the state's periods and one
+/// full (for its multipliers), Newton's about two full and one check: the chords pay
+/// where a full period costs more than three (the inceptor: 6, 0.63 M → 0.35 M
+/// evaluations), not on the overcentre (4: 0.53 M → 0.54 M).
+const CHORD_FULL_COST: usize = 5;
+/// Chords from a point only where its orbit amplifies errors less than this.
+const CHORD_GROWTH: f64 = 2.0;
+/// Broyden's update only from a residual this many times the Newton tolerance.
+const CHORD_SECANT: f64 = 100.0;
+/// The most chord iterations for one point.
+const CHORD_ITERATIONS: usize = 8;
 
 /// A point with what the continuation needs of it.
 #[derive(Clone)]
@@ -238,6 +287,39 @@ struct Node {
     /// (`Flow::start_dp`), in scaled units (dx/dp·σ_p/σ_x): the state changes by
     /// σ_x·(basis·t_ξ + shift·t_p) per unit arclength.
     shift: Option<DVector<f64>>,
+    /// The bordered Jacobian of the residual in this node's chart, scaled:
+    /// [(M − I)·σ_x, ∂R/∂p·σ_p] (d × (d + 1)), from its last full period, updated by
+    /// Broyden along a chord's iterates (`Tracer::chord`). Empty where no period was
+    /// integrated with its variational columns (a start guess).
+    chart: DMatrix<f64>,
+}
+
+/// How chord iterations ended (`Tracer::chord`).
+enum ChordEnd {
+    /// Converged: the point, stale (its multipliers and chart are where the chord
+    /// started from).
+    Point(Box<Node>),
+    /// Converged, or about to (the next residual, at the last contraction, a tenth of the
+    /// tolerance), where the caller's full period is to follow (`ChordOptions::full_end`):
+    /// (x, p) the iterate.
+    Handoff,
+    /// Not converging: (x, p) the last iterate.
+    Failed,
+}
+
+/// Where chord iterations start from (`Tracer::chord`).
+struct Chart {
+    /// The chart's tangent basis (2n × d).
+    basis: DMatrix<f64>,
+    /// The residual's bordered Jacobian in it, scaled (as `Node::chart`).
+    jac: DMatrix<f64>,
+    /// The arclength condition's row in the chart's scaled unknowns (d + 1).
+    row: DVector<f64>,
+    /// The multipliers of the period the Jacobian is from.
+    multipliers: Vec<Complex<f64>>,
+    /// The residual (relative) the chord starts from: its first iterate must be below
+    /// `CHORD_CONTRACTION` of it.
+    rel: f64,
 }
 
 impl Node {
@@ -282,6 +364,32 @@ fn curvature(a: &Node, b: &Node) -> Option<DVector<f64>> {
     (h > 0.0).then(|| (b.ambient() - a.ambient()) / h)
 }
 
+/// The unit null direction of a d × (d + 1) bordered Jacobian: the curve's tangent in
+/// its chart (the eigenvector of KᵀK of the smallest eigenvalue).
+fn null_direction(k: &DMatrix<f64>) -> DVector<f64> {
+    let d = k.nrows();
+    let ktk = k.transpose() * k;
+    // NaNs (reaching the node's checks) rather than an uncapped iteration on a
+    // non-finite matrix; the same numbers as SymmetricEigen::new otherwise
+    let eig = crate::linalg::symmetric_eigen_or_nan(ktk);
+    let imin = (0..=d)
+        .min_by(|&i, &j| eig.eigenvalues[i].total_cmp(&eig.eigenvalues[j]))
+        .unwrap_or(d);
+    let mut tangent = eig.eigenvectors.column(imin).into_owned();
+    tangent.normalize_mut();
+    tangent
+}
+
+/// Each response's measures over one period's samples.
+fn measures_of(values: &[Vec<f64>]) -> Vec<Measures> {
+    (0..values.first().map_or(0, |v| v.len()))
+        .map(|r| {
+            let s: Vec<f64> = values.iter().map(|v| v[r]).collect();
+            Measures::of(&s, 1)
+        })
+        .collect()
+}
+
 /// The continuation's state.
 struct Tracer<'c> {
     sh: Shooting,
@@ -294,8 +402,11 @@ struct Tracer<'c> {
     /// How closely a corrected point meets the arclength condition (scaled units):
     /// `ARC_TOL` along the curve, 1e-10 for the located points (`Tracer::precise`).
     arc_tol: f64,
-    /// Every point with its full period (no light check): `Tracer::refresh`.
-    no_light: bool,
+    /// Every point with its full period (no chords): `Tracer::refresh`.
+    no_chords: bool,
+    /// Chord iterations from any base with a chart, fixed values included (a peak's
+    /// trials: `Tracer::peak`); otherwise only curve points, at most `CHORD_RUN` in a row.
+    chord_any: bool,
 }
 
 /// The arclength condition's tolerance along the curve: it only says where on the curve
@@ -410,7 +521,8 @@ pub fn nfr(
         cancel,
         unresolved: 0,
         arc_tol: ARC_TOL,
-        no_light: false,
+        no_chords: false,
+        chord_any: false,
     };
     let dof = {
         let b = tr.sh.tangent_basis(&x0);
@@ -473,7 +585,8 @@ pub fn nfr(
             cancel,
             unresolved: 0,
             arc_tol: ARC_TOL,
-            no_light: false,
+            no_chords: false,
+            chord_any: false,
         };
         if let Ok(start) = end_tr.start(guess.1, opts.to, opts.from, opts)
             && !on_branch(&start, &all)
@@ -914,6 +1027,7 @@ impl Tracer<'_> {
                 iterations: 0,
                 residual: f64::INFINITY,
                 shift: None,
+                chart: DMatrix::zeros(0, 0),
             })
         };
         let guess = base(&mut self.sh, x0)?;
@@ -1013,6 +1127,10 @@ impl Tracer<'_> {
                 }
                 Err(_) => None,
             };
+            let turned = |next: &Node| {
+                let (ta, tb) = (last.ambient(), next.ambient());
+                ta.dot(&tb) < 0.9 * ta.norm() * tb.norm() && ds > 1e-6
+            };
             let Some(mut next) = next else {
                 ds *= 0.5;
                 if ds < 1e-6 {
@@ -1023,8 +1141,7 @@ impl Tracer<'_> {
             // a sharp turn: a smaller step
             // (the cosine: an ambient tangent is not of unit length where the start
             // moves with p, `Node::shift`)
-            let (ta, tb) = (last.ambient(), next.ambient());
-            if ta.dot(&tb) < 0.9 * ta.norm() * tb.norm() && ds > 1e-6 {
+            if turned(&next) {
                 ds *= 0.5;
                 continue;
             }
@@ -1038,7 +1155,7 @@ impl Tracer<'_> {
                     .is_none_or(|m| m.norm() <= RESOLVED)
             };
             let mut found = events(&last, &next);
-            // A light point's multipliers are its last full period's (`correct_at`): where
+            // A stale point's multipliers are an iterate's before it (`Tracer::chord`): where
             // a test function changes sign next to one, its full period first, so that
             // the bracket is the true one (and where the earlier point's sign was the
             // stale one's error, the event lies in the step before it).
@@ -1205,11 +1322,13 @@ impl Tracer<'_> {
         }
     }
 
-    /// A light point again with its full period (its own multipliers and tangent).
+    /// A point again with its full period, no chords (its own multipliers and tangent).
     fn refresh(&mut self, n: &Node) -> Result<Option<Node>> {
-        self.no_light = true;
+        let any = std::mem::replace(&mut self.chord_any, false);
+        self.no_chords = true;
         let out = self.correct(n, None, 0.0, Some(n.point.value));
-        self.no_light = false;
+        self.no_chords = false;
+        self.chord_any = any;
         out
     }
 
@@ -1307,50 +1426,57 @@ impl Tracer<'_> {
         // onto the manifold at the predicted p (a base motion's velocity moves with ω)
         self.sh.set(p)?;
         self.sh.project(&mut x);
+        // chords: after a full period, Newton with its Jacobian goes on by the state's
+        // period alone (`Tracer::chord`); a peak's trials start so, from the point
+        // they are stepped from
+        let along_curve = self.arc_tol == ARC_TOL && !self.no_chords;
+        let chords = along_curve || self.chord_any;
+        let mut chord_its = 0;
+        // (a full period's cost in evaluations a stage: the state, d directions and the
+        // parameter, each once forward or twice central)
+        let full_cost = if self.sh.opts.central {
+            2 * d + 3
+        } else {
+            d + 2
+        };
+        let from_base =
+            self.chord_any || (base.growth() < CHORD_GROWTH && full_cost >= CHORD_FULL_COST);
+        if chords && base.chart.nrows() == d && d > 0 && from_base {
+            let from = Chart {
+                basis: base.basis.clone(),
+                jac: base.chart.clone(),
+                row: match fixed {
+                    None => base.tangent.clone(),
+                    Some(_) => DVector::from_fn(d + 1, |i, _| if i == d { 1.0 } else { 0.0 }),
+                },
+                multipliers: base.point.multipliers.clone(),
+                rel: f64::INFINITY,
+            };
+            // along the curve the converged orbit gets its full period after (its own
+            // multipliers and tangent); a peak's trial is done
+            let (end, its) = self.chord(base, &from, &mut x, &mut p, ds, fixed, !self.chord_any)?;
+            if let ChordEnd::Point(nd) = end {
+                return Ok(Some(*nd));
+            }
+            chord_its = its;
+        }
         let mut prev = f64::INFINITY;
         let mut worse = 0;
         let mut fresh = false;
-        // After a small Newton step the next residual is about its square: that iterate
-        // is checked by the state's period alone (1 evaluation a stage, not 2 + 2·DoF),
-        // its multipliers and tangent taken from the last full period (off by the step,
-        // O(δ); the located points are computed with full periods throughout).
-        let light_allowed = self.arc_tol == ARC_TOL && !self.no_light;
-        let mut light = false;
-        let mut light_tried = false;
-        let mut last_full: Option<(DMatrix<f64>, Flow)> = None;
-        let no_dirs = DMatrix::zeros(x.len(), 0);
         for it in 0..14 {
             self.sh.set(p)?;
             let tb = self.sh.tangent_basis(&x);
             if tb.ncols() != d {
                 return Ok(None);
             }
-            let flow = if light {
-                self.sh.flow(&x, &no_dirs, false, self.cancel)
-            } else {
-                self.sh.flow(&x, &tb, true, self.cancel)
-            };
-            let flow = match flow {
+            let flow = match self.sh.flow(&x, &tb, true, self.cancel) {
                 Ok(f) => f,
                 Err(e) if is_interrupt(&e) => return Err(e),
                 Err(_) => return Ok(None),
             };
             let rel = self.sh.relative(&flow.end, &x, &flow.scale);
             let diff = DVector::from_fn(x.len(), |i, _| flow.end[i] - x[i]);
-            // the state's change in the tangent's coordinates: less the base's own move
-            // with p (`Node::shift`)
-            let mut dx = DVector::from_fn(x.len(), |i, _| x[i] - base.point.x[i]);
-            if let Some(moved) = base.start_move(p - base.point.value, sx, sp) {
-                dx -= moved;
-            }
-            let arc = match fixed {
-                None => {
-                    tx.dot(&(base.basis.transpose() * &dx)) / sx
-                        + tpar * (p - base.point.value) / sp
-                        - ds
-                }
-                Some(v) => (p - v) / sp,
-            };
+            let arc = self.arc(base, &x, p, ds, fixed);
             // the integration's error, amplified by the orbit's unstable multipliers,
             // bounds the residual that the fixed point can be found to
             let tol = self.sh.opts.newton_tol(base.growth());
@@ -1365,25 +1491,9 @@ impl Tracer<'_> {
                 && rel <= prev
                 && rel > 0.25 * prev
                 && arc.abs() <= 1e-6;
+            let its = chord_its.div_ceil(2) + it + 1;
             if converged || noise {
-                if light && let Some((tb0, full)) = last_full.take() {
-                    let merged = Flow {
-                        end: flow.end,
-                        values: flow.values,
-                        scale: flow.scale,
-                        ..full
-                    };
-                    let mut nd = self.node(x, p, tb0, merged, base, (it + 1, rel));
-                    nd.point.stale = true;
-                    return Ok(Some(nd));
-                }
-                return Ok(Some(self.node(x, p, tb, flow, base, (it + 1, rel))));
-            }
-            if light {
-                // not converged after all: this iterate again with its full period
-                light = false;
-                last_full = None;
-                continue;
+                return Ok(Some(self.node(x, p, tb, flow, base, (its, rel))));
             }
             fresh = true;
             if !(rel < prev) {
@@ -1421,6 +1531,8 @@ impl Tracer<'_> {
             rhs.rows_mut(0, d)
                 .copy_from(&(-(base.basis.transpose() * &diff)));
             rhs[d] = -arc;
+            // the arclength row in the chart's scaled unknowns, for the chords
+            let row = DVector::from_fn(d + 1, |j, _| jm[(d, j)] * if j < d { sx } else { sp });
             let Some(step) = jm.lu().solve(&rhs) else {
                 return Ok(None);
             };
@@ -1429,20 +1541,199 @@ impl Tracer<'_> {
                 *xi += s;
             }
             p += step[d];
-            if light_allowed && !light_tried && rel * rel * LIGHT_MARGIN <= tol && arc.abs() <= 1e-3
-            {
-                light = true;
-                light_tried = true;
-                last_full = Some((tb, flow));
-            }
             // onto the manifold of the new p (a moving constraint's depends on it)
             self.sh.set(p)?;
             self.sh.project(&mut x);
             if !x.iter().all(|v| v.is_finite()) || !p.is_finite() {
                 return Ok(None);
             }
+            // close to the orbit (`LIGHT_MARGIN`), the chord from this period's Jacobian: the point
+            // is then stale, its multipliers this iterate's (a peak's trials: always)
+            if chords && (self.chord_any || (rel * rel * LIGHT_MARGIN <= tol && arc.abs() <= 1e-3))
+            {
+                // the chord from this period's Jacobian, in its own chart
+                let (jac, multipliers) = self.chart_of(&tb, &flow);
+                let from = Chart {
+                    basis: tb,
+                    jac,
+                    row,
+                    multipliers,
+                    rel,
+                };
+                let (end, its) = self.chord(base, &from, &mut x, &mut p, ds, fixed, false)?;
+                chord_its += its;
+                if let ChordEnd::Point(mut nd) = end {
+                    nd.iterations = chord_its.div_ceil(2) + it + 1;
+                    return Ok(Some(*nd));
+                }
+            }
         }
         Ok(None)
+    }
+
+    /// The bordered Jacobian of one period's residual in the chart `tb` (scaled:
+    /// [(M − I)·σ_x, ∂R/∂p·σ_p]), with the multipliers of M.
+    fn chart_of(&self, tb: &DMatrix<f64>, flow: &Flow) -> (DMatrix<f64>, Vec<Complex<f64>>) {
+        let d = tb.ncols();
+        let mono = tb.transpose() * &flow.jac;
+        let mu = multipliers(&mono);
+        let fp = tb.transpose() * flow.p_column();
+        let mut k = DMatrix::zeros(d, d + 1);
+        let mut mi = mono;
+        for i in 0..d {
+            mi[(i, i)] -= 1.0;
+        }
+        k.view_mut((0, 0), (d, d)).copy_from(&(mi * self.sx));
+        k.view_mut((0, d), (d, 1)).copy_from(&(fp * self.sp));
+        (k, mu)
+    }
+
+    /// The state's change from `base` in its chart (scaled by σ_x), less the base's own
+    /// move with p (`Node::shift`).
+    fn chart_move(&self, base: &Node, x: &[f64], p: f64) -> DVector<f64> {
+        let mut dx = DVector::from_fn(x.len(), |i, _| x[i] - base.point.x[i]);
+        if let Some(moved) = base.start_move(p - base.point.value, self.sx, self.sp) {
+            dx -= moved;
+        }
+        base.basis.transpose() * dx / self.sx
+    }
+
+    /// The arclength condition's residual at (x, p): a step `ds` along `base`'s tangent,
+    /// or p at the `fixed` value (scaled units).
+    fn arc(&self, base: &Node, x: &[f64], p: f64, ds: f64, fixed: Option<f64>) -> f64 {
+        let d = base.basis.ncols();
+        match fixed {
+            None => {
+                base.tangent.rows(0, d).dot(&self.chart_move(base, x, p))
+                    + base.tp() * (p - base.point.value) / self.sp
+                    - ds
+            }
+            Some(v) => (p - v) / self.sp,
+        }
+    }
+
+    /// Chord iterations from (x, p): Newton with a fixed Jacobian (`from`: a full
+    /// period's, or for a peak's trial the point it is stepped from), updated by
+    /// Broyden's rank-one secant along the iterates, each iterate the state's period
+    /// alone (1 evaluation a stage instead of 2 + 2·DoF). A converged point is `stale`:
+    /// its multipliers, tangent and chart are `from`'s. None (x, p left at the last
+    /// iterate, and the iterations spent) when an iterate's residual is not
+    /// `CHORD_CONTRACTION` of the one before (the first: of `from.rel`) or
+    /// `CHORD_ITERATIONS` did not suffice: the full Newton takes over.
+    #[allow(clippy::too_many_arguments)]
+    fn chord(
+        &mut self,
+        base: &Node,
+        from: &Chart,
+        x: &mut [f64],
+        p: &mut f64,
+        ds: f64,
+        fixed: Option<f64>,
+        full_end: bool,
+    ) -> Result<(ChordEnd, usize)> {
+        let d = from.basis.ncols();
+        let (sx, sp) = (self.sx, self.sp);
+        let mut f = from.jac.clone();
+        let no_dirs = DMatrix::zeros(x.len(), 0);
+        let tol = self.sh.opts.newton_tol(base.growth());
+        let (x0, p0) = (x.to_vec(), *p);
+        let mut prev: Option<(DVector<f64>, DVector<f64>)> = None;
+        let mut rel0 = from.rel;
+        for it in 0..CHORD_ITERATIONS {
+            self.sh.set(*p)?;
+            let flow = match self.sh.flow(x, &no_dirs, false, self.cancel) {
+                Ok(f) => f,
+                Err(e) if is_interrupt(&e) => return Err(e),
+                Err(_) => return Ok((ChordEnd::Failed, it + 1)),
+            };
+            let rel = self.sh.relative(&flow.end, x, &flow.scale);
+            let arc = self.arc(base, x, *p, ds, fixed);
+            if rel <= tol && arc.abs() <= self.arc_tol {
+                if full_end {
+                    return Ok((ChordEnd::Handoff, it + 1));
+                }
+                let mut nd = Node {
+                    point: NfrPoint {
+                        value: *p,
+                        omega: self.sh.omega(),
+                        measures: measures_of(&flow.values),
+                        stable: from.multipliers.iter().all(|m| m.norm() < 1.0),
+                        multipliers: from.multipliers.clone(),
+                        located: None,
+                        s: base.point.s,
+                        branch: base.point.branch,
+                        x: x.to_vec(),
+                        stale: true,
+                    },
+                    basis: from.basis.clone(),
+                    tangent: null_direction(&from.jac),
+                    iterations: (it + 1).div_ceil(2),
+                    residual: rel,
+                    shift: base.shift.clone(),
+                    chart: from.jac.clone(),
+                };
+                if base.ambient().dot(&nd.ambient()) < 0.0 {
+                    nd.tangent.neg_mut();
+                }
+                return Ok((ChordEnd::Point(Box::new(nd)), it + 1));
+            }
+            if !(rel < CHORD_CONTRACTION * rel0) {
+                return Ok((ChordEnd::Failed, it + 1));
+            }
+            let diff = DVector::from_fn(x.len(), |i, _| flow.end[i] - x[i]);
+            let r = from.basis.transpose() * diff;
+            // the iterate in the chart's scaled coordinates (less the start's own move
+            // with p, which the Jacobian's parameter column carries)
+            let mut dx = DVector::from_fn(x.len(), |i, _| x[i] - x0[i]);
+            if let Some(moved) = base.start_move(*p - p0, sx, sp) {
+                dx -= moved;
+            }
+            let mut u = DVector::zeros(d + 1);
+            u.rows_mut(0, d)
+                .copy_from(&(from.basis.transpose() * dx / sx));
+            u[d] = (*p - p0) / sp;
+            if let Some((u0, r0)) = &prev {
+                // Broyden's update: the secant along the last step, while the residual's
+                // change stands well above the integration's noise (a secant across a
+                // step of the noise's size is noise)
+                let du = &u - u0;
+                let nn = du.norm_squared();
+                if nn > 0.0 && rel0 > CHORD_SECANT * tol {
+                    let miss = (&r - r0) - &f * &du;
+                    f += miss * du.transpose() / nn;
+                }
+            }
+            // the bordered step in scaled units
+            let mut jm = DMatrix::zeros(d + 1, d + 1);
+            jm.view_mut((0, 0), (d, d + 1)).copy_from(&f);
+            for j in 0..=d {
+                jm[(d, j)] = from.row[j];
+            }
+            let mut rhs = DVector::zeros(d + 1);
+            rhs.rows_mut(0, d).copy_from(&(-&r));
+            rhs[d] = -arc;
+            let Some(step) = jm.lu().solve(&rhs) else {
+                return Ok((ChordEnd::Failed, it + 1));
+            };
+            let dxs = &from.basis * step.rows(0, d) * sx;
+            for (xi, s) in x.iter_mut().zip(dxs.iter()) {
+                *xi += s;
+            }
+            *p += step[d] * sp;
+            self.sh.set(*p)?;
+            self.sh.project(x);
+            if !x.iter().all(|v| v.is_finite()) || !p.is_finite() {
+                return Ok((ChordEnd::Failed, it + 1));
+            }
+            // the next residual at this contraction well below the tolerance: the full
+            // period instead of the state's (saves the check)
+            if full_end && rel0.is_finite() && rel * (rel / rel0) <= CHORD_HANDOFF * tol {
+                return Ok((ChordEnd::Handoff, it + 1));
+            }
+            prev = Some((u, r));
+            rel0 = rel;
+        }
+        Ok((ChordEnd::Failed, CHORD_ITERATIONS))
     }
 
     /// A converged point with its multipliers and tangent (oriented along `base`'s).
@@ -1455,32 +1746,9 @@ impl Tracer<'_> {
         base: &Node,
         (iterations, residual): (usize, f64),
     ) -> Node {
-        let d = tb.ncols();
-        let mono = tb.transpose() * &flow.jac;
-        let mu = multipliers(&mono);
-        let fp = tb.transpose() * flow.p_column();
-        let mut k = DMatrix::zeros(d, d + 1);
-        let mut mi = mono.clone();
-        for i in 0..d {
-            mi[(i, i)] -= 1.0;
-        }
-        k.view_mut((0, 0), (d, d)).copy_from(&(mi * self.sx));
-        k.view_mut((0, d), (d, 1)).copy_from(&(fp * self.sp));
-        let ktk = k.transpose() * &k;
-        // NaNs (reaching the node's checks) rather than an uncapped iteration on a
-        // non-finite matrix; the same numbers as SymmetricEigen::new otherwise
-        let eig = crate::linalg::symmetric_eigen_or_nan(ktk);
-        let imin = (0..=d)
-            .min_by(|&i, &j| eig.eigenvalues[i].total_cmp(&eig.eigenvalues[j]))
-            .unwrap_or(d);
-        let mut tangent = eig.eigenvectors.column(imin).into_owned();
-        tangent.normalize_mut();
-        let measures = (0..flow.values.first().map_or(0, |v| v.len()))
-            .map(|r| {
-                let s: Vec<f64> = flow.values.iter().map(|v| v[r]).collect();
-                Measures::of(&s, 1)
-            })
-            .collect();
+        let (k, mu) = self.chart_of(&tb, &flow);
+        let tangent = null_direction(&k);
+        let measures = measures_of(&flow.values);
         let stable = mu.iter().all(|m| m.norm() < 1.0);
         let mut nd = Node {
             point: NfrPoint {
@@ -1500,6 +1768,7 @@ impl Tracer<'_> {
             iterations,
             residual,
             shift: flow.start_dp.map(|s| s * (self.sp / self.sx)),
+            chart: k,
         };
         if base.ambient().dot(&nd.ambient()) < 0.0 {
             nd.tangent.neg_mut();
@@ -1536,8 +1805,13 @@ impl Tracer<'_> {
         let out = self.with_options(
             |o| {
                 o.central = central;
-                o.rtol = (o.rtol * PRECISE).max(1e-14);
-                o.atol *= PRECISE;
+                let f: f64 = if samples.is_some() {
+                    PEAK_PRECISE
+                } else {
+                    PRECISE
+                };
+                o.rtol = (o.rtol * f).max(1e-14);
+                o.atol *= f;
                 o.samples = samples.unwrap_or(o.samples);
             },
             f,
@@ -1675,7 +1949,10 @@ impl Tracer<'_> {
     /// interpolation in the arclength (2048 samples a period, the integration `PRECISE` times
     /// tighter), with the uncertainty of its frequency (`peak_uncertainty`).
     fn peak(&mut self, all: &[Node], i: usize, r: usize) -> Result<Option<(Node, f64, bool)>> {
-        self.precise(Some(2048), false, |t| t.peak_inner(all, i, r))
+        self.chord_any = true;
+        let out = self.precise(Some(2048), false, |t| t.peak_inner(all, i, r));
+        self.chord_any = false;
+        out
     }
 
     fn peak_inner(
@@ -1761,6 +2038,15 @@ impl Tracer<'_> {
             .max_by(|&x, &y| pts[x].1.total_cmp(&pts[y].1))
             .unwrap_or(1);
         let best = pts.swap_remove(imax).2;
+        // the peak's orbit with its full period: its own multipliers (the trials' are
+        // those of the orbits their chords started from)
+        let best = match self.refresh(&best)? {
+            Some(mut own) => {
+                own.point.s = best.point.s;
+                own
+            }
+            None => best,
+        };
         // the amplitude is known to the orbit's convergence: the Newton tolerance it was
         // corrected to, at least (a residual far below it is luck, not precision)
         let noise = best.residual.max(self.sh.opts.newton_tol(1.0));
@@ -1835,6 +2121,7 @@ mod tests {
                 iterations: 1,
                 residual: 1e-12,
                 shift: None,
+                chart: DMatrix::zeros(0, 0),
             })
             .collect()
     }
