@@ -262,7 +262,7 @@ const CHORD_HANDOFF: f64 = 0.3;
 /// the state's alone. A point by chords takes about four of the state's periods and one
 /// full (for its multipliers), Newton's about two full and one check: the chords pay
 /// where a full period costs more than three (the inceptor: 6, 0.63 M → 0.35 M
-/// evaluations), not on the overcentre (4: 0.53 M → 0.54 M).
+/// evaluations), not on the overcentre (4: 0.52 M → 0.54 M).
 const CHORD_FULL_COST: usize = 5;
 /// Chords from a point only where its orbit amplifies errors less than this.
 const CHORD_GROWTH: f64 = 2.0;
