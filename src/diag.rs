@@ -191,7 +191,8 @@ impl Error {
                 *message = format!("{what}: {message}");
             }
             Error::Model { diagnostics, .. } => {
-                for d in diagnostics {
+                // the note that a check stopped is not one of the problems in `what`
+                for d in diagnostics.iter_mut().filter(|d| !d.stop) {
                     d.message = format!("{what}: {}", d.message);
                 }
             }
@@ -455,6 +456,31 @@ fn render_diagnostic(source: &SourceFile, d: &Diagnostic, color: bool) -> String
 mod tests {
     use super::*;
     use crate::request::{Argument, Invalid};
+
+    /// A context names where the problems are; the note that a check stopped early keeps
+    /// its own words.
+    #[test]
+    fn context_prefixes_the_problems_not_the_stop_note() {
+        let e = Error::Model {
+            source: SourceFile {
+                path: "m.toml".into(),
+                text: "".into(),
+            },
+            diagnostics: vec![
+                Diagnostic::new("unknown name `x`"),
+                Diagnostic::stop("the evaluation of [parameters] stopped at its 30th problem"),
+            ],
+        }
+        .context("--set k=x");
+        let Error::Model { diagnostics, .. } = e else {
+            panic!("a model error");
+        };
+        assert_eq!(diagnostics[0].message, "--set k=x: unknown name `x`");
+        assert_eq!(
+            diagnostics[1].message,
+            "the evaluation of [parameters] stopped at its 30th problem"
+        );
+    }
 
     #[test]
     fn numbers_for_messages_are_short_at_any_magnitude() {
