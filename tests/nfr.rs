@@ -102,6 +102,14 @@ fn overcentre_fold_and_period_doubling() {
     assert!(c.complete, "{:?}", c.branches);
     assert_eq!(c.dof, 1);
     assert!(c.points.iter().all(|p| p.multipliers.len() == 2));
+    // the cost (docs/performance.md): 408 963 evaluations with the chords after a full
+    // Newton period near the orbit and the period doubling's search stopped at its
+    // bracket (464 445 with the search's earlier rule); 1.15 times that at most
+    assert!(
+        c.rhs_evaluations <= 470_000,
+        "{} right-hand-side evaluations",
+        c.rhs_evaluations
+    );
     assert_eq!(c.folds.len(), 1, "folds {:?}", c.folds);
     let fold = &c.folds[0];
     assert!((fold.omega - 4.024).abs() < 1e-3, "fold at {}", fold.omega);

@@ -122,10 +122,11 @@ pub const CURVE_ATOL: f64 = 1e-10;
 /// How much tighter than the curve's the integration of the located points is.
 const PRECISE: f64 = 1e-4;
 
-/// How much tighter than the curve's the integration of a peak's orbits is: 1e-11, where
-/// the integration's noise (100·rtol) meets the Newton tolerance (1e-9) that a peak's
-/// amplitudes are converged to. At 1e-12 (`PRECISE`) the inceptor's peak came out 2e-6
-/// rad/s apart with the same uncertainty (7.0e-5), for 15 000 evaluations more.
+/// How much tighter than the curve's the integration of a peak's orbits is at most: a
+/// peak's rtol is where the integration's noise (100·rtol) meets the Newton tolerance its
+/// amplitudes are converged to (1e-9: 1e-11), or this times the curve's if tighter (at
+/// the default 1e-8 the two agree). At 1e-12 (`PRECISE`) the inceptor's peak came out
+/// 2e-6 rad/s apart with the same uncertainty (7.0e-5), for 15 000 evaluations more.
 const PEAK_PRECISE: f64 = 1e-3;
 
 /// What a located point is.
@@ -288,10 +289,22 @@ struct Node {
     /// σ_x·(basis·t_ξ + shift·t_p) per unit arclength.
     shift: Option<DVector<f64>>,
     /// The bordered Jacobian of the residual in this node's chart, scaled:
-    /// [(M − I)·σ_x, ∂R/∂p·σ_p] (d × (d + 1)), from its last full period, updated by
-    /// Broyden along a chord's iterates (`Tracer::chord`). Empty where no period was
-    /// integrated with its variational columns (a start guess).
+    /// [(M − I)·σ_x, ∂R/∂p·σ_p] (d × (d + 1)), from its last full period (a chord's
+    /// point: the one its chord started from, `Tracer::chord`). Empty where no period
+    /// was integrated with its variational columns (a start guess).
     chart: DMatrix<f64>,
+}
+
+/// A search whose first this many trials all fall on one side of the zero gives up
+/// (`Tracer::locate_inner`): its bracket's far end is not what precise trials compute.
+const ONE_SIDED: usize = 6;
+
+/// What locating a fold or bifurcation in a bracket came to (`Tracer::locate`).
+enum Locating {
+    /// The point and its uncertainty.
+    Found(Box<Node>, f64),
+    /// Not located: the caller reports the bracket.
+    Failed,
 }
 
 /// How chord iterations ended (`Tracer::chord`).
@@ -299,11 +312,11 @@ enum ChordEnd {
     /// Converged: the point, stale (its multipliers and chart are where the chord
     /// started from).
     Point(Box<Node>),
-    /// Converged, or about to (the next residual, at the last contraction, a tenth of the
-    /// tolerance), where the caller's full period is to follow (`ChordOptions::full_end`):
-    /// (x, p) the iterate.
+    /// Converged, or about to (the next residual, at the last contraction, below
+    /// `CHORD_HANDOFF` of the tolerance), where the caller's full period is to follow
+    /// (`full_end`): (x, p) the iterate.
     Handoff,
-    /// Not converging: (x, p) the last iterate.
+    /// Not converging: (x, p) the iterate of the smallest residual.
     Failed,
 }
 
@@ -317,6 +330,9 @@ struct Chart {
     row: DVector<f64>,
     /// The multipliers of the period the Jacobian is from.
     multipliers: Vec<Complex<f64>>,
+    /// That period's start move with p (as `Node::shift`), which the Jacobian's parameter
+    /// column carries.
+    shift: Option<DVector<f64>>,
     /// The residual (relative) the chord starts from: its first iterate must be below
     /// `CHORD_CONTRACTION` of it.
     rel: f64,
@@ -405,7 +421,7 @@ struct Tracer<'c> {
     /// Every point with its full period (no chords): `Tracer::refresh`.
     no_chords: bool,
     /// Chord iterations from any base with a chart, fixed values included (a peak's
-    /// trials: `Tracer::peak`); otherwise only curve points, at most `CHORD_RUN` in a row.
+    /// trials: `Tracer::peak`); otherwise only along the curve (`Tracer::correct_at`).
     chord_any: bool,
 }
 
@@ -1216,7 +1232,8 @@ impl Tracer<'_> {
                     refined,
                 };
                 match self.locate(&last, &next, ds, kind) {
-                    Ok(Some((mut nd, uncertainty))) => {
+                    Ok(Locating::Found(nd, uncertainty)) => {
+                        let mut nd = *nd;
                         nd.point.located = Some(kind);
                         specials.push(special(&nd, uncertainty, true));
                         located.push(nd);
@@ -1235,7 +1252,15 @@ impl Tracer<'_> {
                         } else {
                             (next.point.value - last.point.value).abs()
                         };
-                        specials.push(special(near, width, false));
+                        // two brackets either side of one point whose test function
+                        // alone changed sign (its noise: the inceptor at 9 mm) are
+                        // reported once
+                        let twice = specials.iter().any(|sp| {
+                            !sp.refined && sp.kind == kind && sp.value == near.point.value
+                        });
+                        if !twice {
+                            specials.push(special(near, width, false));
+                        }
                     }
                 }
             }
@@ -1450,6 +1475,7 @@ impl Tracer<'_> {
                     Some(_) => DVector::from_fn(d + 1, |i, _| if i == d { 1.0 } else { 0.0 }),
                 },
                 multipliers: base.point.multipliers.clone(),
+                shift: base.shift.clone(),
                 rel: f64::INFINITY,
             };
             // along the curve the converged orbit gets its full period after (its own
@@ -1553,11 +1579,13 @@ impl Tracer<'_> {
             {
                 // the chord from this period's Jacobian, in its own chart
                 let (jac, multipliers) = self.chart_of(&tb, &flow);
+                let shift = flow.start_dp.as_ref().map(|s| s * (sp / sx));
                 let from = Chart {
                     basis: tb,
                     jac,
                     row,
                     multipliers,
+                    shift,
                     rel,
                 };
                 let (end, its) = self.chord(base, &from, &mut x, &mut p, ds, fixed, false)?;
@@ -1616,10 +1644,10 @@ impl Tracer<'_> {
     /// period's, or for a peak's trial the point it is stepped from), updated by
     /// Broyden's rank-one secant along the iterates, each iterate the state's period
     /// alone (1 evaluation a stage instead of 2 + 2·DoF). A converged point is `stale`:
-    /// its multipliers, tangent and chart are `from`'s. None (x, p left at the last
-    /// iterate, and the iterations spent) when an iterate's residual is not
-    /// `CHORD_CONTRACTION` of the one before (the first: of `from.rel`) or
-    /// `CHORD_ITERATIONS` did not suffice: the full Newton takes over.
+    /// its multipliers, tangent, chart and shift are `from`'s. `ChordEnd::Failed` (x, p
+    /// put back at the iterate of the smallest residual; with the iterations spent) when
+    /// an iterate's residual is not `CHORD_CONTRACTION` of the one before (the first: of
+    /// `from.rel`) or `CHORD_ITERATIONS` did not suffice: the full Newton takes over.
     #[allow(clippy::too_many_arguments)]
     fn chord(
         &mut self,
@@ -1639,14 +1667,28 @@ impl Tracer<'_> {
         let (x0, p0) = (x.to_vec(), *p);
         let mut prev: Option<(DVector<f64>, DVector<f64>)> = None;
         let mut rel0 = from.rel;
+        // the iterate of the smallest residual so far, to hand the full Newton
+        let mut best: Option<(Vec<f64>, f64, f64)> = None;
+        let back = |x: &mut [f64], p: &mut f64, best: &Option<(Vec<f64>, f64, f64)>| {
+            if let Some((bx, bp, _)) = best {
+                x.copy_from_slice(bx);
+                *p = *bp;
+            }
+        };
         for it in 0..CHORD_ITERATIONS {
             self.sh.set(*p)?;
             let flow = match self.sh.flow(x, &no_dirs, false, self.cancel) {
                 Ok(f) => f,
                 Err(e) if is_interrupt(&e) => return Err(e),
-                Err(_) => return Ok((ChordEnd::Failed, it + 1)),
+                Err(_) => {
+                    back(x, p, &best);
+                    return Ok((ChordEnd::Failed, it + 1));
+                }
             };
             let rel = self.sh.relative(&flow.end, x, &flow.scale);
+            if best.as_ref().is_none_or(|b| rel < b.2) {
+                best = Some((x.to_vec(), *p, rel));
+            }
             let arc = self.arc(base, x, *p, ds, fixed);
             if rel <= tol && arc.abs() <= self.arc_tol {
                 if full_end {
@@ -1667,9 +1709,11 @@ impl Tracer<'_> {
                     },
                     basis: from.basis.clone(),
                     tangent: null_direction(&from.jac),
+                    // in the step control's Newton iterations: a chord converges
+                    // linearly, about two of its iterations to one of Newton's
                     iterations: (it + 1).div_ceil(2),
                     residual: rel,
-                    shift: base.shift.clone(),
+                    shift: from.shift.clone(),
                     chart: from.jac.clone(),
                 };
                 if base.ambient().dot(&nd.ambient()) < 0.0 {
@@ -1678,6 +1722,7 @@ impl Tracer<'_> {
                 return Ok((ChordEnd::Point(Box::new(nd)), it + 1));
             }
             if !(rel < CHORD_CONTRACTION * rel0) {
+                back(x, p, &best);
                 return Ok((ChordEnd::Failed, it + 1));
             }
             let diff = DVector::from_fn(x.len(), |i, _| flow.end[i] - x[i]);
@@ -1685,8 +1730,8 @@ impl Tracer<'_> {
             // the iterate in the chart's scaled coordinates (less the start's own move
             // with p, which the Jacobian's parameter column carries)
             let mut dx = DVector::from_fn(x.len(), |i, _| x[i] - x0[i]);
-            if let Some(moved) = base.start_move(*p - p0, sx, sp) {
-                dx -= moved;
+            if let Some(shift) = &from.shift {
+                dx -= shift * (sx * (*p - p0) / sp);
             }
             let mut u = DVector::zeros(d + 1);
             u.rows_mut(0, d)
@@ -1713,6 +1758,7 @@ impl Tracer<'_> {
             rhs.rows_mut(0, d).copy_from(&(-&r));
             rhs[d] = -arc;
             let Some(step) = jm.lu().solve(&rhs) else {
+                back(x, p, &best);
                 return Ok((ChordEnd::Failed, it + 1));
             };
             let dxs = &from.basis * step.rows(0, d) * sx;
@@ -1723,6 +1769,7 @@ impl Tracer<'_> {
             self.sh.set(*p)?;
             self.sh.project(x);
             if !x.iter().all(|v| v.is_finite()) || !p.is_finite() {
+                back(x, p, &best);
                 return Ok((ChordEnd::Failed, it + 1));
             }
             // the next residual at this contraction well below the tolerance: the full
@@ -1733,6 +1780,7 @@ impl Tracer<'_> {
             prev = Some((u, r));
             rel0 = rel;
         }
+        back(x, p, &best);
         Ok((ChordEnd::Failed, CHORD_ITERATIONS))
     }
 
@@ -1778,19 +1826,51 @@ impl Tracer<'_> {
 
     /// Locate the zero of `kind`'s test function between `a` and `b` (a step `ds` from
     /// a) by the Illinois method on the arclength.
-    fn locate(
-        &mut self,
-        a: &Node,
-        b: &Node,
-        ds: f64,
-        kind: Located,
-    ) -> Result<Option<(Node, f64)>> {
+    fn locate(&mut self, a: &Node, b: &Node, ds: f64, kind: Located) -> Result<Locating> {
         // the test functions are computed from the monodromy, whose error is the
         // integration's (and the differences')
-        self.precise(None, true, |t| t.locate_inner(a, b, ds, kind))
+        self.precise(None, true, |t| {
+            if let Some((n, u)) = t.locate_inner(a, b, ds, kind)? {
+                return Ok(Locating::Found(Box::new(n), u));
+            }
+            // The curve's test functions (forward differences at the curve's tolerance)
+            // can disagree with the precise trials' near the zero: on the inceptor at
+            // 9 mm a curve point's fold test was +3.3e-2 where the trials beside it gave
+            // −3.4e-3, and no trial found the sign change. The bracket's ends again,
+            // precisely (each on its own normal to the curve: well posed at a fold too),
+            // and where they still straddle the zero, the search from them. (Where they
+            // do not, the zero may lie a step away, where the curve's noisy signs did
+            // not change: the 9 mm curve's upper fold. The bracket is reported.)
+            let (Some(mut ra), Some(mut rb)) = (t.again(a)?, t.again(b)?) else {
+                return Ok(Locating::Failed);
+            };
+            ra.point.s = a.point.s;
+            rb.point.s = b.point.s;
+            match (test(kind, &ra), test(kind, &rb)) {
+                (Some(ga), Some(gb)) if ga * gb <= 0.0 => {
+                    Ok(match t.locate_inner(&ra, &rb, ds, kind)? {
+                        Some((n, u)) => Locating::Found(Box::new(n), u),
+                        None => Locating::Failed,
+                    })
+                }
+                _ => Ok(Locating::Failed),
+            }
+        })
     }
 
-    /// `f` with the integration `PRECISE` times tighter (and `samples` a period, if
+    /// A point again with full periods at the current options, on the curve's normal
+    /// through it (ds = 0 along its own tangent), no chords.
+    fn again(&mut self, n: &Node) -> Result<Option<Node>> {
+        let any = std::mem::replace(&mut self.chord_any, false);
+        self.no_chords = true;
+        let out = self.correct(n, None, 0.0, None);
+        self.no_chords = false;
+        self.chord_any = any;
+        out
+    }
+
+    /// `f` with the integration `PRECISE` times tighter (a peak's, `samples` given:
+    /// `PEAK_PRECISE`) (and `samples` a period, if
     /// given; the variational columns by central differences if `central`): for the
     /// located points, whose test functions or amplitudes are differences of nearby
     /// orbits. (A peak needs its orbits' amplitudes, not their multipliers: forward
@@ -1805,8 +1885,10 @@ impl Tracer<'_> {
         let out = self.with_options(
             |o| {
                 o.central = central;
+                // a peak's: where 100·rtol meets its orbits' Newton tolerance, at most
+                // PEAK_PRECISE of the curve's (1e-11 at the defaults, whatever --rtol)
                 let f: f64 = if samples.is_some() {
-                    PEAK_PRECISE
+                    PEAK_PRECISE.min(o.tol / (100.0 * o.rtol))
                 } else {
                     PRECISE
                 };
@@ -1844,6 +1926,8 @@ impl Tracer<'_> {
         let mut change = f64::INFINITY;
         let mut converged = false;
         let mut tried: Vec<Node> = Vec::new();
+        // the sides the trials fell on (-1: a's, 1: b's)
+        let mut sides = (false, false);
         for _ in 0..60 {
             let s = (sa * gb - sb * ga) / (gb - ga);
             let s = if s.is_finite() && s > sa && s < sb {
@@ -1918,6 +2002,18 @@ impl Tracer<'_> {
                 }
                 side = 1;
             }
+            if side == -1 {
+                sides.0 = true;
+            } else {
+                sides.1 = true;
+            }
+            // Every trial on one side: the bracket's end on the other is not what the
+            // precise trials compute (the curve's test function is noisier), and the
+            // search would only creep toward it (60 trials): given up, for the caller
+            // to compute the ends again (`Tracer::locate`).
+            if tried.len() >= ONE_SIDED && !(sides.0 && sides.1) {
+                break;
+            }
             // a bifurcation: the zero lies between two orbits that agree to a third of
             // its stated uncertainty (two consecutive trials either side of it, the
             // rule before, can wait long for the scatter: the overcentre on 3-4.5 rad/s
@@ -1955,7 +2051,7 @@ impl Tracer<'_> {
     }
 
     /// Locate the peak of response `r`'s amplitude near `all[i]` by successive parabolic
-    /// interpolation in the arclength (2048 samples a period, the integration `PRECISE` times
+    /// interpolation in the arclength (2048 samples a period, the integration `PEAK_PRECISE` times
     /// tighter), with the uncertainty of its frequency (`peak_uncertainty`).
     fn peak(&mut self, all: &[Node], i: usize, r: usize) -> Result<Option<(Node, f64, bool)>> {
         self.chord_any = true;
@@ -2049,12 +2145,13 @@ impl Tracer<'_> {
         let best = pts.swap_remove(imax).2;
         // the peak's orbit with its full period: its own multipliers (the trials' are
         // those of the orbits their chords started from)
+        // (where it fails, no refined peak: the caller reports the curve's own point)
         let best = match self.refresh(&best)? {
             Some(mut own) => {
                 own.point.s = best.point.s;
                 own
             }
-            None => best,
+            None => return Ok(None),
         };
         // the amplitude is known to the orbit's convergence: the Newton tolerance it was
         // corrected to, at least (a residual far below it is luck, not precision)
