@@ -303,6 +303,9 @@ const ONE_SIDED: usize = 6;
 enum Locating {
     /// The point and its uncertainty.
     Found(Box<Node>, f64),
+    /// The bracket's ends, computed again precisely, have no sign change between them:
+    /// the curve's was its noise.
+    Vanished,
     /// Not located: the caller reports the bracket.
     Failed,
 }
@@ -1220,24 +1223,63 @@ impl Tracer<'_> {
                 if ga * gb > 0.0 {
                     continue;
                 }
-                let special = |nd: &Node, uncertainty: f64, refined: bool| Special {
-                    kind,
-                    value: nd.point.value,
-                    omega: nd.point.omega,
-                    amplitude: nd.point.measures.iter().map(|m| m.amplitude).collect(),
-                    multipliers: nd.point.multipliers.clone(),
-                    stable_before: last.point.stable,
-                    direction_before: last.tp().signum(),
-                    uncertainty,
-                    refined,
+                // (the direction before a fold: toward it, the value being its extremum;
+                // the curve point's tangent can be noisy there, the inceptor at 8 mm)
+                let special = |before: &Node, nd: &Node, uncertainty: f64, refined: bool| {
+                    let toward = (nd.point.value - before.point.value).signum();
+                    Special {
+                        kind,
+                        value: nd.point.value,
+                        omega: nd.point.omega,
+                        amplitude: nd.point.measures.iter().map(|m| m.amplitude).collect(),
+                        multipliers: nd.point.multipliers.clone(),
+                        stable_before: before.point.stable,
+                        direction_before: if kind == Located::Fold
+                            && refined
+                            && nd.point.value != before.point.value
+                        {
+                            toward
+                        } else {
+                            before.tp().signum()
+                        },
+                        uncertainty,
+                        refined,
+                    }
                 };
-                match self.locate(&last, &next, ds, kind) {
+                let mut outcome = self.locate(&last, &next, ds, kind);
+                let mut before = last.clone();
+                // The bracket's ends, computed precisely, agree: the curve's noisy sign
+                // changed a step late (the inceptor's upper fold at 9 mm) or changed for
+                // nothing (its 7 mm curve at --rtol 1e-6). The step before, precisely;
+                // where its ends agree too, no event.
+                if matches!(outcome, Ok(Locating::Vanished))
+                    && let Some(prev) = nodes
+                        .iter()
+                        .rev()
+                        .find(|n| n.point.s < last.point.s)
+                        .cloned()
+                {
+                    let h = last.point.s - prev.point.s;
+                    outcome = self.locate(&prev, &last, h, kind);
+                    before = prev;
+                }
+                match outcome {
+                    // (found twice, from this bracket and from the step before the next
+                    // one's: once)
+                    Ok(Locating::Found(nd, uncertainty))
+                        if specials.iter().any(|sp| {
+                            sp.refined
+                                && sp.kind == kind
+                                && (sp.value - nd.point.value).abs()
+                                    <= 10.0 * sp.uncertainty.max(uncertainty)
+                        }) => {}
                     Ok(Locating::Found(nd, uncertainty)) => {
                         let mut nd = *nd;
                         nd.point.located = Some(kind);
-                        specials.push(special(&nd, uncertainty, true));
+                        specials.push(special(&before, &nd, uncertainty, true));
                         located.push(nd);
                     }
+                    Ok(Locating::Vanished) => {}
                     Err(e) if is_interrupt(&e) => {
                         return finish(nodes, located, BranchEnd::Interrupted);
                     }
@@ -1259,7 +1301,7 @@ impl Tracer<'_> {
                             !sp.refined && sp.kind == kind && sp.value == near.point.value
                         });
                         if !twice {
-                            specials.push(special(near, width, false));
+                            specials.push(special(&last, near, width, false));
                         }
                     }
                 }
@@ -1350,9 +1392,9 @@ impl Tracer<'_> {
     /// A point again with its full period, no chords (its own multipliers and tangent).
     fn refresh(&mut self, n: &Node) -> Result<Option<Node>> {
         let any = std::mem::replace(&mut self.chord_any, false);
-        self.no_chords = true;
+        let no = std::mem::replace(&mut self.no_chords, true);
         let out = self.correct(n, None, 0.0, Some(n.point.value));
-        self.no_chords = false;
+        self.no_chords = no;
         self.chord_any = any;
         out
     }
@@ -1838,9 +1880,8 @@ impl Tracer<'_> {
             // 9 mm a curve point's fold test was +3.3e-2 where the trials beside it gave
             // −3.4e-3, and no trial found the sign change. The bracket's ends again,
             // precisely (each on its own normal to the curve: well posed at a fold too),
-            // and where they still straddle the zero, the search from them. (Where they
-            // do not, the zero may lie a step away, where the curve's noisy signs did
-            // not change: the 9 mm curve's upper fold. The bracket is reported.)
+            // and where they still straddle the zero, the search from them; where they
+            // do not, `Vanished` (the caller looks a step back).
             let (Some(mut ra), Some(mut rb)) = (t.again(a)?, t.again(b)?) else {
                 return Ok(Locating::Failed);
             };
@@ -1853,6 +1894,7 @@ impl Tracer<'_> {
                         None => Locating::Failed,
                     })
                 }
+                (Some(_), Some(_)) => Ok(Locating::Vanished),
                 _ => Ok(Locating::Failed),
             }
         })
@@ -1862,9 +1904,9 @@ impl Tracer<'_> {
     /// through it (ds = 0 along its own tangent), no chords.
     fn again(&mut self, n: &Node) -> Result<Option<Node>> {
         let any = std::mem::replace(&mut self.chord_any, false);
-        self.no_chords = true;
+        let no = std::mem::replace(&mut self.no_chords, true);
         let out = self.correct(n, None, 0.0, None);
-        self.no_chords = false;
+        self.no_chords = no;
         self.chord_any = any;
         out
     }
@@ -1885,8 +1927,8 @@ impl Tracer<'_> {
         let out = self.with_options(
             |o| {
                 o.central = central;
-                // a peak's: where 100·rtol meets its orbits' Newton tolerance, at most
-                // PEAK_PRECISE of the curve's (1e-11 at the defaults, whatever --rtol)
+                // a peak's: where 100·rtol meets its orbits' Newton tolerance (1e-11),
+                // or PEAK_PRECISE of the curve's if tighter (below --rtol 1e-8)
                 let f: f64 = if samples.is_some() {
                     PEAK_PRECISE.min(o.tol / (100.0 * o.rtol))
                 } else {
