@@ -1247,7 +1247,8 @@ impl Tracer<'_> {
                     }
                 };
                 let mut outcome = self.locate(&last, &next, ds, kind);
-                let mut before = last.clone();
+                // the bracket searched: its ends and its step
+                let (mut lo, mut hi, mut width_s) = (last.clone(), next.clone(), ds);
                 // The bracket's ends, computed precisely, agree: the curve's noisy sign
                 // changed a step late (the inceptor's upper fold at 9 mm) or changed for
                 // nothing (its 7 mm curve at --rtol 1e-6). The step before, precisely;
@@ -1259,9 +1260,17 @@ impl Tracer<'_> {
                         .find(|n| n.point.s < last.point.s)
                         .cloned()
                 {
-                    let h = last.point.s - prev.point.s;
-                    outcome = self.locate(&prev, &last, h, kind);
-                    before = prev;
+                    // (not where this kind was located already)
+                    let done = located.iter().any(|n| {
+                        n.point.located == Some(kind)
+                            && n.point.s > prev.point.s
+                            && n.point.s <= last.point.s
+                    });
+                    if !done {
+                        let h = last.point.s - prev.point.s;
+                        outcome = self.locate(&prev, &last, h, kind);
+                        (lo, hi, width_s) = (prev, last.clone(), h);
+                    }
                 }
                 match outcome {
                     // (found twice, from this bracket and from the step before the next
@@ -1276,7 +1285,13 @@ impl Tracer<'_> {
                     Ok(Locating::Found(nd, uncertainty)) => {
                         let mut nd = *nd;
                         nd.point.located = Some(kind);
-                        specials.push(special(&before, &nd, uncertainty, true));
+                        // an unrefined report of the same point before, superseded
+                        specials.retain(|sp| {
+                            sp.refined
+                                || sp.kind != kind
+                                || (sp.value - nd.point.value).abs() > sp.uncertainty
+                        });
+                        specials.push(special(&lo, &nd, uncertainty, true));
                         located.push(nd);
                     }
                     Ok(Locating::Vanished) => {}
@@ -1288,11 +1303,11 @@ impl Tracer<'_> {
                     // in the parameter: both ends lie on one side of it)
                     _ => {
                         let g = |n: &Node| test(kind, n).map_or(f64::INFINITY, f64::abs);
-                        let near = if g(&last) <= g(&next) { &last } else { &next };
+                        let near = if g(&lo) <= g(&hi) { &lo } else { &hi };
                         let width = if kind == Located::Fold {
-                            self.sp * ds
+                            self.sp * width_s
                         } else {
-                            (next.point.value - last.point.value).abs()
+                            (hi.point.value - lo.point.value).abs()
                         };
                         // two brackets either side of one point whose test function
                         // alone changed sign (its noise: the inceptor at 9 mm) are
@@ -1301,7 +1316,7 @@ impl Tracer<'_> {
                             !sp.refined && sp.kind == kind && sp.value == near.point.value
                         });
                         if !twice {
-                            specials.push(special(&last, near, width, false));
+                            specials.push(special(&lo, near, width, false));
                         }
                     }
                 }
