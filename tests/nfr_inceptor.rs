@@ -163,3 +163,27 @@ fn folds_9mm() {
         assert!(one < 1e-5, "{:?}", f.multipliers);
     }
 }
+
+/// At 8 mm, traced downward (32 → 20 rad/s): the curve's fold test (the tangent's
+/// parameter component) has the same wrong sign at every point about the folds there, so
+/// no sign change shows them; ω turning back does (`Tracer::branch`, `turned_back`). Both
+/// folds located, as the curve traced upward locates them (25.717821013 and
+/// 25.714569571 rad/s): the lower one met first, where a sweep down jumps.
+#[test]
+fn folds_8mm_traced_downward() {
+    let c = curve(8.0, 32.0, 20.0, 0.04);
+    assert_eq!(c.folds.len(), 2, "{:?}", c.folds);
+    for (f, (omega, direction)) in c
+        .folds
+        .iter()
+        .zip([(25.714569571, -1.0), (25.717821013, 1.0)])
+    {
+        assert!(f.refined, "{f:?}");
+        assert!(
+            (f.omega - omega).abs() < 1e-7,
+            "fold at {} rad/s, expected {omega}",
+            f.omega
+        );
+        assert_eq!(f.direction_before, direction, "{f:?}");
+    }
+}

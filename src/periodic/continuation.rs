@@ -1178,7 +1178,8 @@ impl Tracer<'_> {
             // a test function changes sign next to one, its full period first, so that
             // the bracket is the true one (and where the earlier point's sign was the
             // stale one's error, the event lies in the step before it).
-            let mut brackets: Vec<(Located, Node, Node, f64)> = Vec::new();
+            // (the last field: searched without a sign change of the curve's test)
+            let mut brackets: Vec<(Located, Node, Node, f64, bool)> = Vec::new();
             if !found.is_empty() && (last.point.stale || next.point.stale) {
                 if next.point.stale
                     && let Ok(Some(mut r)) = self.refresh(&next)
@@ -1195,7 +1196,7 @@ impl Tracer<'_> {
                         let h = r.point.s - prev.point.s;
                         for kind in events(&prev, &r) {
                             if resolved(&prev) && resolved(&r) {
-                                brackets.push((kind, prev.clone(), r.clone(), h));
+                                brackets.push((kind, prev.clone(), r.clone(), h, false));
                             }
                         }
                     }
@@ -1208,19 +1209,39 @@ impl Tracer<'_> {
                 self.unresolved += found.len();
                 found.clear();
             }
+            // The continued parameter turns back at `last` with no sign change of the
+            // fold test about it: a fold that the test's noise hides (the inceptor's
+            // 8 mm curve traced downward: every point's test had the same wrong sign
+            // while ω turned twice). Searched from precise ends (`Tracer::locate`).
+            let turned_back = !found.contains(&Located::Fold)
+                && nodes.len() >= 2
+                && resolved(&last)
+                && resolved(&next)
+                && {
+                    let prev = &nodes[nodes.len() - 2];
+                    let (a, b, c) = (prev.point.value, last.point.value, next.point.value);
+                    let same = |x: &Node, y: &Node| {
+                        matches!((test(Located::Fold, x), test(Located::Fold, y)),
+                            (Some(gx), Some(gy)) if gx * gy > 0.0)
+                    };
+                    (b - a) * (c - b) < 0.0 && same(prev, &last)
+                };
             brackets.extend(
                 found
                     .into_iter()
-                    .map(|kind| (kind, last.clone(), next.clone(), ds)),
+                    .map(|kind| (kind, last.clone(), next.clone(), ds, false)),
             );
-            for (kind, last, next, ds) in brackets {
+            if turned_back {
+                brackets.push((Located::Fold, last.clone(), next.clone(), ds, true));
+            }
+            for (kind, last, next, ds, forced) in brackets {
                 // a count of multipliers can change by two with no crossing (a complex
                 // pair meeting on the real axis outside the circle): only a sign change
                 // of the test function is an event
                 let (Some(ga), Some(gb)) = (test(kind, &last), test(kind, &next)) else {
                     continue;
                 };
-                if ga * gb > 0.0 {
+                if ga * gb > 0.0 && !forced {
                     continue;
                 }
                 // (the direction before a fold: toward it, the value being its extremum;
