@@ -1319,6 +1319,11 @@ impl Tracer<'_> {
                     Err(e) if is_interrupt(&e) => {
                         return finish(nodes, located, BranchEnd::Interrupted);
                     }
+                    // a turn of the parameter alone, not located (its ends not computed
+                    // again, or no zero found between them): no sign change of the fold
+                    // test anywhere, no evidence of a fold; not reported (noise turns
+                    // of 1e-6 rad/s occur beside the inceptor's 9 mm folds)
+                    _ if forced => {}
                     // not located: reported at the bracket's end nearer the zero, with
                     // the bracket as its uncertainty (for a fold the whole step's extent
                     // in the parameter: both ends lie on one side of it)
