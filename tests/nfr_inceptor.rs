@@ -146,21 +146,8 @@ fn folds_9mm() {
         .iter()
         .zip([(25.407287416, 1.0, true), (25.373467302, -1.0, false)])
     {
-        assert!(f.refined, "{f:?}");
-        assert!(
-            (f.omega - omega).abs() < 1e-7,
-            "fold at {} rad/s, expected {omega}",
-            f.omega
-        );
-        assert_eq!(f.direction_before, direction, "{f:?}");
+        check_fold(f, omega, direction);
         assert_eq!(f.stable_before, stable_before, "{f:?}");
-        // a multiplier is 1 at a fold
-        let one = f
-            .multipliers
-            .iter()
-            .map(|m| (m - 1.0).norm())
-            .fold(f64::INFINITY, f64::min);
-        assert!(one < 1e-5, "{:?}", f.multipliers);
     }
 }
 
@@ -178,12 +165,24 @@ fn folds_8mm_traced_downward() {
         .iter()
         .zip([(25.714569571, -1.0), (25.717821013, 1.0)])
     {
-        assert!(f.refined, "{f:?}");
-        assert!(
-            (f.omega - omega).abs() < 1e-7,
-            "fold at {} rad/s, expected {omega}",
-            f.omega
-        );
-        assert_eq!(f.direction_before, direction, "{f:?}");
+        check_fold(f, omega, direction);
     }
+}
+
+/// A located fold at `omega` (to 1e-7 rad/s), met going in `direction`, with a
+/// multiplier 1.
+fn check_fold(f: &detune::periodic::continuation::Special, omega: f64, direction: f64) {
+    assert!(f.refined, "{f:?}");
+    assert!(
+        (f.omega - omega).abs() < 1e-7,
+        "fold at {} rad/s, expected {omega}",
+        f.omega
+    );
+    assert_eq!(f.direction_before, direction, "{f:?}");
+    let one = f
+        .multipliers
+        .iter()
+        .map(|m| (m - 1.0).norm())
+        .fold(f64::INFINITY, f64::min);
+    assert!(one < 1e-5, "{:?}", f.multipliers);
 }
