@@ -368,7 +368,15 @@ impl Node {
     /// The state's move with a change `dp` of the parameter where the constraints move
     /// with it (`shift` in state units; None where they do not).
     fn start_move(&self, dp: f64, sx: f64, sp: f64) -> Option<DVector<f64>> {
-        self.shift.as_ref().map(|shift| shift * (sx * dp / sp))
+        start_move(self.shift.as_ref(), dp, sx, sp)
+    }
+
+    /// This node oriented along `base` (its ambient tangent not against base's).
+    fn along(mut self, base: &Node) -> Node {
+        if base.ambient().dot(&self.ambient()) < 0.0 {
+            self.tangent.neg_mut();
+        }
+        self
     }
 
     fn tp(&self) -> f64 {
@@ -381,6 +389,12 @@ impl Node {
 fn curvature(a: &Node, b: &Node) -> Option<DVector<f64>> {
     let h = b.point.s - a.point.s;
     (h > 0.0).then(|| (b.ambient() - a.ambient()) / h)
+}
+
+/// The state's move with a change `dp` of the parameter, from a scaled `shift`
+/// (`Node::shift`).
+fn start_move(shift: Option<&DVector<f64>>, dp: f64, sx: f64, sp: f64) -> Option<DVector<f64>> {
+    shift.map(|shift| shift * (sx * dp / sp))
 }
 
 /// The unit null direction of a d × (d + 1) bordered Jacobian: the curve's tangent in
@@ -1146,10 +1160,6 @@ impl Tracer<'_> {
                 }
                 Err(_) => None,
             };
-            let turned = |next: &Node| {
-                let (ta, tb) = (last.ambient(), next.ambient());
-                ta.dot(&tb) < 0.9 * ta.norm() * tb.norm() && ds > 1e-6
-            };
             let Some(mut next) = next else {
                 ds *= 0.5;
                 if ds < 1e-6 {
@@ -1160,7 +1170,8 @@ impl Tracer<'_> {
             // a sharp turn: a smaller step
             // (the cosine: an ambient tangent is not of unit length where the start
             // moves with p, `Node::shift`)
-            if turned(&next) {
+            let (ta, tb) = (last.ambient(), next.ambient());
+            if ta.dot(&tb) < 0.9 * ta.norm() * tb.norm() && ds > 1e-6 {
                 ds *= 0.5;
                 continue;
             }
@@ -1432,9 +1443,15 @@ impl Tracer<'_> {
 
     /// A point again with its full period, no chords (its own multipliers and tangent).
     fn refresh(&mut self, n: &Node) -> Result<Option<Node>> {
+        self.full_periods(n, Some(n.point.value))
+    }
+
+    /// `n` corrected again with full periods throughout (no chords), at the value
+    /// `fixed` or on the curve's normal through it (None).
+    fn full_periods(&mut self, n: &Node, fixed: Option<f64>) -> Result<Option<Node>> {
         let any = std::mem::replace(&mut self.chord_any, false);
         let no = std::mem::replace(&mut self.no_chords, true);
-        let out = self.correct(n, None, 0.0, Some(n.point.value));
+        let out = self.correct(n, None, 0.0, fixed);
         self.no_chords = no;
         self.chord_any = any;
         out
@@ -1662,7 +1679,7 @@ impl Tracer<'_> {
             {
                 // the chord from this period's Jacobian, in its own chart
                 let (jac, multipliers) = self.chart_of(&tb, &flow);
-                let shift = flow.start_dp.as_ref().map(|s| s * (sp / sx));
+                let shift = self.shift_of(&flow);
                 let from = Chart {
                     basis: tb,
                     jac,
@@ -1680,6 +1697,11 @@ impl Tracer<'_> {
             }
         }
         Ok(None)
+    }
+
+    /// A period's start move with p in scaled units (`Node::shift`).
+    fn shift_of(&self, flow: &Flow) -> Option<DVector<f64>> {
+        flow.start_dp.as_ref().map(|s| s * (self.sp / self.sx))
     }
 
     /// The bordered Jacobian of one period's residual in the chart `tb` (scaled:
@@ -1777,7 +1799,7 @@ impl Tracer<'_> {
                 if full_end {
                     return Ok((ChordEnd::Handoff, it + 1));
                 }
-                let mut nd = Node {
+                let nd = Node {
                     point: NfrPoint {
                         value: *p,
                         omega: self.sh.omega(),
@@ -1798,10 +1820,8 @@ impl Tracer<'_> {
                     residual: rel,
                     shift: from.shift.clone(),
                     chart: from.jac.clone(),
-                };
-                if base.ambient().dot(&nd.ambient()) < 0.0 {
-                    nd.tangent.neg_mut();
                 }
+                .along(base);
                 return Ok((ChordEnd::Point(Box::new(nd)), it + 1));
             }
             if !(rel < CHORD_CONTRACTION * rel0) {
@@ -1813,8 +1833,8 @@ impl Tracer<'_> {
             // the iterate in the chart's scaled coordinates (less the start's own move
             // with p, which the Jacobian's parameter column carries)
             let mut dx = DVector::from_fn(x.len(), |i, _| x[i] - x0[i]);
-            if let Some(shift) = &from.shift {
-                dx -= shift * (sx * (*p - p0) / sp);
+            if let Some(moved) = start_move(from.shift.as_ref(), *p - p0, sx, sp) {
+                dx -= moved;
             }
             let mut u = DVector::zeros(d + 1);
             u.rows_mut(0, d)
@@ -1881,7 +1901,7 @@ impl Tracer<'_> {
         let tangent = null_direction(&k);
         let measures = measures_of(&flow.values);
         let stable = mu.iter().all(|m| m.norm() < 1.0);
-        let mut nd = Node {
+        Node {
             point: NfrPoint {
                 value: p,
                 omega: self.sh.omega(),
@@ -1898,13 +1918,10 @@ impl Tracer<'_> {
             tangent,
             iterations,
             residual,
-            shift: flow.start_dp.map(|s| s * (self.sp / self.sx)),
+            shift: self.shift_of(&flow),
             chart: k,
-        };
-        if base.ambient().dot(&nd.ambient()) < 0.0 {
-            nd.tangent.neg_mut();
         }
-        nd
+        .along(base)
     }
 
     /// Locate the zero of `kind`'s test function between `a` and `b` (a step `ds` from
@@ -1944,12 +1961,7 @@ impl Tracer<'_> {
     /// A point again with full periods at the current options, on the curve's normal
     /// through it (ds = 0 along its own tangent), no chords.
     fn again(&mut self, n: &Node) -> Result<Option<Node>> {
-        let any = std::mem::replace(&mut self.chord_any, false);
-        let no = std::mem::replace(&mut self.no_chords, true);
-        let out = self.correct(n, None, 0.0, None);
-        self.no_chords = no;
-        self.chord_any = any;
-        out
+        self.full_periods(n, None)
     }
 
     /// `f` with the integration `PRECISE` times tighter (a peak's, `samples` given:
@@ -2072,6 +2084,7 @@ impl Tracer<'_> {
                 sa = s;
                 ga = g;
                 pa = p;
+                sides.0 = true;
                 if side == -1 {
                     gb *= 0.5;
                 }
@@ -2080,15 +2093,11 @@ impl Tracer<'_> {
                 sb = s;
                 gb = g;
                 pb = p;
+                sides.1 = true;
                 if side == 1 {
                     ga *= 0.5;
                 }
                 side = 1;
-            }
-            if side == -1 {
-                sides.0 = true;
-            } else {
-                sides.1 = true;
             }
             // Every trial on one side: the bracket's end on the other is not what the
             // precise trials compute (the curve's test function is noisier), and the
