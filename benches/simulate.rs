@@ -128,6 +128,7 @@ fn minimal_free_case(bencher: divan::Bencher) {
         atol: TOL,
         max_steps: 10_000_000,
         method: Default::default(),
+        dense_prefix: None,
     };
     bencher.bench_local(|| {
         let mut out = Vec::with_capacity(2001);

@@ -147,3 +147,90 @@ fn dense_output_follows_the_cosine() {
         "{worst_crate:e} against {worst:e}"
     );
 }
+
+/// `Pendula` with its tangent flow beside it (the linearized equations along one
+/// direction, as a shooting's variational columns), counting its calls by state length.
+/// Called with the first four components alone it gives their derivatives only.
+struct PendulaTangent {
+    full: std::cell::Cell<usize>,
+    short: std::cell::Cell<usize>,
+}
+impl ODE<f64, Vec<f64>> for PendulaTangent {
+    fn diff(&self, t: f64, y: &Vec<f64>, f: &mut Vec<f64>) {
+        Pendula.diff(t, y, f);
+        if y.len() == 4 {
+            self.short.set(self.short.get() + 1);
+            return;
+        }
+        self.full.set(self.full.get() + 1);
+        let (x, d) = (&y[..4], &y[4..]);
+        f[4] = d[1];
+        f[5] = -9.81 * x[0].cos() * d[0] - 0.3 * d[1] + 4.0 * (d[2] - d[0]);
+        f[6] = d[3];
+        f[7] = -9.81 * x[2].cos() * d[2] - 4.0 * (d[2] - d[0]);
+    }
+}
+
+/// `Dop853::dense_prefix`: the dense output's three extra stages on the state alone.
+/// Steps, step ends and the state's samples are the same bits as with the whole dense
+/// output; the tangent's samples are the straight line between the step ends (exact at
+/// both); each accepted step calls the whole right-hand side 3 times fewer.
+#[test]
+fn dense_output_of_a_prefix() {
+    let ode = |_: ()| PendulaTangent {
+        full: std::cell::Cell::new(0),
+        short: std::cell::Cell::new(0),
+    };
+    let (whole, prefix) = (ode(()), ode(()));
+    let y0 = vec![1.0, 0.0, -0.5, 0.3, 1e-3, 0.0, 0.0, 0.0];
+    let t_end = 10.0;
+    let (mut a, mut b) = (Dop853::new(1e-9, 1e-9), Dop853::new(1e-9, 1e-9));
+    b.dense_prefix(4);
+    a.init(&whole, 0.0, t_end, &y0).unwrap();
+    b.init(&prefix, 0.0, t_end, &y0).unwrap();
+    let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+    let (mut accepted, mut rejected) = (0, 0);
+    let (mut ya, mut yb) = (Vec::new(), Vec::new());
+    while a.t() < t_end {
+        if a.t() + a.h() > t_end {
+            let h = t_end - a.t();
+            a.set_h(h);
+            b.set_h(h);
+        }
+        a.step(&whole).unwrap();
+        b.step(&prefix).unwrap();
+        assert_eq!(a.h().to_bits(), b.h().to_bits());
+        if matches!(a.status(), Status::RejectedStep) {
+            assert!(matches!(b.status(), Status::RejectedStep));
+            rejected += 1;
+            continue;
+        }
+        accepted += 1;
+        assert_eq!(bits(a.y()), bits(b.y()), "y at t = {}", a.t());
+        let (t0, t1) = (a.t_prev(), a.t());
+        for i in 0..=5 {
+            let th = i as f64 / 5.0;
+            let t = if i == 5 { t1 } else { t0 + (t1 - t0) * th };
+            a.dense_into(t, &mut ya);
+            b.dense_into(t, &mut yb);
+            assert_eq!(bits(&ya[..4]), bits(&yb[..4]), "state at t = {t}");
+            for k in 4..8 {
+                let line = (1.0 - th) * a.y_prev()[k] + th * a.y()[k];
+                let size = a.y_prev()[k].abs().max(a.y()[k].abs());
+                assert!((yb[k] - line).abs() <= 1e-13 * size, "tangent at t = {t}");
+            }
+        }
+        assert_eq!(
+            bits(&yb[4..]),
+            bits(&b.y()[4..]),
+            "the tangent at the step's end"
+        );
+    }
+    assert!(
+        accepted > 50 && rejected > 0,
+        "{accepted} accepted, {rejected} rejected"
+    );
+    assert_eq!(whole.short.get(), 0);
+    assert_eq!(prefix.short.get(), 3 * accepted);
+    assert_eq!(whole.full.get() - prefix.full.get(), 3 * accepted);
+}

@@ -79,6 +79,10 @@ pub struct Dop853 {
     non_stiffness_counter: usize,
     steps: usize,
     status: Status<f64, Y>,
+    /// The dense output's components (0: all): see [`Dop853::dense_prefix`].
+    dense_len: usize,
+    /// The dense output's extra stages on the prefix: stage state and derivative.
+    short: (Y, Y),
 }
 
 const SAFETY: f64 = 0.9;
@@ -122,6 +126,29 @@ impl Dop853 {
             non_stiffness_counter: 0,
             steps: 0,
             status: Status::Uninitialized,
+            dense_len: 0,
+            short: (Vec::new(), Vec::new()),
+        }
+    }
+
+    /// Interpolate only the first `m` components with the method's dense output: the
+    /// three extra stages it needs are evaluated on those components alone (the ODE is
+    /// called with a state of length `m` and must then give their derivatives, which
+    /// must not depend on the other components). The other components are interpolated
+    /// linearly between the step's ends (exact at both). For a state carrying
+    /// variational columns whose samples are not read (a shooting period): the dense
+    /// output's stages then cost one evaluation of the state each instead of one per
+    /// column besides. The steps and the prefix's samples are the same bits as without.
+    pub fn dense_prefix(&mut self, m: usize) {
+        self.dense_len = m;
+    }
+
+    /// The components the dense output interpolates with the method, of `n`.
+    fn dense_len(&self, n: usize) -> usize {
+        if self.dense_len == 0 {
+            n
+        } else {
+            self.dense_len.min(n)
         }
     }
 
@@ -199,8 +226,8 @@ impl Dop853 {
         // the factors s1, s, s1 for i = 6, 5, 4 (high-order part) and s1, s, s1 for
         // i = 3, 2, 1 (cubic part)
         const FACTOR_IS_S1: [bool; O] = [false, true, false, true, true, false, true, false];
-        let n = self.y.len();
-        out.resize(n, 0.0);
+        out.resize(self.y.len(), 0.0);
+        let n = self.dense_len(self.y.len());
         for m in 0..n {
             let mut acc = self.cont[O - 1][m];
             for i in (1..O - 1).rev() {
@@ -239,7 +266,11 @@ impl Dop853 {
         self.crate_interpolant(mirrored, out);
         let (y0, y1) = (&self.y_prev, &self.y);
         let (f0, f1) = (&self.dydt_prev, &self.dydt);
-        for i in 0..out.len() {
+        let m = self.dense_len(out.len());
+        for i in m..out.len() {
+            out[i] = (1.0 - theta) * y0[i] + theta * y1[i];
+        }
+        for i in 0..m {
             let c1 = y1[i] - y0[i];
             let c3 = 2.0 * c1 - h * (f0[i] + f1[i]);
             out[i] += (2.0 * theta - 1.0) * (c1 + theta * (1.0 - theta) * c3);
@@ -443,19 +474,35 @@ impl Dop853 {
                 c3[m] = cont3;
             }
             copy(&mut self.k[S], &self.dydt);
+            // the dense output's components (the same operations on each as on all)
+            let m = self.dense_len(n);
             for i in S + 1..I {
-                self.y_stage.copy_from_slice(&self.y);
-                for j in 0..i {
-                    let alpha = self.a[i][j] * h;
-                    for (v, kj) in self.y_stage.iter_mut().zip(&self.k[j]) {
-                        *v += alpha * *kj;
+                if m == n {
+                    self.y_stage.copy_from_slice(&self.y);
+                    for j in 0..i {
+                        let alpha = self.a[i][j] * h;
+                        for (v, kj) in self.y_stage.iter_mut().zip(&self.k[j]) {
+                            *v += alpha * *kj;
+                        }
                     }
+                    ode.diff(self.t + self.c[i] * h, &self.y_stage, &mut self.k[i]);
+                } else {
+                    let (ys, ks) = &mut self.short;
+                    copy(ys, &self.y[..m]);
+                    ks.resize(m, 0.0);
+                    for j in 0..i {
+                        let alpha = self.a[i][j] * h;
+                        for (v, kj) in ys.iter_mut().zip(&self.k[j][..m]) {
+                            *v += alpha * *kj;
+                        }
+                    }
+                    ode.diff(self.t + self.c[i] * h, ys, ks);
+                    self.k[i][..m].copy_from_slice(ks);
                 }
-                ode.diff(self.t + self.c[i] * h, &self.y_stage, &mut self.k[i]);
                 evals.function += 1;
             }
             for i in 4..O {
-                let ci = &mut self.cont[i];
+                let ci = &mut self.cont[i][..m];
                 ci.fill(0.0);
                 for j in 0..I {
                     let bij = self.bi[i][j];

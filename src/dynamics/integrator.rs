@@ -112,6 +112,10 @@ pub struct IntegratorOptions {
     pub max_steps: usize,
     /// The method.
     pub method: Integrator,
+    /// DOP853 only: the dense output (the samples) by the method on the first this many
+    /// components only, the rest interpolated linearly between the step's ends; see
+    /// `Dop853::dense_prefix` for what the ODE must then do. None: all.
+    pub dense_prefix: Option<usize>,
 }
 
 /// A run found stiff: DOP853's steps are held by the model's fastest motion, either by
@@ -582,7 +586,10 @@ pub fn integrate_stoppable<F: ODE<f64, Vec<f64>>>(
     };
     match opts.method {
         Integrator::Dop853 => {
-            let solver = Dop853::new(opts.rtol, opts.atol);
+            let mut solver = Dop853::new(opts.rtol, opts.atol);
+            if let Some(m) = opts.dense_prefix {
+                solver.dense_prefix(m);
+            }
             let dense = |s: &mut Dop853, t: f64, out: &mut Vec<f64>| {
                 s.dense_into(t, out);
                 Ok(())

@@ -267,6 +267,7 @@ pub fn simulate_stoppable(
         atol: opts.atol,
         max_steps: opts.max_steps,
         method: opts.integrator,
+        dense_prefix: None,
     };
     let (mut q, mut v) = (vec![0.0; n], vec![0.0; y0.len() - n]);
     let istats = integrate_stoppable(

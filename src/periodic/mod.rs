@@ -339,6 +339,9 @@ impl Shooting {
                 1_000_000
             },
             method: self.opts.integrator,
+            // the samples are read for the state only: the dense output's three stages
+            // a step on the state alone (about a sixth of a period with its columns)
+            dense_prefix: (cols > 0).then_some(n2),
         };
         let n = self.sys.nq();
         let sys = &self.sys;
@@ -504,6 +507,12 @@ const MERGED_STEP_RATIO: f64 = 100.0;
 impl ODE<f64, Vec<f64>> for Variational<'_> {
     fn diff(&self, t: f64, y: &Vec<f64>, dy: &mut Vec<f64>) {
         let n2 = self.n2;
+        if y.len() == n2 {
+            // the state alone: DOP853's dense-output stages (`Dop853::dense_prefix`)
+            self.base.diff(t, y, dy);
+            self.evals.set(self.evals.get() + 1);
+            return;
+        }
         let mut buf = self.buf.borrow_mut();
         let (xs, up, down, f0) = &mut *buf;
         xs.copy_from_slice(&y[..n2]);
