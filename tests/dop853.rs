@@ -213,11 +213,17 @@ fn dense_output_of_a_prefix() {
             let t = if i == 5 { t1 } else { t0 + (t1 - t0) * th };
             a.dense_into(t, &mut ya);
             b.dense_into(t, &mut yb);
+            // the crate's interpolation trait: the same straight line past the prefix
+            let yi = b.interpolate(t).unwrap();
             assert_eq!(bits(&ya[..4]), bits(&yb[..4]), "state at t = {t}");
             for k in 4..8 {
                 let line = (1.0 - th) * a.y_prev()[k] + th * a.y()[k];
                 let size = a.y_prev()[k].abs().max(a.y()[k].abs());
                 assert!((yb[k] - line).abs() <= 1e-13 * size, "tangent at t = {t}");
+                assert!(
+                    (yi[k] - line).abs() <= 1e-13 * size,
+                    "interpolate at t = {t}"
+                );
             }
         }
         assert_eq!(

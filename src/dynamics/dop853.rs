@@ -555,6 +555,11 @@ impl Interpolation<f64, Y> for Dop853 {
         }
         let mut out = Vec::new();
         self.crate_interpolant(t_interp, &mut out);
+        // past a dense prefix: linearly, as `dense_into`
+        let theta = (t_interp - self.t_prev) / self.h_prev;
+        for i in self.dense_len(out.len())..out.len() {
+            out[i] = (1.0 - theta) * self.y_prev[i] + theta * self.y[i];
+        }
         Ok(out)
     }
 }

@@ -305,8 +305,10 @@ const FOLD_SETTLED: f64 = 4e-10;
 
 /// The value at the vertex of the parabola (value against arclength) through the three
 /// trials nearest `best` in arclength (`best` among them), when the vertex lies between
-/// the outer two.
-fn vertex_near(tried: &[Node], best: &Node) -> Option<f64> {
+/// the outer two and the parabola bends the way the fold's test function turns
+/// (`turn`: its sign at the bracket's far end, where the arclength is larger: negative
+/// for a maximum of the value, positive for a minimum).
+fn vertex_near(tried: &[Node], best: &Node, turn: f64) -> Option<f64> {
     let sb = best.point.s;
     let mut near: Vec<&Node> = tried.iter().collect();
     near.sort_by(|x, y| (x.point.s - sb).abs().total_cmp(&(y.point.s - sb).abs()));
@@ -321,7 +323,7 @@ fn vertex_near(tried: &[Node], best: &Node) -> Option<f64> {
     let d01 = (p1 - p0) / (s1 - s0);
     let d12 = (p2 - p1) / (s2 - s1);
     let d2 = (d12 - d01) / (s2 - s0);
-    if !(d2 != 0.0 && d2.is_finite()) {
+    if !(d2 * turn > 0.0 && d2.is_finite()) {
         return None;
     }
     // p'(s) = d01 + d2 (2s − s0 − s1) = 0
@@ -2111,9 +2113,10 @@ impl Tracer<'_> {
                 converged = true;
                 break;
             }
-            // A fold is the extremum of the value along the arclength: where the vertex
-            // of the parabola through the three trials nearest the best one (on both
-            // sides of the zero) is within `FOLD_SETTLED` of the best trial's value, that
+            // A fold is the extremum of the value along the arclength: once trials have
+            // fallen on both sides of the zero, where the vertex of the parabola through
+            // the three trials nearest the best one is within `FOLD_SETTLED` of the best
+            // trial's value (and the parabola bends as the test function turns), that
             // value is the fold's to as much. (Its test function's noise at the precise
             // tolerance can stay above the 1e-4 of the bracket's asked above: the
             // inceptor at 10 mm searched 13 trials within 1e-9 of one value.)
@@ -2122,7 +2125,7 @@ impl Tracer<'_> {
                 && sides.1
                 && let Some((g_best, n_best)) = best.as_ref()
                 && g_best.abs() <= 1e-3 * scale
-                && let Some(v) = vertex_near(&tried, n_best)
+                && let Some(v) = vertex_near(&tried, n_best, gb)
                 && (v - n_best.point.value).abs() <= FOLD_SETTLED * p.abs().max(self.sp)
             {
                 change = (v - n_best.point.value).abs();
@@ -2349,7 +2352,8 @@ mod tests {
 
     /// A fold's value from the parabola through the trials beside it: exact for a
     /// parabola, whatever the order of the trials and with a far one left out; none
-    /// where the three nearest do not enclose the vertex.
+    /// where the three nearest do not enclose the vertex or the parabola bends against
+    /// the test function's turn.
     #[test]
     fn the_vertex_of_the_trials_beside_a_fold() {
         let p = |s: f64| 25.4 - 3.0 * (s - 0.7).powi(2);
@@ -2362,16 +2366,19 @@ mod tests {
             n
         };
         let tried = at(&[0.2, 0.95, 0.71, 0.64, 3.0]);
-        let v = vertex_near(&tried, &tried[2]).unwrap();
+        // a maximum of the value: the test function negative at the far end
+        let v = vertex_near(&tried, &tried[2], -1.0).unwrap();
         assert!((v - 25.4).abs() < 1e-13, "{v}");
         // the three nearest 0.2 are 0.2, 0.64, 0.71: the vertex 0.7 lies between them
-        assert!((vertex_near(&tried, &tried[0]).unwrap() - 25.4).abs() < 1e-12);
+        assert!((vertex_near(&tried, &tried[0], -1.0).unwrap() - 25.4).abs() < 1e-12);
+        // a test function that turns the other way is no fold of this parabola
+        assert_eq!(vertex_near(&tried, &tried[2], 1.0), None);
         // all on one side of the vertex: no extrapolation
         let one_side = at(&[0.1, 0.2, 0.3]);
-        assert_eq!(vertex_near(&one_side, &one_side[1]), None);
+        assert_eq!(vertex_near(&one_side, &one_side[1], -1.0), None);
         // two trials (or repeats of one place) are not a parabola
         let two = at(&[0.6, 0.8, 0.8]);
-        assert_eq!(vertex_near(&two, &two[0]), None);
+        assert_eq!(vertex_near(&two, &two[0], -1.0), None);
     }
 
     /// Nodes of one stable branch with these amplitudes (Newton residual 1e-12).
