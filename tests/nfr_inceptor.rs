@@ -151,6 +151,29 @@ fn folds_9mm() {
     }
 }
 
+/// At 9 mm with the curve integrated at `--rtol 1e-6` (20–32 rad/s): both folds located,
+/// within 1e-7 of the default tolerance's. With a fold's bracket ends computed again
+/// precisely before any trial and nothing after (the first version of caa24b7), one end
+/// could not be computed again and the other fold's third precise trial failed: both
+/// were reported unrefined, 2.5e-4 and 4.6e-4 rad/s off; the search from the curve's own
+/// ends, kept as the fallback, locates them.
+#[test]
+fn folds_9mm_loose_tolerance() {
+    let sys = inceptor(9.0);
+    let mut opts = NfrOptions::new("omega", 20.0, 32.0, vec!["stick.phi".into()]);
+    opts.shooting.rtol = 1e-6;
+    let c = nfr(&sys, &opts, &|_, _| {}, &AtomicBool::new(false)).unwrap();
+    assert!(c.complete, "{:?}", c.branches);
+    assert_eq!(c.folds.len(), 2, "{:?}", c.folds);
+    for (f, (omega, direction)) in c
+        .folds
+        .iter()
+        .zip([(25.407287416, 1.0), (25.373467302, -1.0)])
+    {
+        check_fold(f, omega, direction);
+    }
+}
+
 /// At 8 mm, traced downward (32 → 20 rad/s): the curve's fold test (the tangent's
 /// parameter component) has the same wrong sign at every point about the folds there, so
 /// no sign change shows them; ω turning back does (`Tracer::branch`, `turned_back`). Both
