@@ -79,10 +79,8 @@ pub struct Dop853 {
     non_stiffness_counter: usize,
     steps: usize,
     status: Status<f64, Y>,
-    /// The dense output's components (0: all): see [`Dop853::dense_prefix`].
-    dense_len: usize,
-    /// The dense output's extra stages on the prefix: stage state and derivative.
-    short: (Y, Y),
+    /// The dense output's components (None: all): see [`Dop853::dense_prefix`].
+    dense_len: Option<usize>,
 }
 
 const SAFETY: f64 = 0.9;
@@ -126,8 +124,7 @@ impl Dop853 {
             non_stiffness_counter: 0,
             steps: 0,
             status: Status::Uninitialized,
-            dense_len: 0,
-            short: (Vec::new(), Vec::new()),
+            dense_len: None,
         }
     }
 
@@ -140,15 +137,20 @@ impl Dop853 {
     /// output's stages then cost one evaluation of the state each instead of one per
     /// column besides. The steps and the prefix's samples are the same bits as without.
     pub fn dense_prefix(&mut self, m: usize) {
-        self.dense_len = m;
+        self.dense_len = Some(m);
     }
 
     /// The components the dense output interpolates with the method, of `n`.
     fn dense_len(&self, n: usize) -> usize {
-        if self.dense_len == 0 {
-            n
-        } else {
-            self.dense_len.min(n)
+        self.dense_len.map_or(n, |m| m.min(n))
+    }
+
+    /// The components past the dense prefix at θ = (t − t_prev)/h of the last step,
+    /// into `out`: the straight line between the step's ends.
+    fn linear_past_prefix(&self, theta: f64, out: &mut Y) {
+        let (y0, y1) = (&self.y_prev, &self.y);
+        for i in self.dense_len(out.len())..out.len() {
+            out[i] = (1.0 - theta) * y0[i] + theta * y1[i];
         }
     }
 
@@ -267,9 +269,7 @@ impl Dop853 {
         let (y0, y1) = (&self.y_prev, &self.y);
         let (f0, f1) = (&self.dydt_prev, &self.dydt);
         let m = self.dense_len(out.len());
-        for i in m..out.len() {
-            out[i] = (1.0 - theta) * y0[i] + theta * y1[i];
-        }
+        self.linear_past_prefix(theta, out);
         for i in 0..m {
             let c1 = y1[i] - y0[i];
             let c3 = 2.0 * c1 - h * (f0[i] + f1[i]);
@@ -474,33 +474,24 @@ impl Dop853 {
                 c3[m] = cont3;
             }
             copy(&mut self.k[S], &self.dydt);
-            // the dense output's components (the same operations on each as on all)
+            // the dense output's components (the same operations on each as on all): the
+            // stage and its derivative cut to them for the call (no reallocation), then
+            // back to n (the rest of these stages is never read)
             let m = self.dense_len(n);
             for i in S + 1..I {
-                if m == n {
-                    self.y_stage.copy_from_slice(&self.y);
-                    for j in 0..i {
-                        let alpha = self.a[i][j] * h;
-                        for (v, kj) in self.y_stage.iter_mut().zip(&self.k[j]) {
-                            *v += alpha * *kj;
-                        }
+                copy(&mut self.y_stage, &self.y[..m]);
+                for j in 0..i {
+                    let alpha = self.a[i][j] * h;
+                    for (v, kj) in self.y_stage.iter_mut().zip(&self.k[j]) {
+                        *v += alpha * *kj;
                     }
-                    ode.diff(self.t + self.c[i] * h, &self.y_stage, &mut self.k[i]);
-                } else {
-                    let (ys, ks) = &mut self.short;
-                    copy(ys, &self.y[..m]);
-                    ks.resize(m, 0.0);
-                    for j in 0..i {
-                        let alpha = self.a[i][j] * h;
-                        for (v, kj) in ys.iter_mut().zip(&self.k[j][..m]) {
-                            *v += alpha * *kj;
-                        }
-                    }
-                    ode.diff(self.t + self.c[i] * h, ys, ks);
-                    self.k[i][..m].copy_from_slice(ks);
                 }
+                self.k[i].truncate(m);
+                ode.diff(self.t + self.c[i] * h, &self.y_stage, &mut self.k[i]);
+                self.k[i].resize(n, 0.0);
                 evals.function += 1;
             }
+            self.y_stage.resize(n, 0.0);
             for i in 4..O {
                 let ci = &mut self.cont[i][..m];
                 ci.fill(0.0);
@@ -556,10 +547,7 @@ impl Interpolation<f64, Y> for Dop853 {
         let mut out = Vec::new();
         self.crate_interpolant(t_interp, &mut out);
         // past a dense prefix: linearly, as `dense_into`
-        let theta = (t_interp - self.t_prev) / self.h_prev;
-        for i in self.dense_len(out.len())..out.len() {
-            out[i] = (1.0 - theta) * self.y_prev[i] + theta * self.y[i];
-        }
+        self.linear_past_prefix((t_interp - self.t_prev) / self.h_prev, &mut out);
         Ok(out)
     }
 }
