@@ -1965,39 +1965,42 @@ impl Tracer<'_> {
         // the test functions are computed from the monodromy, whose error is the
         // integration's (and the differences')
         self.precise(None, true, |t| {
-            // A fold: the bracket's ends precisely first (below), before any trial. The
-            // curve's fold test (the tangent's parameter component at the curve's
-            // tolerance) can have the wrong sign where the curve is steep: on the
-            // inceptor at 9 mm a point at 25.37925 rad/s had -1.35e-2 between points of
-            // +1.7e-2 and +2.7e-2, ω increasing throughout, its ambient tangent 0.03 rad
-            // from theirs; precise trials beside it gave +2.2e-2. Each such bracket cost
-            // six one-sided trials, the ends again and the step before (some twice).
-            // Measured: the inceptor's fold-heavy curves (8, 9, 10 mm; 9 mm on 25-26;
-            // 8 mm downward) 6.29 M -> 4.77 M evaluations, the overcentre's 2.5-5 rad/s
-            // 445 890 -> 461 708 (its true fold pays the two ends).
-            if kind != Located::Fold
-                && let Some((n, u)) = t.locate_inner(a, b, ds, kind)?
-            {
-                return Ok(Locating::Found(Box::new(n), u));
-            }
+            // The search from the curve's own ends.
+            let on_curve = |t: &mut Self| -> Result<Locating> {
+                Ok(match t.locate_inner(a, b, ds, kind)? {
+                    Some((n, u)) => Locating::Found(Box::new(n), u),
+                    None => Locating::Failed,
+                })
+            };
             // The curve's test functions (forward differences at the curve's tolerance)
-            // can disagree with the precise trials' near the zero: on the inceptor at
-            // 9 mm a curve point's fold test was +3.3e-2 where the trials beside it gave
-            // −3.4e-3, and no trial found the sign change. The bracket's ends again,
-            // precisely (each on its own normal to the curve: well posed at a fold too),
-            // and where they still straddle the zero, the search from them; where they
-            // do not, `Vanished` (the caller looks a step back).
-            // (a fold whose precise path fails: the search from the curve's own ends, as
-            // it was first before; at --rtol 1e-6 the 9 mm upper fold's end b could not
-            // be computed again precisely, and the lower fold's third precise trial
-            // failed to converge, both located so)
-            let fallback = |t: &mut Self| -> Result<Locating> {
-                if kind == Located::Fold
-                    && let Some((n, u)) = t.locate_inner(a, b, ds, kind)?
-                {
-                    return Ok(Locating::Found(Box::new(n), u));
+            // can disagree with the precise trials'. The fold test (the tangent's
+            // parameter component) can even have the wrong sign where the curve is steep:
+            // on the inceptor at 9 mm a point at 25.37925 rad/s had -1.35e-2 between
+            // points of +1.7e-2 and +2.7e-2, ω increasing throughout, its ambient tangent
+            // 0.03 rad from theirs, where precise trials beside it gave +2.2e-2. So a
+            // fold's bracket has its ends computed again precisely (each on its own
+            // normal to the curve: well posed at a fold too) before any trial; where
+            // they still straddle the zero, the search from them; where they do not,
+            // `Vanished` (the caller looks a step back). Measured: the inceptor's
+            // fold-heavy curves (8, 9, 10 mm; 9 mm on 25-26; 8 mm downward) 6.29 M ->
+            // 4.77 M evaluations, the overcentre's 2.5-5 rad/s 445 890 -> 461 708 (its
+            // true fold pays for the two ends). A bifurcation is searched from the
+            // curve's ends first, and from precise ends where that fails.
+            if kind != Located::Fold
+                && let found @ Locating::Found(..) = on_curve(t)?
+            {
+                return Ok(found);
+            }
+            // Where the precise path fails for a fold, the search from the curve's ends
+            // (at --rtol 1e-6 the 9 mm upper fold's end could not be computed again
+            // precisely, and the lower fold's third precise trial failed to converge:
+            // both located so).
+            let fallback = |t: &mut Self| {
+                if kind == Located::Fold {
+                    on_curve(t)
+                } else {
+                    Ok(Locating::Failed)
                 }
-                Ok(Locating::Failed)
             };
             let (Some(mut ra), Some(mut rb)) = (t.again(a)?, t.again(b)?) else {
                 return fallback(t);
