@@ -29,9 +29,14 @@ fn inceptor(d0_mm: f64) -> detune::System {
 }
 
 fn curve(d0_mm: f64, from: f64, to: f64, max_step: f64) -> Nfr {
+    curve_with(d0_mm, from, to, |o| o.max_step = max_step)
+}
+
+/// `curve` with the options as `adjust` leaves them.
+fn curve_with(d0_mm: f64, from: f64, to: f64, adjust: impl FnOnce(&mut NfrOptions)) -> Nfr {
     let sys = inceptor(d0_mm);
     let mut opts = NfrOptions::new("omega", from, to, vec!["stick.phi".into()]);
-    opts.max_step = max_step;
+    adjust(&mut opts);
     let c = nfr(&sys, &opts, &|_, _| {}, &AtomicBool::new(false)).unwrap();
     assert!(c.complete, "{d0_mm} mm, {from}-{to}: {:?}", c.branches);
     assert_eq!(c.dof, 2);
@@ -159,11 +164,7 @@ fn folds_9mm() {
 /// ends, kept as the fallback, locates them.
 #[test]
 fn folds_9mm_loose_tolerance() {
-    let sys = inceptor(9.0);
-    let mut opts = NfrOptions::new("omega", 20.0, 32.0, vec!["stick.phi".into()]);
-    opts.shooting.rtol = 1e-6;
-    let c = nfr(&sys, &opts, &|_, _| {}, &AtomicBool::new(false)).unwrap();
-    assert!(c.complete, "{:?}", c.branches);
+    let c = curve_with(9.0, 20.0, 32.0, |o| o.shooting.rtol = 1e-6);
     assert_eq!(c.folds.len(), 2, "{:?}", c.folds);
     for (f, (omega, direction)) in c
         .folds
