@@ -558,13 +558,17 @@ pub fn nfr(
             .sqrt()
     };
     let mut sx = state_norm(&y, omega0);
+    // and the smallest (`Shooting::fit_to_motion`)
+    let mut smallest = sx;
     if param == freq {
         for j in 0..=200 {
             let w = opts.from + (opts.to - opts.from) * j as f64 / 200.0;
             if w > 0.0
                 && let Ok(yw) = lin.response(w, &forcing)
             {
-                sx = sx.max(state_norm(&yw, w));
+                let s = state_norm(&yw, w);
+                sx = sx.max(s);
+                smallest = smallest.min(s);
             }
         }
     } else {
@@ -576,13 +580,26 @@ pub fn nfr(
             if let Ok(sv) = sys.with_param(param, v)
                 && let Ok(l) = linear_start(&sv, freq, &omega_param)
             {
-                sx = sx.max(state_norm(&l.y, sv.param(freq)));
+                let s = state_norm(&l.y, sv.param(freq));
+                sx = sx.max(s);
+                smallest = smallest.min(s);
             }
         }
     }
     let sx = sx.max(1e-12);
+    // the motion against its coordinates' values (`Shooting::fit_to_motion`)
+    let size = crate::linalg::amax(&x0[..n]);
+    let motion = smallest / size;
+    if motion < SMALLEST_MOTION {
+        return Err(Error::request(
+            format!(
+                "the forced motion is too small to follow by shooting: its linear response falls to {smallest:.2e} (the state's norm) over the range, about coordinates of up to {size:.2e}: {motion:.1e} of them, where below {SMALLEST_MOTION:.0e} a period's rounding is larger than the orbit's Newton tolerance"
+            ),
+            "raise the forcing amplitude: at this level the response is linear, and the linear frequency response gives it exactly",
+        ));
+    }
     let mut tr = Tracer {
-        sh: Shooting::new(&sys0, param, &responses, opts.shooting.clone())?,
+        sh: Shooting::fitted(&sys0, param, &responses, opts.shooting.clone(), motion)?,
         max_step: opts.max_step,
         sx,
         sp,
@@ -646,7 +663,7 @@ pub fn nfr(
     if let Some((sys1, guess)) = far {
         let guess = (guess.eq, guess.x);
         let mut end_tr = Tracer {
-            sh: Shooting::new(&sys1, param, &responses, opts.shooting.clone())?,
+            sh: Shooting::fitted(&sys1, param, &responses, opts.shooting.clone(), motion)?,
             max_step: opts.max_step,
             sx: tr.sx,
             sp: tr.sp,
@@ -1056,6 +1073,12 @@ const BIFURCATION_REL: f64 = 1e-7;
 /// Beyond it (the overcentre's orbits toward its separatrix reach 7e3), damped orbits
 /// showed smaller multipliers of modulus 1.4, impossible for a damped mechanism.
 const RESOLVED: f64 = 1e3;
+
+/// The smallest motion (the linear response's largest state norm over the range,
+/// against the largest coordinate) a curve is traced for: the overcentre's lower well
+/// at F0 = 1e-4 N (3e-5) is traced whole, at 1e-5 N (3e-6) the curve stalls in the
+/// rounding of its coordinates (`Shooting::rounding`).
+const SMALLEST_MOTION: f64 = 1e-6;
 
 /// The loosest Newton tolerance an orbit is corrected to (relative to its amplitude):
 /// where an unstable orbit amplifies the integration's error so much that 100·rtol·|μ|
@@ -1517,10 +1540,11 @@ impl Tracer<'_> {
         if !(f < 1.0) {
             return self.correct_at(base, curvature, ds, fixed);
         }
+        let floor = self.sh.rtol_floor();
         self.with_options(
             |o| {
-                o.rtol = (o.rtol * f).max(1e-14);
-                o.atol = (o.atol * f).max(1e-16);
+                o.rtol = (o.rtol * f).max(floor);
+                o.atol = (o.atol * f).max(0.01 * floor);
             },
             |t| t.correct_at(base, curvature, ds, fixed),
         )
@@ -1640,7 +1664,11 @@ impl Tracer<'_> {
             let arc = self.arc(base, &x, p, ds, fixed);
             // the integration's error, amplified by the orbit's unstable multipliers,
             // bounds the residual that the fixed point can be found to
-            let tol = self.sh.opts.newton_tol(base.growth());
+            let tol = self.sh.opts.newton_tol(base.growth()).max(self.sh.rounding(
+                &x,
+                &flow.scale,
+                NOISE_CAP,
+            ));
             // The integration's noise: P is no smoother than its error control, which is
             // relative to the coordinates' size, not to the orbit's amplitude; where the
             // coordinates are large against a small orbit (a base-driven mechanism) and a
@@ -1830,7 +1858,9 @@ impl Tracer<'_> {
                 best = Some((x.to_vec(), *p, rel));
             }
             let arc = self.arc(base, x, *p, ds, fixed);
-            if rel <= tol && arc.abs() <= self.arc_tol {
+            if rel <= tol.max(self.sh.rounding(x, &flow.scale, NOISE_CAP))
+                && arc.abs() <= self.arc_tol
+            {
                 if full_end {
                     return Ok((ChordEnd::Handoff, it + 1));
                 }
@@ -2039,6 +2069,7 @@ impl Tracer<'_> {
         f: impl FnOnce(&mut Self) -> T,
     ) -> T {
         self.arc_tol = 1e-10;
+        let floor = self.sh.rtol_floor();
         let out = self.with_options(
             |o| {
                 o.central = central;
@@ -2049,7 +2080,7 @@ impl Tracer<'_> {
                 } else {
                     PRECISE
                 };
-                o.rtol = (o.rtol * f).max(1e-14);
+                o.rtol = (o.rtol * f).max(floor);
                 o.atol *= f;
                 o.samples = samples.unwrap_or(o.samples);
             },

@@ -144,7 +144,21 @@ pub struct Shooting {
     /// The most steps a period has taken so far: a flow that needs many times more (a
     /// Newton iterate far off, whose motion crawls through a singular pose) is given up.
     typical_steps: usize,
+    /// The drift from the manifold (position or velocity residual) past which a period's
+    /// state is projected back onto it: 1e-12, less for an orbit small against its
+    /// coordinates (`Shooting::fit_to_motion`).
+    drift: f64,
+    /// The factor `fit_to_motion` scaled the tolerances by (1: none).
+    fit: f64,
 }
+
+/// The motion's size against its coordinates' below which the shooting's tolerances
+/// are scaled with it (`Shooting::fit_to_motion`).
+const SMALL_MOTION: f64 = 1e-2;
+
+/// The rounding of a period's end state, relative to its largest coordinate
+/// (`Shooting::rounding`; measured about 6e-15 on the overcentre).
+const ROUNDING: f64 = 1e-13;
 
 /// Relative step of the central differences of the right-hand side.
 const FD_STEP: f64 = 6e-6;
@@ -170,6 +184,8 @@ impl Shooting {
             rhs_evaluations: 0,
             flows: 0,
             typical_steps: 0,
+            drift: 1e-12,
+            fit: 1.0,
         })
     }
 
@@ -203,6 +219,43 @@ impl Shooting {
     }
 
     /// Put x on the manifold (positions, then velocities, at forcing phase 0).
+    /// `Shooting::new`, its tolerances fitted to a motion `ratio` of its coordinates'
+    /// size (`fit_to_motion`).
+    pub fn fitted(
+        sys: &System,
+        param: usize,
+        responses: &[Output],
+        opts: ShootingOptions,
+        ratio: f64,
+    ) -> Result<Shooting> {
+        let mut sh = Shooting::new(sys, param, responses, opts)?;
+        sh.fit_to_motion(ratio);
+        Ok(sh)
+    }
+
+    /// Tolerances for a motion small against its coordinates. The integration's error
+    /// control and the drift projection are relative to the coordinates' values (or
+    /// absolute), the Newton iteration to the orbit's amplitude: where the orbit is a
+    /// small fraction `ratio` of its coordinates (the overcentre at F0 = 1e-4 N: 3e-5),
+    /// the integration's error is larger than the Newton tolerance and the curve stalls.
+    /// Below `SMALL_MOTION` the tolerances and the drift threshold are scaled down by
+    /// ratio / `SMALL_MOTION`; above it nothing changes.
+    pub fn fit_to_motion(&mut self, ratio: f64) {
+        let g = ratio / SMALL_MOTION;
+        if g < 1.0 {
+            self.opts.rtol *= g;
+            self.opts.atol *= g;
+            self.drift = (self.drift * g).max(1e-15);
+            self.fit = g;
+        }
+    }
+
+    /// The tightest relative tolerance a period is integrated to: 1e-14, scaled as the
+    /// tolerances are for a small motion (`fit_to_motion`).
+    pub(crate) fn rtol_floor(&self) -> f64 {
+        1e-14 * self.fit
+    }
+
     pub fn project(&mut self, x: &mut [f64]) -> f64 {
         let n = self.sys.nq();
         let (q, v) = x.split_at_mut(n);
@@ -351,6 +404,7 @@ impl Shooting {
         let mut hi = x.to_vec();
         let mut last = y0.clone();
         let proj = RefCell::new(DynWorkspace::new(sys));
+        let drift = self.drift;
         let outputs = probe.outputs().len();
         let stats = crate::dynamics::integrator::integrate(
             &ode,
@@ -374,7 +428,7 @@ impl Shooting {
                 let pos = residual_norm(sys, q, t);
                 let mut ws = proj.borrow_mut();
                 let vel = velocity_residual_blocks(sys, &mut ws, q, v, t);
-                if pos > 1e-12 || vel > 1e-12 {
+                if pos > drift || vel > drift {
                     project_position(sys, &mut ws, q, t, 1e-14, 5);
                     project_velocity(sys, &mut ws, q, v, t);
                     true
@@ -455,6 +509,24 @@ impl Shooting {
     /// stepped sine's settling measures it (nq = nv here: free bodies are refused).
     pub fn relative(&self, a: &[f64], b: &[f64], scale: &[f64]) -> f64 {
         crate::frequency::relative_change(a, b, scale)
+    }
+
+    /// The residual (as `relative` measures it) that rounding alone leaves in a period
+    /// started at `x` of an orbit of half-ranges `scale`: `ROUNDING` of the largest
+    /// coordinate, against the orbit's amplitude. Negligible where the orbit is not tiny
+    /// against its coordinates' values; where it is (the overcentre at F0 = 1e-4 N moves
+    /// 1e-6 rad about coordinates of up to 5), the sum of the steps rounds to about
+    /// 3e-14 whatever the tolerances, and a Newton tolerance below that would never be
+    /// met. At most `cap`: an orbit of no amplitude (the equilibrium at zero forcing)
+    /// is not converged by rounding alone.
+    pub fn rounding(&self, x: &[f64], scale: &[f64], cap: f64) -> f64 {
+        let n = x.len() / 2;
+        let kind = |r: std::ops::Range<usize>| {
+            let size = crate::linalg::amax(&x[r.clone()]);
+            let amp = scale[r].iter().fold(0.0f64, |m, s| m.max(*s)) + 1e-14;
+            ROUNDING * size / amp
+        };
+        kind(0..n).max(kind(n..x.len())).min(cap)
     }
 }
 
