@@ -193,8 +193,42 @@ fn folds_8mm_traced_downward() {
     }
 }
 
+/// Where the curve's fold test changes sign a step early (the point beside the fold has
+/// the wrong sign, and the bracket's ends computed precisely agree), the fold lies in the
+/// step after, where ω turns: the 9.5 mm curve traced upward lost its upper fold so, the
+/// 8.5 mm curve traced downward its lower one (before 2026-11-27; of 16 curves at 7.5–11
+/// mm in both directions, 4 lost a fold). The references are the same folds as the
+/// opposite direction's curve located them (9.5 mm downward, 8.5 mm upward). The upper
+/// fold at 9.5 mm is also met from a curve point whose ω overshoots it by 2.3e-6 rad/s
+/// (the curve's integration noise): its jump direction comes from the precise ends'
+/// test, not from that point (it said "a sweep down jumps here").
+#[test]
+fn folds_behind_an_early_sign_change() {
+    let up = curve(9.5, 20.0, 32.0, 0.04);
+    assert_eq!(up.folds.len(), 2, "{:?}", up.folds);
+    for (f, (omega, direction)) in up
+        .folds
+        .iter()
+        .zip([(25.265498388, 1.0), (25.219616307, -1.0)])
+    {
+        check_fold(f, omega, direction);
+    }
+    let down = curve(8.5, 32.0, 20.0, 0.04);
+    assert_eq!(down.folds.len(), 2, "{:?}", down.folds);
+    for (f, (omega, direction)) in down
+        .folds
+        .iter()
+        .zip([(25.538671393, -1.0), (25.557147384, 1.0)])
+    {
+        check_fold(f, omega, direction);
+    }
+}
+
 /// A located fold at `omega` (to 1e-7 rad/s), met going in `direction`, with a
-/// multiplier 1.
+/// multiplier 1 (within 3e-5: the located orbit is the search's best trial, whose test
+/// may be 1e-3 of the bracket's since the vertex stop of dc179e9; the 9.5 mm upper
+/// fold's is 1.01e-5 from 1, the others' below 1e-5; the other multipliers here are
+/// 0.5 to 0.65 in modulus).
 fn check_fold(f: &detune::periodic::continuation::Special, omega: f64, direction: f64) {
     assert!(f.refined, "{f:?}");
     assert!(
@@ -208,5 +242,5 @@ fn check_fold(f: &detune::periodic::continuation::Special, omega: f64, direction
         .iter()
         .map(|m| (m - 1.0).norm())
         .fold(f64::INFINITY, f64::min);
-    assert!(one < 1e-5, "{:?}", f.multipliers);
+    assert!(one < 3e-5, "{:?}", f.multipliers);
 }

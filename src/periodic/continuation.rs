@@ -336,8 +336,11 @@ fn vertex_near(tried: &[Node], best: &Node, turn: f64) -> Option<f64> {
 
 /// What locating a fold or bifurcation in a bracket came to (`Tracer::locate`).
 enum Locating {
-    /// The point and its uncertainty.
-    Found(Box<Node>, f64),
+    /// The point, its uncertainty and, for a fold searched from precise ends, the sign
+    /// of the test at the bracket's first end: the parameter's direction toward the
+    /// fold, + before a maximum of the parameter (the curve's points beside a fold can
+    /// overshoot its value in the integration's noise).
+    Found(Box<Node>, f64, Option<f64>),
     /// The bracket's ends, computed again precisely, have no sign change between them:
     /// the curve's was its noise.
     Vanished,
@@ -1193,6 +1196,9 @@ impl Tracer<'_> {
         let dir = (to - from).signum();
         let mut ds = 0.01f64.min(self.max_step);
         let mut located: Vec<Node> = Vec::new();
+        // the arclength of the far end of the last fold bracket whose precise ends (and
+        // the step before's) agreed: the fold may lie in the step after it
+        let mut vanished_fold: Option<f64> = None;
         let finish = |mut nodes: Vec<Node>, located: Vec<Node>, end| {
             nodes.extend(located);
             nodes.sort_by(|a: &Node, b: &Node| a.point.s.total_cmp(&b.point.s));
@@ -1282,6 +1288,10 @@ impl Tracer<'_> {
             // fold test about it: a fold that the test's noise hides (the inceptor's
             // 8 mm curve traced downward: every point's test had the same wrong sign
             // while ω turned twice). Searched from precise ends (`Tracer::locate`).
+            // So too where the test changed sign at `last` but that bracket's precise
+            // ends agreed (the sign changed a step early: the inceptor's upper fold at
+            // 9.5 mm traced upward, its lower one at 8.5 mm traced downward, were lost).
+            let early = vanished_fold.take() == Some(last.point.s);
             let turned_back = !found.contains(&Located::Fold)
                 && nodes.len() >= 2
                 && resolved(&last)
@@ -1293,7 +1303,7 @@ impl Tracer<'_> {
                         matches!((test(Located::Fold, x), test(Located::Fold, y)),
                             (Some(gx), Some(gy)) if gx * gy > 0.0)
                     };
-                    (b - a) * (c - b) < 0.0 && same(prev, &last)
+                    (b - a) * (c - b) < 0.0 && (early || same(prev, &last))
                 };
             brackets.extend(
                 found
@@ -1314,9 +1324,15 @@ impl Tracer<'_> {
                     continue;
                 }
                 // (the direction before a fold: toward it, the value being its extremum;
-                // the curve point's tangent can be noisy there, the inceptor at 8 mm)
-                let special = |before: &Node, nd: &Node, uncertainty: f64, refined: bool| {
-                    let toward = (nd.point.value - before.point.value).signum();
+                // the curve point's tangent can be noisy there, the inceptor at 8 mm; from
+                // the precise ends' test where the search had them, since a curve point
+                // beside the fold can overshoot its value, the inceptor at 9.5 mm)
+                let special = |before: &Node,
+                               nd: &Node,
+                               uncertainty: f64,
+                               refined: bool,
+                               precise: Option<f64>| {
+                    let toward = precise.unwrap_or((nd.point.value - before.point.value).signum());
                     Special {
                         kind,
                         value: nd.point.value,
@@ -1326,7 +1342,7 @@ impl Tracer<'_> {
                         stable_before: before.point.stable,
                         direction_before: if kind == Located::Fold
                             && refined
-                            && nd.point.value != before.point.value
+                            && (precise.is_some() || nd.point.value != before.point.value)
                         {
                             toward
                         } else {
@@ -1365,14 +1381,14 @@ impl Tracer<'_> {
                 match outcome {
                     // (found twice, from this bracket and from the step before the next
                     // one's: once)
-                    Ok(Locating::Found(nd, uncertainty))
+                    Ok(Locating::Found(nd, uncertainty, _))
                         if specials.iter().any(|sp| {
                             sp.refined
                                 && sp.kind == kind
                                 && (sp.value - nd.point.value).abs()
                                     <= 10.0 * sp.uncertainty.max(uncertainty)
                         }) => {}
-                    Ok(Locating::Found(nd, uncertainty)) => {
+                    Ok(Locating::Found(nd, uncertainty, toward)) => {
                         let mut nd = *nd;
                         nd.point.located = Some(kind);
                         // an unrefined report of the same point before, superseded
@@ -1381,10 +1397,14 @@ impl Tracer<'_> {
                                 || sp.kind != kind
                                 || (sp.value - nd.point.value).abs() > sp.uncertainty
                         });
-                        specials.push(special(&lo, &nd, uncertainty, true));
+                        specials.push(special(&lo, &nd, uncertainty, true, toward));
                         located.push(nd);
                     }
-                    Ok(Locating::Vanished) => {}
+                    Ok(Locating::Vanished) => {
+                        if kind == Located::Fold && !forced {
+                            vanished_fold = Some(next.point.s);
+                        }
+                    }
                     Err(e) if is_interrupt(&e) => {
                         return finish(nodes, located, BranchEnd::Interrupted);
                     }
@@ -1411,7 +1431,7 @@ impl Tracer<'_> {
                             !sp.refined && sp.kind == kind && sp.value == near.point.value
                         });
                         if !twice {
-                            specials.push(special(&lo, near, width, false));
+                            specials.push(special(&lo, near, width, false, None));
                         }
                     }
                 }
@@ -1998,7 +2018,7 @@ impl Tracer<'_> {
             // The search from the curve's own ends.
             let on_curve = |t: &mut Self| -> Result<Locating> {
                 Ok(match t.locate_inner(a, b, ds, kind)? {
-                    Some((n, u)) => Locating::Found(Box::new(n), u),
+                    Some((n, u)) => Locating::Found(Box::new(n), u, None),
                     None => Locating::Failed,
                 })
             };
@@ -2040,7 +2060,7 @@ impl Tracer<'_> {
             match (test(kind, &ra), test(kind, &rb)) {
                 (Some(ga), Some(gb)) if ga * gb <= 0.0 => {
                     match t.locate_inner(&ra, &rb, ds, kind)? {
-                        Some((n, u)) => Ok(Locating::Found(Box::new(n), u)),
+                        Some((n, u)) => Ok(Locating::Found(Box::new(n), u, Some(ga.signum()))),
                         None => fallback(t),
                     }
                 }
