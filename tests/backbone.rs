@@ -177,6 +177,44 @@ fn overcentre_lower_well_softens_from_its_linear_frequency() {
     assert!(c2 < 0.0, "softening: c₂ = {c2}");
 }
 
+/// At amplitudes small against the bars' coordinates (2e-7 to 1e-4 rad, coordinates up
+/// to 4 m) the backbone is the linear ω_n (the softening there is below 1e-10 of it):
+/// within 1e-8 at every orbit (the orbits are converged to the rounding of their
+/// coordinates, `Shooting::rounding`: 2e-9 off at 7e-7 rad). The shooting's tolerances are fitted to the motion
+/// (`Shooting::fit_to_motion`); before, the first orbit's ω was 3e-7 below ω_n and rose
+/// with the amplitude, and below 1e-6 rad no orbit converged, with the advice to give a
+/// smaller amplitude.
+#[test]
+fn overcentre_small_amplitudes_are_linear() {
+    let sys = load(OVERCENTRE, &[("theta1_0", "-0.85")]);
+    let c0 = load(OVERCENTRE, &[("theta1_0", "-0.85"), ("c", "0")]);
+    let wn = detune::linear::modal_analysis(&c0, None)
+        .unwrap()
+        .undamped_omega2[0]
+        .sqrt();
+    // the command's defaults (rtol 1e-10); at 1e-7 rad it takes seconds (rtol at 1e-15)
+    for to in [1e-5, 1e-4] {
+        let b = backbone(
+            &sys,
+            0,
+            to,
+            &BackboneOptions::default(),
+            &|_, _| {},
+            &AtomicBool::new(false),
+        )
+        .unwrap();
+        assert!(b.complete, "{:?}", b.stop);
+        for p in &b.points {
+            assert!(
+                (p.omega - wn).abs() <= 1e-8 * wn,
+                "ω = {} at a = {:e}, ω_n = {wn}",
+                p.omega,
+                p.amplitude
+            );
+        }
+    }
+}
+
 #[test]
 fn undamped_is_the_model_without_its_damper() {
     // a second formulation: the overcentre's undamped forces are those of the model with

@@ -311,6 +311,12 @@ pub fn backbone(
     };
     let first = if finite { scale / 50.0 } else { 1e-3 * scale };
     let max_step = if finite { scale / 20.0 } else { f64::INFINITY };
+    // the first orbit's displacement against the coordinates' values (the shape scaled
+    // to `first` at the reference coordinate), as `nfr` measures it
+    // (`Shooting::fit_to_motion`)
+    let size = crate::linalg::amax(&eq);
+    let motion = first / phi[r].abs() * phi.iter().map(|c| c * c).sum::<f64>().sqrt() / size;
+    sh.fit_to_motion(motion);
     let mut ctx = Ctx {
         sh,
         n,
@@ -348,7 +354,13 @@ pub fn backbone(
                         if sys0.is_angle(r) { "rad" } else { "m" },
                         sys0.coordinates[r],
                     ),
-                    "give a smaller target amplitude, or --normalize another coordinate that moves in this mode",
+                    if motion < 1e-6 {
+                        format!(
+                            "the first orbit (a fiftieth of the target amplitude) moves the coordinates by {motion:.1e} of their values, too little for shooting in double precision: give a larger target amplitude (at this size the mode is linear, its ω_n as `detune modes` gives it)"
+                        )
+                    } else {
+                        "give a smaller target amplitude, or --normalize another coordinate that moves in this mode".to_string()
+                    },
                 ));
             }
         }
@@ -524,7 +536,19 @@ impl Ctx<'_> {
             // converged, or stalled at the integration's noise after a Newton step (near
             // a separatrix the period is sensitive to the amplitude and the noise grows:
             // the same floor as the forced curve's, `continuation::NOISE_FLOOR`)
-            let converged = rel <= self.sh.opts.tol && cond <= 1e-10;
+            // (neither below the rounding of the coordinates against the orbit's size:
+            // the amplitude condition is a difference of the reference coordinate and
+            // its equilibrium value, `Shooting::rounding`)
+            let tol = self.sh.opts.tol.max(self.sh.rounding(
+                &x,
+                &flow.scale,
+                super::continuation::NOISE_CAP,
+            ));
+            let cond_tol = 1e-10f64.max(
+                (super::ROUNDING * x[r].abs().max(self.eq[r].abs()) / size)
+                    .min(super::continuation::NOISE_CAP),
+            );
+            let converged = rel <= tol && cond <= cond_tol;
             let noise = it > 0
                 && rel <= super::continuation::NOISE_FLOOR
                 && cond <= 1e-8

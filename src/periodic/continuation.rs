@@ -242,6 +242,13 @@ pub struct Nfr {
     /// exceeds 1e3, not reported: single shooting does not resolve the smaller
     /// multipliers there.
     pub unresolved_events: usize,
+    /// The linear response's smallest displacement over the range (the norm over the
+    /// coordinates) against the equilibrium's largest coordinate (or atol/rtol, if
+    /// larger: below it the absolute tolerance rules the error control): below about 5e-7 a
+    /// period's rounding approaches the Newton tolerance, and a curve may stall
+    /// (`Shooting::fit_to_motion`; the overcentre's lower well at F0 = 1e-5 N over 1.5–5
+    /// rad/s, 7.6e-8, does).
+    pub motion: f64,
 }
 
 /// A chord iteration must cut the residual at least this much, else the full Newton
@@ -561,17 +568,19 @@ pub fn nfr(
             .sqrt()
     };
     let mut sx = state_norm(&y, omega0);
-    // and the smallest (`Shooting::fit_to_motion`)
-    let mut smallest = sx;
+    // and the smallest displacement (`Shooting::fit_to_motion`: the integration's error
+    // control is relative to the positions' values; the velocities have no offset)
+    let displacement =
+        |y: &DVector<Complex<f64>>| (0..n).map(|i| y[i].norm_sqr()).sum::<f64>().sqrt();
+    let mut smallest = displacement(&y);
     if param == freq {
         for j in 0..=200 {
             let w = opts.from + (opts.to - opts.from) * j as f64 / 200.0;
             if w > 0.0
                 && let Ok(yw) = lin.response(w, &forcing)
             {
-                let s = state_norm(&yw, w);
-                sx = sx.max(s);
-                smallest = smallest.min(s);
+                sx = sx.max(state_norm(&yw, w));
+                smallest = smallest.min(displacement(&yw));
             }
         }
     } else {
@@ -583,24 +592,17 @@ pub fn nfr(
             if let Ok(sv) = sys.with_param(param, v)
                 && let Ok(l) = linear_start(&sv, freq, &omega_param)
             {
-                let s = state_norm(&l.y, sv.param(freq));
-                sx = sx.max(s);
-                smallest = smallest.min(s);
+                sx = sx.max(state_norm(&l.y, sv.param(freq)));
+                smallest = smallest.min(displacement(&l.y));
             }
         }
     }
     let sx = sx.max(1e-12);
-    // the motion against its coordinates' values (`Shooting::fit_to_motion`)
-    let size = crate::linalg::amax(&x0[..n]);
-    let motion = smallest / size;
-    if motion < SMALLEST_MOTION {
-        return Err(Error::request(
-            format!(
-                "the forced motion is too small to follow by shooting: its linear response falls to {smallest:.2e} (the state's norm) over the range, about coordinates of up to {size:.2e}: {motion:.1e} of them, where below {SMALLEST_MOTION:.0e} a period's rounding is larger than the orbit's Newton tolerance"
-            ),
-            "raise the forcing amplitude: at this level the response is linear, and the linear frequency response gives it exactly",
-        ));
-    }
+    // the motion against its coordinates' values (`Shooting::fit_to_motion`): the
+    // smallest displacement over the range against the equilibrium's largest coordinate,
+    // or against atol/rtol where the coordinates are smaller (below it the absolute
+    // tolerance rules the error control: a mechanism about the origin)
+    let motion = smallest / crate::linalg::amax(&eq.q).max(opts.shooting.atol / opts.shooting.rtol);
     let mut tr = Tracer {
         sh: Shooting::fitted(&sys0, param, &responses, opts.shooting.clone(), motion)?,
         max_step: opts.max_step,
@@ -773,6 +775,7 @@ pub fn nfr(
         periods: tr.sh.flows,
         rhs_evaluations: tr.sh.rhs_evaluations,
         unresolved_events: tr.unresolved,
+        motion,
     })
 }
 
@@ -1077,16 +1080,10 @@ const BIFURCATION_REL: f64 = 1e-7;
 /// showed smaller multipliers of modulus 1.4, impossible for a damped mechanism.
 const RESOLVED: f64 = 1e3;
 
-/// The smallest motion (the linear response's largest state norm over the range,
-/// against the largest coordinate) a curve is traced for: the overcentre's lower well
-/// at F0 = 1e-4 N (3e-5) is traced whole, at 1e-5 N (3e-6) the curve stalls in the
-/// rounding of its coordinates (`Shooting::rounding`).
-const SMALLEST_MOTION: f64 = 1e-6;
-
 /// The loosest Newton tolerance an orbit is corrected to (relative to its amplitude):
 /// where an unstable orbit amplifies the integration's error so much that 100·rtol·|μ|
 /// would exceed it, that orbit is integrated more tightly (`Tracer::correct`).
-const NOISE_CAP: f64 = 1e-5;
+pub(crate) const NOISE_CAP: f64 = 1e-5;
 
 /// The largest Newton residual (relative to the orbit's amplitude) accepted as the
 /// integration's noise when the iteration stops converging (`Tracer::correct`).

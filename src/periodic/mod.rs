@@ -154,11 +154,14 @@ pub struct Shooting {
 
 /// The motion's size against its coordinates' below which the shooting's tolerances
 /// are scaled with it (`Shooting::fit_to_motion`).
-const SMALL_MOTION: f64 = 1e-2;
+const SMALL_MOTION: f64 = 1e-3;
+
+/// The tightest relative tolerance `fit_to_motion` gives a period.
+const RTOL_MIN: f64 = 1e-15;
 
 /// The rounding of a period's end state, relative to its largest coordinate
 /// (`Shooting::rounding`; measured about 6e-15 on the overcentre).
-const ROUNDING: f64 = 1e-13;
+pub(crate) const ROUNDING: f64 = 1e-13;
 
 /// Relative step of the central differences of the right-hand side.
 const FD_STEP: f64 = 6e-6;
@@ -218,7 +221,6 @@ impl Shooting {
         2.0 * std::f64::consts::PI / self.omega()
     }
 
-    /// Put x on the manifold (positions, then velocities, at forcing phase 0).
     /// `Shooting::new`, its tolerances fitted to a motion `ratio` of its coordinates'
     /// size (`fit_to_motion`).
     pub fn fitted(
@@ -236,26 +238,29 @@ impl Shooting {
     /// Tolerances for a motion small against its coordinates. The integration's error
     /// control and the drift projection are relative to the coordinates' values (or
     /// absolute), the Newton iteration to the orbit's amplitude: where the orbit is a
-    /// small fraction `ratio` of its coordinates (the overcentre at F0 = 1e-4 N: 3e-5),
+    /// small fraction `ratio` of its coordinates (its displacement's norm against the largest
+    /// coordinate: the overcentre's lower well at F0 = 1e-4 N over 1.5–5 rad/s, 7.6e-7),
     /// the integration's error is larger than the Newton tolerance and the curve stalls.
     /// Below `SMALL_MOTION` the tolerances and the drift threshold are scaled down by
     /// ratio / `SMALL_MOTION`; above it nothing changes.
     pub fn fit_to_motion(&mut self, ratio: f64) {
         let g = ratio / SMALL_MOTION;
         if g < 1.0 {
-            self.opts.rtol *= g;
-            self.opts.atol *= g;
+            // (no tighter than RTOL_MIN: below it the steps shrink to the rounding)
+            self.opts.rtol = (self.opts.rtol * g).max(RTOL_MIN.min(self.opts.rtol));
+            self.opts.atol = (self.opts.atol * g).max(1e-3 * RTOL_MIN.min(self.opts.atol));
             self.drift = (self.drift * g).max(1e-15);
             self.fit = g;
         }
     }
 
     /// The tightest relative tolerance a period is integrated to: 1e-14, scaled as the
-    /// tolerances are for a small motion (`fit_to_motion`).
+    /// tolerances are for a small motion (`fit_to_motion`), to `RTOL_MIN` at most.
     pub(crate) fn rtol_floor(&self) -> f64 {
-        1e-14 * self.fit
+        (1e-14 * self.fit).max(RTOL_MIN)
     }
 
+    /// Put x on the manifold (positions, then velocities, at forcing phase 0).
     pub fn project(&mut self, x: &mut [f64]) -> f64 {
         let n = self.sys.nq();
         let (q, v) = x.split_at_mut(n);
