@@ -104,6 +104,26 @@ fn main() {
     unsafe {
         libc::signal(libc::SIGPIPE, libc::SIG_DFL);
     }
+    // A standard output that refuses the write (`> /dev/full`, a full disk): `println!`
+    // panics with "failed printing to stdout"; said as an error (exit 1), with the
+    // temporary files of outputs not yet committed removed, instead of a panic (101).
+    let default_hook = std::panic::take_hook();
+    std::panic::set_hook(Box::new(move |info| {
+        let msg = info
+            .payload()
+            .downcast_ref::<String>()
+            .map(String::as_str)
+            .or_else(|| info.payload().downcast_ref::<&str>().copied())
+            .unwrap_or("");
+        if let Some(why) = msg.strip_prefix("failed printing to stdout: ") {
+            detune::output::commit::remove_temps_now();
+            eprintln!(
+                "error: cannot write to standard output: {why}\nhelp: free space on its disk, or send it elsewhere (-o FILE where the command has one)"
+            );
+            std::process::exit(1);
+        }
+        default_hook(info);
+    }));
     let cli = Cli::parse();
     // SIGINT, SIGTERM, SIGHUP: a long command stops and keeps what it has; exit 130/143/129
     cli::handle_signals();

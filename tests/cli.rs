@@ -739,3 +739,51 @@ fn grids_and_times_accept_quantities() {
     assert_eq!(code, 1);
     assert!(err.contains("--refine 3 kg"), "{err}");
 }
+
+/// A standard output that refuses the write (`> /dev/full`): an error that says so,
+/// exit 1, not a panic (it was exit 101, "failed printing to stdout"), for a command
+/// that prints a table (`modes`) and one that prints JSON (`nfr --json`).
+#[cfg(target_os = "linux")]
+#[test]
+fn a_full_standard_output_is_an_error_not_a_panic() {
+    for args in [
+        &["modes", "models/overcentre.toml"][..],
+        &[
+            "nfr",
+            "models/overcentre.toml",
+            "--set",
+            "theta1_0=-0.85",
+            "--set",
+            "c=1",
+            "--set",
+            "F0=0.01",
+            "--param",
+            "omega",
+            "--from",
+            "3",
+            "--to",
+            "3.5",
+            "--response",
+            "bar1.theta",
+            "--json",
+        ][..],
+    ] {
+        let full = std::fs::OpenOptions::new()
+            .write(true)
+            .open("/dev/full")
+            .unwrap();
+        let o = Command::new(env!("CARGO_BIN_EXE_detune"))
+            .current_dir(env!("CARGO_MANIFEST_DIR"))
+            .args(args)
+            .stdout(full)
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(1), "{args:?}: {err}");
+        assert!(
+            err.contains("cannot write to standard output: No space left on device")
+                && !err.contains("panicked"),
+            "{args:?}: {err}"
+        );
+    }
+}
