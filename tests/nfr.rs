@@ -807,3 +807,37 @@ fn base_driven_curve_converges_in_few_periods() {
         amp(w_lin)
     );
 }
+
+/// Undamped (c = 0), the forced overcentre's orbits keep their phase-space volume (|det
+/// M| = Π|μ| = 1, Liouville): their complex multipliers stay on the unit circle, so there
+/// is no Neimark–Sacker point, and an orbit is stable (elliptic) unless a real multiplier
+/// lies outside it. Before, round-off moved the pairs across the circle: ten
+/// Neimark–Sacker points on 3–4.5 rad/s, and `stable` flipping with |μ|max = 1 ± 4e-7.
+#[test]
+fn undamped_orbits_are_conservative() {
+    let sys = model(&[("theta1_0", -0.85), ("c", 0.0), ("F0", 4.0)]);
+    let opts = NfrOptions::new("omega", 3.0, 4.5, vec!["bar1.theta".into()]);
+    let c = nfr(&sys, &opts, &|_, _| {}, &AtomicBool::new(false)).unwrap();
+    assert!(c.complete, "{:?}", c.branches);
+    assert!(c.neimark_sacker.is_empty(), "{:?}", c.neimark_sacker);
+    assert!(!c.folds.is_empty());
+    let (mut stable, mut unstable) = (0, 0);
+    for p in &c.points {
+        // (where a real multiplier is large its reciprocal partner is poorly resolved:
+        // |det M| = 0.99977 at |μ|max = 5.6)
+        let det: f64 = p.multipliers.iter().map(|m| m.norm()).product();
+        let big = p.multipliers.iter().map(|m| m.norm()).fold(0.0, f64::max);
+        assert!(
+            big > 2.0 || (det - 1.0).abs() < 1e-4,
+            "|det M| = {det} at {}",
+            p.omega
+        );
+        let out = p.multipliers.iter().any(|m| m.norm() > 1.0 + 1e-4);
+        assert_eq!(p.stable, !out, "{} rad/s: {:?}", p.omega, p.multipliers);
+        if p.stable { stable += 1 } else { unstable += 1 }
+    }
+    assert!(
+        stable > 10 && unstable > 10,
+        "{stable} stable, {unstable} unstable"
+    );
+}

@@ -1022,19 +1022,48 @@ fn events(a: &Node, b: &Node) -> Vec<Located> {
         n.point.multipliers.iter().filter(|m| pred(m)).count()
     };
     // a band of 1e-6 about the unit circle: an undamped orbit's multipliers lie on it,
-    // and round-off must not make crossings of them
-    let real_below = |m: &Complex<f64>| is_real(m) && m.re < -1.0 - 1e-6;
+    // and round-off must not make crossings of them (CONSERVATIVE where both orbits
+    // keep their volume: the monodromy's error, 1e-6 at the curve's tolerance, is more)
+    let conservative = conservative(&a.point.multipliers) && conservative(&b.point.multipliers);
+    let band = if conservative { CONSERVATIVE } else { 1e-6 };
+    let real_below = |m: &Complex<f64>| is_real(m) && m.re < -1.0 - band;
     if count(a, &real_below) != count(b, &real_below) {
         out.push(Located::PeriodDoubling);
     }
+    // (a conservative orbit's complex pairs stay on the circle: no Neimark–Sacker point;
+    // the undamped overcentre showed ten where round-off moved them across it)
     let complex_out = |m: &Complex<f64>| !is_real(m) && m.norm() > 1.0 + 1e-6;
-    if count(a, &complex_out) != count(b, &complex_out)
+    if !conservative
+        && count(a, &complex_out) != count(b, &complex_out)
         && a.point.multipliers.iter().any(|m| !is_real(m))
         && b.point.multipliers.iter().any(|m| !is_real(m))
     {
         out.push(Located::NeimarkSacker);
     }
     out
+}
+
+/// How far from 1 the product of an orbit's multipliers' moduli (|det M|, the period's
+/// change of phase-space volume) may be for the orbit to count as conservative (an
+/// undamped mechanism: 1 exactly, the monodromy's error aside). A damped one's is far
+/// below 1 (the overcentre at c = 1 N·s/m, 0.1 to 0.5).
+const CONSERVATIVE: f64 = 1e-4;
+
+/// Whether an orbit's multipliers keep the phase-space volume (`CONSERVATIVE`).
+fn conservative(mu: &[Complex<f64>]) -> bool {
+    !mu.is_empty() && (mu.iter().map(|m| m.norm()).product::<f64>() - 1.0).abs() < CONSERVATIVE
+}
+
+/// An orbit is stable when its multipliers lie inside the unit circle; a conservative
+/// orbit's lie on it (elliptic: neutrally stable) or off it in pairs (hyperbolic), and it
+/// is stable when none lies outside by more than the monodromy's error (the undamped
+/// overcentre's flipped between stable and unstable with |μ|max 1 ± 4e-7).
+fn stable_of(mu: &[Complex<f64>]) -> bool {
+    if conservative(mu) {
+        mu.iter().all(|m| m.norm() <= 1.0 + CONSERVATIVE)
+    } else {
+        mu.iter().all(|m| m.norm() < 1.0)
+    }
 }
 
 fn is_real(m: &Complex<f64>) -> bool {
@@ -1886,7 +1915,7 @@ impl Tracer<'_> {
                         value: *p,
                         omega: self.sh.omega(),
                         measures: measures_of(&flow.values),
-                        stable: from.multipliers.iter().all(|m| m.norm() < 1.0),
+                        stable: stable_of(&from.multipliers),
                         multipliers: from.multipliers.clone(),
                         located: None,
                         s: base.point.s,
@@ -1982,7 +2011,7 @@ impl Tracer<'_> {
         let (k, mu) = self.chart_of(&tb, &flow);
         let tangent = null_direction(&k);
         let measures = measures_of(&flow.values);
-        let stable = mu.iter().all(|m| m.norm() < 1.0);
+        let stable = stable_of(&mu);
         Node {
             point: NfrPoint {
                 value: p,
