@@ -358,6 +358,22 @@ fn bad_requests_are_refused_with_what_to_do() {
         "3 mm",
     ]);
     assert!(e.contains("is an angle"), "{e}");
+    // a reference coordinate the mode does not move: refused (the amplitude was measured
+    // on another coordinate, unsaid), naming the ones it moves
+    let e = err(&[
+        "backbone",
+        DUFFING,
+        "--of-mode",
+        "1",
+        "--normalize",
+        "body.y",
+        "--to-amplitude",
+        "0.1",
+    ]);
+    assert!(
+        e.contains("does not move body.y") && e.contains("moves: body.x"),
+        "{e}"
+    );
     // the Duffing spring's anchor is 1 m away: the family ends before a = 1 m, where it
     // says, the curve so far still written
     let out = detune(&[

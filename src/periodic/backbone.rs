@@ -254,6 +254,32 @@ pub fn backbone(
     let eq = ma.equilibrium.q.clone();
     let n = sys0.nq();
     let r = md.normalized_to;
+    // a reference coordinate asked for that this mode does not move: the shape was
+    // normalized to another (the amplitude would be measured on it, unsaid)
+    if let Some(asked) = opts.normalize.as_deref()
+        && sys0.coordinates[r] != asked
+    {
+        let size = |c: &crate::linear::C64| c.re.hypot(c.im);
+        let largest = md.shape.iter().map(size).fold(0.0, f64::max);
+        let moving: Vec<&str> = md
+            .shape
+            .iter()
+            .zip(&sys0.coordinates)
+            .filter(|(c, _)| size(c) > 1e-9 * largest)
+            .map(|(_, name)| name.as_str())
+            .collect();
+        return Err(Error::request(
+            format!(
+                "mode {} (`{}`) does not move {asked} (its shape's entry there is zero), so its amplitude cannot be measured on it",
+                mode + 1,
+                names[mode]
+            ),
+            format!(
+                "normalize to a coordinate the mode moves: {}",
+                moving.join(", ")
+            ),
+        ));
+    }
     // autonomous: the loads and constraints at rest at the equilibrium do not change in time
     {
         let mut f0 = vec![0.0; sys0.nv()];
