@@ -165,14 +165,7 @@ fn folds_9mm() {
 #[test]
 fn folds_9mm_loose_tolerance() {
     let c = curve_with(9.0, 20.0, 32.0, |o| o.shooting.rtol = 1e-6);
-    assert_eq!(c.folds.len(), 2, "{:?}", c.folds);
-    for (f, (omega, direction)) in c
-        .folds
-        .iter()
-        .zip([(25.407287416, 1.0), (25.373467302, -1.0)])
-    {
-        check_fold(f, omega, direction);
-    }
+    check_folds(&c, [(25.407287416, 1.0), (25.373467302, -1.0)]);
 }
 
 /// At 8 mm, traced downward (32 → 20 rad/s): the curve's fold test (the tangent's
@@ -183,14 +176,7 @@ fn folds_9mm_loose_tolerance() {
 #[test]
 fn folds_8mm_traced_downward() {
     let c = curve(8.0, 32.0, 20.0, 0.04);
-    assert_eq!(c.folds.len(), 2, "{:?}", c.folds);
-    for (f, (omega, direction)) in c
-        .folds
-        .iter()
-        .zip([(25.714569571, -1.0), (25.717821013, 1.0)])
-    {
-        check_fold(f, omega, direction);
-    }
+    check_folds(&c, [(25.714569571, -1.0), (25.717821013, 1.0)]);
 }
 
 /// Where the curve's fold test changes sign a step early (the point beside the fold has
@@ -205,21 +191,16 @@ fn folds_8mm_traced_downward() {
 #[test]
 fn folds_behind_an_early_sign_change() {
     let up = curve(9.5, 20.0, 32.0, 0.04);
-    assert_eq!(up.folds.len(), 2, "{:?}", up.folds);
-    for (f, (omega, direction)) in up
-        .folds
-        .iter()
-        .zip([(25.265498388, 1.0), (25.219616307, -1.0)])
-    {
-        check_fold(f, omega, direction);
-    }
+    check_folds(&up, [(25.265498388, 1.0), (25.219616307, -1.0)]);
     let down = curve(8.5, 32.0, 20.0, 0.04);
-    assert_eq!(down.folds.len(), 2, "{:?}", down.folds);
-    for (f, (omega, direction)) in down
-        .folds
-        .iter()
-        .zip([(25.538671393, -1.0), (25.557147384, 1.0)])
-    {
+    check_folds(&down, [(25.538671393, -1.0), (25.557147384, 1.0)]);
+}
+
+/// The curve's two folds, in the order met: each at its omega, met going in its direction
+/// (`check_fold`).
+fn check_folds(c: &Nfr, expected: [(f64, f64); 2]) {
+    assert_eq!(c.folds.len(), 2, "{:?}", c.folds);
+    for (f, (omega, direction)) in c.folds.iter().zip(expected) {
         check_fold(f, omega, direction);
     }
 }
