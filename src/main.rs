@@ -117,8 +117,11 @@ fn main() {
             .unwrap_or("");
         if let Some(why) = msg.strip_prefix("failed printing to stdout: ") {
             detune::output::commit::remove_temps_now();
-            eprintln!(
-                "error: cannot write to standard output: {why}\nhelp: free space on its disk, or send it elsewhere (-o FILE where the command has one)"
+            // (stderr may refuse too: a panic inside this hook would abort)
+            use std::io::Write;
+            let _ = writeln!(
+                std::io::stderr(),
+                "error: cannot write to standard output: {why}\nhelp: free space on its disk, or redirect it elsewhere"
             );
             std::process::exit(1);
         }

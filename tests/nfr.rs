@@ -840,4 +840,10 @@ fn undamped_orbits_are_conservative() {
         stable > 10 && unstable > 10,
         "{stable} stable, {unstable} unstable"
     );
+    // the model decides, not the multipliers: slightly negatively damped, |det M| is
+    // 1 + 9e-5 (within the monodromy's error of 1), yet every orbit is unstable (a first
+    // version that judged by |det M| called eight of them stable)
+    let sys = model(&[("theta1_0", -0.85), ("c", -2.5e-4), ("F0", 4.0)]);
+    let c = nfr(&sys, &opts, &|_, _| {}, &AtomicBool::new(false)).unwrap();
+    assert!(c.points.iter().all(|p| !p.stable));
 }

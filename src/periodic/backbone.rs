@@ -385,7 +385,7 @@ pub fn backbone(
                             "the first orbit (a fiftieth of the target amplitude) moves the coordinates by {motion:.1e} of their values, too little for shooting in double precision: give a larger target amplitude (at this size the mode is linear, its ω_n as `detune modes` gives it)"
                         )
                     } else {
-                        "give a smaller target amplitude, or --normalize another coordinate that moves in this mode".to_string()
+                        "give another target amplitude (larger where this one is tiny against the model's dimensions, smaller where the family may end before it), or --normalize another coordinate that moves in this mode".to_string()
                     },
                 ));
             }

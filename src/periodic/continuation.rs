@@ -243,8 +243,7 @@ pub struct Nfr {
     /// multipliers there.
     pub unresolved_events: usize,
     /// The linear response's smallest displacement over the range (the norm over the
-    /// coordinates) against the equilibrium's largest coordinate (or atol/rtol, if
-    /// larger: below it the absolute tolerance rules the error control): below about 5e-7 a
+    /// coordinates) against the equilibrium's largest coordinate: below about 5e-7 a
     /// period's rounding approaches the Newton tolerance, and a curve may stall
     /// (`Shooting::fit_to_motion`; the overcentre's lower well at F0 = 1e-5 N over 1.5–5
     /// rad/s, 7.6e-8, does).
@@ -485,6 +484,9 @@ struct Tracer<'c> {
     /// Chord iterations from any base with a chart, fixed values included (a peak's
     /// trials: `Tracer::peak`); otherwise only along the curve (`Tracer::correct_at`).
     chord_any: bool,
+    /// The model has no damping at the start's equilibrium (its linearization's damping
+    /// matrix is zero): its orbits are conservative (`stable_of`).
+    undamped: bool,
 }
 
 /// The arclength condition's tolerance along the curve: it only says where on the curve
@@ -599,10 +601,10 @@ pub fn nfr(
     }
     let sx = sx.max(1e-12);
     // the motion against its coordinates' values (`Shooting::fit_to_motion`): the
-    // smallest displacement over the range against the equilibrium's largest coordinate,
-    // or against atol/rtol where the coordinates are smaller (below it the absolute
-    // tolerance rules the error control: a mechanism about the origin)
-    let motion = smallest / crate::linalg::amax(&eq.q).max(opts.shooting.atol / opts.shooting.rtol);
+    // smallest displacement over the range against the equilibrium's largest coordinate
+    // (none for a mechanism about the origin)
+    let motion = smallest / crate::linalg::amax(&eq.q);
+    let undamped = lin.damping.iter().all(|c| *c == 0.0);
     let mut tr = Tracer {
         sh: Shooting::fitted(&sys0, param, &responses, opts.shooting.clone(), motion)?,
         max_step: opts.max_step,
@@ -613,6 +615,7 @@ pub fn nfr(
         arc_tol: ARC_TOL,
         no_chords: false,
         chord_any: false,
+        undamped,
     };
     let dof = {
         let b = tr.sh.tangent_basis(&x0);
@@ -677,6 +680,7 @@ pub fn nfr(
             arc_tol: ARC_TOL,
             no_chords: false,
             chord_any: false,
+            undamped,
         };
         if let Ok(start) = end_tr.start(guess.1, opts.to, opts.from, opts)
             && !on_branch(&start, &all)
@@ -1013,7 +1017,7 @@ fn is_interrupt(e: &Error) -> bool {
 }
 
 /// The kinds of located points whose test functions change between a and b.
-fn events(a: &Node, b: &Node) -> Vec<Located> {
+fn events(a: &Node, b: &Node, undamped: bool) -> Vec<Located> {
     let mut out = Vec::new();
     if a.tp() * b.tp() < 0.0 {
         out.push(Located::Fold);
@@ -1022,10 +1026,9 @@ fn events(a: &Node, b: &Node) -> Vec<Located> {
         n.point.multipliers.iter().filter(|m| pred(m)).count()
     };
     // a band of 1e-6 about the unit circle: an undamped orbit's multipliers lie on it,
-    // and round-off must not make crossings of them (CONSERVATIVE where both orbits
-    // keep their volume: the monodromy's error, 1e-6 at the curve's tolerance, is more)
-    let conservative = conservative(&a.point.multipliers) && conservative(&b.point.multipliers);
-    let band = if conservative { CONSERVATIVE } else { 1e-6 };
+    // and round-off must not make crossings of them (CONSERVATIVE for an undamped model:
+    // the monodromy's error at the curve's tolerance, up to 5e-5, is more)
+    let band = if undamped { CONSERVATIVE } else { 1e-6 };
     let real_below = |m: &Complex<f64>| is_real(m) && m.re < -1.0 - band;
     if count(a, &real_below) != count(b, &real_below) {
         out.push(Located::PeriodDoubling);
@@ -1033,7 +1036,7 @@ fn events(a: &Node, b: &Node) -> Vec<Located> {
     // (a conservative orbit's complex pairs stay on the circle: no Neimark–Sacker point;
     // the undamped overcentre showed ten where round-off moved them across it)
     let complex_out = |m: &Complex<f64>| !is_real(m) && m.norm() > 1.0 + 1e-6;
-    if !conservative
+    if !undamped
         && count(a, &complex_out) != count(b, &complex_out)
         && a.point.multipliers.iter().any(|m| !is_real(m))
         && b.point.multipliers.iter().any(|m| !is_real(m))
@@ -1043,23 +1046,21 @@ fn events(a: &Node, b: &Node) -> Vec<Located> {
     out
 }
 
-/// How far from 1 the product of an orbit's multipliers' moduli (|det M|, the period's
-/// change of phase-space volume) may be for the orbit to count as conservative (an
-/// undamped mechanism: 1 exactly, the monodromy's error aside). A damped one's is far
-/// below 1 (the overcentre at c = 1 N·s/m, 0.1 to 0.5).
+/// How far outside the unit circle an undamped orbit's multipliers may lie and the orbit
+/// still count as stable (elliptic): the monodromy's error at the curve's tolerance (the
+/// undamped overcentre's |μ| scatter up to 1 + 2.5e-5 about the circle, |det M| up to
+/// 1 ± 6.5e-5).
 const CONSERVATIVE: f64 = 1e-4;
 
-/// Whether an orbit's multipliers keep the phase-space volume (`CONSERVATIVE`).
-fn conservative(mu: &[Complex<f64>]) -> bool {
-    !mu.is_empty() && (mu.iter().map(|m| m.norm()).product::<f64>() - 1.0).abs() < CONSERVATIVE
-}
-
-/// An orbit is stable when its multipliers lie inside the unit circle; a conservative
-/// orbit's lie on it (elliptic: neutrally stable) or off it in pairs (hyperbolic), and it
-/// is stable when none lies outside by more than the monodromy's error (the undamped
-/// overcentre's flipped between stable and unstable with |μ|max 1 ± 4e-7).
-fn stable_of(mu: &[Complex<f64>]) -> bool {
-    if conservative(mu) {
+/// An orbit is stable when its multipliers lie inside the unit circle. An undamped
+/// mechanism's (`Tracer::undamped`: no damping in its linearization) keep their
+/// phase-space volume: they lie on the circle (elliptic: neutrally stable) or off it in
+/// reciprocal pairs (hyperbolic), and the orbit is stable when none lies outside by
+/// more than the monodromy's error (the undamped overcentre's flipped between stable
+/// and unstable with |μ|max = 1 ± 4e-7). The model decides, not the multipliers: a
+/// slightly negatively damped one (c = −2.5e-4 N·s/m, |det M| = 1 + 9e-5) is unstable.
+fn stable_of(mu: &[Complex<f64>], undamped: bool) -> bool {
+    if undamped {
         mu.iter().all(|m| m.norm() <= 1.0 + CONSERVATIVE)
     } else {
         mu.iter().all(|m| m.norm() < 1.0)
@@ -1274,7 +1275,7 @@ impl Tracer<'_> {
                     .first()
                     .is_none_or(|m| m.norm() <= RESOLVED)
             };
-            let mut found = events(&last, &next);
+            let mut found = events(&last, &next, self.undamped);
             // A stale point's multipliers are an iterate's before it (`Tracer::chord`): where
             // a test function changes sign next to one, its full period first, so that
             // the bracket is the true one (and where the earlier point's sign was the
@@ -1295,7 +1296,7 @@ impl Tracer<'_> {
                     if nodes.len() >= 2 {
                         let prev = nodes[nodes.len() - 2].clone();
                         let h = r.point.s - prev.point.s;
-                        for kind in events(&prev, &r) {
+                        for kind in events(&prev, &r, self.undamped) {
                             if resolved(&prev) && resolved(&r) {
                                 brackets.push((kind, prev.clone(), r.clone(), h, false));
                             }
@@ -1304,7 +1305,7 @@ impl Tracer<'_> {
                     *nodes.last_mut().expect("a start") = r.clone();
                     last = r;
                 }
-                found = events(&last, &next);
+                found = events(&last, &next, self.undamped);
             }
             if !(resolved(&last) && resolved(&next)) {
                 self.unresolved += found.len();
@@ -1915,7 +1916,7 @@ impl Tracer<'_> {
                         value: *p,
                         omega: self.sh.omega(),
                         measures: measures_of(&flow.values),
-                        stable: stable_of(&from.multipliers),
+                        stable: stable_of(&from.multipliers, self.undamped),
                         multipliers: from.multipliers.clone(),
                         located: None,
                         s: base.point.s,
@@ -2011,7 +2012,7 @@ impl Tracer<'_> {
         let (k, mu) = self.chart_of(&tb, &flow);
         let tangent = null_direction(&k);
         let measures = measures_of(&flow.values);
-        let stable = stable_of(&mu);
+        let stable = stable_of(&mu, self.undamped);
         Node {
             point: NfrPoint {
                 value: p,

@@ -154,7 +154,7 @@ pub struct Shooting {
 
 /// The motion's size against its coordinates' below which the shooting's tolerances
 /// are scaled with it (`Shooting::fit_to_motion`).
-const SMALL_MOTION: f64 = 1e-3;
+const SMALL_MOTION: f64 = 1e-2;
 
 /// The tightest relative tolerance `fit_to_motion` gives a period.
 const RTOL_MIN: f64 = 1e-15;
