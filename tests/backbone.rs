@@ -358,6 +358,11 @@ fn bad_requests_are_refused_with_what_to_do() {
         "3 mm",
     ]);
     assert!(e.contains("is an angle"), "{e}");
+    // a relative tolerance outside 1e-15..1e-3 (orbits converged to ~100·rtol): refused
+    for rtol in ["1e-2", "1e-20"] {
+        let e = err(&["backbone", OVERCENTRE, "--of-mode", "1", "--rtol", rtol]);
+        assert!(e.contains("from 1e-15 to 1e-3"), "{e}");
+    }
     // a reference coordinate the mode does not move: refused (the amplitude was measured
     // on another coordinate, unsaid), naming the ones it moves
     let e = err(&[

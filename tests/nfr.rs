@@ -419,6 +419,19 @@ fn command_outputs_and_bad_input() {
             .unwrap()
             .ends_with(",stable,floquet_max,mu1_re,mu1_im,mu2_re,mu2_im,located")
     );
+    // a relative tolerance outside 1e-15..1e-3 (orbits are converged to ~100·rtol of
+    // their amplitude: --rtol 0.5 gave a period doubling 65 times its stated uncertainty
+    // off): refused, in the form it was given
+    for (rtol, shown) in [("0.5", "--rtol 0.5:"), ("1e-20", "--rtol 1e-20:")] {
+        let (code, _, err) = overcentre_nfr(&[
+            "--set", "F0=4", "--param", "omega", "--from", "3", "--to", "4", "--rtol", rtol,
+        ]);
+        assert_eq!(code, 1, "{err}");
+        assert!(
+            err.contains(shown) && err.contains("from 1e-15 to 1e-3"),
+            "{err}"
+        );
+    }
     // no forcing: a clear error with a hint
     let (code, _, err) = detune(&[
         "nfr",
