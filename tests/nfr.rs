@@ -860,3 +860,17 @@ fn undamped_orbits_are_conservative() {
     let c = nfr(&sys, &opts, &|_, _| {}, &AtomicBool::new(false)).unwrap();
     assert!(c.points.iter().all(|p| !p.stable));
 }
+
+/// The shaken pendulum continued in its table amplitude (1–300 mm at 4 rad/s): one
+/// branch. The far end's start lies about θ = −2π, the same orbits as the first branch's
+/// about 0; compared without the angles' wrap it was traced a second time (31 points,
+/// every amplitude the same, the mean 2π lower).
+#[test]
+fn an_orbit_a_turn_away_is_the_same_orbit() {
+    let m = detune::Model::load(&common::data("shaken_pendulum.toml")).unwrap();
+    let sys = detune::System::new(&common::with_sets(m, &[("omega", "4")])).unwrap();
+    let opts = NfrOptions::new("D0", 1e-3, 0.3, vec!["bob.theta".into()]);
+    let c = nfr(&sys, &opts, &|_, _| {}, &AtomicBool::new(false)).unwrap();
+    assert!(c.complete, "{:?}", c.branches);
+    assert_eq!(c.branches.len(), 1, "{:?}", c.branches);
+}

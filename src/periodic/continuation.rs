@@ -683,7 +683,7 @@ pub fn nfr(
             undamped,
         };
         if let Ok(start) = end_tr.start(guess.1, opts.to, opts.from, opts)
-            && !on_branch(&start, &all)
+            && !on_branch(&start, &all, &tr.sh.sys.angles())
         {
             let s0 = all.iter().map(|n| n.point.s).fold(0.0, f64::max) + 1.0;
             let mut start = start;
@@ -883,10 +883,11 @@ fn linear_start(sys: &System, freq: usize, omega_param: &str) -> Result<Linear> 
     })
 }
 
-/// Whether a point lies on one of `nodes`' branches already: within 1e-6 of the orbit's
-/// amplitude of a point there at the same parameter value (to 1e-9 of it), or between
-/// two neighbours.
-fn on_branch(n: &Node, nodes: &[Node]) -> bool {
+/// Whether a point lies on one of `nodes`' branches already: within 1e-3 of the largest
+/// coordinate of a point there at the same parameter value, or between two neighbours;
+/// an angle coordinate (`angles`, of the positions) compared modulo 2π (the shaken
+/// pendulum's far-end start about θ = −2π had traced its branch a second time).
+fn on_branch(n: &Node, nodes: &[Node], angles: &[bool]) -> bool {
     let p = n.point.value;
     nodes.windows(2).any(|w| {
         let (a, b) = (&w[0].point, &w[1].point);
@@ -899,10 +900,19 @@ fn on_branch(n: &Node, nodes: &[Node]) -> bool {
             (p - a.value) / (b.value - a.value)
         };
         let x: Vec<f64> = a.x.iter().zip(&b.x).map(|(u, v)| u + f * (v - u)).collect();
+        let tau = std::f64::consts::TAU;
         let d = x
             .iter()
             .zip(&n.point.x)
-            .map(|(u, v)| (u - v).abs())
+            .enumerate()
+            .map(|(i, (u, v))| {
+                let e = u - v;
+                if angles.get(i).copied().unwrap_or(false) {
+                    (e - tau * (e / tau).round()).abs()
+                } else {
+                    e.abs()
+                }
+            })
             .fold(0.0, f64::max);
         let size = n.point.x.iter().fold(0.0f64, |m, v| m.max(v.abs())) + 1e-12;
         d <= 1e-3 * size
@@ -1527,7 +1537,7 @@ impl Tracer<'_> {
                 b.short = short;
                 return Ok(b);
             }
-            let joined = !before.is_empty() && on_branch(&next, before);
+            let joined = !before.is_empty() && on_branch(&next, before, &self.sh.sys.angles());
             let growth = next.point.multipliers.first().map_or(0.0, |m| m.norm());
             let its = next.iterations;
             nodes.push(next);
