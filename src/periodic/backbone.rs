@@ -565,11 +565,7 @@ impl Ctx<'_> {
             // (neither below the rounding of the coordinates against the orbit's size:
             // the amplitude condition is a difference of the reference coordinate and
             // its equilibrium value, `Shooting::rounding`)
-            let tol = self.sh.opts.tol.max(self.sh.rounding(
-                &x,
-                &flow.scale,
-                super::continuation::NOISE_CAP,
-            ));
+            let tol = self.sh.opts.tol.max(self.sh.rounding(&x, &flow.scale));
             let cond_tol = 1e-10f64.max(
                 (super::ROUNDING * x[r].abs().max(self.eq[r].abs()) / size)
                     .min(super::continuation::NOISE_CAP),

@@ -683,7 +683,7 @@ pub fn nfr(
             undamped,
         };
         if let Ok(start) = end_tr.start(guess.1, opts.to, opts.from, opts)
-            && !on_branch(&start, &all, &tr.sh.sys.angles())
+            && !on_branch(&start, &all, &tr.sh.sys)
         {
             let s0 = all.iter().map(|n| n.point.s).fold(0.0, f64::max) + 1.0;
             let mut start = start;
@@ -885,9 +885,9 @@ fn linear_start(sys: &System, freq: usize, omega_param: &str) -> Result<Linear> 
 
 /// Whether a point lies on one of `nodes`' branches already: within 1e-3 of the largest
 /// coordinate of a point there at the same parameter value, or between two neighbours;
-/// an angle coordinate (`angles`, of the positions) compared modulo 2π (the shaken
-/// pendulum's far-end start about θ = −2π had traced its branch a second time).
-fn on_branch(n: &Node, nodes: &[Node], angles: &[bool]) -> bool {
+/// an angle coordinate of `sys` compared modulo 2π (the shaken pendulum's far-end start
+/// about θ = −2π had traced its branch a second time).
+fn on_branch(n: &Node, nodes: &[Node], sys: &System) -> bool {
     let p = n.point.value;
     nodes.windows(2).any(|w| {
         let (a, b) = (&w[0].point, &w[1].point);
@@ -907,7 +907,7 @@ fn on_branch(n: &Node, nodes: &[Node], angles: &[bool]) -> bool {
             .enumerate()
             .map(|(i, (u, v))| {
                 let e = u - v;
-                if angles.get(i).copied().unwrap_or(false) {
+                if i < sys.nq() && sys.is_angle(i) {
                     (e - tau * (e / tau).round()).abs()
                 } else {
                     e.abs()
@@ -1537,7 +1537,7 @@ impl Tracer<'_> {
                 b.short = short;
                 return Ok(b);
             }
-            let joined = !before.is_empty() && on_branch(&next, before, &self.sh.sys.angles());
+            let joined = !before.is_empty() && on_branch(&next, before, &self.sh.sys);
             let growth = next.point.multipliers.first().map_or(0.0, |m| m.norm());
             let its = next.iterations;
             nodes.push(next);
@@ -1721,11 +1721,7 @@ impl Tracer<'_> {
             let arc = self.arc(base, &x, p, ds, fixed);
             // the integration's error, amplified by the orbit's unstable multipliers,
             // bounds the residual that the fixed point can be found to
-            let tol = self.sh.opts.newton_tol(base.growth()).max(self.sh.rounding(
-                &x,
-                &flow.scale,
-                NOISE_CAP,
-            ));
+            let tol = self.sh.newton_tol_at(base.growth(), &x, &flow.scale);
             // The integration's noise: P is no smoother than its error control, which is
             // relative to the coordinates' size, not to the orbit's amplitude; where the
             // coordinates are large against a small orbit (a base-driven mechanism) and a
@@ -1915,7 +1911,7 @@ impl Tracer<'_> {
                 best = Some((x.to_vec(), *p, rel));
             }
             let arc = self.arc(base, x, *p, ds, fixed);
-            if rel <= tol.max(self.sh.rounding(x, &flow.scale, NOISE_CAP))
+            if rel <= self.sh.newton_tol_at(base.growth(), x, &flow.scale)
                 && arc.abs() <= self.arc_tol
             {
                 if full_end {

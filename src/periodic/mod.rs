@@ -522,16 +522,26 @@ impl Shooting {
     /// against its coordinates' values; where it is (the overcentre at F0 = 1e-4 N moves
     /// 1e-6 rad about coordinates of up to 5), the sum of the steps rounds to about
     /// 3e-14 whatever the tolerances, and a Newton tolerance below that would never be
-    /// met. At most `cap`: an orbit of no amplitude (the equilibrium at zero forcing)
-    /// is not converged by rounding alone.
-    pub fn rounding(&self, x: &[f64], scale: &[f64], cap: f64) -> f64 {
+    /// met. At most `continuation::NOISE_CAP`, the loosest tolerance an orbit is
+    /// corrected to: an orbit of no amplitude (the equilibrium at zero forcing) is not
+    /// converged by rounding alone.
+    pub fn rounding(&self, x: &[f64], scale: &[f64]) -> f64 {
         let n = x.len() / 2;
         let kind = |r: std::ops::Range<usize>| {
             let size = crate::linalg::amax(&x[r.clone()]);
             let amp = scale[r].iter().fold(0.0f64, |m, s| m.max(*s)) + 1e-14;
             ROUNDING * size / amp
         };
-        kind(0..n).max(kind(n..x.len())).min(cap)
+        kind(0..n)
+            .max(kind(n..x.len()))
+            .min(continuation::NOISE_CAP)
+    }
+
+    /// The Newton tolerance of a period started at `x` of an orbit of half-ranges
+    /// `scale` whose largest multiplier's modulus is `growth`: `newton_tol`, or the
+    /// rounding (`rounding`) if larger.
+    pub fn newton_tol_at(&self, growth: f64, x: &[f64], scale: &[f64]) -> f64 {
+        self.opts.newton_tol(growth).max(self.rounding(x, scale))
     }
 }
 
