@@ -112,21 +112,13 @@ pub fn run(a: NfrArgs) -> Result<()> {
         ));
     }
 
-    for (flag, v) in [
-        ("--rtol", a.tol.rtol),
-        ("--atol", a.tol.atol),
-        ("--max-step", a.max_step),
-    ] {
-        if !(v > 0.0 && v.is_finite())
-            || (flag == "--rtol" && !(RTOL_RANGE.0..=RTOL_RANGE.1).contains(&v))
-        {
+    let hint = "leave it out for the default (--rtol 1e-8, --atol 1e-10, --max-step 0.04), or give e.g. --rtol 1e-10 for a curve converged more tightly";
+    check_rtol(a.tol.rtol, hint)?;
+    for (flag, v) in [("--atol", a.tol.atol), ("--max-step", a.max_step)] {
+        if !(v > 0.0 && v.is_finite()) {
             return Err(Error::request(
-                format!(
-                    "{flag} {}: must be a positive number{}",
-                    shown(v),
-                    if flag == "--rtol" { RTOL_WHY } else { "" }
-                ),
-                "leave it out for the default (--rtol 1e-8, --atol 1e-10, --max-step 0.04), or give e.g. --rtol 1e-10 for a curve converged more tightly",
+                format!("{flag} {}: must be a positive number", shown(v)),
+                hint,
             ));
         }
     }
@@ -473,15 +465,25 @@ pub fn run(a: NfrArgs) -> Result<()> {
     Ok(())
 }
 
-/// The relative tolerances a periodic orbit is integrated to: its Newton iteration
-/// converges to about 100·rtol of its amplitude (worse than 10 % above 1e-3: `--rtol 0.5`
-/// gave a period doubling 2.1e-5 rad/s off, stated ± 3.2e-7), and below 1e-15 the steps
-/// shrink to the rounding. Also `backbone`'s.
-pub const RTOL_RANGE: (f64, f64) = (1e-15, 1e-3);
-pub const RTOL_WHY: &str = " from 1e-15 to 1e-3 (orbits are converged to about 100·rtol of their amplitude; below 1e-15 the integration's steps shrink to the rounding)";
+/// `--rtol` of a periodic orbit, refused outside 1e-15..1e-3 with `hint`: its Newton
+/// iteration converges to about 100·rtol of its amplitude (worse than 10 % above 1e-3:
+/// `--rtol 0.5` gave a period doubling 2.1e-5 rad/s off, stated ± 3.2e-7), and below
+/// 1e-15 the steps shrink to the rounding. Also `backbone`'s.
+pub fn check_rtol(v: f64, hint: &str) -> Result<()> {
+    if (1e-15..=1e-3).contains(&v) {
+        return Ok(());
+    }
+    Err(Error::request(
+        format!(
+            "--rtol {}: must be a positive number from 1e-15 to 1e-3 (orbits are converged to about 100·rtol of their amplitude; below 1e-15 the integration's steps shrink to the rounding)",
+            shown(v)
+        ),
+        hint,
+    ))
+}
 
 /// A tolerance as a user types it: 1e-20, not 0.00000000000000000001.
-pub fn shown(v: f64) -> String {
+fn shown(v: f64) -> String {
     if v != 0.0 && v.abs() < 1e-4 {
         format!("{v:e}")
     } else {
