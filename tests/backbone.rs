@@ -180,10 +180,10 @@ fn overcentre_lower_well_softens_from_its_linear_frequency() {
 /// At amplitudes small against the bars' coordinates (2e-7 to 1e-4 rad, coordinates up
 /// to 4 m) the backbone is the linear ω_n (the softening there is below 1e-10 of it):
 /// within 1e-8 at every orbit (the orbits are converged to the rounding of their
-/// coordinates, `Shooting::rounding`: 2e-9 off at 7e-7 rad). The shooting's tolerances are fitted to the motion
-/// (`Shooting::fit_to_motion`); before, the first orbit's ω was 3e-7 below ω_n and rose
-/// with the amplitude, and below 1e-6 rad no orbit converged, with the advice to give a
-/// smaller amplitude.
+/// coordinates, `Shooting::rounding`: 2e-9 off at 7e-7 rad). The shooting's tolerances
+/// are fitted to the motion (`Shooting::fit_to_motion`); before, the first orbit's ω was
+/// 3e-7 below ω_n and rose with the amplitude, and below 1e-6 rad no orbit converged,
+/// with the advice to give a smaller amplitude.
 #[test]
 fn overcentre_small_amplitudes_are_linear() {
     let sys = load(OVERCENTRE, &[("theta1_0", "-0.85")]);
