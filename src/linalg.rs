@@ -378,15 +378,25 @@ impl Envelope {
         self.vals.fill(0.0);
     }
 
-    /// Where entry (i, j), j ≤ i, inside the envelope is stored (for [`Envelope::add_at`]).
-    pub fn index(&self, i: usize, j: usize) -> usize {
-        self.idx(i, j)
+    /// How many entries the envelope stores.
+    pub fn len(&self) -> usize {
+        self.vals.len()
     }
 
-    /// Add v to the entry stored at `k` (from [`Envelope::index`]).
-    #[inline(always)]
-    pub fn add_at(&mut self, k: usize, v: f64) {
-        self.vals[k] += v;
+    pub fn is_empty(&self) -> bool {
+        self.vals.is_empty()
+    }
+
+    /// The stored entries, row by row (entry (i, j) at [`Envelope::index`]), to be
+    /// written before [`Envelope::factor`].
+    pub fn values_mut(&mut self) -> &mut [f64] {
+        &mut self.vals
+    }
+
+    /// Where entry (i, j), j ≤ i, inside the envelope is stored (in
+    /// [`Envelope::values_mut`]).
+    pub fn index(&self, i: usize, j: usize) -> usize {
+        self.idx(i, j)
     }
 
     /// Add v to entry (i, j), j ≤ i, inside the envelope.

@@ -50,11 +50,19 @@ pub struct DynWorkspace {
     nz: Vec<[u32; 3]>,
     /// Planar models: `nz`'s values weighted by M⁻¹, A_ij / m_j (per right-hand side).
     wvals: Vec<f64>,
-    /// Planar models: the products that make A M⁻¹ Aᵀ, in the order of `col_entries`
-    /// without the structural zeros: (envelope entry, index into `wvals`, index into the
-    /// values by blocks), so that assembling it is one flat loop.
-    gram_plan: Vec<[u32; 3]>,
+    /// Planar models: the products that make A M⁻¹ Aᵀ, (index into `wvals`, index into
+    /// the values by blocks), grouped by envelope entry in storage order; within an
+    /// entry, in the order of `col_entries` without the structural zeros.
+    gram_plan: Vec<[u32; 2]>,
+    /// Planar models: where each envelope entry's products end in `gram_plan`.
+    gram_ends: Vec<u32>,
+    /// Planar models: `nz`'s indices grouped by column (in block order within a column),
+    /// and where each column's end, for M⁻¹ Aᵀ y.
+    col_plan: Vec<u32>,
+    col_ends: Vec<u32>,
     y: Vec<f64>,
+    /// A projection's correction (nv).
+    dq: Vec<f64>,
     /// Spatial models: M⁻¹ at the current pose by groups of velocities.
     minv: MassInverse,
 }
@@ -173,15 +181,18 @@ impl DynWorkspace {
         } else {
             gram_envelope(sys.m(), &col_entries)
         };
-        let (nz, gram_plan) = if sys.spatial {
-            (Vec::new(), Vec::new())
+        let plan = if sys.spatial {
+            Plan::default()
         } else {
             nonzero_plan(sys, &col_entries, &gram_env)
         };
         DynWorkspace {
-            wvals: vec![0.0; nz.len()],
-            nz,
-            gram_plan,
+            wvals: vec![0.0; plan.nz.len()],
+            nz: plan.nz,
+            gram_plan: plan.gram,
+            gram_ends: plan.gram_ends,
+            col_plan: plan.cols,
+            col_ends: plan.col_ends,
             minv,
             sys: Workspace::new(sys),
             a: DMatrix::zeros(m, n),
@@ -195,6 +206,7 @@ impl DynWorkspace {
             gram_env,
             col_entries,
             y: vec![0.0; m],
+            dq: vec![0.0; n],
         }
     }
 }
@@ -212,6 +224,16 @@ fn column_entries(sys: &System) -> Vec<Vec<(usize, usize)>> {
     cols
 }
 
+/// The flat plans of the planar constraint solve (see [`nonzero_plan`]).
+#[derive(Default)]
+struct Plan {
+    nz: Vec<[u32; 3]>,
+    gram: Vec<[u32; 2]>,
+    gram_ends: Vec<u32>,
+    cols: Vec<u32>,
+    col_ends: Vec<u32>,
+}
+
 /// A's entries that are not zero at every pose, in block order (`DynWorkspace::nz`), and
 /// the products of A M⁻¹ Aᵀ for a diagonal M over them, in the order [`weighted_solve`]
 /// once looped over `col_entries`: for each column j and each pair of its entries (row
@@ -219,11 +241,12 @@ fn column_entries(sys: &System) -> Vec<Vec<(usize, usize)>> {
 /// the second's index into the values. The structural zeros (a revolute's x row along y,
 /// about a third of a planar joint's entries) are left out: every sum they entered starts
 /// at +0, and adding ±0 to it changes nothing, so the numbers are the same bits.
-fn nonzero_plan(
-    sys: &System,
-    cols: &[Vec<(usize, usize)>],
-    env: &Envelope,
-) -> (Vec<[u32; 3]>, Vec<[u32; 3]>) {
+///
+/// The products are then grouped by envelope entry, each entry's in that order, so that
+/// each entry is summed in a register from +0 and stored once: the same additions in the
+/// same order as adding them one by one into a cleared envelope, without a store and a
+/// load between two of them. Likewise M⁻¹ Aᵀ y by column.
+fn nonzero_plan(sys: &System, cols: &[Vec<(usize, usize)>], env: &Envelope) -> Plan {
     let zeros = sys.structural_zeros();
     let mut nz = Vec::new();
     for b in sys.blocks() {
@@ -246,11 +269,36 @@ fn nonzero_plan(
         for (k, &(ra, _, ea)) in kept.iter().enumerate() {
             for &(rb, ib, _) in &kept[..=k] {
                 let (hi, lo) = if ra >= rb { (ra, rb) } else { (rb, ra) };
-                plan.push([env.index(hi, lo), ea, ib].map(|x| x as u32));
+                plan.push([env.index(hi, lo), ea, ib]);
             }
         }
     }
-    (nz, plan)
+    let mut gram = Vec::with_capacity(plan.len());
+    let mut gram_ends = Vec::with_capacity(env.len());
+    for k in 0..env.len() {
+        gram.extend(
+            plan.iter()
+                .filter(|p| p[0] == k)
+                .map(|p| [p[1] as u32, p[2] as u32]),
+        );
+        gram_ends.push(gram.len() as u32);
+    }
+    let (mut by_col, mut col_ends) = (Vec::with_capacity(nz.len()), Vec::new());
+    for j in 0..sys.nv() {
+        by_col.extend(
+            (0..nz.len())
+                .filter(|&e| nz[e][1] as usize == j)
+                .map(|e| e as u32),
+        );
+        col_ends.push(by_col.len() as u32);
+    }
+    Plan {
+        nz,
+        gram,
+        gram_ends,
+        cols: by_col,
+        col_ends,
+    }
 }
 
 /// The inverse of a symmetric n × n matrix (n ≤ 3, row-major) in closed form, and its
@@ -396,22 +444,31 @@ fn weighted_solve(sys: &System, ws: &mut DynWorkspace, out: &mut [f64]) {
     if sys.spatial {
         return weighted_solve_groups(sys, ws, out);
     }
-    ws.gram_env.clear();
     let vals = &ws.sys.vals;
     for (w, &[ia, j, _]) in ws.wvals.iter_mut().zip(&ws.nz) {
         *w = vals[ia as usize] * sys.mass_inv_diag[j as usize];
     }
-    for &[at, ea, ib] in &ws.gram_plan {
-        ws.gram_env
-            .add_at(at as usize, ws.wvals[ea as usize] * vals[ib as usize]);
+    let mut p = 0;
+    for (e, &end) in ws.gram_env.values_mut().iter_mut().zip(&ws.gram_ends) {
+        let mut s = 0.0;
+        for &[ea, ib] in &ws.gram_plan[p..end as usize] {
+            s += ws.wvals[ea as usize] * vals[ib as usize];
+        }
+        *e = s;
+        p = end as usize;
     }
     if ws.gram_env.factor(CHOL_TOL) {
         ws.y.copy_from_slice(ws.r.as_slice());
         ws.gram_env.solve(&mut ws.y);
-        out.fill(0.0);
-        // M⁻¹ Aᵀ y over A's entries that are not always zero, in block order
-        for (&w, &[_, j, r]) in ws.wvals.iter().zip(&ws.nz) {
-            out[j as usize] += w * ws.y[r as usize];
+        // M⁻¹ Aᵀ y over A's entries that are not always zero, column by column
+        let mut p = 0;
+        for (o, &end) in out.iter_mut().zip(&ws.col_ends) {
+            let mut s = 0.0;
+            for &e in &ws.col_plan[p..end as usize] {
+                s += ws.wvals[e as usize] * ws.y[ws.nz[e as usize][2] as usize];
+            }
+            *o = s;
+            p = end as usize;
         }
         return;
     }
@@ -494,9 +551,11 @@ pub fn project_position(
     tol: f64,
     max_iter: usize,
 ) -> f64 {
-    let mut phi = sys.residual(q, t);
-    let mut norm = phi.amax();
-    let mut dq = vec![0.0; sys.nv()];
+    // Φ in `ws.r`, the right-hand side of the solve (nothing allocated: written samples
+    // are projected by this)
+    sys.phi(q, t, ws.r.as_mut_slice());
+    let mut norm = ws.r.amax();
+    let mut dq = std::mem::take(&mut ws.dq);
     for _ in 0..max_iter {
         if norm <= tol {
             break;
@@ -505,18 +564,17 @@ pub fn project_position(
         if sys.spatial {
             ws.minv.update(sys, q);
         }
-        ws.r.copy_from(&phi);
         weighted_solve(sys, ws, &mut dq);
         sys.retract(q, &dq, -1.0);
-        let new_phi = sys.residual(q, t);
-        let new_norm = new_phi.amax();
+        sys.phi(q, t, ws.r.as_mut_slice());
+        let new_norm = ws.r.amax();
         if !(new_norm < norm) {
             norm = new_norm;
             break;
         }
-        phi = new_phi;
         norm = new_norm;
     }
+    ws.dq = dq;
     norm
 }
 
@@ -549,11 +607,12 @@ pub fn project_velocity(
     if sys.spatial {
         ws.minv.update(sys, q);
     }
-    let mut dv = vec![0.0; v.len()];
+    let mut dv = std::mem::take(&mut ws.dq);
     weighted_solve(sys, ws, &mut dv);
     for i in 0..v.len() {
         v[i] -= dv[i];
     }
+    ws.dq = dv;
     before
 }
 
