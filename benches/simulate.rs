@@ -5,8 +5,8 @@
 //! * `detune_free_case`: the general path (Udwadia–Kalaba, A and b by dual numbers,
 //!   Cholesky pseudoinverse, projection) through `detune::simulate`;
 //! * `detune_free_case_streamed`: the same run with its samples streamed into one flat
-//!   buffer (`simulate_with`, the CLI's path) instead of a `Trajectory`'s two vectors per
-//!   sample;
+//!   buffer (`simulate_with`, the CLI's path) instead of a `Trajectory` (whose t, q and
+//!   v are three flat buffers, reserved once as well);
 //! * `minimal_free_case`: a hand-written θ1-only Lagrange right-hand side integrated by
 //!   the same integrator wrapper (`integrate`: detune's DOP853 stepper, the same as
 //!   `detune_free_case` uses) with the same outputs: the price of generality;
@@ -48,8 +48,8 @@ fn detune_free_case(bencher: divan::Bencher) {
 
 /// `detune_free_case` streamed, as the CLI's `simulate` writes its CSV
 /// (`simulate_with`): every sample's t, q and v copied into one flat buffer reserved
-/// once, where `simulate`'s `Trajectory` allocates two vectors per sample (and frees
-/// them when it is dropped).
+/// once, where `simulate`'s `Trajectory` copies them into three (t, q, v), each also
+/// reserved once: the two should take about the same time.
 #[divan::bench(sample_count = 50)]
 fn detune_free_case_streamed(bencher: divan::Bencher) {
     let (sys, state) = overcentre();
@@ -163,8 +163,8 @@ fn mid_state() -> (System, DynWorkspace, Vec<f64>, Vec<f64>) {
     .unwrap();
     let ws = DynWorkspace::new(&sys);
     let (q, v) = (
-        traj.q.last().unwrap().clone(),
-        traj.v.last().unwrap().clone(),
+        traj.qs().next_back().unwrap().to_vec(),
+        traj.vs().next_back().unwrap().to_vec(),
     );
     (sys, ws, q, v)
 }
@@ -227,8 +227,8 @@ fn chain_rhs(bencher: divan::Bencher, n: usize) {
     )
     .unwrap();
     let (q, v) = (
-        traj.q.last().unwrap().clone(),
-        traj.v.last().unwrap().clone(),
+        traj.qs().next_back().unwrap().to_vec(),
+        traj.vs().next_back().unwrap().to_vec(),
     );
     let mut ws = DynWorkspace::new(&sys);
     let mut out = vec![0.0; sys.n()];

@@ -65,7 +65,7 @@ pub fn analyses(data: &[u8]) -> Reached {
         ..SimOptions::default()
     };
     if let Ok(tr) = simulate(&sys, &start, &opts, &mut |_| true) {
-        for q in tr.q.iter().chain(&tr.v) {
+        for q in tr.qs().chain(tr.vs()) {
             assert!(
                 q.iter().all(|x| x.is_finite()),
                 "a simulation returned with a non-finite sample"

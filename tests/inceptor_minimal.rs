@@ -669,7 +669,7 @@ fn compare_under_base_excitation(omega: f64) {
     );
 
     // the same start: the datum, at rest relative to the chassis (SPEC §10.3)
-    let (q0, v0) = (&traj.q[0], &traj.v[0]);
+    let (q0, v0) = (traj.q(0), traj.v(0));
     let phi0 = Inceptor::phi0();
     let delta0 = m.crank_angle(phi0).0;
     assert!((q0[iphi] - phi0).abs() <= 1e-15 && (q0[ith] - delta0).abs() <= 1e-14);
@@ -683,7 +683,7 @@ fn compare_under_base_excitation(omega: f64) {
     let t_minimal = t1.elapsed();
     let (mut dphi, mut dth, mut ddl): (f64, f64, f64) = (0.0, 0.0, 0.0);
     let (mut swing_phi, mut swing_th): (f64, f64) = (0.0, 0.0);
-    for (q, y) in traj.q.iter().zip(&y) {
+    for (q, y) in traj.qs().zip(&y) {
         dphi = dphi.max((q[iphi] - y[0]).abs());
         dth = dth.max((q[ith] - y[2]).abs());
         ddl = ddl.max((q[idl] - m.crank_angle(y[0]).0).abs());

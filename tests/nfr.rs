@@ -323,7 +323,7 @@ fn multiplier_is_the_decay_of_a_perturbation() {
     )
     .unwrap();
     let dev = |k: usize| -> f64 {
-        let y: Vec<f64> = traj.q[k].iter().chain(&traj.v[k]).copied().collect();
+        let y: Vec<f64> = traj.q(k).iter().chain(traj.v(k)).copied().collect();
         y.iter()
             .zip(&p.x)
             .map(|(a, b)| (a - b).powi(2))

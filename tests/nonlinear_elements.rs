@@ -162,7 +162,7 @@ fn duffing_conserves_its_energy_in_simulate() {
     };
     let traj = simulate(&sys, &start, &opts, &mut |_| true).unwrap();
     let energy = |k: usize| {
-        let (x, xd) = (traj.q[k][0], traj.v[k][0]);
+        let (x, xd) = (traj.q(k)[0], traj.v(k)[0]);
         0.5 * xd * xd + 2.0 * x * x + 0.5 * x.powi(4) / 4.0
     };
     let e0 = energy(0);
@@ -174,7 +174,7 @@ fn duffing_conserves_its_energy_in_simulate() {
         .map(|k| (energy(k) - e0).abs())
         .fold(0.0, f64::max);
     // it moves: through the equilibrium and back
-    let xs: Vec<f64> = traj.q.iter().map(|q| q[0]).collect();
+    let xs: Vec<f64> = traj.qs().map(|q| q[0]).collect();
     assert!(xs.iter().cloned().fold(0.0, f64::min) < -0.29);
     assert!(worst <= 1e-9 * e0, "energy drift {worst:e} J of {e0} J");
 }

@@ -238,7 +238,7 @@ fn energy_is_conserved_without_damping() {
     let (model, sys, state) = load(&[("c", "0")]);
     let traj = run(&sys, &state, &SimOptions::default());
     let energy = |k: usize| {
-        sys.kinetic_energy(&traj.q[k], &traj.v[k]) + sys.potential_energy(&traj.q[k], traj.t[k])
+        sys.kinetic_energy(traj.q(k), traj.v(k)) + sys.potential_energy(traj.q(k), traj.t[k])
     };
     let e0 = energy(0);
     let drift = (0..traj.t.len())
@@ -249,9 +249,9 @@ fn energy_is_conserved_without_damping() {
     // the same check with the reduced model's energy of (θ1, θ̇1): an independent formula
     let oracle = Overcentre::from_model(&model);
     let i = sys.coordinate_index("bar1.theta").unwrap();
-    let e_ref = oracle.energy(traj.q[0][i], traj.v[0][i]);
+    let e_ref = oracle.energy(traj.q(0)[i], traj.v(0)[i]);
     for k in 0..traj.t.len() {
-        let e = oracle.energy(traj.q[k][i], traj.v[k][i]);
+        let e = oracle.energy(traj.q(k)[i], traj.v(k)[i]);
         assert!(
             (e - e_ref).abs() <= 1e-8,
             "reduced-model energy drifts by {:e} J at t = {}",

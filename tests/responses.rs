@@ -633,7 +633,7 @@ fn relative_positions_in_a_turning_ground_frame() {
     .to_vec();
     let mut probe = Probe::new(&sys, sys.outputs(&names).unwrap());
     let rows: Vec<Vec<f64>> = (0..traj.t.len())
-        .map(|k| probe.values(&sys, traj.t[k], &traj.q[k], &traj.v[k]))
+        .map(|k| probe.values(&sys, traj.t[k], traj.q(k), traj.v(k)))
         .collect();
     let (d0, w) = (0.05, 3.0);
     for (k, r) in rows.iter().enumerate() {

@@ -124,7 +124,7 @@ fn principal(i: V3) -> String {
 /// A body's CG at each sample.
 fn cg_history(sys: &System, traj: &Trajectory, body: &str) -> Vec<V3> {
     let idx = ["x", "y", "z"].map(|c| sys.coordinate_index(&format!("{body}.{c}")).unwrap());
-    traj.q.iter().map(|q| idx.map(|i| q[i])).collect()
+    traj.qs().map(|q| idx.map(|i| q[i])).collect()
 }
 
 /// The worst errors of the cone angle (from the vertical, `up` or down) and of the
@@ -393,11 +393,7 @@ fn flip_period(i: V3, w: V3) -> f64 {
 /// The times where ω₂ changes sign, each refined by the cubic through the samples on
 /// either side with the slopes of Euler's equations (I₂ ω̇₂ = (I₃ − I₁) ω₃ ω₁).
 fn sign_changes(traj: &Trajectory, i: V3) -> Vec<f64> {
-    let w: Vec<V3> = traj
-        .v
-        .iter()
-        .map(|v| [v[3], v[4], v[5]])
-        .collect::<Vec<_>>();
+    let w: Vec<V3> = traj.vs().map(|v| [v[3], v[4], v[5]]).collect::<Vec<_>>();
     let slope = |w: V3| (i[2] - i[0]) * w[2] * w[0] / i[1];
     let mut out = Vec::new();
     for k in 1..w.len() {
@@ -516,10 +512,10 @@ fn nutating_top_conserves_energy_and_vertical_momentum() {
             let orbital = cross(x, xd);
             (energy, m * orbital[2] + h[2])
         };
-        let (e0, h0) = invariants(&traj.q[0], &traj.v[0]);
+        let (e0, h0) = invariants(traj.q(0), traj.v(0));
         let (mut de, mut dh, mut dn, mut th_min, mut th_max) =
             (0.0f64, 0.0f64, 0.0f64, f64::INFINITY, 0.0f64);
-        for (q, v) in traj.q.iter().zip(&traj.v) {
+        for (q, v) in traj.qs().zip(traj.vs()) {
             let (e, h) = invariants(q, v);
             de = de.max((e - e0).abs() / e0.abs());
             dh = dh.max((h - h0).abs() / h0.abs());

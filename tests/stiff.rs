@@ -187,7 +187,7 @@ free_length = 1
     let b = x0 - a;
     let x = traj.coordinate("b.x").unwrap();
     assert_eq!(traj.coordinates[0], "b.x");
-    let v: Vec<f64> = traj.v.iter().map(|v| v[0]).collect();
+    let v: Vec<f64> = traj.vs().map(|v| v[0]).collect();
     for (i, &t) in traj.t.iter().enumerate() {
         let xe = a * (r1 * t).exp() + b * (r2 * t).exp();
         let ve = a * r1 * (r1 * t).exp() + b * r2 * (r2 * t).exp();

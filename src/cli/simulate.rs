@@ -173,17 +173,13 @@ pub fn run(a: SimulateArgs) -> Result<()> {
                     return false;
                 }
                 if !keep_all {
-                    traj.t.clear();
-                    traj.q.clear();
-                    traj.v.clear();
+                    traj.clear();
                 }
                 tail.push_back((t, q.to_vec()));
                 while tail.front().is_some_and(|(t0, _)| *t0 < t - period - 1e-9) {
                     tail.pop_front();
                 }
-                traj.t.push(t);
-                traj.q.push(q.to_vec());
-                traj.v.push(v.to_vec());
+                traj.push(t, q, v);
                 last_sample = Some(t);
                 // a signal ends the run here, after this sample (the integrator returns
                 // what it computed, cleanly)

@@ -75,7 +75,11 @@ pub struct SimStats {
     pub cancelled_at: Option<f64>,
 }
 
-/// Sampled solution.
+/// Sampled solution: the sample times `t` and, per sample, the coordinates q (nq =
+/// `coordinates.len()`) and the velocities v (nv = `velocities.len()`). q and v are each
+/// kept in one flat buffer, sample after sample (no allocation per sample); read them by
+/// [`Trajectory::q`], [`Trajectory::v`], [`Trajectory::qs`], [`Trajectory::vs`], and add
+/// samples by [`Trajectory::push`].
 #[derive(Debug, Clone)]
 pub struct Trajectory {
     pub coordinates: Vec<String>,
@@ -83,11 +87,13 @@ pub struct Trajectory {
     pub angles: Vec<bool>,
     /// The velocities' names ([`System::velocities`]).
     pub velocities: Vec<String>,
+    /// The sample times, s (read-only: samples are added by [`Trajectory::push`] and
+    /// removed by [`Trajectory::clear`], which keep q and v in step).
     pub t: Vec<f64>,
-    /// q at each sample (nq each).
-    pub q: Vec<Vec<f64>>,
-    /// v at each sample (nv each).
-    pub v: Vec<Vec<f64>>,
+    /// q of every sample, sample-major: sample k's at `k * nq..(k + 1) * nq`.
+    q: Vec<f64>,
+    /// v of every sample, sample-major: sample k's at `k * nv..(k + 1) * nv`.
+    v: Vec<f64>,
     pub stats: SimStats,
 }
 
@@ -105,16 +111,71 @@ impl Trajectory {
         }
     }
 
+    /// The number of samples.
+    pub fn len(&self) -> usize {
+        self.t.len()
+    }
+
+    /// Whether there is no sample.
+    pub fn is_empty(&self) -> bool {
+        self.t.is_empty()
+    }
+
+    /// The coordinates q of sample `k` (nq of them). Panics when `k` is past the last.
+    pub fn q(&self, k: usize) -> &[f64] {
+        let n = self.coordinates.len();
+        &self.q[k * n..(k + 1) * n]
+    }
+
+    /// The velocities v of sample `k` (nv of them). Panics when `k` is past the last.
+    pub fn v(&self, k: usize) -> &[f64] {
+        let n = self.velocities.len();
+        &self.v[k * n..(k + 1) * n]
+    }
+
+    /// Every sample's coordinates q, in time order.
+    pub fn qs(&self) -> impl ExactSizeIterator<Item = &[f64]> + DoubleEndedIterator + Clone {
+        (0..self.len()).map(|k| self.q(k))
+    }
+
+    /// Every sample's velocities v, in time order.
+    pub fn vs(&self) -> impl ExactSizeIterator<Item = &[f64]> + DoubleEndedIterator + Clone {
+        (0..self.len()).map(|k| self.v(k))
+    }
+
+    /// Append a sample: time `t`, coordinates `q` (nq), velocities `v` (nv).
+    pub fn push(&mut self, t: f64, q: &[f64], v: &[f64]) {
+        debug_assert_eq!(q.len(), self.coordinates.len());
+        debug_assert_eq!(v.len(), self.velocities.len());
+        self.t.push(t);
+        self.q.extend_from_slice(q);
+        self.v.extend_from_slice(v);
+    }
+
+    /// Remove every sample (keeping the buffers' room).
+    pub fn clear(&mut self) {
+        self.t.clear();
+        self.q.clear();
+        self.v.clear();
+    }
+
+    /// Make room for `samples` more samples at once.
+    pub fn reserve(&mut self, samples: usize) {
+        self.t.reserve(samples);
+        self.q.reserve(samples * self.coordinates.len());
+        self.v.reserve(samples * self.velocities.len());
+    }
+
     /// Time history of one coordinate.
     pub fn coordinate(&self, name: &str) -> Option<Vec<f64>> {
         let i = self.coordinates.iter().position(|c| c == name)?;
-        Some(self.q.iter().map(|q| q[i]).collect())
+        Some(self.qs().map(|q| q[i]).collect())
     }
 
     /// Time history of one velocity.
     pub fn velocity(&self, name: &str) -> Option<Vec<f64>> {
         let i = self.velocities.iter().position(|c| c == name)?;
-        Some(self.v.iter().map(|v| v[i]).collect())
+        Some(self.vs().map(|v| v[i]).collect())
     }
 }
 
@@ -185,19 +246,14 @@ pub fn simulate(
     // (a run of more than 65536 samples, or one the options refuse, grows as it goes)
     let samples = opts.t_end / opts.dt_out;
     if (0.0..=65536.0).contains(&samples) {
-        let samples = samples as usize + 2;
-        traj.t.reserve(samples);
-        traj.q.reserve(samples);
-        traj.v.reserve(samples);
+        traj.reserve(samples as usize + 2);
     }
     traj.stats = simulate_with(
         sys,
         start,
         opts,
         &mut |t, q, v| {
-            traj.t.push(t);
-            traj.q.push(q.to_vec());
-            traj.v.push(v.to_vec());
+            traj.push(t, q, v);
             true
         },
         progress,

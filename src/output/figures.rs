@@ -116,7 +116,7 @@ pub fn trajectory_figures(case: &Case, traj: &Trajectory, pick: &[usize]) -> Vec
                 Series::new(
                     format!("{} [{u}]", traj.coordinates[i]),
                     traj.t.clone(),
-                    traj.q.iter().map(|q| q[i]).collect(),
+                    traj.qs().map(|q| q[i]).collect(),
                     Style::Solid,
                 )
             })

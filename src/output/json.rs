@@ -118,7 +118,7 @@ impl<'a> SimulationSummary<'a> {
         traj: &'a Trajectory,
         output: &'a str,
     ) -> Self {
-        let last = traj.q.len() - 1;
+        let last = traj.len() - 1;
         SimulationSummary {
             provenance,
             options: SimSettings {
@@ -131,7 +131,7 @@ impl<'a> SimulationSummary<'a> {
             stats: &traj.stats,
             final_state: FinalState {
                 t: traj.t[last],
-                coordinates: Named::new(&traj.coordinates, &traj.q[last]),
+                coordinates: Named::new(&traj.coordinates, traj.q(last)),
             },
             output,
             complete: true,
