@@ -552,6 +552,21 @@ fn command_wording_and_requests() {
         ),
         (
             &[
+                "--set",
+                "F0=4",
+                "--param",
+                "omega",
+                "--from",
+                "3",
+                "--to",
+                "4",
+                "--max-step",
+                "2",
+            ],
+            "--max-step 2: larger than the whole curve",
+        ),
+        (
+            &[
                 "--set", "omega=3", "--param", "F0", "--from", "0", "--to", "2",
             ],
             "--from \"0.002 N\"",
@@ -819,6 +834,38 @@ fn base_driven_curve_converges_in_few_periods() {
         p.amplitude,
         amp(w_lin)
     );
+}
+
+/// `max_points` caps the points of the curve, every one counted: each branch's start,
+/// its steps, and its located folds and bifurcations. Before, the start and a located
+/// fold came on top: 28 points for a limit of 26. A limit cuts the curve short
+/// (incomplete; a step that leaves the range without a point there costs one too); the
+/// default traces the whole curve, its fold and its period doubling among 79 points.
+#[test]
+fn the_point_limit_counts_every_point() {
+    let sys = model(&[("c", 1.0), ("F0", 4.0)]);
+    let curve = |n: usize| {
+        let mut opts = NfrOptions::new("omega", 2.5, 5.0, vec!["bar1.theta".into()]);
+        opts.max_points = n;
+        nfr(&sys, &opts, &|_, _| {}, &AtomicBool::new(false)).unwrap()
+    };
+    let whole = curve(3000);
+    assert!(whole.complete);
+    let all = whole.points.len();
+    assert!(whole.folds.len() == 1 && whole.period_doublings.len() == 1);
+    for n in [26, 60] {
+        let c = curve(n);
+        assert!(
+            c.points.len() <= n && c.points.len() + 2 >= n && !c.complete,
+            "limit {n}: {} points, complete {}",
+            c.points.len(),
+            c.complete
+        );
+    }
+    // the first branch's step that left the range without a point there (its orbit at
+    // 2.5 rad/s could not be corrected) cost one as well
+    assert!(!curve(all).complete);
+    assert!(curve(all + 1).complete);
 }
 
 /// Undamped (c = 0), the forced overcentre's orbits keep their phase-space volume (|det

@@ -40,7 +40,7 @@ pub struct NfrArgs {
     #[arg(long, default_value_t = 3000, value_name = "N")]
     pub max_points: usize,
     /// Largest continuation step, as a fraction of the curve's size (parameter range,
-    /// largest linear response).
+    /// largest linear response): above 0, at most 1.
     #[arg(long, default_value_t = 0.04, value_name = "S")]
     pub max_step: f64,
     /// CSV: one row per periodic orbit (see docs/nonlinear-frequency-response.md).
@@ -121,6 +121,15 @@ pub fn run(a: NfrArgs) -> Result<()> {
                 hint,
             ));
         }
+    }
+    if a.max_step > 1.0 {
+        return Err(Error::request(
+            format!(
+                "--max-step {}: larger than the whole curve (the step is a fraction of the curve's size: its parameter range and its largest linear response)",
+                shown(a.max_step)
+            ),
+            "give a fraction of at most 1, or leave --max-step out (0.04); a larger step does not make a coarser curve, since the step follows the curvature",
+        ));
     }
     // the largest steps cross the range in 1/max_step of them: fewer points cannot make
     // a curve from --from to --to

@@ -1230,6 +1230,9 @@ impl Tracer<'_> {
     ) -> Result<Branch> {
         first.point.branch = index;
         let mut nodes = vec![first];
+        // every point of the curve costs one of the budget: the branch's start, each step
+        // and each located point
+        *budget = budget.saturating_sub(1);
         let dir = (to - from).signum();
         let mut ds = 0.01f64.min(self.max_step);
         let mut located: Vec<Node> = Vec::new();
@@ -1436,6 +1439,7 @@ impl Tracer<'_> {
                         });
                         specials.push(special(&lo, &nd, uncertainty, true, toward));
                         located.push(nd);
+                        *budget = budget.saturating_sub(1);
                     }
                     Ok(Locating::Vanished) => {
                         if kind == Located::Fold && !forced {
@@ -1473,7 +1477,12 @@ impl Tracer<'_> {
                     }
                 }
             }
-            *budget = budget.saturating_sub(1);
+            if *budget == 0 {
+                // a point located inside this step took the last of the budget: the
+                // branch ends there, without the step's own point
+                return finish(nodes, located, BranchEnd::PointLimit);
+            }
+            *budget -= 1;
             let v = next.point.value;
             // out of the range: the point at its end exactly (`to` reached, or `from` for
             // a branch that turned back: there this side's point, not the branch's start
