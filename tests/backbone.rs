@@ -379,6 +379,23 @@ fn bad_requests_are_refused_with_what_to_do() {
         e.contains("does not move body.y") && e.contains("moves: body.x"),
         "{e}"
     );
+    // an amplitude far below what double precision resolves against the coordinates'
+    // values (the bars' 2 m): the first orbit cannot converge, and the advice is a larger
+    // amplitude, not another coordinate
+    let e = err(&[
+        "backbone",
+        OVERCENTRE,
+        "--of-mode",
+        "1",
+        "--to-amplitude",
+        "1e-11",
+    ]);
+    assert!(
+        e.contains("first amplitude 2.000e-13 rad of bar1.theta")
+            && e.contains("too little for shooting in double precision")
+            && e.contains("give a larger target amplitude"),
+        "{e}"
+    );
     // the Duffing spring's anchor is 1 m away: the family ends before a = 1 m, where it
     // says, the curve so far still written
     let out = detune(&[

@@ -451,7 +451,8 @@ pub fn run(a: NfrArgs) -> Result<()> {
         // what stopped it, from the branches' ends (the library's words)
         use detune::periodic::continuation::BranchEnd;
         let ended = |what: BranchEnd| curve.branches.iter().any(|b| b.ended == what);
-        let help = if ended(BranchEnd::Stalled) && curve.motion < SMALL_MOTION {
+        let help = if ended(BranchEnd::Stalled) && curve.motion < detune::periodic::TOO_SMALL_MOTION
+        {
             &format!(
                 "the forced motion falls to {:.1e} of the coordinates' values in the range, too small for shooting in double precision: raise the forcing amplitude (the response is linear at this level: `detune frf` gives it), or end --from/--to where the motion is larger",
                 curve.motion
@@ -499,11 +500,6 @@ fn shown(v: f64) -> String {
         format!("{v}")
     }
 }
-
-/// A motion (`Nfr::motion`) below which a stalled curve is put down to its size: the
-/// overcentre's lower well at F0 = 1e-5 N over 1.5–5 rad/s (7.6e-8) stalls, at 1e-4 N
-/// (7.6e-7) it is traced whole.
-const SMALL_MOTION: f64 = 5e-7;
 
 /// How often a long run says where it is on a stderr that is not a terminal (a log
 /// file, a pipe, a batch job's output).

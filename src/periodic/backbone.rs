@@ -374,13 +374,13 @@ pub fn backbone(
             } else {
                 return Err(Error::numerical(
                     format!(
-                        "no periodic orbit of mode {} (`{}`) found at the first amplitude {first:e} {} of {} (ω_n = {omega_n:.6} rad/s): shooting from the linear mode does not converge",
+                        "no periodic orbit of mode {} (`{}`) found at the first amplitude {first:.3e} {} of {} (ω_n = {omega_n:.6} rad/s): shooting from the linear mode does not converge",
                         mode + 1,
                         names[mode],
                         if sys0.is_angle(r) { "rad" } else { "m" },
                         sys0.coordinates[r],
                     ),
-                    if motion < 1e-6 {
+                    if motion < super::TOO_SMALL_MOTION {
                         format!(
                             "the first orbit (a fiftieth of the target amplitude) moves the coordinates by {motion:.1e} of their values, too little for shooting in double precision: give a larger target amplitude (at this size the mode is linear, its ω_n as `detune modes` gives it)"
                         )

@@ -159,6 +159,14 @@ const SMALL_MOTION: f64 = 1e-2;
 /// The tightest relative tolerance `fit_to_motion` gives a period.
 const RTOL_MIN: f64 = 1e-15;
 
+/// A motion (relative to the coordinates' values, as [`Shooting::fit_to_motion`] takes
+/// it) below which shooting cannot resolve an orbit in double precision, even fitted:
+/// a curve that stalls there (`continuation::Nfr::motion`), or a backbone whose first
+/// orbit does not converge, is put down to its size, and the advice is a larger motion.
+/// The overcentre's lower well at F0 = 1e-5 N over 1.5–5 rad/s (7.6e-8) stalls; at 1e-4 N
+/// (7.6e-7) it is traced whole.
+pub const TOO_SMALL_MOTION: f64 = 5e-7;
+
 /// The rounding of a period's end state, relative to its largest coordinate
 /// (`Shooting::rounding`; measured about 6e-15 on the overcentre).
 pub(crate) const ROUNDING: f64 = 1e-13;
