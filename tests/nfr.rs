@@ -567,6 +567,12 @@ fn command_wording_and_requests() {
         ),
         (
             &[
+                "--set", "F0=4", "--param", "omega", "--from", "3 Hz", "--to", "3 Hz",
+            ],
+            "--from \"3 Hz\" --to \"3 Hz\": the range of omega is empty (both 18.8495",
+        ),
+        (
+            &[
                 "--set", "omega=3", "--param", "F0", "--from", "0", "--to", "2",
             ],
             "--from \"0.002 N\"",

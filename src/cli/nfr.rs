@@ -184,6 +184,18 @@ pub fn run(a: NfrArgs) -> Result<()> {
     } else {
         model.param_unit(&a.param)
     };
+    if from == to {
+        return Err(Error::request(
+            format!(
+                "--from {:?} --to {:?}: the range of {} is empty (both {} {param_unit})",
+                a.from,
+                a.to,
+                a.param,
+                detune::diag::num(from)
+            ),
+            "give two different values",
+        ));
+    }
     // The continuation starts from the linear response at --from: in the forcing
     // amplitude, there is none at 0 (the orbit there is the equilibrium itself, which the
     // library does not take as a start yet).
