@@ -225,3 +225,37 @@ fn check_fold(f: &detune::periodic::continuation::Special, omega: f64, direction
         .fold(f64::INFINITY, f64::min);
     assert!(one < 3e-5, "{:?}", f.multipliers);
 }
+
+/// Responses that do not move, or whose amplitude does not change, have no peaks: the
+/// linear inceptor (breakout 0) at 0.1 mm over 25–27 rad/s, measured at stick.y (its
+/// second resonance), stick.z (round-off, 1e-17 m), gearbox.x (carried by the table:
+/// D0 at every frequency) and gearbox.y (0 m). The one peak is stick.y's, at `frf`'s
+/// (the linear response, a second formulation). Before, the local maxima of the three
+/// others' round-off were reported too: 22 peaks.
+#[test]
+fn still_responses_have_no_peaks() {
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/models/inceptor.toml");
+    let sets = vec![("D0".to_string(), "0.1 mm".to_string())];
+    let m = detune::Model::load(path)
+        .unwrap()
+        .with_overrides(&sets)
+        .unwrap();
+    let sys = detune::System::new(&m).unwrap();
+    let responses: Vec<String> = ["stick.y", "stick.z", "gearbox.x", "gearbox.y"]
+        .map(String::from)
+        .to_vec();
+    let opts = NfrOptions::new("omega", 25.0, 27.0, responses);
+    let c = nfr(&sys, &opts, &|_, _| {}, &AtomicBool::new(false)).unwrap();
+    assert!(c.complete, "{:?}", c.branches);
+    assert_eq!(c.peaks.len(), 1, "{:?}", c.peaks);
+    assert_eq!(c.peaks[0].response, "stick.y");
+    let w: Vec<f64> = (0..=400).map(|k| 26.6 + 0.0005 * k as f64).collect();
+    let fr = detune::linear::frequency_response(&sys, "omega", &w, &["stick.y".into()]).unwrap();
+    let fp = fr.peaks.first().expect("frf peak");
+    assert!(
+        (c.peaks[0].omega - fp.omega).abs() < 1e-3,
+        "{:?} vs {:?}",
+        c.peaks,
+        fp
+    );
+}
