@@ -260,3 +260,42 @@ fn bad_sweep_requests_are_refused() {
         .to_string();
     assert!(e.contains("not finer than a peak's bracket"), "{e}");
 }
+
+/// Responses that do not move (stick.z: round-off, 2e-16 m; gearbox.y: 0 m) or whose
+/// amplitude does not change (gearbox.x, carried by the table: D0 at every frequency)
+/// have no peaks: before, the inceptor's stepped sine at 1 mm over 25.5–27.5 rad/s
+/// reported stick.z's round-off at 26.5 and 27 rad/s and gearbox.x's at 27 rad/s as
+/// peaks beside stick.y's resonance (and `--refine` refined them, each with settled
+/// simulations).
+#[test]
+fn still_responses_have_no_peaks() {
+    let (code, out, err) = common::detune(&[
+        "sweep",
+        "models/inceptor.toml",
+        "--set",
+        "D0=1 mm",
+        "--param",
+        "omega",
+        "--from",
+        "25.5",
+        "--to",
+        "27.5",
+        "--step",
+        "0.25",
+        "--response",
+        "stick.y",
+        "--response",
+        "stick.z",
+        "--response",
+        "gearbox.x",
+        "--response",
+        "gearbox.y",
+        "--json",
+    ]);
+    assert_eq!(code, 0, "{err}");
+    let j: serde_json::Value = serde_json::from_str(&out).unwrap();
+    let peaks = j["peaks"].as_array().unwrap();
+    assert_eq!(peaks.len(), 1, "{peaks:?}");
+    assert_eq!(peaks[0]["response"], "stick.y");
+    assert_eq!(peaks[0]["omega"], 26.75);
+}

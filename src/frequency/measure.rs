@@ -136,3 +136,33 @@ mod tests {
         assert!((m.thd - 0.5).abs() < 1e-12);
     }
 }
+
+/// Below this fraction of the largest amplitude among the responses of its unit, a
+/// response's amplitude is round-off; below this fraction of its own largest, its
+/// change along a curve is (see [`still`]).
+const STILL: f64 = 1e-6;
+
+/// Which responses of a frequency-response curve have no peaks to find, given each
+/// one's amplitude at every point (`amplitudes[r]`) and its unit: those that do not move
+/// (their largest amplitude below [`STILL`] of the largest among the responses of the
+/// same unit: round-off, as the inceptor's stick.z, 1e-17 m beside stick.y's 1e-4 m, or
+/// gearbox.y, 0 m) and those whose amplitude does not change along the curve (by less
+/// than [`STILL`] of itself: a body carried by the moving ground, as the inceptor's
+/// gearbox.x, D0 at every frequency). Their local maxima are round-off: `nfr` on the
+/// inceptor at 0.1 mm reported 207 of them as peaks besides the real ones.
+pub fn still(amplitudes: &[Vec<f64>], units: &[&str]) -> Vec<bool> {
+    let most: Vec<f64> = amplitudes
+        .iter()
+        .map(|a| a.iter().copied().fold(0.0, f64::max))
+        .collect();
+    (0..units.len())
+        .map(|r| {
+            let of_unit = (0..units.len())
+                .filter(|&k| units[k] == units[r])
+                .map(|k| most[k])
+                .fold(0.0, f64::max);
+            let least = amplitudes[r].iter().copied().fold(f64::INFINITY, f64::min);
+            !(most[r] > STILL * of_unit) || !(most[r] - least > STILL * most[r])
+        })
+        .collect()
+}

@@ -1094,7 +1094,19 @@ pub fn sweep_logged_partial(
         for &dir in &directions {
             let mut line: Vec<&SweepPoint> = points.iter().filter(|p| p.direction == dir).collect();
             line.sort_by(|a, b| a.steady.omega.total_cmp(&b.steady.omega));
-            for r in 0..responses.len() {
+            // a response that does not move, or whose amplitude does not change, has
+            // round-off for its local maxima: no peaks to refine
+            let still = measure::still(
+                &(0..responses.len())
+                    .map(|r| {
+                        line.iter()
+                            .map(|p| p.steady.measures[r].amplitude)
+                            .collect()
+                    })
+                    .collect::<Vec<Vec<f64>>>(),
+                &responses.iter().map(|o| o.unit(&sys0)).collect::<Vec<_>>(),
+            );
+            for r in (0..responses.len()).filter(|&r| !still[r]) {
                 for i in 1..line.len().saturating_sub(1) {
                     let a = |k: usize| line[k].steady.measures[r].amplitude;
                     let w = |k: usize| line[k].steady.omega;

@@ -714,7 +714,12 @@ pub fn nfr(
     let mut peaks = Vec::new();
     if !interrupted {
         let mut found = Vec::new();
-        let still = still_responses(&all, &units);
+        let still = crate::frequency::measure::still(
+            &(0..responses.len())
+                .map(|r| all.iter().map(|n| n.point.measures[r].amplitude).collect())
+                .collect::<Vec<Vec<f64>>>(),
+            &units,
+        );
         for r in (0..responses.len()).filter(|&r| !still[r]) {
             for i in 1..all.len().saturating_sub(1) {
                 let a = |k: usize| all[k].point.measures[r].amplitude;
@@ -782,35 +787,6 @@ pub fn nfr(
         unresolved_events: tr.unresolved,
         motion,
     })
-}
-
-/// Below this fraction of the largest amplitude among the responses of its unit, a
-/// response's amplitude is round-off; below this fraction of its own largest, its
-/// change along the curve is (see [`still_responses`]).
-const STILL: f64 = 1e-6;
-
-/// Which responses have no peaks to find: those that do not move along the curve (their
-/// largest amplitude below [`STILL`] of the largest among the responses of the same
-/// unit: round-off, as the inceptor's stick.z, 1e-17 m beside stick.y's 1e-4 m, or
-/// gearbox.y, 0 m) and those whose amplitude does not change along it (by less than
-/// [`STILL`] of itself: a body carried by the moving ground, as the inceptor's gearbox.x,
-/// D0 at every frequency). Their local maxima are round-off: before, the inceptor at
-/// 0.1 mm reported 207 such peaks besides its real ones.
-fn still_responses(all: &[Node], units: &[&str]) -> Vec<bool> {
-    let amplitudes = |r: usize| all.iter().map(move |n| n.point.measures[r].amplitude);
-    let most: Vec<f64> = (0..units.len())
-        .map(|r| amplitudes(r).fold(0.0, f64::max))
-        .collect();
-    (0..units.len())
-        .map(|r| {
-            let of_unit = (0..units.len())
-                .filter(|&k| units[k] == units[r])
-                .map(|k| most[k])
-                .fold(0.0, f64::max);
-            let least = amplitudes(r).fold(f64::INFINITY, f64::min);
-            !(most[r] > STILL * of_unit) || !(most[r] - least > STILL * most[r])
-        })
-        .collect()
 }
 
 /// Whether the local maximum of response `r`'s amplitude at `all[i]` stands above the
