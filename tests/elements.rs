@@ -761,6 +761,204 @@ fn joints_to_a_ground_moving_in_x_y_and_theta() {
 
 // ---- forces ----------------------------------------------------------------------------
 
+// ---- b by hand against the dual pass, bit for bit -------------------------------------
+
+/// Every planar joint type, each between two bodies and with the ground as body 1 and as
+/// body 2, with zero coefficients (a point at a frame's origin, axes along x and y, so
+/// normals with a zero component), beside a custom constraint.
+fn every_planar_joint() -> String {
+    bodies(&["b1", "b2", "b3"])
+        + &joints(&[
+            [
+                "r1",
+                "revolute",
+                "b1",
+                "[0.2, -0.1]",
+                "ground",
+                "[0.4, 0.1]",
+                "",
+            ],
+            ["r2", "revolute", "b2", "[0, 0]", "b1", "[-0.3, 0]", ""],
+            [
+                "r3",
+                "revolute",
+                "ground",
+                "[0, 0]",
+                "b3",
+                "[0.1, 0.25]",
+                "",
+            ],
+            [
+                "s1",
+                "pin_in_slot",
+                "b1",
+                "[0.1, 0.2]",
+                "ground",
+                "[0, 0]",
+                "axis = [1, 0]",
+            ],
+            [
+                "s2",
+                "pin_in_slot",
+                "b3",
+                "[0, 0.3]",
+                "b2",
+                "[0.2, -0.1]",
+                "axis = [1, 2]",
+            ],
+            [
+                "s3",
+                "pin_in_slot",
+                "ground",
+                "[0.5, -0.2]",
+                "b2",
+                "[0, 0]",
+                "axis = [0, 1]",
+            ],
+            [
+                "p1",
+                "prismatic",
+                "b2",
+                "[0.1, 0]",
+                "ground",
+                "[-0.3, 0.2]",
+                "axis = [2, -1]\nangle = 0.3",
+            ],
+            [
+                "p2",
+                "prismatic",
+                "b1",
+                "[0, 0]",
+                "b3",
+                "[0.15, -0.3]",
+                "axis = [0, 1]\nangle = 0",
+            ],
+            [
+                "p3",
+                "prismatic",
+                "ground",
+                "[0, 0]",
+                "b3",
+                "[0.1, 0]",
+                "axis = [1, 0]\nangle = -1.1",
+            ],
+            [
+                "f1",
+                "fixed",
+                "b3",
+                "[0.2, 0.3]",
+                "ground",
+                "[0, -0.5]",
+                "angle = -0.4",
+            ],
+            [
+                "f2",
+                "fixed",
+                "b1",
+                "[0.4, 0.1]",
+                "b2",
+                "[0, 0]",
+                "angle = 0",
+            ],
+            [
+                "f3",
+                "fixed",
+                "ground",
+                "[0, 0]",
+                "b1",
+                "[0, 0]",
+                "angle = 0.7",
+            ],
+        ])
+        + "[[constraints]]\nname = \"c\"\nexpr = \"b1.x*b2.theta - b3.y + sin(t)\"\n"
+}
+
+/// The states of [`states`] and some where zeros meet: bodies at rest, not turning
+/// (ω = +0 and −0), at angles 0, ±π/2, π and −0, at the origin.
+fn states_with_zeros(sys: &System, seed: u64) -> Vec<St> {
+    let mut all = states(sys, seed);
+    let n = sys.n();
+    let angles: Vec<usize> = (0..n).filter(|&i| sys.is_angle(i)).collect();
+    let special = [0.0, -0.0, PI / 2.0, -PI / 2.0, PI, -PI];
+    for (k, mut s) in states(sys, seed + 100).into_iter().enumerate() {
+        match k % 4 {
+            // at rest
+            0 => {
+                s.v.iter_mut()
+                    .for_each(|x| *x = if k % 8 == 0 { 0.0 } else { -0.0 })
+            }
+            // translating only
+            1 => angles
+                .iter()
+                .for_each(|&i| s.v[i] = if k % 8 == 1 { 0.0 } else { -0.0 }),
+            // at special angles, some not turning
+            2 => {
+                for (j, &i) in angles.iter().enumerate() {
+                    s.q[i] = special[(k + j) % special.len()];
+                    if j % 2 == 0 {
+                        s.v[i] = 0.0;
+                    }
+                }
+            }
+            // everything at zero but one body's velocity
+            _ => {
+                s.q.iter_mut().for_each(|x| *x = 0.0);
+                s.v.iter_mut().skip(3).for_each(|x| *x = 0.0);
+            }
+        }
+        all.push(s);
+    }
+    all
+}
+
+#[test]
+fn bias_of_planar_joints_by_hand_is_the_dual_pass_to_the_bit() {
+    // a still ground (fixed), frozen at a turned pose (x, y and θ), frozen translated
+    // only (θ not prescribed: an unrotated frame), and moving (the dual pass for all)
+    let fixed = system(&every_planar_joint());
+    let moving = system(&format!(
+        "[parameters]\n{GROUND_PARAMETERS}\n{GROUND_MOTION}\n{}",
+        every_planar_joint()
+    ));
+    let times: Vec<f64> = (0..7).map(|k| 0.3 * k as f64).collect();
+    let frozen = moving.with_ground_at_mean(&times);
+    let shaken = system(&format!(
+        "[parameters]\n{GROUND_PARAMETERS}\n[ground]\nmotion = {{ x = \"X0*sin(w*t)\" }}\n\
+         {}",
+        every_planar_joint()
+    ));
+    let frozen_x = shaken.with_ground_at_mean(&times);
+    let mut checked = 0;
+    for (label, sys) in [
+        ("fixed ground", &fixed),
+        ("frozen ground", &frozen),
+        ("frozen unrotated ground", &frozen_x),
+        ("moving ground", &moving),
+    ] {
+        assert_eq!(sys.m(), 25, "{label}");
+        let mut ws = Workspace::new(sys);
+        let (mut b, mut b_dual) = (DVector::zeros(sys.m()), DVector::zeros(sys.m()));
+        let all = (21..25).flat_map(|seed| states_with_zeros(sys, seed));
+        for (k, s) in all.enumerate() {
+            let (q, v, t) = (&s.q[..], &s.v[..], s.t);
+            sys.bias(&mut ws, q, v, t, &mut b);
+            sys.bias_dual(&mut ws, q, v, t, &mut b_dual);
+            for i in 0..sys.m() {
+                assert!(
+                    b[i].to_bits() == b_dual[i].to_bits(),
+                    "{label}, state {k}: q = {q:?}, v = {v:?}, t = {t}\n\
+                     b[{i}] ({}) = {:e} by hand vs {:e} by the dual pass",
+                    sys.constraint_names[i],
+                    b[i],
+                    b_dual[i]
+                );
+                checked += 1;
+            }
+        }
+    }
+    eprintln!("b by hand vs the dual pass: {checked} entries, all the same bits");
+}
+
 /// −∇V by central differences of the potential energy at time t.
 fn minus_grad_potential(sys: &System, q: &[f64], t: f64) -> DVector<f64> {
     let g = jacobian_fd(

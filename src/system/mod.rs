@@ -7,7 +7,9 @@
 //!
 //! * `A = ∂Φ/∂q` comes from one `Dual64` pass per coordinate (column j: seed `q_j + ε`;
 //!   in general the derivative along tangent direction j, `q ⊕ ε e_j`),
-//! * `b = −d²/ds² Φ(q ⊕ s·v, t + s)|s=0` from one `Dual2_64` pass along the motion,
+//! * `b = −d²/ds² Φ(q ⊕ s·v, t + s)|s=0` from one `Dual2_64` pass along the motion
+//!   (a planar joint's rows with a still ground replay its second parts in f64, to the
+//!   same bits: [`joints`]),
 //! * `∂Φ/∂p`, `∂f/∂p` from one pass with the parameter seeded ([`System::seeded`]).
 //!
 //! Parameters stay live: [`System::set_param`] changes one without recompiling (a sweep's
@@ -1010,9 +1012,66 @@ impl System {
         self.bias_posed(ws, q, v, t, b);
     }
 
-    /// [`System::bias`] with the poses already in the workspace: one `Dual2_64` pass along
-    /// the motion, each body's pose along it from its f64 pose by the chain rule.
+    /// [`System::bias`] with the poses already in the workspace. With a ground that does
+    /// not move (fixed, or frozen at a pose), a planar joint's rows are written out by
+    /// hand ([`joints::Joint::bias`], the same bits as the dual pass); the rest (spatial
+    /// models, custom constraints, a moving ground) by [`System::bias_dual_posed`].
     fn bias_posed(&self, ws: &mut Workspace, q: &[f64], v: &[f64], t: f64, b: &mut DVector<f64>) {
+        if self.spatial || self.ground.is_moving() {
+            return self.bias_dual_posed(ws, q, v, t, b, false);
+        }
+        let env = self.env();
+        let fr = Frames {
+            q,
+            poses: &ws.pose_f,
+            poses3: &[],
+            nrot: &[],
+            offsets: &self.offsets,
+            ground: GroundPose::at(&self.ground, t, env),
+            env,
+        };
+        let mut custom = false;
+        for (c, blk) in self.constraints.iter().zip(&self.blocks) {
+            match c {
+                joints::Constraint::Joint(j) => {
+                    j.bias(&fr, v, &mut b.as_mut_slice()[blk.row0..blk.row0 + blk.rows])
+                }
+                _ => custom = true,
+            }
+        }
+        if custom {
+            self.bias_dual_posed(ws, q, v, t, b, true);
+        }
+    }
+
+    /// b by the `Dual2_64` pass alone ([`System::bias`] writes planar joints' rows by
+    /// hand): what those rows are checked against, bit for bit (tests/elements.rs).
+    #[doc(hidden)]
+    pub fn bias_dual(
+        &self,
+        ws: &mut Workspace,
+        q: &[f64],
+        v: &[f64],
+        t: f64,
+        b: &mut DVector<f64>,
+    ) {
+        self.poses_into(ws, q);
+        self.bias_dual_posed(ws, q, v, t, b, false);
+    }
+
+    /// b with the poses already in the workspace by one `Dual2_64` pass along the motion,
+    /// each body's pose along it from its f64 pose by the chain rule. Each constraint's
+    /// rows depend on its own Φ only: with `skip_joints`, the rows of planar joints
+    /// (written by hand) are left as they are.
+    fn bias_dual_posed(
+        &self,
+        ws: &mut Workspace,
+        q: &[f64],
+        v: &[f64],
+        t: f64,
+        b: &mut DVector<f64>,
+        skip_joints: bool,
+    ) {
         if self.spatial {
             // q ⊕ s·v body by body: angles along q + s·v, a free body's quaternion along
             // q ⊗ exp(s ω/2) (rate ½ q ⊗ (0, ω), second derivative −¼ |ω|² q)
@@ -1057,10 +1116,14 @@ impl System {
             env,
         };
         for (c, blk) in self.constraints.iter().zip(&self.blocks) {
-            c.phi(&fr, td, &mut ws.phi2[blk.row0..blk.row0 + blk.rows]);
-        }
-        for i in 0..self.m() {
-            b[i] = -ws.phi2[i].v2;
+            if skip_joints && matches!(c, joints::Constraint::Joint(_)) {
+                continue;
+            }
+            let rows = blk.row0..blk.row0 + blk.rows;
+            c.phi(&fr, td, &mut ws.phi2[rows.clone()]);
+            for i in rows {
+                b[i] = -ws.phi2[i].v2;
+            }
         }
     }
 
