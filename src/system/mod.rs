@@ -6,7 +6,9 @@
 //! from ([`Env`]): the constraint function is written once over any [`Scalar`], so
 //!
 //! * `A = ∂Φ/∂q` comes from one `Dual64` pass per coordinate (column j: seed `q_j + ε`;
-//!   in general the derivative along tangent direction j, `q ⊕ ε e_j`),
+//!   in general the derivative along tangent direction j, `q ⊕ ε e_j`; a planar joint's
+//!   columns are written out in the pass's order of operations, to the same bits:
+//!   [`joints::Joint::column`]),
 //! * `b = −d²/ds² Φ(q ⊕ s·v, t + s)|s=0` from one `Dual2_64` pass along the motion
 //!   (a planar joint's rows with a still ground replay its second parts in f64, to the
 //!   same bits: [`joints`]),
