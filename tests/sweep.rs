@@ -298,4 +298,66 @@ fn still_responses_have_no_peaks() {
     assert_eq!(peaks.len(), 1, "{peaks:?}");
     assert_eq!(peaks[0]["response"], "stick.y");
     assert_eq!(peaks[0]["omega"], 26.75);
+    // a response that moves, however little beside another of its unit, keeps its peak:
+    // block2 at 1e-7 of block's motion (a first version called it still beside block)
+    let peaks_of = |args: &[&str]| -> Vec<(String, f64)> {
+        let (code, out, err) = common::detune(args);
+        assert_eq!(code, 0, "{err}");
+        let j: serde_json::Value = serde_json::from_str(&out).unwrap();
+        j["peaks"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|p| {
+                (
+                    p["response"].as_str().unwrap().to_string(),
+                    p["omega"].as_f64().unwrap(),
+                )
+            })
+            .collect()
+    };
+    let weak = peaks_of(&[
+        "sweep",
+        "tests/data/weak_pair.toml",
+        "--param",
+        "omega",
+        "--from",
+        "19",
+        "--to",
+        "21",
+        "--step",
+        "0.25",
+        "--response",
+        "block2.x",
+        "--response",
+        "block.x",
+        "--json",
+    ]);
+    assert_eq!(
+        weak,
+        [
+            ("block2.x".to_string(), 20.0),
+            ("block.x".to_string(), 20.0)
+        ]
+    );
+    // and a narrow range about a broad resonance, whose amplitude changes by 3e-7 across
+    // it, keeps its maximum (the amplitude's noise in a stepped sine is about 5e-11)
+    let narrow = peaks_of(&[
+        "sweep",
+        "tests/data/sdof.toml",
+        "--set",
+        "F0=1",
+        "--param",
+        "omega",
+        "--from",
+        "19.886",
+        "--to",
+        "19.888",
+        "--step",
+        "0.001",
+        "--response",
+        "block.x",
+        "--json",
+    ]);
+    assert_eq!(narrow, [("block.x".to_string(), 19.887)]);
 }

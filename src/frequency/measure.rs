@@ -138,19 +138,27 @@ mod tests {
 }
 
 /// Below this fraction of the largest amplitude among the responses of its unit, a
-/// response's amplitude is round-off; below this fraction of its own largest, its
-/// change along a curve is (see [`still`]).
-const STILL: f64 = 1e-6;
+/// response's amplitude is round-off (see [`still`]): the inceptor's stick.z is 1e-13 of
+/// stick.y; a real small motion (a lateral one 1e-7 of the main) is well above it.
+const ROUND_OFF: f64 = 1e-9;
 
 /// Which responses of a frequency-response curve have no peaks to find, given each
-/// one's amplitude at every point (`amplitudes[r]`) and its unit: those that do not move
-/// (their largest amplitude below [`STILL`] of the largest among the responses of the
-/// same unit: round-off, as the inceptor's stick.z, 1e-17 m beside stick.y's 1e-4 m, or
-/// gearbox.y, 0 m) and those whose amplitude does not change along the curve (by less
-/// than [`STILL`] of itself: a body carried by the moving ground, as the inceptor's
-/// gearbox.x, D0 at every frequency). Their local maxima are round-off: `nfr` on the
-/// inceptor at 0.1 mm reported 207 of them as peaks besides the real ones.
-pub fn still(amplitudes: &[Vec<f64>], units: &[&str]) -> Vec<bool> {
+/// one's amplitude at every point (`amplitudes[r]`), its unit, and the noise of the
+/// amplitudes: `noise_abs` (SI, the integration's absolute tolerance's reach) and
+/// `noise_rel` (relative, its relative tolerance's).
+///
+/// * Those that do not move: their largest amplitude below [`ROUND_OFF`] of the largest
+///   among the responses of the same unit, or below `noise_abs` (the inceptor's stick.z,
+///   1e-17 m beside stick.y's 1e-4 m; gearbox.y, 0 m).
+/// * Those whose amplitude does not change along the curve by more than `noise_rel` of
+///   itself: a body carried by the moving ground, as the inceptor's gearbox.x, D0 at every
+///   frequency to 5e-11 in a stepped sine (rtol 1e-10) and 1.6e-8 along `nfr`'s orbits
+///   (rtol 1e-8).
+///
+/// Their local maxima are round-off: `nfr` on the inceptor at 0.1 mm reported 207 of them
+/// as peaks besides the real ones. A real peak changes the amplitude by more than the
+/// noise over any range that shows it as a maximum.
+pub fn still(amplitudes: &[Vec<f64>], units: &[&str], noise_abs: f64, noise_rel: f64) -> Vec<bool> {
     let most: Vec<f64> = amplitudes
         .iter()
         .map(|a| a.iter().copied().fold(0.0, f64::max))
@@ -162,7 +170,8 @@ pub fn still(amplitudes: &[Vec<f64>], units: &[&str]) -> Vec<bool> {
                 .map(|k| most[k])
                 .fold(0.0, f64::max);
             let least = amplitudes[r].iter().copied().fold(f64::INFINITY, f64::min);
-            !(most[r] > STILL * of_unit) || !(most[r] - least > STILL * most[r])
+            !(most[r] > (ROUND_OFF * of_unit).max(noise_abs))
+                || !(most[r] - least > noise_rel * most[r])
         })
         .collect()
 }

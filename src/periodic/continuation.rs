@@ -719,6 +719,8 @@ pub fn nfr(
                 .map(|r| all.iter().map(|n| n.point.measures[r].amplitude).collect())
                 .collect::<Vec<Vec<f64>>>(),
             &units,
+            crate::frequency::NOISE_REACH * opts.shooting.atol,
+            crate::frequency::NOISE_REACH * opts.shooting.rtol,
         );
         for r in (0..responses.len()).filter(|&r| !still[r]) {
             for i in 1..all.len().saturating_sub(1) {

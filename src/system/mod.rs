@@ -837,6 +837,25 @@ impl System {
         }
     }
 
+    /// The frames of a planar model at (q, t) in f64, from its bodies' poses.
+    fn planar_frames<'a>(
+        &'a self,
+        q: &'a [f64],
+        poses: &'a [Pose<f64>],
+        t: f64,
+    ) -> Frames<'a, f64, Plain<'a>> {
+        let env = self.env();
+        Frames {
+            q,
+            poses,
+            poses3: &[],
+            nrot: &[],
+            offsets: &self.offsets,
+            ground: GroundPose::at(&self.ground, t, env),
+            env,
+        }
+    }
+
     /// [`System::jacobian_blocks`] with the poses already in the workspace.
     fn jacobian_posed(&self, ws: &mut Workspace, q: &[f64], t: f64) {
         if self.spatial {
@@ -844,15 +863,7 @@ impl System {
         }
         let env = self.env();
         // planar joints by their hand-written columns (`Joint::column`), from f64 poses
-        let fr = Frames {
-            q,
-            poses: &ws.pose_f,
-            poses3: &[],
-            nrot: &[],
-            offsets: &self.offsets,
-            ground: GroundPose::at(&self.ground, t, env),
-            env,
-        };
+        let fr = self.planar_frames(q, &ws.pose_f, t);
         for (c, b) in self.constraints.iter().zip(&self.blocks) {
             let joints::Constraint::Joint(joint) = c else {
                 continue;
@@ -1022,16 +1033,7 @@ impl System {
         if self.spatial || self.ground.is_moving() {
             return self.bias_dual_posed(ws, q, v, t, b, false);
         }
-        let env = self.env();
-        let fr = Frames {
-            q,
-            poses: &ws.pose_f,
-            poses3: &[],
-            nrot: &[],
-            offsets: &self.offsets,
-            ground: GroundPose::at(&self.ground, t, env),
-            env,
-        };
+        let fr = self.planar_frames(q, &ws.pose_f, t);
         let mut custom = false;
         for (c, blk) in self.constraints.iter().zip(&self.blocks) {
             match c {
