@@ -843,23 +843,37 @@ fn base_driven_curve_converges_in_few_periods() {
 }
 
 /// `max_points` caps the points of the curve, every one counted: each branch's start,
-/// its steps, and its located folds and bifurcations. Before, the start and a located
-/// fold came on top: 28 points for a limit of 26. A limit cuts the curve short
-/// (incomplete; a step that leaves the range without a point there costs one too); the
-/// default traces the whole curve, its fold and its period doubling among 79 points.
+/// its steps, its located folds and bifurcations, and the refined peaks' orbits (a peak
+/// is reported either way; its orbit joins the points while the limit leaves room).
+/// Before, the starts, the located points and the peaks' orbits came on top (28 points
+/// for a limit of 26; 541 for 540). A limit cuts the curve short (incomplete) only if the
+/// branches need more: the overcentre over 1.9–2.5 rad/s (its secondary peak, its fold)
+/// is complete with its branches' points alone, and a step that left the range without
+/// a point there does not count.
 #[test]
 fn the_point_limit_counts_every_point() {
+    use detune::periodic::continuation::Located;
     let sys = model(&[("c", 1.0), ("F0", 4.0)]);
     let curve = |n: usize| {
-        let mut opts = NfrOptions::new("omega", 2.5, 5.0, vec!["bar1.theta".into()]);
+        let mut opts = NfrOptions::new("omega", 1.9, 2.5, vec!["bar1.theta".into()]);
         opts.max_points = n;
         nfr(&sys, &opts, &|_, _| {}, &AtomicBool::new(false)).unwrap()
     };
     let whole = curve(3000);
     assert!(whole.complete);
+    assert!(
+        whole.folds.len() == 1 && whole.peaks.len() == 2,
+        "{:?}",
+        whole.peaks
+    );
     let all = whole.points.len();
-    assert!(whole.folds.len() == 1 && whole.period_doublings.len() == 1);
-    for n in [26, 60] {
+    let on_branches = whole
+        .points
+        .iter()
+        .filter(|p| p.located != Some(Located::Peak))
+        .count();
+    assert_eq!(all - on_branches, 2);
+    for n in [40, on_branches - 1] {
         let c = curve(n);
         assert!(
             c.points.len() <= n && c.points.len() + 2 >= n && !c.complete,
@@ -868,10 +882,8 @@ fn the_point_limit_counts_every_point() {
             c.complete
         );
     }
-    // the first branch's step that left the range without a point there (its orbit at
-    // 2.5 rad/s could not be corrected) cost one as well
-    assert!(!curve(all).complete);
-    assert!(curve(all + 1).complete);
+    let c = curve(on_branches);
+    assert!(c.complete && c.points.len() == on_branches && c.peaks.len() == 2);
 }
 
 /// Undamped (c = 0), the forced overcentre's orbits keep their phase-space volume (|det

@@ -184,7 +184,7 @@ pub fn run(a: NfrArgs) -> Result<()> {
     } else {
         model.param_unit(&a.param)
     };
-    if from == to {
+    if from == to && from.is_finite() {
         return Err(Error::request(
             format!(
                 "--from {:?} --to {:?}: the range of {} is empty (both {} {param_unit})",

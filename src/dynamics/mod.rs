@@ -247,58 +247,76 @@ struct Plan {
 /// same order as adding them one by one into a cleared envelope, without a store and a
 /// load between two of them. Likewise M⁻¹ Aᵀ y by column.
 fn nonzero_plan(sys: &System, cols: &[Vec<(usize, usize)>], env: &Envelope) -> Plan {
-    let zeros = sys.structural_zeros();
+    let zeros: std::collections::HashSet<(usize, usize)> =
+        sys.structural_zeros().into_iter().collect();
     let mut nz = Vec::new();
+    // where each value by blocks sits in `nz`
+    let mut at = Vec::new();
     for b in sys.blocks() {
         let nc = b.cols.len();
         for r in 0..b.rows {
             for (ci, &j) in b.cols.iter().enumerate() {
+                let ia = b.val0 + r * nc + ci;
+                if at.len() <= ia {
+                    at.resize(ia + 1, None);
+                }
                 if !zeros.contains(&(b.row0 + r, j)) {
-                    nz.push([b.val0 + r * nc + ci, j, b.row0 + r].map(|x| x as u32));
+                    at[ia] = Some(nz.len());
+                    nz.push([ia, j, b.row0 + r].map(|x| x as u32));
                 }
             }
         }
     }
-    let at = |ia: usize| nz.iter().position(|e| e[0] as usize == ia);
     let mut plan = Vec::new();
     for entries in cols {
         let kept: Vec<(usize, usize, usize)> = entries
             .iter()
-            .filter_map(|&(r, ia)| at(ia).map(|e| (r, ia, e)))
+            .filter_map(|&(r, ia)| at.get(ia).copied().flatten().map(|e| (r, ia, e)))
             .collect();
         for (k, &(ra, _, ea)) in kept.iter().enumerate() {
             for &(rb, ib, _) in &kept[..=k] {
                 let (hi, lo) = if ra >= rb { (ra, rb) } else { (rb, ra) };
-                plan.push([env.index(hi, lo), ea, ib]);
+                plan.push((env.index(hi, lo), [ea as u32, ib as u32]));
             }
         }
     }
-    let mut gram = Vec::with_capacity(plan.len());
-    let mut gram_ends = Vec::with_capacity(env.len());
-    for k in 0..env.len() {
-        gram.extend(
-            plan.iter()
-                .filter(|p| p[0] == k)
-                .map(|p| [p[1] as u32, p[2] as u32]),
-        );
-        gram_ends.push(gram.len() as u32);
-    }
-    let (mut by_col, mut col_ends) = (Vec::with_capacity(nz.len()), Vec::new());
-    for j in 0..sys.nv() {
-        by_col.extend(
-            (0..nz.len())
-                .filter(|&e| nz[e][1] as usize == j)
-                .map(|e| e as u32),
-        );
-        col_ends.push(by_col.len() as u32);
-    }
+    let (gram, gram_ends) = grouped(env.len(), plan);
+    let (cols, col_ends) = grouped(
+        sys.nv(),
+        nz.iter()
+            .enumerate()
+            .map(|(e, x)| (x[1] as usize, e as u32))
+            .collect(),
+    );
     Plan {
         nz,
         gram,
         gram_ends,
-        cols: by_col,
+        cols,
         col_ends,
     }
+}
+
+/// `items` (key < `keys`, value) grouped by key, each key's values in their order (a
+/// stable counting sort, linear in the model's size), and where each key's group ends.
+fn grouped<T: Copy + Default>(keys: usize, items: Vec<(usize, T)>) -> (Vec<T>, Vec<u32>) {
+    let mut ends = vec![0u32; keys];
+    for &(k, _) in &items {
+        ends[k] += 1;
+    }
+    let mut next = Vec::with_capacity(keys);
+    let mut total = 0u32;
+    for e in ends.iter_mut() {
+        next.push(total);
+        total += *e;
+        *e = total;
+    }
+    let mut out = vec![T::default(); items.len()];
+    for (k, v) in items {
+        out[next[k] as usize] = v;
+        next[k] += 1;
+    }
+    (out, ends)
 }
 
 /// The inverse of a symmetric n × n matrix (n ≤ 3, row-major) in closed form, and its

@@ -762,6 +762,9 @@ pub fn nfr(
                 }
             }
         }
+        // a refined peak's orbit joins the points while the point limit leaves room (the
+        // peak itself is reported either way)
+        found.truncate(budget);
         all.extend(found);
         all.sort_by(|a, b| a.point.s.total_cmp(&b.point.s));
     }
@@ -789,6 +792,17 @@ pub fn nfr(
         unresolved_events: tr.unresolved,
         motion,
     })
+}
+
+/// Drop the located points beyond the range `from`..`to`, and the reports of them (an
+/// unrefined one stays while the range lies within its bracket).
+fn keep_within(from: f64, to: f64, located: &mut Vec<Node>, specials: &mut Vec<Special>) {
+    let (lo, hi) = (from.min(to), from.max(to));
+    let beyond = |x: f64| (x - x.clamp(lo, hi)).abs();
+    located.retain(|n| beyond(n.point.value) == 0.0);
+    specials.retain(|sp| {
+        beyond(sp.value) == 0.0 || (!sp.refined && beyond(sp.value) <= sp.uncertainty)
+    });
 }
 
 /// Whether the local maximum of response `r`'s amplitude at `all[i]` stands above the
@@ -1487,7 +1501,9 @@ impl Tracer<'_> {
             }
             if *budget == 0 {
                 // a point located inside this step took the last of the budget: the
-                // branch ends there, without the step's own point
+                // branch ends there, without the step's own point (and without what
+                // was located beyond the range's end, if the step crossed it)
+                keep_within(from, to, &mut located, specials);
                 return finish(nodes, located, BranchEnd::PointLimit);
             }
             *budget -= 1;
@@ -1544,12 +1560,11 @@ impl Tracer<'_> {
                 // last orbit inside the range, none outside it, and says so (`short`).
                 // No located point beyond the range's end stays either (one that could
                 // not be located does if the range lies within its bracket).
-                let (lo, hi) = (from.min(to), from.max(to));
-                let beyond = |x: f64| (x - x.clamp(lo, hi)).abs();
-                located.retain(|n| beyond(n.point.value) == 0.0);
-                specials.retain(|sp| {
-                    beyond(sp.value) == 0.0 || (!sp.refined && beyond(sp.value) <= sp.uncertainty)
-                });
+                keep_within(from, to, &mut located, specials);
+                if short {
+                    // the step gave no point: it does not count against the budget
+                    *budget += 1;
+                }
                 let mut b = finish(nodes, located, ended)?;
                 b.short = short;
                 return Ok(b);
