@@ -884,6 +884,46 @@ fn the_point_limit_counts_every_point() {
     }
     let c = curve(on_branches);
     assert!(c.complete && c.points.len() == on_branches && c.peaks.len() == 2);
+    // the first branch turns at its fold and leaves through 1.9 rad/s: a limit it spends
+    // exactly leaves no room to look for a branch at 2.5 rad/s, and the curve is not
+    // complete (it was called complete, without the far branch and its peak)
+    let first = &whole.branches[0];
+    assert_eq!(
+        first.ended,
+        detune::periodic::continuation::BranchEnd::Returned
+    );
+    let c = curve(first.points);
+    assert!(!c.complete && c.branches.len() == 1, "{:?}", c.branches);
+}
+
+/// A linear resonance whose amplitude is tiny against the integration's absolute
+/// tolerance (sdof at F0 = 3e-7 N: 2.5e-9 m, below 30 × the default atol 1e-10 m) keeps
+/// its peak: the noise a still response is judged against is that of the tolerances the
+/// orbits were integrated with, fitted to the small motion. (Judged against the
+/// default atol, it was dropped.)
+#[test]
+fn a_tiny_resonance_keeps_its_peak() {
+    let m = detune::Model::load(&common::data("sdof.toml"))
+        .unwrap()
+        .with_overrides(&[("F0".to_string(), "3e-7".to_string())])
+        .unwrap();
+    let sys = detune::System::new(&m).unwrap();
+    let opts = NfrOptions::new("omega", 19.0, 21.0, vec!["block.x".into()]);
+    let c = nfr(&sys, &opts, &|_, _| {}, &AtomicBool::new(false)).unwrap();
+    assert!(c.complete);
+    assert_eq!(c.peaks.len(), 1, "{:?}", c.peaks);
+    let w: Vec<f64> = (0..=2000).map(|k| 19.0 + 0.001 * k as f64).collect();
+    let fr = detune::linear::frequency_response(&sys, "omega", &w, &["block.x".into()]).unwrap();
+    let fp = fr.peaks.first().expect("frf peak");
+    // (at this motion the peak's refinement does not converge: the continuation's own
+    // point, within its stated uncertainty, the neighbours' spacing)
+    let p = &c.peaks[0];
+    assert!(
+        (p.omega - fp.omega).abs() <= p.uncertainty
+            && (p.amplitude - fp.amplitude).abs() < 1e-3 * fp.amplitude,
+        "{:?} vs {fp:?}",
+        c.peaks
+    );
 }
 
 /// Undamped (c = 0), the forced overcentre's orbits keep their phase-space volume (|det

@@ -659,6 +659,11 @@ pub fn nfr(
         let guess = linear_start(&sys1, freq, &omega_param)?;
         Ok((sys1, guess))
     };
+    // a first branch that did not reach the far end, with no budget left to look for
+    // a branch there: the curve is not known to be complete
+    if budget == 0 && !reached {
+        complete = false;
+    }
     let far = if !interrupted && budget > 0 {
         match far() {
             Ok(f) => Some(f),
@@ -719,8 +724,9 @@ pub fn nfr(
                 .map(|r| all.iter().map(|n| n.point.measures[r].amplitude).collect())
                 .collect::<Vec<Vec<f64>>>(),
             &units,
-            crate::frequency::NOISE_REACH * opts.shooting.atol,
-            crate::frequency::NOISE_REACH * opts.shooting.rtol,
+            // the tolerances the orbits were integrated with (fitted to a small motion)
+            crate::frequency::NOISE_REACH * tr.sh.opts.atol,
+            crate::frequency::NOISE_REACH * tr.sh.opts.rtol,
         );
         for r in (0..responses.len()).filter(|&r| !still[r]) {
             for i in 1..all.len().saturating_sub(1) {
