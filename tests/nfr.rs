@@ -896,6 +896,30 @@ fn the_point_limit_counts_every_point() {
     assert!(!c.complete && c.branches.len() == 1, "{:?}", c.branches);
 }
 
+/// A response whose motion is below what the integration resolves against its value has
+/// no peaks: tests/data/weak_pair.toml's block2 sits at x = 3 m and moves 8e-10 m at
+/// F0 = 1 N, under noise spikes of 4e-9 m (rtol × 3 m). Before, `nfr` reported 9 peaks of
+/// it between 19.69 and 20.89 rad/s (the system is linear: one resonance, block's).
+#[test]
+fn a_response_under_the_noise_has_no_peaks() {
+    let m = detune::Model::load(&common::data("weak_pair.toml"))
+        .unwrap()
+        .with_overrides(&[("F0".to_string(), "1".to_string())])
+        .unwrap();
+    let sys = detune::System::new(&m).unwrap();
+    let opts = NfrOptions::new(
+        "omega",
+        19.0,
+        21.0,
+        vec!["block2.x".into(), "block.x".into()],
+    );
+    let c = nfr(&sys, &opts, &|_, _| {}, &AtomicBool::new(false)).unwrap();
+    assert!(c.complete);
+    let got: Vec<&str> = c.peaks.iter().map(|p| p.response.as_str()).collect();
+    assert_eq!(got, ["block.x"], "{:?}", c.peaks);
+    assert!((c.peaks[0].omega - 19.887).abs() < 1e-3, "{:?}", c.peaks);
+}
+
 /// A linear resonance whose amplitude is tiny against the integration's absolute
 /// tolerance (sdof at F0 = 3e-7 N: 2.5e-9 m, below 30 × the default atol 1e-10 m) keeps
 /// its peak: the noise a still response is judged against is that of the tolerances the

@@ -142,26 +142,33 @@ mod tests {
 /// stick.y; a real small motion (a lateral one 1e-7 of the main) is well above it.
 const ROUND_OFF: f64 = 1e-9;
 
+/// How far above the integration's absolute tolerance, and above its relative tolerance
+/// of the amplitude itself, the noise of a settled amplitude may reach (see [`still`]).
+const NOISE_REACH: f64 = 30.0;
+
 /// Which responses of a frequency-response curve have no peaks to find, given each
-/// one's amplitude at every point (`amplitudes[r]`), its unit, and the noise of the
-/// amplitudes: `noise_abs` (SI, the integration's absolute tolerance's reach) and
-/// `noise_rel` (relative, its relative tolerance's).
+/// one's measures at every point (`curves[r]`), its unit, and the tolerances the motion
+/// was integrated with. The noise of a response's amplitude is taken as
+/// `30 atol + rtol · |x|`, x its largest value (the integration's error control is
+/// relative to the coordinates' values, not to their motion):
 ///
-/// * Those that do not move: their largest amplitude below [`ROUND_OFF`] of the largest
-///   among the responses of the same unit, or below `noise_abs` (the inceptor's stick.z,
-///   1e-17 m beside stick.y's 1e-4 m; gearbox.y, 0 m).
-/// * Those whose amplitude does not change along the curve by more than `noise_rel` of
-///   itself: a body carried by the moving ground, as the inceptor's gearbox.x, D0 at every
-///   frequency to 5e-11 in a stepped sine (rtol 1e-10) and 1.6e-8 along `nfr`'s orbits
-///   (rtol 1e-8).
+/// * Those that do not move: their largest amplitude below that noise, or below
+///   [`ROUND_OFF`] of the largest among the responses of the same unit (the inceptor's
+///   stick.z, 1e-17 m beside stick.y's 1e-4 m; gearbox.y, 0 m;
+///   tests/data/weak_pair.toml's block2 at x = 3 m in `nfr`, 8e-10 m of motion under
+///   noise spikes of 4e-9 m at rtol 4e-9).
+/// * Those whose amplitude does not change along the curve by more than that noise and
+///   30 rtol of itself: a body carried by the moving ground, as the inceptor's gearbox.x,
+///   D0 at every frequency to 5e-11 of itself in a stepped sine (rtol 1e-10) and 1.6e-8
+///   along `nfr`'s orbits (rtol 1e-8).
 ///
-/// Their local maxima are round-off: `nfr` on the inceptor at 0.1 mm reported 207 of them
-/// as peaks besides the real ones. A real peak changes the amplitude by more than the
-/// noise over any range that shows it as a maximum.
-pub fn still(amplitudes: &[Vec<f64>], units: &[&str], noise_abs: f64, noise_rel: f64) -> Vec<bool> {
-    let most: Vec<f64> = amplitudes
+/// Their local maxima are noise: `nfr` on the inceptor at 0.1 mm reported 207 of them as
+/// peaks besides the real ones. A real peak changes the amplitude by more than the noise
+/// over any range that shows it as a maximum.
+pub fn still(curves: &[Vec<Measures>], units: &[&str], atol: f64, rtol: f64) -> Vec<bool> {
+    let most: Vec<f64> = curves
         .iter()
-        .map(|a| a.iter().copied().fold(0.0, f64::max))
+        .map(|c| c.iter().map(|m| m.amplitude).fold(0.0, f64::max))
         .collect();
     (0..units.len())
         .map(|r| {
@@ -169,9 +176,17 @@ pub fn still(amplitudes: &[Vec<f64>], units: &[&str], noise_abs: f64, noise_rel:
                 .filter(|&k| units[k] == units[r])
                 .map(|k| most[k])
                 .fold(0.0, f64::max);
-            let least = amplitudes[r].iter().copied().fold(f64::INFINITY, f64::min);
-            !(most[r] > (ROUND_OFF * of_unit).max(noise_abs))
-                || !(most[r] - least > noise_rel * most[r])
+            let least = curves[r]
+                .iter()
+                .map(|m| m.amplitude)
+                .fold(f64::INFINITY, f64::min);
+            let size = curves[r]
+                .iter()
+                .map(|m| m.max.abs().max(m.min.abs()))
+                .fold(0.0, f64::max);
+            let noise = NOISE_REACH * atol + rtol * size;
+            !(most[r] > (ROUND_OFF * of_unit).max(noise))
+                || !(most[r] - least > noise + NOISE_REACH * rtol * most[r])
         })
         .collect()
 }

@@ -787,11 +787,6 @@ fn check_request(sys: &System, opts: &SweepOptions) -> Result<usize> {
     Ok(index)
 }
 
-/// How far above the integration's tolerances (rtol, atol) the noise of a settled
-/// amplitude may reach: a response whose amplitude changes by less than this along the
-/// sweep has no peaks ([`measure::still`]).
-pub(crate) const NOISE_REACH: f64 = 30.0;
-
 /// Everything a sweep checks before it simulates: the request, the responses, the
 /// equilibrium it starts from (under the loads' mean over a forcing
 /// period, see [`crate::linear::at_frequency`]) and a non-zero forcing. Cheap (no
@@ -1103,15 +1098,11 @@ pub fn sweep_logged_partial(
             // round-off for its local maxima: no peaks to refine
             let still = measure::still(
                 &(0..responses.len())
-                    .map(|r| {
-                        line.iter()
-                            .map(|p| p.steady.measures[r].amplitude)
-                            .collect()
-                    })
-                    .collect::<Vec<Vec<f64>>>(),
+                    .map(|r| line.iter().map(|p| p.steady.measures[r]).collect())
+                    .collect::<Vec<Vec<_>>>(),
                 &responses.iter().map(|o| o.unit(&sys0)).collect::<Vec<_>>(),
-                NOISE_REACH * opts.steady.atol,
-                NOISE_REACH * opts.steady.rtol,
+                opts.steady.atol,
+                opts.steady.rtol,
             );
             for r in (0..responses.len()).filter(|&r| !still[r]) {
                 for i in 1..line.len().saturating_sub(1) {

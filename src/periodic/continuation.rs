@@ -721,12 +721,12 @@ pub fn nfr(
         let mut found = Vec::new();
         let still = crate::frequency::measure::still(
             &(0..responses.len())
-                .map(|r| all.iter().map(|n| n.point.measures[r].amplitude).collect())
-                .collect::<Vec<Vec<f64>>>(),
+                .map(|r| all.iter().map(|n| n.point.measures[r]).collect())
+                .collect::<Vec<Vec<_>>>(),
             &units,
             // the tolerances the orbits were integrated with (fitted to a small motion)
-            crate::frequency::NOISE_REACH * tr.sh.opts.atol,
-            crate::frequency::NOISE_REACH * tr.sh.opts.rtol,
+            tr.sh.opts.atol,
+            tr.sh.opts.rtol,
         );
         for r in (0..responses.len()).filter(|&r| !still[r]) {
             for i in 1..all.len().saturating_sub(1) {
