@@ -802,13 +802,17 @@ pub fn nfr(
 
 /// Drop the located points beyond the range `from`..`to`, and the reports of them (an
 /// unrefined one stays while the range lies within its bracket).
-fn keep_within(from: f64, to: f64, located: &mut Vec<Node>, specials: &mut Vec<Special>) {
+/// Returns how many located points were dropped (their charge against the point limit
+/// is given back).
+fn keep_within(from: f64, to: f64, located: &mut Vec<Node>, specials: &mut Vec<Special>) -> usize {
     let (lo, hi) = (from.min(to), from.max(to));
     let beyond = |x: f64| (x - x.clamp(lo, hi)).abs();
+    let before = located.len();
     located.retain(|n| beyond(n.point.value) == 0.0);
     specials.retain(|sp| {
         beyond(sp.value) == 0.0 || (!sp.refined && beyond(sp.value) <= sp.uncertainty)
     });
+    before - located.len()
 }
 
 /// Whether the local maximum of response `r`'s amplitude at `all[i]` stands above the
@@ -1509,7 +1513,7 @@ impl Tracer<'_> {
                 // a point located inside this step took the last of the budget: the
                 // branch ends there, without the step's own point (and without what
                 // was located beyond the range's end, if the step crossed it)
-                keep_within(from, to, &mut located, specials);
+                *budget += keep_within(from, to, &mut located, specials);
                 return finish(nodes, located, BranchEnd::PointLimit);
             }
             *budget -= 1;
@@ -1566,7 +1570,7 @@ impl Tracer<'_> {
                 // last orbit inside the range, none outside it, and says so (`short`).
                 // No located point beyond the range's end stays either (one that could
                 // not be located does if the range lies within its bracket).
-                keep_within(from, to, &mut located, specials);
+                *budget += keep_within(from, to, &mut located, specials);
                 if short {
                     // the step gave no point: it does not count against the budget
                     *budget += 1;
