@@ -896,25 +896,32 @@ fn the_point_limit_counts_every_point() {
     assert!(!c.complete && c.branches.len() == 1, "{:?}", c.branches);
 }
 
+/// The curve of `tests/data/<file>` at forcing amplitude `f0` (N) over 19–21 rad/s,
+/// measured at `responses`, complete; and its system.
+fn data_curve(
+    file: &str,
+    f0: &str,
+    responses: &[&str],
+) -> (detune::System, detune::periodic::continuation::Nfr) {
+    let m = common::with_sets(
+        detune::Model::load(&common::data(file)).unwrap(),
+        &[("F0", f0)],
+    );
+    let sys = detune::System::new(&m).unwrap();
+    let responses = responses.iter().map(|r| r.to_string()).collect();
+    let opts = NfrOptions::new("omega", 19.0, 21.0, responses);
+    let c = nfr(&sys, &opts, &|_, _| {}, &AtomicBool::new(false)).unwrap();
+    assert!(c.complete, "{file}: {:?}", c.branches);
+    (sys, c)
+}
+
 /// A response whose motion is below what the integration resolves against its value has
 /// no peaks: tests/data/weak_pair.toml's block2 sits at x = 3 m and moves 8e-10 m at
 /// F0 = 1 N, under noise spikes of 4e-9 m (rtol × 3 m). Before, `nfr` reported 9 peaks of
 /// it between 19.69 and 20.89 rad/s (the system is linear: one resonance, block's).
 #[test]
 fn a_response_under_the_noise_has_no_peaks() {
-    let m = detune::Model::load(&common::data("weak_pair.toml"))
-        .unwrap()
-        .with_overrides(&[("F0".to_string(), "1".to_string())])
-        .unwrap();
-    let sys = detune::System::new(&m).unwrap();
-    let opts = NfrOptions::new(
-        "omega",
-        19.0,
-        21.0,
-        vec!["block2.x".into(), "block.x".into()],
-    );
-    let c = nfr(&sys, &opts, &|_, _| {}, &AtomicBool::new(false)).unwrap();
-    assert!(c.complete);
+    let (_, c) = data_curve("weak_pair.toml", "1", &["block2.x", "block.x"]);
     let got: Vec<&str> = c.peaks.iter().map(|p| p.response.as_str()).collect();
     assert_eq!(got, ["block.x"], "{:?}", c.peaks);
     assert!((c.peaks[0].omega - 19.887).abs() < 1e-3, "{:?}", c.peaks);
@@ -927,14 +934,7 @@ fn a_response_under_the_noise_has_no_peaks() {
 /// default atol, it was dropped.)
 #[test]
 fn a_tiny_resonance_keeps_its_peak() {
-    let m = detune::Model::load(&common::data("sdof.toml"))
-        .unwrap()
-        .with_overrides(&[("F0".to_string(), "3e-7".to_string())])
-        .unwrap();
-    let sys = detune::System::new(&m).unwrap();
-    let opts = NfrOptions::new("omega", 19.0, 21.0, vec!["block.x".into()]);
-    let c = nfr(&sys, &opts, &|_, _| {}, &AtomicBool::new(false)).unwrap();
-    assert!(c.complete);
+    let (sys, c) = data_curve("sdof.toml", "3e-7", &["block.x"]);
     assert_eq!(c.peaks.len(), 1, "{:?}", c.peaks);
     let w: Vec<f64> = (0..=2000).map(|k| 19.0 + 0.001 * k as f64).collect();
     let fr = detune::linear::frequency_response(&sys, "omega", &w, &["block.x".into()]).unwrap();

@@ -235,11 +235,7 @@ fn check_fold(f: &detune::periodic::continuation::Special, omega: f64, direction
 #[test]
 fn still_responses_have_no_peaks() {
     let path = concat!(env!("CARGO_MANIFEST_DIR"), "/models/inceptor.toml");
-    let sets = vec![("D0".to_string(), "0.1 mm".to_string())];
-    let m = detune::Model::load(path)
-        .unwrap()
-        .with_overrides(&sets)
-        .unwrap();
+    let m = common::with_sets(detune::Model::load(path).unwrap(), &[("D0", "0.1 mm")]);
     let sys = detune::System::new(&m).unwrap();
     let responses: Vec<String> = ["stick.y", "stick.z", "gearbox.x", "gearbox.y"]
         .map(String::from)

@@ -251,15 +251,13 @@ fn nonzero_plan(sys: &System, cols: &[Vec<(usize, usize)>], env: &Envelope) -> P
         sys.structural_zeros().into_iter().collect();
     let mut nz = Vec::new();
     // where each value by blocks sits in `nz`
-    let mut at = Vec::new();
+    let values = sys.blocks().iter().map(|b| b.val0 + b.rows * b.cols.len());
+    let mut at = vec![None; values.max().unwrap_or(0)];
     for b in sys.blocks() {
         let nc = b.cols.len();
         for r in 0..b.rows {
             for (ci, &j) in b.cols.iter().enumerate() {
                 let ia = b.val0 + r * nc + ci;
-                if at.len() <= ia {
-                    at.resize(ia + 1, None);
-                }
                 if !zeros.contains(&(b.row0 + r, j)) {
                     at[ia] = Some(nz.len());
                     nz.push([ia, j, b.row0 + r].map(|x| x as u32));
@@ -271,7 +269,7 @@ fn nonzero_plan(sys: &System, cols: &[Vec<(usize, usize)>], env: &Envelope) -> P
     for entries in cols {
         let kept: Vec<(usize, usize, usize)> = entries
             .iter()
-            .filter_map(|&(r, ia)| at.get(ia).copied().flatten().map(|e| (r, ia, e)))
+            .filter_map(|&(r, ia)| at[ia].map(|e| (r, ia, e)))
             .collect();
         for (k, &(ra, _, ea)) in kept.iter().enumerate() {
             for &(rb, ib, _) in &kept[..=k] {

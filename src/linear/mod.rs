@@ -197,6 +197,13 @@ pub struct C64 {
     pub im: f64,
 }
 
+impl C64 {
+    /// The modulus |z| (by `hypot`).
+    pub fn norm(&self) -> f64 {
+        self.re.hypot(self.im)
+    }
+}
+
 impl From<Complex<f64>> for C64 {
     fn from(c: Complex<f64>) -> Self {
         C64 { re: c.re, im: c.im }

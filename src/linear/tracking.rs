@@ -334,7 +334,7 @@ pub fn declared_macs(sys: &System, modal: &ModalAnalysis, index: usize) -> Vec<f
                     .map(|&i| Complex::new(md.shape[i].re, md.shape[i].im)),
             );
             // coordinates that do not move in the mode (rounding only): no match
-            let size = md.shape.iter().fold(0.0f64, |m, c| m.max(c.re.hypot(c.im)));
+            let size = md.shape.iter().fold(0.0f64, |m, c| m.max(c.norm()));
             if b.iter().all(|c| c.norm() <= 1e-9 * size) {
                 return 0.0;
             }

@@ -259,13 +259,12 @@ pub fn backbone(
     if let Some(asked) = opts.normalize.as_deref()
         && sys0.coordinates[r] != asked
     {
-        let size = |c: &crate::linear::C64| c.re.hypot(c.im);
-        let largest = md.shape.iter().map(size).fold(0.0, f64::max);
+        let largest = md.shape.iter().map(|c| c.norm()).fold(0.0, f64::max);
         let moving: Vec<&str> = md
             .shape
             .iter()
             .zip(&sys0.coordinates)
-            .filter(|(c, _)| size(c) > 1e-9 * largest)
+            .filter(|(c, _)| c.norm() > 1e-9 * largest)
             .map(|(_, name)| name.as_str())
             .collect();
         return Err(Error::request(

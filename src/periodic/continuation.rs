@@ -932,7 +932,6 @@ fn on_branch(n: &Node, nodes: &[Node], sys: &System) -> bool {
             (p - a.value) / (b.value - a.value)
         };
         let x: Vec<f64> = a.x.iter().zip(&b.x).map(|(u, v)| u + f * (v - u)).collect();
-        let tau = std::f64::consts::TAU;
         let d = x
             .iter()
             .zip(&n.point.x)
@@ -940,7 +939,7 @@ fn on_branch(n: &Node, nodes: &[Node], sys: &System) -> bool {
             .map(|(i, (u, v))| {
                 let e = u - v;
                 if i < sys.nq() && sys.is_angle(i) {
-                    (e - tau * (e / tau).round()).abs()
+                    crate::system::wrap_angle(e).abs()
                 } else {
                     e.abs()
                 }

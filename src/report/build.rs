@@ -745,12 +745,9 @@ pub fn build(inp: &ReportInputs) -> Result<Report> {
         // the coordinates some oscillating mode moves (a coordinate the constraints hold,
         // a slider's angle, would plot a line of zeros); the angles among them, else all
         let moves = |i: usize| {
-            oscillating.iter().any(|&(k, _)| {
-                m.modes[k]
-                    .shape
-                    .get(i)
-                    .is_some_and(|z| z.re.hypot(z.im) > 1e-9)
-            })
+            oscillating
+                .iter()
+                .any(|&(k, _)| m.modes[k].shape.get(i).is_some_and(|z| z.norm() > 1e-9))
         };
         let moving: Vec<usize> = (0..sys.n()).filter(|&i| moves(i)).collect();
         let angles: Vec<String> = moving

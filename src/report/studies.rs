@@ -76,8 +76,7 @@ pub fn default_varies(
                             b.modes.len() == m.modes.len()
                                 && b.modes.iter().zip(&m.modes).all(|(x, y)| {
                                     let (a, b) = (x.eigenvalue, y.eigenvalue);
-                                    (a.re - b.re).hypot(a.im - b.im)
-                                        <= 1e-12 * a.re.hypot(a.im).max(1e-300)
+                                    (a.re - b.re).hypot(a.im - b.im) <= 1e-12 * a.norm().max(1e-300)
                                 })
                         });
                         moves |= !same;

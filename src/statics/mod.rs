@@ -39,7 +39,7 @@ use crate::failure::Failure;
 pub use crate::linalg::{RANK_TOL, generalized_eigenvalues, null_space_of, solve_least_squares};
 use crate::linalg::{all_finite, amax};
 use crate::scalar::{Env, Scalar};
-use crate::system::System;
+use crate::system::{System, wrap_angle};
 use nalgebra::{DMatrix, DVector};
 use num_dual::{Dual64, HyperDual64};
 
@@ -1089,13 +1089,6 @@ fn nearest_seed<'s>(
         .iter()
         .min_by(|a, b| dist(a).total_cmp(&dist(b)))
         .expect("the start pose is a seed")
-}
-
-/// An angle in (−π, π].
-fn wrap_angle(a: f64) -> f64 {
-    let tau = std::f64::consts::TAU;
-    let r = a.rem_euclid(tau);
-    if r > std::f64::consts::PI { r - tau } else { r }
 }
 
 /// x ⊕ s·dx for x = (q, λ, …): the coordinates through the system's retraction, the

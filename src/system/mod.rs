@@ -107,6 +107,13 @@ pub struct InitialGuess {
     pub v_given: Vec<bool>,
 }
 
+/// An angle in (−π, π].
+pub fn wrap_angle(a: f64) -> f64 {
+    let tau = std::f64::consts::TAU;
+    let r = a.rem_euclid(tau);
+    if r > std::f64::consts::PI { r - tau } else { r }
+}
+
 /// Compiled equations of motion of one model, with live parameters.
 #[derive(Debug, Clone)]
 pub struct System {
@@ -336,13 +343,11 @@ impl System {
     /// sequence of angles (their tangent components are their coordinates' differences);
     /// a free body's rotation vector is already the shortest (the quaternion logarithm).
     pub fn wrap_angles(&self, d: &mut [f64]) {
-        let tau = std::f64::consts::TAU;
         for b in &self.bodies {
             if let BodyKind::Planar | BodyKind::Spatial { .. } = b.kind {
                 for i in 0..self.body_nv(b) {
                     if self.is_angle(b.offset + i) {
-                        let r = d[b.voff + i].rem_euclid(tau);
-                        d[b.voff + i] = if r > 0.5 * tau { r - tau } else { r };
+                        d[b.voff + i] = wrap_angle(d[b.voff + i]);
                     }
                 }
             }
