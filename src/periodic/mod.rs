@@ -321,8 +321,15 @@ impl Shooting {
         let period = self.period();
         let p = self.value();
         let dp = 1e-6 * p.abs().max(1e-3);
+        // The parameter column by central differences where the directions are, and
+        // wherever the motion is small against its coordinates (`fit_to_motion`): its
+        // derivative ∂F/∂p is then as small as the forcing, while the rounding of F is
+        // that of the static loads, and a forward difference at √ε scatters the column
+        // (the linear inceptor at 0.1 mm: by ±40 % from one point to the next, which
+        // turned the tangent by up to 40° and stalled the curve at 27.67 rad/s).
+        let p_central = self.opts.central || self.fit < 1.0;
         // the parameter column's own step: √ε for a forward difference
-        let dp_column = if self.opts.central {
+        let dp_column = if p_central {
             dp
         } else {
             FD_STEP_FORWARD * p.abs().max(1e-3)
@@ -341,7 +348,7 @@ impl Shooting {
             None
         };
         let perturbed = if with_dp {
-            let down = if self.opts.central { p - dp } else { p };
+            let down = if p_central { p - dp } else { p };
             Some((
                 self.sys.with_param(self.param, p + dp_column)?,
                 self.sys.with_param(self.param, down)?,
@@ -352,11 +359,7 @@ impl Shooting {
         let ode = Variational {
             base: ConstrainedOde::new(&self.sys),
             perturbed: perturbed.as_ref().map(|(a, b)| {
-                let width = if self.opts.central {
-                    2.0 * dp
-                } else {
-                    dp_column
-                };
+                let width = if p_central { 2.0 * dp } else { dp_column };
                 (ConstrainedOde::new(a), ConstrainedOde::new(b), width)
             }),
             n2,
@@ -365,6 +368,7 @@ impl Shooting {
             buf: RefCell::new((vec![0.0; n2], vec![0.0; n2], vec![0.0; n2], vec![0.0; n2])),
             tiny: 1e-6 * self.opts.atol,
             central: self.opts.central,
+            p_central,
         };
         let cols = k + usize::from(with_dp);
         let mut y0 = vec![0.0; n2 * (1 + cols)];
@@ -594,6 +598,8 @@ struct Variational<'a> {
     tiny: f64,
     /// Central differences (else forward).
     central: bool,
+    /// The parameter column by central differences (else forward; `Shooting::flow`).
+    p_central: bool,
 }
 
 /// The shooting's absolute tolerance with Radau IIA, as a fraction of the one asked for.
@@ -629,7 +635,7 @@ impl ODE<f64, Vec<f64>> for Variational<'_> {
             let norm = crate::linalg::amax(col);
             let finite = norm.is_finite();
             // the difference step that suits the column alone (infinite for a zero column)
-            let natural = if self.central {
+            let natural = if self.central || (j == self.k && self.p_central) {
                 FD_STEP
             } else {
                 FD_STEP_FORWARD
@@ -644,14 +650,14 @@ impl ODE<f64, Vec<f64>> for Variational<'_> {
             if j == self.k
                 && let Some((plus, minus, width)) = &self.perturbed
             {
-                let half = if self.central { 0.5 } else { 1.0 };
+                let half = if self.p_central { 0.5 } else { 1.0 };
                 let h = half * width / self.tiny;
                 if finite && h <= MERGED_STEP_RATIO * natural {
                     for i in 0..n2 {
                         xs[i] = y[i] + h * col[i];
                     }
                     plus.diff(t, xs, up);
-                    if self.central {
+                    if self.p_central {
                         for i in 0..n2 {
                             xs[i] = y[i] - h * col[i];
                         }
@@ -703,7 +709,7 @@ impl ODE<f64, Vec<f64>> for Variational<'_> {
             {
                 xs.copy_from_slice(&y[..n2]);
                 plus.diff(t, xs, up);
-                if self.central {
+                if self.p_central {
                     minus.diff(t, xs, down);
                     evals += 2;
                 } else {
