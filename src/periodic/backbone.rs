@@ -340,8 +340,9 @@ pub fn backbone(
     // to `first` at the reference coordinate), as `nfr` measures it
     // (`Shooting::fit_to_motion`)
     let size = crate::linalg::amax(&eq);
-    let motion = first / phi[r].abs() * phi.iter().map(|c| c * c).sum::<f64>().sqrt() / size;
-    sh.fit_to_motion(motion);
+    let displacement = first / phi[r].abs() * phi.iter().map(|c| c * c).sum::<f64>().sqrt();
+    let motion = displacement / size;
+    sh.fit_to_motion(motion, displacement);
     let mut ctx = Ctx {
         sh,
         n,

@@ -606,7 +606,14 @@ pub fn nfr(
     let motion = smallest / crate::linalg::amax(&eq.q);
     let undamped = lin.damping.iter().all(|c| *c == 0.0);
     let mut tr = Tracer {
-        sh: Shooting::fitted(&sys0, param, &responses, opts.shooting.clone(), motion)?,
+        sh: Shooting::fitted(
+            &sys0,
+            param,
+            &responses,
+            opts.shooting.clone(),
+            motion,
+            smallest,
+        )?,
         max_step: opts.max_step,
         sx,
         sp,
@@ -676,7 +683,14 @@ pub fn nfr(
     if let Some((sys1, guess)) = far {
         let guess = (guess.eq, guess.x);
         let mut end_tr = Tracer {
-            sh: Shooting::fitted(&sys1, param, &responses, opts.shooting.clone(), motion)?,
+            sh: Shooting::fitted(
+                &sys1,
+                param,
+                &responses,
+                opts.shooting.clone(),
+                motion,
+                smallest,
+            )?,
             max_step: opts.max_step,
             sx: tr.sx,
             sp: tr.sp,

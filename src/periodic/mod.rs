@@ -230,28 +230,38 @@ impl Shooting {
     }
 
     /// `Shooting::new`, its tolerances fitted to a motion `ratio` of its coordinates'
-    /// size (`fit_to_motion`).
+    /// size and of displacement `size` (`fit_to_motion`).
     pub fn fitted(
         sys: &System,
         param: usize,
         responses: &[Output],
         opts: ShootingOptions,
         ratio: f64,
+        size: f64,
     ) -> Result<Shooting> {
         let mut sh = Shooting::new(sys, param, responses, opts)?;
-        sh.fit_to_motion(ratio);
+        sh.fit_to_motion(ratio, size);
         Ok(sh)
     }
 
-    /// Tolerances for a motion small against its coordinates. The integration's error
-    /// control and the drift projection are relative to the coordinates' values (or
-    /// absolute), the Newton iteration to the orbit's amplitude: where the orbit is a
-    /// small fraction `ratio` of its coordinates (its displacement's norm against the largest
-    /// coordinate: the overcentre's lower well at F0 = 1e-4 N over 1.5–5 rad/s, 7.6e-7),
-    /// the integration's error is larger than the Newton tolerance and the curve stalls.
-    /// Below `SMALL_MOTION` the tolerances and the drift threshold are scaled down by
-    /// ratio / `SMALL_MOTION`; above it nothing changes.
-    pub fn fit_to_motion(&mut self, ratio: f64) {
+    /// Tolerances for a small motion. The integration's error control and the drift
+    /// projection are relative to the coordinates' values or absolute, the Newton
+    /// iteration relative to the orbit's amplitude:
+    /// * where the orbit is a small fraction `ratio` of its coordinates (its
+    ///   displacement's norm against the largest coordinate: the overcentre's lower well
+    ///   at F0 = 1e-4 N over 1.5–5 rad/s, 7.6e-7), the integration's error is larger than
+    ///   the Newton tolerance and the curve stalls. Below `SMALL_MOTION` the tolerances
+    ///   and the drift threshold are scaled down by ratio / `SMALL_MOTION`; above it
+    ///   nothing changes.
+    /// * the absolute tolerance is held to rtol / `SMALL_MOTION` (100·rtol) of the
+    ///   displacement `size` (the norm over the positions, SI), as the first rule holds
+    ///   the relative one, and the drift threshold scaled with it. A mechanism about the
+    ///   origin has no coordinates for `ratio` to be relative to (infinite), and only this
+    ///   applies: the forced Duffing oscillator at F0 = 1e-7 N moves 2e-8 m, and with the
+    ///   curve's atol of 1e-10 its Newton residual stayed near 4e-3 of the orbit and the
+    ///   curve stalled at 1.53 rad/s.
+    pub fn fit_to_motion(&mut self, ratio: f64, size: f64) {
+        let (rtol, atol) = (self.opts.rtol, self.opts.atol);
         let g = ratio / SMALL_MOTION;
         if g < 1.0 {
             // (no tighter than RTOL_MIN: below it the steps shrink to the rounding)
@@ -259,6 +269,14 @@ impl Shooting {
             self.opts.atol = (self.opts.atol * g).max(1e-3 * RTOL_MIN.min(self.opts.atol));
             self.drift = (self.drift * g).max(1e-15);
             self.fit = g;
+        }
+        // (no tighter than the first rule's floor: a motion of 2e-13 rad of the
+        // overcentre's 2 m bars, which cannot converge, took a minute to say so)
+        let cap = (rtol / SMALL_MOTION * size).max(1e-3 * RTOL_MIN.min(atol));
+        if size > 0.0 && cap < self.opts.atol {
+            let ga = cap / self.opts.atol;
+            self.opts.atol = cap;
+            self.drift = (self.drift * ga).max(1e-15).min(self.drift);
         }
     }
 
