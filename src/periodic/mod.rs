@@ -65,7 +65,9 @@ pub struct ShootingOptions {
     pub tol: f64,
     /// The variational columns by central differences of the right-hand side (error
     /// ~1e-11 of a column, 2 evaluations a column); false: forward differences (~1e-8,
-    /// 1 evaluation), enough for Newton's matrix and the tangent, not for locating.
+    /// 1 evaluation), enough for Newton's matrix and the tangent, not for locating. (The
+    /// continued parameter's column is central also where the tolerances were fitted to a
+    /// small motion: `Shooting::flow`.)
     pub central: bool,
     /// The integrator of the periods and their variational equations: DOP853, or Radau
     /// IIA for a stiff model.
@@ -593,8 +595,8 @@ pub fn multipliers(monodromy: &DMatrix<f64>) -> Vec<Complex<f64>> {
 /// The state and its variational columns as one first-order system.
 struct Variational<'a> {
     base: ConstrainedOde<'a>,
-    /// The right-hand side at p + dp and at p − dp (central) or p (forward), and the
-    /// difference of the two parameter values.
+    /// The right-hand side at p + dp and at p − dp (central: `p_central`) or p
+    /// (forward), and the difference of the two parameter values.
     perturbed: Option<(ConstrainedOde<'a>, ConstrainedOde<'a>, f64)>,
     n2: usize,
     /// Direction columns (the parameter column follows them).
@@ -653,7 +655,7 @@ impl ODE<f64, Vec<f64>> for Variational<'_> {
             let norm = crate::linalg::amax(col);
             let finite = norm.is_finite();
             // the difference step that suits the column alone (infinite for a zero column)
-            let natural = if self.central || (j == self.k && self.p_central) {
+            let natural = if self.central {
                 FD_STEP
             } else {
                 FD_STEP_FORWARD
@@ -670,7 +672,14 @@ impl ODE<f64, Vec<f64>> for Variational<'_> {
             {
                 let half = if self.p_central { 0.5 } else { 1.0 };
                 let h = half * width / self.tiny;
-                if finite && h <= MERGED_STEP_RATIO * natural {
+                // (against the step of a difference of the merged one's kind: central
+                // where the parameter's part is, though the directions are forward)
+                let own = if self.p_central {
+                    FD_STEP * size / norm
+                } else {
+                    natural
+                };
+                if finite && h <= MERGED_STEP_RATIO * own {
                     for i in 0..n2 {
                         xs[i] = y[i] + h * col[i];
                     }
