@@ -19,6 +19,8 @@
 //! the folds within 1 % of the located ones (it is an approximation: it neglects the
 //! third harmonic, ~1 % of the response here), computed below from the formula alone.
 
+mod common;
+
 use detune::periodic::continuation::{Nfr, NfrOptions, NfrPoint, nfr};
 use detune::periodic::{Shooting, ShootingOptions, multipliers};
 use nalgebra::{DMatrix, DVector};
@@ -310,14 +312,7 @@ fn a_tiny_motion_about_the_origin_is_traced() {
     let c = nfr(&sys, &opts, &|_, _| {}, &AtomicBool::new(false)).unwrap();
     assert!(c.complete, "{:?}", c.branches);
     assert!(c.folds.is_empty(), "{:?}", c.folds);
-    let w: Vec<f64> = c.points.iter().map(|p| p.omega).collect();
-    let fr = detune::linear::frequency_response(&sys, "omega", &w, &[RESPONSE.into()]).unwrap();
-    let worst = c
-        .points
-        .iter()
-        .zip(&fr.values)
-        .map(|(p, v)| (p.measures[0].amplitude / v[0].0 - 1.0).abs())
-        .fold(0.0, f64::max);
+    let worst = common::worst_against_frf(&sys, &c, RESPONSE);
     assert!(
         worst < 1e-5,
         "largest relative difference from frf {worst:.3e}"

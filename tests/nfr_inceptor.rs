@@ -279,14 +279,7 @@ fn a_small_base_motion_is_traced_across_the_range() {
         c.neimark_sacker
     );
     assert!(c.points.len() < 120, "{} points", c.points.len());
-    let w: Vec<f64> = c.points.iter().map(|p| p.omega).collect();
-    let fr = detune::linear::frequency_response(&sys, "omega", &w, &["stick.phi".into()]).unwrap();
-    let worst = c
-        .points
-        .iter()
-        .zip(&fr.values)
-        .map(|(p, v)| (p.measures[0].amplitude / v[0].0 - 1.0).abs())
-        .fold(0.0, f64::max);
+    let worst = common::worst_against_frf(&sys, &c, "stick.phi");
     assert!(
         worst < 1e-5,
         "largest relative difference from frf {worst:.3e}"

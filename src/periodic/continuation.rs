@@ -605,15 +605,18 @@ pub fn nfr(
     // (none for a mechanism about the origin)
     let motion = smallest / crate::linalg::amax(&eq.q);
     let undamped = lin.damping.iter().all(|c| *c == 0.0);
-    let mut tr = Tracer {
-        sh: Shooting::fitted(
-            &sys0,
+    let fitted = |s: &System| {
+        Shooting::fitted(
+            s,
             param,
             &responses,
             opts.shooting.clone(),
             motion,
             smallest,
-        )?,
+        )
+    };
+    let mut tr = Tracer {
+        sh: fitted(&sys0)?,
         max_step: opts.max_step,
         sx,
         sp,
@@ -683,14 +686,7 @@ pub fn nfr(
     if let Some((sys1, guess)) = far {
         let guess = (guess.eq, guess.x);
         let mut end_tr = Tracer {
-            sh: Shooting::fitted(
-                &sys1,
-                param,
-                &responses,
-                opts.shooting.clone(),
-                motion,
-                smallest,
-            )?,
+            sh: fitted(&sys1)?,
             max_step: opts.max_step,
             sx: tr.sx,
             sp: tr.sp,

@@ -136,3 +136,19 @@ pub fn run_within_20s(dir: &Path, args: &[&str]) -> (Option<i32>, String, String
         std::fs::read_to_string(&err_path).unwrap(),
     )
 }
+
+/// The largest relative difference of an `nfr` curve's amplitudes (its first response,
+/// `response`) from the linear response (`frf`) at its points' frequencies.
+pub fn worst_against_frf(
+    sys: &detune::System,
+    c: &detune::periodic::continuation::Nfr,
+    response: &str,
+) -> f64 {
+    let w: Vec<f64> = c.points.iter().map(|p| p.omega).collect();
+    let fr = detune::linear::frequency_response(sys, "omega", &w, &[response.into()]).unwrap();
+    c.points
+        .iter()
+        .zip(&fr.values)
+        .map(|(p, v)| (p.measures[0].amplitude / v[0].0 - 1.0).abs())
+        .fold(0.0, f64::max)
+}
