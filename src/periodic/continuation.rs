@@ -2191,7 +2191,7 @@ impl Tracer<'_> {
                 // (floored as in `Tracer::correct`: below it a small motion's period
                 // shrinks its steps to the rounding of its large coordinates and meets
                 // its step limit; sdof's peak at F0 = 3e-7 N went unrefined, ± 0.048)
-                o.atol = (o.atol * f).max(0.01 * floor);
+                o.atol = (o.atol * f).max((0.01 * floor).min(o.atol));
                 o.samples = samples.unwrap_or(o.samples);
             },
             f,
