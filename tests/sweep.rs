@@ -361,3 +361,56 @@ fn still_responses_have_no_peaks() {
     ]);
     assert_eq!(narrow, [("block.x".to_string(), 19.887)]);
 }
+
+/// A motion small against the integration's tolerances settles: its tolerances are
+/// fitted to the linear response's smallest motion, as `nfr`'s are. The forced Duffing
+/// oscillator about the origin at F0 = 1e-7 N (2e-8–5e-7 m against the default atol of
+/// 1e-12 m) settled at none of 1.8–2.2 rad/s within 600 periods; the overcentre's lower
+/// well at F0 = 1e-4 N (about 1e-5 rad, its bars 2 m long) took 330 periods a frequency
+/// and left one unsettled. Both are linear at this forcing: each amplitude is `frf`'s.
+#[test]
+fn a_small_motion_settles() {
+    let cases = [
+        (
+            detune::Model::load(&common::data("duffing_forced.toml")).unwrap(),
+            &[("F0", "1e-7")][..],
+            "body.x",
+            vec![1.8, 1.9, 2.0, 2.1, 2.2],
+        ),
+        (
+            common::overcentre(&[]),
+            &[("theta1_0", "-0.85"), ("c", "1"), ("F0", "1e-4")][..],
+            "bar1.theta",
+            vec![2.0, 2.5, 3.0, 3.5, 4.0],
+        ),
+    ];
+    for (m, sets, response, values) in cases {
+        let sys = System::new(&common::with_sets(m, sets)).unwrap();
+        let opts = SweepOptions {
+            param: "omega".into(),
+            values: values.clone(),
+            mode: SweepMode::Independent,
+            responses: vec![response.into()],
+            refine: None,
+            steady: SteadyOptions::default(),
+        };
+        let s = sweep(&sys, &opts, &|_| {}, &AtomicBool::new(false)).unwrap();
+        let fr = frequency_response(&sys, "omega", &values, &[response.into()]).unwrap();
+        for (p, v) in s.points.iter().zip(&fr.values) {
+            assert!(
+                p.steady.settled && p.steady.periods < 100,
+                "{response} at {}: settled {} after {} periods",
+                p.steady.omega,
+                p.steady.settled,
+                p.steady.periods
+            );
+            let a = p.steady.measures[0].amplitude;
+            assert!(
+                (a / v[0].0 - 1.0).abs() < 1e-5,
+                "{response} at {}: {a} against frf {}",
+                p.steady.omega,
+                v[0].0
+            );
+        }
+    }
+}
