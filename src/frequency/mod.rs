@@ -802,64 +802,6 @@ pub fn prepare(sys: &System, opts: &SweepOptions) -> Result<(System, Vec<Output>
     Ok((sys0, responses, eq))
 }
 
-/// A sweep's tolerances fitted to its motion, as `nfr`'s are
-/// (`periodic::fit_tolerances`), at each frequency from the linear response's
-/// displacement there (so a frequency's answer does not depend on the grid around it):
-/// below 1 % of the equilibrium's largest coordinate, and absolutely. A steady state
-/// settles to its tolerance only where the integration's error is well below it relative
-/// to the motion: the forced Duffing oscillator (about the origin) at F0 = 1e-7 N, 2e-8 m
-/// of motion against the default atol of 1e-12 m, settled at none of 1.8–2.2 rad/s in 600
-/// periods; the overcentre at F0 = 1e-4 N (1e-5 rad about its 2 m bars) took 330 periods
-/// a frequency, one not settled. Unchanged where the motion is not small (above 1 % of
-/// the coordinates, and 100·rtol of it above atol), where it is below 5e-7 of the
-/// coordinates (beyond double precision: sdof at F0 = 3e-7 N took 168 s fitted, against
-/// 0.1 s, and settled no better), and where the linear response cannot be computed.
-/// `settle_tol` is not changed.
-struct FittedSteady {
-    given: SteadyOptions,
-    /// The linearization about the equilibrium, its forcing, the number of positions and
-    /// the equilibrium's largest coordinate.
-    linear: Option<(
-        crate::linear::Linearization,
-        crate::linear::Forcing,
-        usize,
-        f64,
-    )>,
-}
-
-impl FittedSteady {
-    fn new(sys0: &System, eq: &Equilibrium, opts: &SweepOptions) -> FittedSteady {
-        let linear = Statics::new(sys0, &eq.q).ok().and_then(|st| {
-            let forcing =
-                crate::linear::harmonic_forcing(sys0, eq, &st.rows, &opts.param, opts.values[0])
-                    .ok()?;
-            let lin = crate::linear::Linearization::new(&st, eq);
-            Some((lin, forcing, sys0.nq(), amax(&eq.q)))
-        });
-        FittedSteady {
-            given: opts.steady.clone(),
-            linear,
-        }
-    }
-
-    /// The options at forcing frequency `omega`.
-    fn at(&self, omega: f64) -> SteadyOptions {
-        let mut steady = self.given.clone();
-        let Some((lin, forcing, n, size)) = &self.linear else {
-            return steady;
-        };
-        let Ok(y) = lin.response(omega, forcing) else {
-            return steady;
-        };
-        let d = (0..*n).map(|i| y[i].norm_sqr()).sum::<f64>().sqrt();
-        if d.is_finite() && d >= crate::periodic::TOO_SMALL_MOTION * size {
-            let f = crate::periodic::fit_tolerances(steady.rtol, steady.atol, d / size, d);
-            (steady.rtol, steady.atol) = (f.rtol, f.atol);
-        }
-        steady
-    }
-}
-
 /// Run a sweep. `progress` is called with the number of frequencies done (coarse grid
 /// and refinement); `cancel` stops it within one integration step, returning what was computed with
 /// `complete = false`. A frequency whose steady state cannot be computed is an error (its
@@ -932,7 +874,6 @@ pub fn sweep_logged_partial(
     // the first stiff integration, told once (the steady states run in parallel)
     let stiffness: std::sync::OnceLock<StiffAt> = std::sync::OnceLock::new();
     let (sys0, responses, eq) = prepare(sys, opts)?;
-    let fitted = FittedSteady::new(&sys0, &eq, opts);
     let index = sys0.forcing_param().expect("checked by prepare");
     // the wells: the statics under the loads' mean, the same at every ω of the sweep
     let wells = wells::Wells::find(&sys0, &eq);
@@ -971,8 +912,7 @@ pub fn sweep_logged_partial(
                 stiff(at);
             }
         };
-        let steady = fitted.at(omega);
-        let st = steady_state_watched(&s, &start, &responses, &steady, cancel, &found)
+        let st = steady_state_watched(&s, &start, &responses, &opts.steady, cancel, &found)
             .map_err(|e| e.context(&format!("{} = {omega}", opts.param)))?;
         rhs_evaluations.fetch_add(st.rhs_evaluations, Ordering::SeqCst);
         Ok(st)

@@ -263,14 +263,22 @@ impl Shooting {
     ///   curve's atol of 1e-10 its Newton residual stayed near 4e-3 of the orbit and the
     ///   curve stalled at 1.53 rad/s.
     pub fn fit_to_motion(&mut self, ratio: f64, size: f64) {
-        let f = fit_tolerances(self.opts.rtol, self.opts.atol, ratio, size);
-        (self.opts.rtol, self.opts.atol) = (f.rtol, f.atol);
-        if f.fit < 1.0 {
-            self.drift = (self.drift * f.fit).max(1e-15);
-            self.fit = f.fit;
+        let (rtol, atol) = (self.opts.rtol, self.opts.atol);
+        let g = ratio / SMALL_MOTION;
+        if g < 1.0 {
+            // (no tighter than RTOL_MIN: below it the steps shrink to the rounding)
+            self.opts.rtol = (self.opts.rtol * g).max(RTOL_MIN.min(self.opts.rtol));
+            self.opts.atol = (self.opts.atol * g).max(1e-3 * RTOL_MIN.min(self.opts.atol));
+            self.drift = (self.drift * g).max(1e-15);
+            self.fit = g;
         }
-        if f.absolute < 1.0 {
-            self.drift = (self.drift * f.absolute).max(1e-15).min(self.drift);
+        // (no tighter than the first rule's floor: a motion of 2e-13 rad of the
+        // overcentre's 2 m bars, which cannot converge, took a minute to say so)
+        let cap = (rtol / SMALL_MOTION * size).max(1e-3 * RTOL_MIN.min(atol));
+        if size > 0.0 && cap < self.opts.atol {
+            let ga = cap / self.opts.atol;
+            self.opts.atol = cap;
+            self.drift = (self.drift * ga).max(1e-15).min(self.drift);
         }
     }
 
@@ -567,45 +575,6 @@ impl Shooting {
     pub fn newton_tol_at(&self, growth: f64, x: &[f64], scale: &[f64]) -> f64 {
         self.opts.newton_tol(growth).max(self.rounding(x, scale))
     }
-}
-
-/// Tolerances fitted to a small motion ([`Shooting::fit_to_motion`] has the rules).
-#[derive(Debug, Clone, Copy)]
-pub(crate) struct Fitted {
-    pub rtol: f64,
-    pub atol: f64,
-    /// The factor of the first rule (the motion against its coordinates; 1: none).
-    pub fit: f64,
-    /// The absolute tolerance's own factor after it (1: none).
-    pub absolute: f64,
-}
-
-/// `rtol` and `atol` fitted to a motion `ratio` of its coordinates' size and of
-/// displacement `size` (SI): the rules of [`Shooting::fit_to_motion`], shared with the
-/// stepped sine (`frequency::sweep`), whose settling tolerance stands to its rtol as the
-/// curve's Newton tolerance does (100×).
-pub(crate) fn fit_tolerances(rtol: f64, atol: f64, ratio: f64, size: f64) -> Fitted {
-    let mut out = Fitted {
-        rtol,
-        atol,
-        fit: 1.0,
-        absolute: 1.0,
-    };
-    let g = ratio / SMALL_MOTION;
-    if g < 1.0 {
-        // (no tighter than RTOL_MIN: below it the steps shrink to the rounding)
-        out.rtol = (rtol * g).max(RTOL_MIN.min(rtol));
-        out.atol = (atol * g).max(1e-3 * RTOL_MIN.min(atol));
-        out.fit = g;
-    }
-    // (no tighter than the first rule's floor: a motion of 2e-13 rad of the
-    // overcentre's 2 m bars, which cannot converge, took a minute to say so)
-    let cap = (rtol / SMALL_MOTION * size).max(1e-3 * RTOL_MIN.min(atol));
-    if size > 0.0 && cap < out.atol {
-        out.absolute = cap / out.atol;
-        out.atol = cap;
-    }
-    out
 }
 
 /// Floquet multipliers: the eigenvalues of the monodromy on the manifold, sorted by
