@@ -602,9 +602,9 @@ pub fn nfr(
     let sx = sx.max(1e-12);
     // the motion against its coordinates' values (`Shooting::fit_to_motion`): the
     // smallest displacement over the range against the equilibrium's largest coordinate
-    // (none for a mechanism about the origin); and absolutely, where the velocities'
-    // are smaller below 1 rad/s (the Duffing at F0 = 1e-7 N over 0.05–0.3 rad/s stalled
-    // at 0.0525 rad/s with a false peak)
+    // (none for a mechanism about the origin); and absolutely, times the slowest
+    // frequency below 1 rad/s, where the velocities are the smaller motion (the Duffing
+    // at F0 = 1e-7 N over 0.05–0.3 rad/s stalled at 0.0525 rad/s with a false peak)
     let motion = smallest / crate::linalg::amax(&eq.q);
     let undamped = lin.damping.iter().all(|c| *c == 0.0);
     let fitted = |s: &System| {

@@ -259,7 +259,9 @@ impl Shooting {
     ///   and the drift threshold are scaled down by ratio / `SMALL_MOTION`; above it
     ///   nothing changes.
     /// * the absolute tolerance is held to rtol / `SMALL_MOTION` (100·rtol) of the
-    ///   displacement `size` (the norm over the positions, SI), as the first rule holds
+    ///   motion's `size` (the norm of its displacement over the positions, SI; `nfr`
+    ///   gives it times the slowest frequency where that is below 1 rad/s, for the
+    ///   velocities), as the first rule holds
     ///   the relative one, and the drift threshold scaled with it. A mechanism about the
     ///   origin has no coordinates for `ratio` to be relative to (infinite), and only this
     ///   applies: the forced Duffing oscillator at F0 = 1e-7 N moves 2e-8 m, and with the
