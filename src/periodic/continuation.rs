@@ -1652,10 +1652,7 @@ impl Tracer<'_> {
         }
         let floor = self.sh.rtol_floor();
         self.with_options(
-            |o| {
-                o.rtol = (o.rtol * f).max(floor);
-                o.atol = (o.atol * f).max((0.01 * floor).min(o.atol));
-            },
+            |o| tighten(o, f, floor),
             |t| t.correct_at(base, curvature, ds, fixed),
         )
     }
@@ -2189,11 +2186,7 @@ impl Tracer<'_> {
                 } else {
                     PRECISE
                 };
-                o.rtol = (o.rtol * f).max(floor);
-                // (floored as in `Tracer::correct`: below it a small motion's period
-                // shrinks its steps to the rounding of its large coordinates and meets
-                // its step limit; sdof's peak at F0 = 3e-7 N went unrefined, ± 0.048)
-                o.atol = (o.atol * f).max((0.01 * floor).min(o.atol));
+                tighten(o, f, floor);
                 o.samples = samples.unwrap_or(o.samples);
             },
             f,
@@ -2491,6 +2484,17 @@ impl Tracer<'_> {
         };
         Ok(best.point.stable.then_some((best, u, refined)))
     }
+}
+
+/// The shooting's tolerances `f` (< 1) times tighter: rtol no tighter than `floor`
+/// (`Shooting::rtol_floor`), atol no tighter than 0.01 of it, and never looser than it
+/// was (below that floor a small motion's period shrinks its steps to the rounding of
+/// its large coordinates and meets its step limit: sdof's peak at F0 = 3e-7 N went
+/// unrefined, ± 0.048 rad/s). For unstable orbits (`Tracer::correct`) and the located
+/// points (`Tracer::precise`).
+fn tighten(o: &mut ShootingOptions, f: f64, floor: f64) {
+    o.rtol = (o.rtol * f).max(floor);
+    o.atol = (o.atol * f).max((0.01 * floor).min(o.atol));
 }
 
 /// The uncertainty of a peak's place: an amplitude known to `da` (the orbits' accepted

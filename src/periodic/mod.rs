@@ -261,8 +261,8 @@ impl Shooting {
     /// * the absolute tolerance is held to rtol / `SMALL_MOTION` (100·rtol) of the
     ///   motion's `size` (the norm of its displacement over the positions, SI; `nfr`
     ///   gives it times the slowest frequency where that is below 1 rad/s, for the
-    ///   velocities), as the first rule holds
-    ///   the relative one, and the drift threshold scaled with it. A mechanism about the
+    ///   velocities), as the first rule holds the relative one, and the drift threshold
+    ///   is scaled with it. A mechanism about the
     ///   origin has no coordinates for `ratio` to be relative to (infinite), and only this
     ///   applies: the forced Duffing oscillator at F0 = 1e-7 N moves 2e-8 m, and with the
     ///   curve's atol of 1e-10 its Newton residual stayed near 4e-3 of the orbit and the
