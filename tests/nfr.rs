@@ -405,6 +405,14 @@ fn command_outputs_and_bad_input() {
     // the located points' uncertainty and the branches' ends are in the parameter's unit
     assert_eq!(j["units"]["uncertainty"], "rad/s");
     assert_eq!(j["units"]["from"], "rad/s");
+    // how each branch ended, with the value's unit (`reached omega = 4.2 rad/s`)
+    for b in j["branches"].as_array().unwrap() {
+        let end = b["end"].as_str().unwrap();
+        assert!(
+            end.ends_with(" rad/s"),
+            "a branch's end without its unit: {end}"
+        );
+    }
     assert!(j["folds"][0]["uncertainty"].as_f64().unwrap() < 1e-8);
     assert_eq!(j["folds"][0]["refined"], true);
     let head = std::fs::read_to_string(&csv).unwrap();

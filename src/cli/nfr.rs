@@ -295,7 +295,16 @@ pub fn run(a: NfrArgs) -> Result<()> {
             )
         },
     );
-    let curve = curve?;
+    let mut curve = curve?;
+    // how each branch ended, in the JSON: its values with their SI unit (the library's
+    // words carry the bare number)
+    let si_unit = match param_unit.as_str() {
+        "" | "1" => String::new(),
+        u => format!(" {u}"),
+    };
+    for b in &mut curve.branches {
+        b.end = b.words(&pn, &|v| format!("{v}{si_unit}"));
+    }
     if curve.complete && a.backbone.is_empty() {
         // the whole curve: a signal from now on stops nothing
         super::results_complete();
