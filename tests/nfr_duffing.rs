@@ -361,3 +361,77 @@ fn tiny_motions_about_the_origin_off_resonance() {
         assert!(worst < 1e-4, "F0 = {f0}, {from}–{to}: {worst:.3e} from frf");
     }
 }
+
+/// A forcing frequency that is an expression of the continued parameter (`omega =
+/// w0/4`, continued in w0): the period moves with the parameter, and its term in the
+/// shooting residual's parameter column, −(T/ω)·(dω/dp)·f at the period's end, was
+/// added only where the parameter was ω itself. Without it every curve of this kind
+/// crawled: at F0 = 1e-7, 1e-5, 1e-3 and 0.15 N, 3000 points and the point limit
+/// after w0 had moved from 2 to 1.989 rad/s. Now: the linear regime against the closed
+/// form, a nonlinear point against the same orbit continued in ω at a fixed w0, and a
+/// range on which ω would reach zero refused before any work.
+#[test]
+fn a_forcing_frequency_that_follows_the_continued_parameter() {
+    let with = |sets: &[(&str, &str)]| {
+        let m = detune::Model::load(MODEL)
+            .unwrap()
+            .with_overrides(
+                &sets
+                    .iter()
+                    .map(|(k, v)| (k.to_string(), v.to_string()))
+                    .collect::<Vec<_>>(),
+            )
+            .unwrap();
+        detune::System::new(&m).unwrap()
+    };
+    let never = AtomicBool::new(false);
+    // the linear regime: |x| = F0 / |w0² − ω² + i c ω| (1 kg), ω = w0/4
+    let sys = with(&[("F0", "1e-7"), ("omega", "w0/4")]);
+    let opts = NfrOptions::new("w0", 2.0, 0.2, vec![RESPONSE.into()]);
+    let c = nfr(&sys, &opts, &|_, _| {}, &never).unwrap();
+    assert!(c.complete, "{:?}", c.branches);
+    assert!(c.points.len() <= 60, "{} points", c.points.len());
+    let mut worst = 0.0f64;
+    for p in &c.points {
+        let (w0, w) = (p.value, p.omega);
+        assert!((w - w0 / 4.0).abs() < 1e-14 * w0, "ω {w} at w0 {w0}");
+        let exact = 1e-7 / ((w0 * w0 - w * w).powi(2) + (C * w).powi(2)).sqrt();
+        worst = worst.max((p.measures[0].amplitude / exact - 1.0).abs());
+    }
+    assert!(
+        worst < 1e-5,
+        "largest relative difference from the closed form {worst:.3e}"
+    );
+    // nonlinear, ω = w0/2: a point equals the orbit continued in ω at that w0 (near
+    // w0 = 1.3, where β x² is 4 % of w0²)
+    let sys = with(&[("omega", "w0/2")]);
+    let opts = NfrOptions::new("w0", 3.0, 1.0, vec![RESPONSE.into()]);
+    let c = nfr(&sys, &opts, &|_, _| {}, &never).unwrap();
+    assert!(c.complete, "{:?}", c.branches);
+    assert!(c.points.len() <= 60, "{} points", c.points.len());
+    let p = &c.points[c.points.len() * 4 / 5];
+    let fixed = with(&[("w0", &format!("{:e}", p.value))]);
+    let opts = NfrOptions::new("omega", p.omega, p.omega * 1.02, vec![RESPONSE.into()]);
+    let there = nfr(&fixed, &opts, &|_, _| {}, &never).unwrap();
+    let q = &there.points[0];
+    assert!(
+        (q.omega - p.omega).abs() < 1e-12,
+        "{} vs {}",
+        q.omega,
+        p.omega
+    );
+    let (a, b) = (p.measures[0].amplitude, q.measures[0].amplitude);
+    assert!(
+        (a / b - 1.0).abs() < 1e-6 && a > 0.1,
+        "w0 = {}: {a} continued in w0, {b} in ω",
+        p.value
+    );
+    // ω = w0 − 1 over 2 → 0.5: zero at w0 = 1, refused with where
+    let sys = with(&[("F0", "1e-3"), ("omega", "w0-1")]);
+    let opts = NfrOptions::new("w0", 2.0, 0.5, vec![RESPONSE.into()]);
+    let e = nfr(&sys, &opts, &|_, _| {}, &never)
+        .err()
+        .unwrap()
+        .to_string();
+    assert!(e.contains("positive") && e.contains("w0 = "), "{e}");
+}

@@ -552,10 +552,29 @@ pub fn nfr(
     } = linear_start(&sys0, freq, &omega_param)?;
     let omega0 = sys0.param(freq);
     // the longest period of the range, against the fastest motion of the linearization
+    // (the forcing frequency along the range where it is an expression of the continued
+    // parameter, `omega = w0/4` continued in w0; it must stay positive)
     let slowest = if param == freq {
         opts.from.min(opts.to)
     } else {
-        omega0
+        let mut slowest = omega0;
+        for j in 1..=20 {
+            let v = opts.from + (opts.to - opts.from) * j as f64 / 20.0;
+            let w = sys.with_param(param, v)?.param(freq);
+            if !(w > 0.0) {
+                return Err(Error::request(
+                    format!(
+                        "the forcing frequency {omega_param} is {} rad/s at {} = {}: a periodic orbit needs a positive one all along the range",
+                        crate::output::units::significant(w, 6),
+                        opts.param,
+                        crate::output::units::significant(v, 6)
+                    ),
+                    format!("end the range where {omega_param} is still positive (--from/--to)"),
+                ));
+            }
+            slowest = slowest.min(w);
+        }
+        slowest
     };
     if opts.shooting.integrator == crate::dynamics::integrator::Integrator::Dop853 {
         check_period(&lin, slowest)?;

@@ -234,6 +234,20 @@ impl Shooting {
         2.0 * std::f64::consts::PI / self.omega()
     }
 
+    /// dω/dp, the forcing frequency's rate with the continued parameter: 1 when it is
+    /// the forcing frequency, by automatic differentiation through the parameters'
+    /// expressions when ω is derived from it (`omega = w0/4` continued in w0), 0 when ω
+    /// does not depend on it.
+    pub fn omega_rate(&self) -> f64 {
+        if self.param == self.freq {
+            return 1.0;
+        }
+        let (params, _) = self
+            .sys
+            .seeded(self.param, num_dual::Dual64::new(self.value(), 1.0));
+        params[self.freq].eps
+    }
+
     /// `Shooting::new`, its tolerances fitted to a motion `ratio` of its coordinates'
     /// size and of displacement `size` (`fit_to_motion`).
     pub fn fitted(
@@ -522,11 +536,12 @@ impl Shooting {
         let jac = DMatrix::from_fn(n2, k, |i, j| last[n2 * (1 + j) + i] / tiny);
         let dp = with_dp.then(|| {
             let mut col = DVector::from_fn(n2, |i, _| last[n2 * (1 + k) + i] / tiny);
-            if self.param == self.freq {
-                // the period T = 2π/ω moves the end too: dT/dω = −T/ω
+            let domega = self.omega_rate();
+            if domega != 0.0 {
+                // the period T = 2π/ω moves the end too: dT/dp = −(T/ω)·dω/dp
                 let mut f = vec![0.0; n2];
                 ode.base.diff(period, &last[..n2].to_vec(), &mut f);
-                let dt = -period / self.sys.param(self.freq);
+                let dt = -period / self.sys.param(self.freq) * domega;
                 for i in 0..n2 {
                     col[i] += f[i] * dt;
                 }
