@@ -126,10 +126,15 @@ pub enum Invalid {
         /// Each kind of response of the model, described.
         kinds: Vec<String>,
     },
-    #[error(
-        "the forcing of this model does not depend on `{name}` (the frequency parameter); it turns at `{forcing}`"
-    )]
-    NotForcingFrequency { name: String, forcing: String },
+    /// `name` is not the forcing frequency. `definition`: the forcing frequency's
+    /// definition where it is derived from `name` (`omega = w0/4`), None where the
+    /// forcing does not depend on `name` at all.
+    #[error("{}", not_forcing_frequency(name, forcing, definition.as_deref()))]
+    NotForcingFrequency {
+        name: String,
+        forcing: String,
+        definition: Option<String>,
+    },
     #[error("the model does not say which parameter is its forcing frequency")]
     NoForcingFrequency,
     /// The forcing frequency is defined from other parameters (`omega = 2*pi*f`): setting
@@ -252,6 +257,13 @@ impl Invalid {
                 Some(s) => format!("{s} responses: {}", kinds.join("; ")),
                 None => format!("responses: {}", kinds.join("; ")),
             },
+            NotForcingFrequency {
+                name,
+                forcing,
+                definition: Some(_),
+            } => format!(
+                "step `{forcing}` itself (a value of its own), or follow `{name}` by continuation of the periodic orbits"
+            ),
             NotForcingFrequency { forcing, .. } => format!("use `{forcing}`"),
             NoForcingFrequency => "add `forcing_frequency = \"omega\"` to [model]".into(),
             DerivedForcingFrequency { name, .. } => format!(
@@ -319,6 +331,18 @@ impl Invalid {
     }
 }
 
+/// The words of [`Invalid::NotForcingFrequency`].
+fn not_forcing_frequency(name: &str, forcing: &str, definition: Option<&str>) -> String {
+    match definition {
+        Some(d) => format!(
+            "the forcing frequency `{forcing}` is defined from `{name}` ({forcing} = {d}): a frequency response steps the forcing frequency itself, not a parameter it is derived from"
+        ),
+        None => format!(
+            "the forcing of this model does not depend on `{name}` (the frequency parameter); it turns at `{forcing}`"
+        ),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -331,6 +355,12 @@ mod tests {
             NotForcingFrequency {
                 name: "k".into(),
                 forcing: "omega".into(),
+                definition: None,
+            },
+            NotForcingFrequency {
+                name: "w0".into(),
+                forcing: "omega".into(),
+                definition: Some("w0/4".into()),
             },
             NoForcingFrequency,
             DerivedForcingFrequency {

@@ -223,6 +223,20 @@ fn bad_sweep_requests_are_refused() {
         e.contains("does not depend on `k`") && e.contains("help"),
         "{e}"
     );
+    // the forcing frequency derived from it: not "does not depend on" (false), but what
+    // a frequency response steps
+    let e = sweep(
+        &System::new(&model(&[("F0", "1"), ("omega", "sqrt(k/m1)/4")])).unwrap(),
+        &opts("k", vec![1.0]),
+        &|_| {},
+        &no,
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(
+        e.contains("`omega` is defined from `k` (omega = sqrt(k/m1)/4)") && e.contains("help"),
+        "{e}"
+    );
     let e = sweep(
         &System::new(&m).unwrap(),
         &opts("omegaa", vec![1.0]),

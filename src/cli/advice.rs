@@ -204,7 +204,19 @@ pub fn wording(invalid: &Invalid) -> Option<Wording> {
             ),
             &hint,
         ),
-        NotForcingFrequency { name, forcing } => said(
+        NotForcingFrequency {
+            name,
+            forcing,
+            definition: Some(d),
+        } => said(
+            format!(
+                "--param {name}: the forcing frequency `{forcing}` is defined from it ({forcing} = {d}); a frequency response steps the forcing frequency itself"
+            ),
+            &format!(
+                "follow {name} with `detune nfr MODEL --param {name}` (the periodic orbits, with {forcing} following), or step --param {forcing} at a fixed {name} without defining {forcing} from it"
+            ),
+        ),
+        NotForcingFrequency { name, forcing, .. } => said(
             format!(
                 "--param {name}: the forcing of this model does not depend on `{name}`; it turns at `{forcing}`"
             ),
