@@ -932,6 +932,14 @@ fn a_response_under_the_noise_has_no_peaks() {
     let (_, c) = data_curve("weak_pair.toml", "1", &["block2.x", "block.x"]);
     let got: Vec<&str> = c.peaks.iter().map(|p| p.response.as_str()).collect();
     assert_eq!(got, ["block.x"], "{:?}", c.peaks);
+    // and it is said, with why
+    let said: Vec<&str> = c.no_peaks.iter().map(|n| n.response.as_str()).collect();
+    assert_eq!(said, ["block2.x"], "{:?}", c.no_peaks);
+    let why = &c.no_peaks[0].why;
+    assert!(
+        why.amplitude < why.noise || why.change < why.noise,
+        "{why:?}"
+    );
     assert!((c.peaks[0].omega - 19.887).abs() < 1e-3, "{:?}", c.peaks);
 }
 

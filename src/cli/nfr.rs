@@ -375,6 +375,8 @@ pub fn run(a: NfrArgs) -> Result<()> {
             ("from", param_unit.as_str()),
             ("to", param_unit.as_str()),
             ("unresolved_events", "1"),
+            ("change", "the response's unit"),
+            ("noise", "the response's unit"),
         ]);
         print_json(&WithUnits {
             doc: NfrReport::new(&curve, &Provenance::of(&model)),
@@ -459,6 +461,16 @@ pub fn run(a: NfrArgs) -> Result<()> {
                 located_to(p.refined, p.uncertainty, &shown_difference),
                 p.amplitude
             );
+        }
+        for np in &curve.no_peaks {
+            let unit = curve
+                .responses
+                .iter()
+                .position(|r| *r == np.response)
+                .map(|i| curve.units[i])
+                .unwrap_or("");
+            let head = format!("no peaks sought for {}", np.response);
+            println!("{}", super::sweep::no_peaks_words(&head, &np.why, unit));
         }
     }
     if !curve.complete {

@@ -43,6 +43,8 @@ fn sweep_units(runs: &[detune::frequency::study::SweepRun], sys: &detune::System
             ),
             ("amplitude_before", "the response's unit"),
             ("amplitude_after", "the response's unit"),
+            ("change", "the response's unit"),
+            ("noise", "the response's unit"),
             ("omega2", "rad^2/s^2"),
         ])
 }
@@ -56,6 +58,34 @@ pub fn add_measure_units(u: &mut Units, responses: &[String], units: &[&'static 
         }
         u.add(format!("{r}_phase_deg"), "deg");
         u.add(format!("{r}_thd"), "1");
+    }
+}
+
+/// A response whose peaks were not sought (`sweep`, `nfr`), in words: why, with the
+/// numbers, and what would resolve it. `head` names it (`no peaks sought for x (up)`).
+pub fn no_peaks_words(head: &str, w: &detune::frequency::measure::Still, unit: &str) -> String {
+    use detune::frequency::measure::StillKind;
+    match w.kind {
+        StillKind::RoundOff if w.amplitude == 0.0 => {
+            format!("{head}: it does not move (amplitude 0 {unit})")
+        }
+        StillKind::RoundOff => format!(
+            "{head}: it does not move (largest amplitude {:.3e} {unit}: round-off beside the other responses in {unit})",
+            w.amplitude
+        ),
+        // far below the noise: what the tolerances show is a constant amplitude
+        StillKind::Unchanging if w.change < 1e-2 * w.noise => format!(
+            "{head}: its amplitude is the same all along the range ({:.6e} {unit}, to {:.1e} {unit}): the forcing does not change it (a motion the moving ground carries, say)",
+            w.amplitude, w.change
+        ),
+        StillKind::BelowNoise => format!(
+            "{head}: its largest amplitude, {:.3e} {unit}, is below the integration's noise ({:.1e} {unit}); tighten --rtol and --atol to resolve it",
+            w.amplitude, w.noise
+        ),
+        StillKind::Unchanging => format!(
+            "{head}: its amplitude ({:.3e} {unit} at most) changes by {:.1e} {unit} over the range, within the integration's noise ({:.1e} {unit}): constant, or a motion too small against its coordinate's value to resolve; tighten --rtol to resolve it",
+            w.amplitude, w.change, w.noise
+        ),
     }
 }
 
@@ -550,6 +580,21 @@ pub fn execute(a: SweepArgs, source: Source) -> Result<()> {
                     ),
                     pk.amplitude
                 );
+            }
+            for np in &run.sweep.no_peaks {
+                let unit = run
+                    .sweep
+                    .responses
+                    .iter()
+                    .position(|r| *r == np.response)
+                    .map(|i| run.sweep.units[i])
+                    .unwrap_or("");
+                let head = format!(
+                    "no peaks sought{tag} for {} ({})",
+                    np.response,
+                    np.direction.name()
+                );
+                println!("{}", no_peaks_words(&head, &np.why, unit));
             }
             for h in &run.sweep.hysteresis {
                 println!(

@@ -166,6 +166,47 @@ const NOISE_REACH: f64 = 30.0;
 /// peaks besides the real ones. A real peak changes the amplitude by more than the noise
 /// over any range that shows it as a maximum.
 pub fn still(curves: &[Vec<Measures>], units: &[&str], atol: f64, rtol: f64) -> Vec<bool> {
+    stillness(curves, units, atol, rtol)
+        .iter()
+        .map(Option::is_some)
+        .collect()
+}
+
+/// Why a response has no peaks to find (see [`still`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum StillKind {
+    /// Its largest amplitude is round-off beside the largest motion of its unit.
+    RoundOff,
+    /// Its largest amplitude is below the integration's noise.
+    BelowNoise,
+    /// Its amplitude changes along the curve by less than the noise: constant (a body
+    /// carried by the moving ground), or a motion too small against its coordinate's
+    /// value for the tolerances to resolve its changes.
+    Unchanging,
+}
+
+/// A response with no peaks to find, and the numbers that say so (SI, the response's
+/// unit).
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct Still {
+    pub kind: StillKind,
+    /// Its largest amplitude along the curve.
+    pub amplitude: f64,
+    /// Its largest amplitude less its smallest.
+    pub change: f64,
+    /// The noise of its amplitude: 30 atol + rtol · (its largest |value|).
+    pub noise: f64,
+}
+
+/// [`still`] with the reason and the numbers: None for a response whose peaks are
+/// sought.
+pub fn stillness(
+    curves: &[Vec<Measures>],
+    units: &[&str],
+    atol: f64,
+    rtol: f64,
+) -> Vec<Option<Still>> {
     let most: Vec<f64> = curves
         .iter()
         .map(|c| c.iter().map(|m| m.amplitude).fold(0.0, f64::max))
@@ -185,8 +226,22 @@ pub fn still(curves: &[Vec<Measures>], units: &[&str], atol: f64, rtol: f64) -> 
                 .map(|m| m.max.abs().max(m.min.abs()))
                 .fold(0.0, f64::max);
             let noise = NOISE_REACH * atol + rtol * size;
-            !(most[r] > (ROUND_OFF * of_unit).max(noise))
-                || !(most[r] - least > noise + NOISE_REACH * rtol * most[r])
+            let change = most[r] - least;
+            let kind = if !(most[r] > ROUND_OFF * of_unit) {
+                StillKind::RoundOff
+            } else if !(most[r] > noise) {
+                StillKind::BelowNoise
+            } else if !(change > noise + NOISE_REACH * rtol * most[r]) {
+                StillKind::Unchanging
+            } else {
+                return None;
+            };
+            Some(Still {
+                kind,
+                amplitude: most[r],
+                change,
+                noise,
+            })
         })
         .collect()
 }

@@ -582,6 +582,16 @@ pub struct Peak {
     pub uncertainty: f64,
 }
 
+/// A response of a sweep whose peaks were not sought (see [`Sweep::no_peaks`]).
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct NoPeaks {
+    pub response: String,
+    pub direction: Direction,
+    /// Why, with the numbers (the response's unit).
+    #[serde(flatten)]
+    pub why: measure::Still,
+}
+
 /// An edge of a sequential (`up`/`down`) sweep where the response jumps: between two
 /// neighbouring frequencies of the coarse grid, in the sweep's order (see [`jumps`]).
 #[derive(Debug, Clone, serde::Serialize)]
@@ -619,6 +629,12 @@ pub struct Sweep {
     pub points: Vec<SweepPoint>,
     /// Local maxima of the amplitude within one well, jump edges excluded.
     pub peaks: Vec<Peak>,
+    /// The responses whose peaks were not sought, per direction, and why: they do not
+    /// move beyond round-off, or their amplitude does not change along the curve by more
+    /// than the integration's noise (see [`measure::still`]). A real resonance of a motion
+    /// too small against its coordinate's value for the tolerances is among them: said,
+    /// not dropped without a word.
+    pub no_peaks: Vec<NoPeaks>,
     /// Jumps of the sequential sweeps (`up`, `down`, `both`).
     pub jumps: Vec<Jump>,
     /// The equilibria the responses are classified by, and the one the sweep starts from.
@@ -1089,6 +1105,7 @@ pub fn sweep_logged_partial(
     };
     // Refinement around every local maximum within one well, per response and direction.
     let mut peaks = Vec::new();
+    let mut no_peaks = Vec::new();
     if complete && !partial {
         let mut jobs = Vec::new();
         for &dir in &directions {
@@ -1096,7 +1113,7 @@ pub fn sweep_logged_partial(
             line.sort_by(|a, b| a.steady.omega.total_cmp(&b.steady.omega));
             // a response that does not move, or whose amplitude does not change, has
             // round-off for its local maxima: no peaks to refine
-            let still = measure::still(
+            let still = measure::stillness(
                 &(0..responses.len())
                     .map(|r| line.iter().map(|p| p.steady.measures[r]).collect())
                     .collect::<Vec<Vec<_>>>(),
@@ -1104,7 +1121,16 @@ pub fn sweep_logged_partial(
                 opts.steady.atol,
                 opts.steady.rtol,
             );
-            for r in (0..responses.len()).filter(|&r| !still[r]) {
+            for (r, why) in still.iter().enumerate() {
+                if let (Some(why), true) = (why, line.len() >= 3) {
+                    no_peaks.push(NoPeaks {
+                        response: opts.responses[r].clone(),
+                        direction: dir,
+                        why: *why,
+                    });
+                }
+            }
+            for r in (0..responses.len()).filter(|&r| still[r].is_none()) {
                 for i in 1..line.len().saturating_sub(1) {
                     let a = |k: usize| line[k].steady.measures[r].amplitude;
                     let w = |k: usize| line[k].steady.omega;
@@ -1200,6 +1226,7 @@ pub fn sweep_logged_partial(
         equilibrium: eq.q,
         points,
         peaks,
+        no_peaks,
         jumps,
         wells,
         hysteresis,

@@ -462,6 +462,10 @@ pub struct SweepReport<'a> {
     pub equilibrium: Named<'a, f64>,
     pub points: Vec<Map<String, Value>>,
     pub peaks: Vec<Tagged<'a, &'a Peak>>,
+    /// The responses whose peaks were not sought, and why (`kind`: `round_off`,
+    /// `below_noise`, `unchanging`; `amplitude` the largest, `change` the largest less
+    /// the smallest, `noise` the integration's, all in the response's unit).
+    pub no_peaks: Vec<Tagged<'a, &'a crate::frequency::NoPeaks>>,
     pub jumps: Vec<Tagged<'a, &'a Jump>>,
     pub hysteresis: Vec<Tagged<'a, &'a Hysteresis>>,
     pub complete: bool,
@@ -500,6 +504,15 @@ impl<'a> SweepReport<'a> {
                 .iter()
                 .flat_map(|r| {
                     r.sweep.peaks.iter().map(move |p| Tagged {
+                        item: p,
+                        tag: r.tags(),
+                    })
+                })
+                .collect(),
+            no_peaks: runs
+                .iter()
+                .flat_map(|r| {
+                    r.sweep.no_peaks.iter().map(move |p| Tagged {
                         item: p,
                         tag: r.tags(),
                     })

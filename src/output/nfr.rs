@@ -126,6 +126,8 @@ pub struct NfrReport<'a> {
     pub period_doublings: Vec<SpecialJson>,
     pub neimark_sacker: Vec<SpecialJson>,
     pub peaks: &'a [NfrPeak],
+    /// The responses whose peaks were not sought, and why (as `sweep --json`'s).
+    pub no_peaks: &'a [crate::periodic::continuation::NfrNoPeaks],
     pub branches: &'a [BranchSummary],
     /// Degrees of freedom (2·DoF multipliers per point).
     pub dof: usize,
@@ -175,6 +177,7 @@ impl<'a> NfrReport<'a> {
             period_doublings: c.period_doublings.iter().map(special).collect(),
             neimark_sacker: c.neimark_sacker.iter().map(special).collect(),
             peaks: &c.peaks,
+            no_peaks: &c.no_peaks,
             branches: &c.branches,
             dof: c.dof,
             periods: c.periods,

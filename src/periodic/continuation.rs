@@ -199,6 +199,15 @@ pub struct Special {
     pub refined: bool,
 }
 
+/// A response of a curve whose peaks were not sought (see [`Nfr::no_peaks`]).
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct NfrNoPeaks {
+    pub response: String,
+    /// Why, with the numbers (the response's unit).
+    #[serde(flatten)]
+    pub why: crate::frequency::measure::Still,
+}
+
 /// A located peak: an interior maximum of a response's amplitude on a stable part.
 #[derive(Debug, Clone, serde::Serialize)]
 pub struct NfrPeak {
@@ -230,6 +239,9 @@ pub struct Nfr {
     pub period_doublings: Vec<Special>,
     pub neimark_sacker: Vec<Special>,
     pub peaks: Vec<NfrPeak>,
+    /// The responses whose peaks were not sought, and why (see
+    /// [`crate::frequency::measure::still`]).
+    pub no_peaks: Vec<NfrNoPeaks>,
     /// False when interrupted or stopped short: `points` holds what was computed.
     pub complete: bool,
     /// The branches traced: from the start, and from the far end when the first does not
@@ -748,9 +760,10 @@ pub fn nfr(
     all.sort_by(|a, b| a.point.s.total_cmp(&b.point.s));
     // peaks on the stable parts
     let mut peaks = Vec::new();
+    let mut no_peaks = Vec::new();
     if !interrupted {
         let mut found = Vec::new();
-        let still = crate::frequency::measure::still(
+        let still = crate::frequency::measure::stillness(
             &(0..responses.len())
                 .map(|r| all.iter().map(|n| n.point.measures[r]).collect())
                 .collect::<Vec<Vec<_>>>(),
@@ -759,7 +772,15 @@ pub fn nfr(
             tr.sh.opts.atol,
             tr.sh.opts.rtol,
         );
-        for r in (0..responses.len()).filter(|&r| !still[r]) {
+        for (r, why) in still.iter().enumerate() {
+            if let (Some(why), true) = (why, all.len() >= 3) {
+                no_peaks.push(NfrNoPeaks {
+                    response: opts.responses[r].clone(),
+                    why: *why,
+                });
+            }
+        }
+        for r in (0..responses.len()).filter(|&r| still[r].is_none()) {
             for i in 1..all.len().saturating_sub(1) {
                 let a = |k: usize| all[k].point.measures[r].amplitude;
                 if all[i - 1].point.branch == all[i + 1].point.branch
@@ -821,6 +842,7 @@ pub fn nfr(
         period_doublings: pick(Located::PeriodDoubling),
         neimark_sacker: pick(Located::NeimarkSacker),
         peaks,
+        no_peaks,
         complete: complete && !interrupted,
         branches,
         dof,
