@@ -129,6 +129,7 @@ fn minimal_free_case(bencher: divan::Bencher) {
         max_steps: 10_000_000,
         method: Default::default(),
         dense_prefix: None,
+        max_step: f64::INFINITY,
     };
     bencher.bench_local(|| {
         let mut out = Vec::with_capacity(2001);

@@ -240,3 +240,38 @@ fn dense_output_of_a_prefix() {
     assert_eq!(prefix.short.get(), 3 * accepted);
     assert_eq!(whole.full.get() - prefix.full.get(), 3 * accepted);
 }
+
+/// `Dop853::max_step`: no step (the first included) is longer than the limit, and the
+/// solution is still y = cos t to the tolerance; unlimited, the same problem takes steps
+/// several times longer.
+#[test]
+fn a_step_limit_holds() {
+    let y0 = vec![1.0, 0.0];
+    let t_end = 20.0;
+    let longest = |limit: f64| {
+        let mut s = Dop853::new(1e-10, 1e-10);
+        s.max_step(limit);
+        s.init(&Harmonic, 0.0, t_end, &y0).unwrap();
+        let mut longest = 0.0f64;
+        while s.t() < t_end {
+            if s.t() + s.h() > t_end {
+                let h = t_end - s.t();
+                s.set_h(h);
+            }
+            assert!(s.h() <= limit, "a step of {} past {limit}", s.h());
+            s.step(&Harmonic).unwrap();
+            if !matches!(s.status(), Status::RejectedStep) {
+                longest = longest.max(s.t() - s.t_prev());
+                assert!((s.y()[0] - s.t().cos()).abs() < 1e-8, "t = {}", s.t());
+            }
+        }
+        longest
+    };
+    let free = longest(f64::INFINITY);
+    let held = longest(0.05);
+    // (t − t_prev differs from the step by the rounding of t)
+    assert!(
+        held <= 0.05 * (1.0 + 1e-12) && free > 4.0 * held,
+        "{free} vs {held}"
+    );
+}

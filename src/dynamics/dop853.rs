@@ -81,13 +81,14 @@ pub struct Dop853 {
     status: Status<f64, Y>,
     /// The dense output's components (None: all): see [`Dop853::dense_prefix`].
     dense_len: Option<usize>,
+    /// The largest step (∞: none): see [`Dop853::max_step`].
+    h_max: f64,
 }
 
 const SAFETY: f64 = 0.9;
 const MIN_SCALE: f64 = 0.2;
 const MAX_SCALE: f64 = 10.0;
 const H_MIN: f64 = 0.0;
-const H_MAX: f64 = f64::INFINITY;
 const ORDER: usize = 8;
 
 impl Dop853 {
@@ -125,6 +126,7 @@ impl Dop853 {
             steps: 0,
             status: Status::Uninitialized,
             dense_len: None,
+            h_max: f64::INFINITY,
         }
     }
 
@@ -138,6 +140,11 @@ impl Dop853 {
     /// column besides. The steps and the prefix's samples are the same bits as without.
     pub fn dense_prefix(&mut self, m: usize) {
         self.dense_len = Some(m);
+    }
+
+    /// Steps no longer than `h` (the initial one included; ∞: none, the crate's default).
+    pub fn max_step(&mut self, h: f64) {
+        self.h_max = h;
     }
 
     /// The components the dense output interpolates with the method, of `n`.
@@ -192,7 +199,7 @@ impl Dop853 {
         } else {
             (dny / dnf).sqrt() * 0.01
         };
-        h = h.min(H_MAX);
+        h = h.min(self.h_max);
         h *= posneg;
         let mut y1 = y0.clone();
         for (a, b) in y1.iter_mut().zip(&f0) {
@@ -213,7 +220,7 @@ impl Dop853 {
         let interval = (tf - t0).abs();
         h = (h.abs() * 100.0)
             .min(h1)
-            .min(H_MAX)
+            .min(self.h_max)
             .max(H_MIN)
             .min(interval);
         h * posneg
@@ -294,7 +301,7 @@ impl OrdinaryNumericalMethod<f64, Y> for Dop853 {
             self.h0 = self.initial_step(ode, t0, tf, y0);
             evals.function += 2;
         }
-        self.h = validate_step_size_parameters::<f64, Y>(self.h0, H_MIN, H_MAX, t0, tf)?;
+        self.h = validate_step_size_parameters::<f64, Y>(self.h0, H_MIN, self.h_max, t0, tf)?;
         self.stiffness_counter = 0;
         let n = y0.len();
         self.t = t0;
@@ -520,7 +527,7 @@ impl Dop853 {
         } else {
             self.status = Status::RejectedStep;
         }
-        self.h = constrain_step_size(self.h * scale, H_MIN, H_MAX);
+        self.h = constrain_step_size(self.h * scale, H_MIN, self.h_max);
         Ok(evals)
     }
 }

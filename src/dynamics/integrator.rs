@@ -116,6 +116,8 @@ pub struct IntegratorOptions {
     /// components only, the rest interpolated linearly between the step's ends; see
     /// `Dop853::dense_prefix` for what the ODE must then do. None: all.
     pub dense_prefix: Option<usize>,
+    /// DOP853 only: the largest step, in the time's unit (∞: none).
+    pub max_step: f64,
 }
 
 /// A run found stiff: DOP853's steps are held by the model's fastest motion, either by
@@ -590,6 +592,7 @@ pub fn integrate_stoppable<F: ODE<f64, Vec<f64>>>(
             if let Some(m) = opts.dense_prefix {
                 solver.dense_prefix(m);
             }
+            solver.max_step(opts.max_step);
             let dense = |s: &mut Dop853, t: f64, out: &mut Vec<f64>| {
                 s.dense_into(t, out);
                 Ok(())

@@ -324,6 +324,7 @@ pub fn simulate_stoppable(
         max_steps: opts.max_steps,
         method: opts.integrator,
         dense_prefix: None,
+        max_step: f64::INFINITY,
     };
     let (mut q, mut v) = (vec![0.0; n], vec![0.0; y0.len() - n]);
     let istats = integrate_stoppable(

@@ -317,7 +317,18 @@ pub fn backbone(
     };
     let outputs = sys0.outputs(&responses_names)?;
     let units: Vec<&'static str> = outputs.iter().map(|o| o.unit(&sys0)).collect();
-    let mut sh = Shooting::new(&sys0, freq, &outputs, opts.shooting.clone())?;
+    // the columns' steps resolve the fastest mode (`COLUMN_STEP_RESOLUTION`)
+    let mut shooting = opts.shooting.clone();
+    let fastest = ma
+        .modes
+        .iter()
+        .map(|m| m.omega_n_rad_s)
+        .filter(|w| w.is_finite())
+        .fold(0.0, f64::max);
+    if fastest > 0.0 && shooting.integrator == crate::dynamics::integrator::Integrator::Dop853 {
+        shooting.max_column_step = super::COLUMN_STEP_RESOLUTION / fastest;
+    }
+    let mut sh = Shooting::new(&sys0, freq, &outputs, shooting)?;
     sh.set(omega_n)?;
     let phi: Vec<f64> = md.shape.iter().map(|c| c.re).collect();
     let finite = to_amplitude.is_finite();

@@ -588,8 +588,13 @@ pub fn nfr(
         }
         slowest
     };
+    // the columns' steps resolve the fastest mode (`COLUMN_STEP_RESOLUTION`)
+    let mut shooting = opts.shooting.clone();
     if opts.shooting.integrator == crate::dynamics::integrator::Integrator::Dop853 {
-        check_period(&lin, slowest)?;
+        let fastest = check_period(&lin, slowest)?;
+        if fastest > 0.0 {
+            shooting.max_column_step = crate::periodic::COLUMN_STEP_RESOLUTION / fastest;
+        }
     }
     let n = sys0.nq();
     // The scales: the parameter's range, and the largest linear state over it.
@@ -643,7 +648,7 @@ pub fn nfr(
             s,
             param,
             &responses,
-            opts.shooting.clone(),
+            shooting.clone(),
             motion,
             smallest * slowest.min(1.0),
         )
@@ -913,9 +918,9 @@ pub const PERIOD_STEPS: usize = 10_000;
 /// equations, and the first point alone runs for minutes without a word. The bound is a
 /// lower one (the overcentre at 1e-4 rad/s: 3.1e4 by the bound, about 5e4 taken); at the
 /// budget a period costs about 1e4 steps, a second or so on the overcentre.
-fn check_period(lin: &Linearization, omega: f64) -> Result<()> {
+fn check_period(lin: &Linearization, omega: f64) -> Result<f64> {
     let Ok(modes) = lin.modes(0) else {
-        return Ok(());
+        return Ok(0.0);
     };
     let lambda = modes
         .iter()
@@ -932,7 +937,7 @@ fn check_period(lin: &Linearization, omega: f64) -> Result<()> {
         }
         .into());
     }
-    Ok(())
+    Ok(lambda)
 }
 
 /// The linear response about the equilibrium at the system's parameter values.
