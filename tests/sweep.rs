@@ -352,23 +352,28 @@ fn still_responses_have_no_peaks() {
             })
             .collect()
     };
-    let weak = peaks_of(&[
-        "sweep",
-        "tests/data/weak_pair.toml",
-        "--param",
-        "omega",
-        "--from",
-        "19",
-        "--to",
-        "21",
-        "--step",
-        "0.25",
-        "--response",
-        "block2.x",
-        "--response",
-        "block.x",
-        "--json",
-    ]);
+    // tests/data/weak_pair.toml over 19–21 rad/s, both blocks, with more arguments
+    let weak_pair = |more: &[&'static str]| -> Vec<&'static str> {
+        let mut args = vec![
+            "sweep",
+            "tests/data/weak_pair.toml",
+            "--param",
+            "omega",
+            "--from",
+            "19",
+            "--to",
+            "21",
+            "--step",
+            "0.25",
+            "--response",
+            "block2.x",
+            "--response",
+            "block.x",
+        ];
+        args.extend_from_slice(more);
+        args
+    };
+    let weak = peaks_of(&weak_pair(&["--json"]));
     assert_eq!(
         weak,
         [
@@ -379,51 +384,14 @@ fn still_responses_have_no_peaks() {
     // at F0 = 1 N block2 moves 8e-10 m at x = 3 m, its amplitude's changes within the
     // noise of the default tolerances (3.3e-10 m): no peak sought, and said so with the
     // numbers (before, nothing was said); at --rtol 1e-12 its peak is found, at block's
-    let (code, out, err) = common::detune(&[
-        "sweep",
-        "tests/data/weak_pair.toml",
-        "--set",
-        "F0=1",
-        "--param",
-        "omega",
-        "--from",
-        "19",
-        "--to",
-        "21",
-        "--step",
-        "0.25",
-        "--response",
-        "block2.x",
-        "--response",
-        "block.x",
-    ]);
+    let (code, out, err) = common::detune(&weak_pair(&["--set", "F0=1"]));
     assert_eq!(code, 0, "{err}");
     assert!(
         out.contains("no peaks sought for block2.x (independent): its amplitude")
             && out.contains("tighten --rtol"),
         "{out}"
     );
-    let tight = peaks_of(&[
-        "sweep",
-        "tests/data/weak_pair.toml",
-        "--set",
-        "F0=1",
-        "--param",
-        "omega",
-        "--from",
-        "19",
-        "--to",
-        "21",
-        "--step",
-        "0.25",
-        "--rtol",
-        "1e-12",
-        "--response",
-        "block2.x",
-        "--response",
-        "block.x",
-        "--json",
-    ]);
+    let tight = peaks_of(&weak_pair(&["--set", "F0=1", "--rtol", "1e-12", "--json"]));
     assert_eq!(
         tight,
         [

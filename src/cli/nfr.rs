@@ -447,12 +447,7 @@ pub fn run(a: NfrArgs) -> Result<()> {
             );
         }
         for p in &curve.peaks {
-            let unit = curve
-                .responses
-                .iter()
-                .position(|r| *r == p.response)
-                .map(|i| curve.units[i])
-                .unwrap_or("");
+            let unit = curve.unit_of(&p.response);
             println!(
                 "peak {}: {} = {} ({}), amplitude {:.6e} {unit}",
                 p.response,
@@ -463,12 +458,7 @@ pub fn run(a: NfrArgs) -> Result<()> {
             );
         }
         for np in &curve.no_peaks {
-            let unit = curve
-                .responses
-                .iter()
-                .position(|r| *r == np.response)
-                .map(|i| curve.units[i])
-                .unwrap_or("");
+            let unit = curve.unit_of(&np.response);
             let head = format!("no peaks sought for {}", np.response);
             println!("{}", super::sweep::no_peaks_words(&head, &np.why, unit));
         }

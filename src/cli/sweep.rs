@@ -541,13 +541,7 @@ pub fn execute(a: SweepArgs, source: Source) -> Result<()> {
                 println!("{line}{tag}");
             }
             for j in &run.sweep.jumps {
-                let unit = run
-                    .sweep
-                    .responses
-                    .iter()
-                    .position(|r| *r == j.response)
-                    .map(|i| run.sweep.units[i])
-                    .unwrap_or("");
+                let unit = run.sweep.unit_of(&j.response);
                 println!(
                     "jump {} between {} and {} {sym}{tag}: {} amplitude {:.4} → {:.4} {unit}",
                     j.direction.name(),
@@ -559,13 +553,7 @@ pub fn execute(a: SweepArgs, source: Source) -> Result<()> {
                 );
             }
             for pk in &run.sweep.peaks {
-                let unit = run
-                    .sweep
-                    .responses
-                    .iter()
-                    .position(|r| *r == pk.response)
-                    .map(|i| run.sweep.units[i])
-                    .unwrap_or("");
+                let unit = run.sweep.unit_of(&pk.response);
                 // refined, or the grid's maximum (± its step), as `nfr` and `frf` say it
                 println!(
                     "peak{tag} {} ({}): {} = {}, amplitude {:.6e} {unit}",
@@ -582,13 +570,7 @@ pub fn execute(a: SweepArgs, source: Source) -> Result<()> {
                 );
             }
             for np in &run.sweep.no_peaks {
-                let unit = run
-                    .sweep
-                    .responses
-                    .iter()
-                    .position(|r| *r == np.response)
-                    .map(|i| run.sweep.units[i])
-                    .unwrap_or("");
+                let unit = run.sweep.unit_of(&np.response);
                 let head = format!(
                     "no peaks sought{tag} for {} ({})",
                     np.response,

@@ -720,6 +720,14 @@ impl SweepFailure {
 }
 
 impl Sweep {
+    /// The SI unit of a response of this sweep ("" for a name it does not have).
+    pub fn unit_of(&self, response: &str) -> &'static str {
+        self.responses
+            .iter()
+            .position(|r| r == response)
+            .map_or("", |i| self.units[i])
+    }
+
     /// The sweep, or the error of the frequency it failed at (a caller that needs the
     /// whole curve: its peaks, a verdict on them). An interrupted sweep is returned as is.
     pub fn into_result(self) -> Result<Sweep> {

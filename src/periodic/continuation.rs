@@ -858,6 +858,16 @@ pub fn nfr(
     })
 }
 
+impl Nfr {
+    /// The SI unit of a response of this curve ("" for a name it does not have).
+    pub fn unit_of(&self, response: &str) -> &'static str {
+        self.responses
+            .iter()
+            .position(|r| r == response)
+            .map_or("", |i| self.units[i])
+    }
+}
+
 /// Drop the located points beyond the range `from`..`to`, and the reports of them (an
 /// unrefined one stays while the range lies within its bracket).
 /// Returns how many located points were dropped (their charge against the point limit
