@@ -91,11 +91,12 @@ pub enum Failure {
         max_steps: usize,
     },
     /// One forcing period (the shooting of a periodic orbit integrates whole periods)
-    /// spans so many of the model's fastest time constants 1/|λ| that an explicit
-    /// integrator, held by stability to h·|λ| ≲ 6, needs more than `max_steps` steps a
-    /// period (`steps`, a lower bound).
+    /// spans so many of the model's fastest time constants 1/|λ| that the explicit
+    /// integrator, whose periods with variational equations step at h·|λ| ≤ 2 (to resolve
+    /// the fastest mode's multipliers; stability alone asks ≲ 6), needs more than
+    /// `max_steps` steps a period (`steps`, a lower bound).
     #[error(
-        "one forcing period at {} rad/s (T = {} s) spans {} of the model's fastest time constant (|λ| = {} 1/s): the shooting's explicit integrator needs at least {} steps a period (h·|λ| ≤ 6), more than the {max_steps} it allows",
+        "one forcing period at {} rad/s (T = {} s) spans {} of the model's fastest time constant (|λ| = {} 1/s): the shooting's explicit integrator needs at least {} steps a period (h·|λ| ≤ 2), more than the {max_steps} it allows",
         crate::diag::num(*.omega),
         crate::diag::about(std::f64::consts::TAU / *.omega),
         crate::diag::about(std::f64::consts::TAU / *.omega * *.lambda),
@@ -368,10 +369,11 @@ fn drive_value(x: f64, angle: bool) -> String {
     }
 }
 
-/// The lowest forcing frequency (rad/s) whose period an explicit integrator held to
-/// h·|λ| ≤ 6 crosses in `max_steps` steps: 2π|λ| / (6 · max_steps).
+/// The lowest forcing frequency (rad/s) whose period the shooting's explicit integrator,
+/// held to h·|λ| ≤ 2 (`periodic::COLUMN_STEP_RESOLUTION`), crosses in `max_steps` steps:
+/// 2π|λ| / (2 · max_steps).
 pub fn period_floor(lambda: f64, max_steps: usize) -> f64 {
-    std::f64::consts::TAU * lambda / (6.0 * max_steps as f64)
+    std::f64::consts::TAU * lambda / (crate::periodic::COLUMN_STEP_RESOLUTION * max_steps as f64)
 }
 
 impl Failure {

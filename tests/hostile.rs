@@ -392,13 +392,14 @@ fn a_sweep_of_too_many_periods_names_max_periods() {
 /// integrated tens of thousands of DOP853 steps a period (with the variational
 /// equations), minutes for the first point without a word. It is refused at once: the
 /// overcentre's fastest |λ| is its mode's ω_n = √8.8397 = 2.9732 rad/s (`detune modes`),
-/// so a period at 1e-4 rad/s needs at least 2π/1e-4 · 2.9732 / 6 = 31 135 steps
-/// (h·|λ| ≤ 6), above the 10 000 allowed; the floor is 2π · 2.9732 / 6e4 = 3.11e-4 rad/s.
+/// so a period at 1e-4 rad/s needs at least 2π/1e-4 · 2.9732 / 2 = 93 405 steps (the
+/// periods with variational equations step at h·|λ| ≤ 2; stability alone asked ≤ 6,
+/// 31 135), above the 10 000 allowed; the floor is 2π · 2.9732 / 2e4 = 9.34e-4 rad/s.
 #[test]
 fn nfr_at_a_forcing_far_below_the_fastest_motion_is_refused_at_once() {
     let lambda = 8.839704763344846f64.sqrt();
-    let steps = std::f64::consts::TAU / 1e-4 * lambda / 6.0;
-    assert!((steps - 31_135.0).abs() < 1.0, "{steps}");
+    let steps = std::f64::consts::TAU / 1e-4 * lambda / 2.0;
+    assert!((steps - 93_405.0).abs() < 1.0, "{steps}");
     let o = run(
         &[
             "nfr", "oc.toml", "--set", "F0=3", "--param", "omega", "--from", "1e-4", "--to",
@@ -411,9 +412,9 @@ fn nfr_at_a_forcing_far_below_the_fastest_motion_is_refused_at_once() {
         &[
             "one forcing period at 0.0001 rad/s (T = 62800 s)",
             "(|λ| = 2.97 1/s)",
-            "at least 31100 steps a period",
+            "at least 93400 steps a period",
             "more than the 10000 it allows",
-            "the forcing frequency must be above 0.000311 rad/s",
+            "the forcing frequency must be above 0.000934 rad/s",
         ],
     );
     // the same with the range given downwards, and in another parameter at that forcing
@@ -424,7 +425,7 @@ fn nfr_at_a_forcing_far_below_the_fastest_motion_is_refused_at_once() {
         ],
         &[],
     );
-    refused(&o, &["at least 31100 steps a period"]);
+    refused(&o, &["at least 93400 steps a period"]);
     let o = run(
         &[
             "nfr",
@@ -442,7 +443,7 @@ fn nfr_at_a_forcing_far_below_the_fastest_motion_is_refused_at_once() {
         ],
         &[],
     );
-    refused(&o, &["at least 31100 steps a period"]);
+    refused(&o, &["at least 93400 steps a period"]);
 }
 
 /// Issue 10 leftovers (issue 13's last audit, point 6): a model with no degrees of freedom

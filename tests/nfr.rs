@@ -405,7 +405,8 @@ fn command_outputs_and_bad_input() {
     // the located points' uncertainty and the branches' ends are in the parameter's unit
     assert_eq!(j["units"]["uncertainty"], "rad/s");
     assert_eq!(j["units"]["from"], "rad/s");
-    // how each branch ended, with the value's unit (`reached omega = 4.2 rad/s`)
+    // how each branch ended, with the value's unit (`reached omega = 4.2 rad/s`), in SI
+    // whatever --freq-unit (it named the cycles form `omega/2π` with the value in rad/s)
     for b in j["branches"].as_array().unwrap() {
         let end = b["end"].as_str().unwrap();
         assert!(
@@ -413,6 +414,26 @@ fn command_outputs_and_bad_input() {
             "a branch's end without its unit: {end}"
         );
     }
+    let (code, out, err) = overcentre_nfr(&[
+        "--set",
+        "F0=4",
+        "--param",
+        "omega",
+        "--from",
+        "3.6",
+        "--to",
+        "3.7",
+        "--freq-unit",
+        "Hz",
+        "--json",
+    ]);
+    assert_eq!(code, 0, "{err}");
+    let in_hz: serde_json::Value = serde_json::from_str(&out).unwrap();
+    let end = in_hz["branches"][0]["end"].as_str().unwrap();
+    assert!(
+        end.contains("omega = 3.7 rad/s") && !end.contains('π'),
+        "{end}"
+    );
     assert!(j["folds"][0]["uncertainty"].as_f64().unwrap() < 1e-8);
     assert_eq!(j["folds"][0]["refined"], true);
     let head = std::fs::read_to_string(&csv).unwrap();
@@ -1055,4 +1076,33 @@ fn a_mode_the_orbit_hardly_excites_keeps_its_multipliers() {
     // block's pair as before; block2's within 0.5 % (measured 0.14 %)
     assert!(worst[0] < 1e-5, "block's pair: {:.3e}", worst[0]);
     assert!(worst[1] < 5e-3, "block2's pair: {:.3e}", worst[1]);
+}
+
+/// The same along a parameter that stiffens the fast mode: k2 from 1e5 to 1e6 N/m at
+/// ω = 20 rad/s (block2's ω_n from 316 to 1000 rad/s, its pair still e^(−0.5 T)). The
+/// step limit taken from the start's linearization alone let the far end's periods
+/// step at h·λ up to 6: 27 % off, points called unstable and a false Neimark–Sacker
+/// point. It is now taken from the fastest mode along the range.
+#[test]
+fn a_stiffening_parameter_keeps_the_fast_multipliers() {
+    let m = common::with_sets(
+        detune::Model::load(&common::data("weak_pair.toml")).unwrap(),
+        &[("F0", "1"), ("omega", "20")],
+    );
+    let sys = detune::System::new(&m).unwrap();
+    let opts = NfrOptions::new("k2", 1e5, 1e6, vec!["block.x".into()]);
+    let c = nfr(&sys, &opts, &|_, _| {}, &AtomicBool::new(false)).unwrap();
+    assert!(c.complete, "{:?}", c.branches);
+    assert!(c.neimark_sacker.is_empty(), "{:?}", c.neimark_sacker);
+    let exact = (-0.5 * 2.0 * std::f64::consts::PI / 20.0).exp();
+    for p in &c.points {
+        assert!(p.stable, "k2 = {}: {:?}", p.value, p.multipliers);
+        let nearest = p
+            .multipliers
+            .iter()
+            .map(|m| (m.norm() / exact - 1.0).abs())
+            .fold(f64::INFINITY, f64::min);
+        // measured 0.36 %
+        assert!(nearest < 1e-2, "k2 = {}: {nearest:.3e}", p.value);
+    }
 }

@@ -391,6 +391,11 @@ fn still_responses_have_no_peaks() {
             && out.contains("tighten --rtol"),
         "{out}"
     );
+    // where the absolute tolerance's term is the larger part of the noise, the advice
+    // names --atol (tightening --rtol alone left the noise at 30 atol)
+    let (code, out, err) = common::detune(&weak_pair(&["--set", "F0=1", "--atol", "1.5e-11"]));
+    assert_eq!(code, 0, "{err}");
+    assert!(out.contains("tighten --atol to resolve it"), "{out}");
     let tight = peaks_of(&weak_pair(&["--set", "F0=1", "--rtol", "1e-12", "--json"]));
     assert_eq!(
         tight,

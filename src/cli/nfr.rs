@@ -303,7 +303,9 @@ pub fn run(a: NfrArgs) -> Result<()> {
         u => format!(" {u}"),
     };
     for b in &mut curve.branches {
-        b.end = b.words(&pn, &|v| format!("{v}{si_unit}"));
+        // (the parameter's own name: `pn` is the cycles form with --freq-unit Hz, whose
+        // value would be in rad/s here)
+        b.end = b.words(&param, &|v| format!("{v}{si_unit}"));
     }
     if curve.complete && a.backbone.is_empty() {
         // the whole curve: a signal from now on stops nothing
@@ -377,6 +379,7 @@ pub fn run(a: NfrArgs) -> Result<()> {
             ("unresolved_events", "1"),
             ("change", "the response's unit"),
             ("noise", "the response's unit"),
+            ("size", "the response's unit"),
         ]);
         print_json(&WithUnits {
             doc: NfrReport::new(&curve, &Provenance::of(&model)),

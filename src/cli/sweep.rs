@@ -45,6 +45,7 @@ fn sweep_units(runs: &[detune::frequency::study::SweepRun], sys: &detune::System
             ("amplitude_after", "the response's unit"),
             ("change", "the response's unit"),
             ("noise", "the response's unit"),
+            ("size", "the response's unit"),
             ("omega2", "rad^2/s^2"),
         ])
 }
@@ -58,6 +59,15 @@ pub fn add_measure_units(u: &mut Units, responses: &[String], units: &[&'static 
         }
         u.add(format!("{r}_phase_deg"), "deg");
         u.add(format!("{r}_thd"), "1");
+    }
+}
+
+/// The tolerance whose term dominates a still response's noise, as advice.
+fn tighten(w: &detune::frequency::measure::Still) -> &'static str {
+    if w.absolute {
+        "tighten --atol"
+    } else {
+        "tighten --rtol"
     }
 }
 
@@ -78,13 +88,25 @@ pub fn no_peaks_words(head: &str, w: &detune::frequency::measure::Still, unit: &
             "{head}: its amplitude is the same all along the range ({:.6e} {unit}, to {:.1e} {unit}): the forcing does not change it (a motion the moving ground carries, say)",
             w.amplitude, w.change
         ),
+        // below double precision's resolution of its value: no tolerance resolves it
+        StillKind::BelowNoise | StillKind::Unchanging if w.amplitude < 1e-13 * w.size => {
+            format!(
+                "{head}: its amplitude, {:.3e} {unit}, is below what double precision resolves at its value ({:.3e} {unit}): no tolerance can resolve it",
+                w.amplitude, w.size
+            )
+        }
         StillKind::BelowNoise => format!(
-            "{head}: its largest amplitude, {:.3e} {unit}, is below the integration's noise ({:.1e} {unit}); tighten --rtol and --atol to resolve it",
-            w.amplitude, w.noise
+            "{head}: its largest amplitude, {:.3e} {unit}, is below the integration's noise ({:.1e} {unit}); {} to resolve it",
+            w.amplitude,
+            w.noise,
+            tighten(w)
         ),
         StillKind::Unchanging => format!(
-            "{head}: its amplitude ({:.3e} {unit} at most) changes by {:.1e} {unit} over the range, within the integration's noise ({:.1e} {unit}): constant, or a motion too small against its coordinate's value to resolve; tighten --rtol to resolve it",
-            w.amplitude, w.change, w.noise
+            "{head}: its amplitude ({:.3e} {unit} at most) changes by {:.1e} {unit} over the range, within the integration's noise ({:.1e} {unit}): constant, or a motion too small against its coordinate's value to resolve; {} to resolve it",
+            w.amplitude,
+            w.change,
+            w.noise,
+            tighten(w)
         ),
     }
 }

@@ -197,6 +197,11 @@ pub struct Still {
     pub change: f64,
     /// The noise of its amplitude: 30 atol + rtol · (its largest |value|).
     pub noise: f64,
+    /// Its largest |value| along the curve (the rtol term's reference).
+    pub size: f64,
+    /// The absolute tolerance's term (30 atol) is the larger part of the noise: a
+    /// tighter --atol, not --rtol, lowers it.
+    pub absolute: bool,
 }
 
 /// [`still`] with the reason and the numbers: None for a response whose peaks are
@@ -241,6 +246,8 @@ pub fn stillness(
                 amplitude: most[r],
                 change,
                 noise,
+                size,
+                absolute: NOISE_REACH * atol > rtol * size,
             })
         })
         .collect()

@@ -588,10 +588,23 @@ pub fn nfr(
         }
         slowest
     };
-    // the columns' steps resolve the fastest mode (`COLUMN_STEP_RESOLUTION`)
+    // the columns' steps resolve the fastest mode along the range
+    // (`COLUMN_STEP_RESOLUTION`): a parameter that stiffens the model (weak_pair's k2
+    // from 1e5 to 1e7 N/m) brings faster modes than the start's
     let mut shooting = opts.shooting.clone();
     if opts.shooting.integrator == crate::dynamics::integrator::Integrator::Dop853 {
-        let fastest = check_period(&lin, slowest)?;
+        let mut fastest = fastest_mode(&lin);
+        if param != freq {
+            for j in 1..=10 {
+                let v = opts.from + (opts.to - opts.from) * j as f64 / 10.0;
+                if let Ok(sv) = sys.with_param(param, v)
+                    && let Ok(l) = linear_start(&sv, freq, &omega_param)
+                {
+                    fastest = fastest.max(fastest_mode(&l.lin));
+                }
+            }
+        }
+        check_period(fastest, slowest)?;
         if fastest > 0.0 {
             shooting.max_column_step = crate::periodic::COLUMN_STEP_RESOLUTION / fastest;
         }
@@ -917,27 +930,23 @@ fn prominent(all: &[Node], i: usize, r: usize, noise: f64) -> bool {
     side(i, -1) && side(i, 1)
 }
 
-/// The most steps the shooting's integrator may need for one forcing period, by the
-/// stability bound of an explicit method (DOP853: h·|λ| ≲ 6 for the fastest eigenvalue
-/// λ of the linearization, whatever the accuracy asks).
+/// The most steps the shooting's integrator may need for one forcing period: a period
+/// with variational columns steps at h·λ ≤ 2 for the linearization's fastest natural
+/// frequency λ (`COLUMN_STEP_RESOLUTION`; DOP853's stability bound alone is about 6),
+/// whatever the accuracy asks.
 pub const PERIOD_STEPS: usize = 10_000;
 
 /// Refuse a forcing frequency whose period DOP853 cannot cross in [`PERIOD_STEPS`]
 /// steps: at ω far below the model's fastest motion (1e-4 rad/s on the overcentre, whose
 /// |λ| is 3 1/s) every period takes tens of thousands of steps, each with the variational
 /// equations, and the first point alone runs for minutes without a word. The bound is a
-/// lower one (the overcentre at 1e-4 rad/s: 3.1e4 by the bound, about 5e4 taken); at the
-/// budget a period costs about 1e4 steps, a second or so on the overcentre.
-fn check_period(lin: &Linearization, omega: f64) -> Result<f64> {
-    let Ok(modes) = lin.modes(0) else {
-        return Ok(0.0);
-    };
-    let lambda = modes
-        .iter()
-        .map(|m| m.omega_n_rad_s)
-        .filter(|l| l.is_finite())
-        .fold(0.0, f64::max);
-    let steps = std::f64::consts::TAU / omega * lambda / 6.0;
+/// lower one (the overcentre at 1e-4 rad/s: 3.1e4 by the stability bound, about 5e4
+/// taken); at the budget a period costs about 1e4 steps, a second or so on the
+/// overcentre. `lambda`: the fastest natural frequency along the range.
+fn check_period(lambda: f64, omega: f64) -> Result<()> {
+    // (the columns' periods step at h·λ ≤ COLUMN_STEP_RESOLUTION, below DOP853's
+    // stability bound of about 6)
+    let steps = std::f64::consts::TAU / omega * lambda / crate::periodic::COLUMN_STEP_RESOLUTION;
     if omega > 0.0 && steps > PERIOD_STEPS as f64 {
         return Err(Failure::PeriodUnresolved {
             omega,
@@ -947,7 +956,19 @@ fn check_period(lin: &Linearization, omega: f64) -> Result<f64> {
         }
         .into());
     }
-    Ok(lambda)
+    Ok(())
+}
+
+/// The linearization's fastest natural frequency, rad/s (0 where its modes cannot be
+/// computed).
+fn fastest_mode(lin: &Linearization) -> f64 {
+    lin.modes(0).map_or(0.0, |modes| {
+        modes
+            .iter()
+            .map(|m| m.omega_n_rad_s)
+            .filter(|l| l.is_finite())
+            .fold(0.0, f64::max)
+    })
 }
 
 /// The linear response about the equilibrium at the system's parameter values.

@@ -448,6 +448,17 @@ impl Shooting {
             }
         }
         let per = self.opts.samples;
+        let max_step = if cols > 0 {
+            self.opts.max_column_step
+        } else {
+            f64::INFINITY
+        };
+        // the steps the columns' limit alone takes over a period
+        let limited = if max_step.is_finite() {
+            4 * (period / max_step).ceil().min(1e9) as usize
+        } else {
+            0
+        };
         let iopts = IntegratorOptions {
             t0: 0.0,
             t_end: period,
@@ -464,8 +475,11 @@ impl Shooting {
                 Integrator::Radau => RADAU_ATOL_FACTOR * self.opts.atol,
             },
             // 20 times the most a period has taken (a million before the first)
+            // (and at least 4 times what the columns' step limit alone asks: a period
+            // with columns may take many more steps than one of the state alone, on
+            // which the typical count may rest)
             max_steps: if self.typical_steps > 0 {
-                (20 * self.typical_steps).max(2_000)
+                (20 * self.typical_steps).max(2_000).max(limited)
             } else {
                 1_000_000
             },
@@ -473,11 +487,7 @@ impl Shooting {
             // the samples are read for the state only: the dense output's three stages
             // a step on the state alone (about a sixth of a period with its columns)
             dense_prefix: (cols > 0).then_some(n2),
-            max_step: if cols > 0 {
-                self.opts.max_column_step
-            } else {
-                f64::INFINITY
-            },
+            max_step,
         };
         let n = self.sys.nq();
         let sys = &self.sys;
