@@ -2505,8 +2505,11 @@ impl Tracer<'_> {
             };
             n.point.s = s;
             let a = n.point.measures[r].amplitude;
-            let w_new = n.point.omega;
-            let w_old = pts[1].2.point.omega;
+            // the vertex's move in the continued parameter, as `reach` is (not in ω: for
+            // a parameter ω does not depend on, that move was 0 and the first trial
+            // ended the refinement; for ω = w0/3 continued in w0 it was a third)
+            let w_new = n.point.value;
+            let w_old = pts[1].2.point.value;
             // keep the three around the largest
             pts.push((s, a, n));
             pts.sort_by(|a, b| a.0.total_cmp(&b.0));
