@@ -275,6 +275,39 @@ fn bad_sweep_requests_are_refused() {
     assert!(e.contains("not finer than a peak's bracket"), "{e}");
 }
 
+/// Nor jumps: the inceptor's stick.z (round-off, 1e-16 m) "jumped" at seven edges of a
+/// sweep up and down (its relative changes are noise: 7e-16 → 2e-16 m), and each
+/// candidate edge cost a steady state stepped back. stick.y's resonance has no jump
+/// either way.
+#[test]
+fn still_responses_have_no_jumps() {
+    let (code, out, err) = common::detune(&[
+        "sweep",
+        "models/inceptor.toml",
+        "--set",
+        "D0=1 mm",
+        "--param",
+        "omega",
+        "--from",
+        "25.5",
+        "--to",
+        "27.5",
+        "--step",
+        "0.25",
+        "--mode",
+        "both",
+        "--response",
+        "stick.y",
+        "--response",
+        "stick.z",
+        "--json",
+    ]);
+    assert_eq!(code, 0, "{err}");
+    let j: serde_json::Value = serde_json::from_str(&out).unwrap();
+    assert_eq!(j["jumps"].as_array().unwrap().len(), 0, "{}", j["jumps"]);
+    assert_eq!(j["peaks"].as_array().unwrap().len(), 2, "{}", j["peaks"]);
+}
+
 /// Responses that do not move (stick.z: round-off, 2e-16 m; gearbox.y: 0 m) or whose
 /// amplitude does not change (gearbox.x, carried by the table: D0 at every frequency)
 /// have no peaks: before, the inceptor's stepped sine at 1 mm over 25.5–27.5 rad/s

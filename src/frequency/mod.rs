@@ -1058,6 +1058,19 @@ pub fn sweep_logged_partial(
     // steeply is stepped back: the steady state at ω_k from the one at ω_k+1. On a smooth
     // curve (one response at ω_k, however steep the flank) it is the same response; past a
     // fold it is another (the branch the sweep jumped to still exists at ω_k): a jump.
+    // which responses of a line have no peaks and no jumps to find: round-off, or an
+    // amplitude that does not change beyond the integration's noise (`measure::still`)
+    let units: Vec<&str> = responses.iter().map(|o| o.unit(&sys0)).collect();
+    let still_of = |line: &[&SweepPoint]| {
+        measure::stillness(
+            &(0..responses.len())
+                .map(|r| line.iter().map(|p| p.steady.measures[r]).collect())
+                .collect::<Vec<Vec<_>>>(),
+            &units,
+            opts.steady.atol,
+            opts.steady.rtol,
+        )
+    };
     let mut jumps = Vec::new();
     if complete && !partial {
         'jumps: for &dir in directions.iter().filter(|d| **d != Direction::Independent) {
@@ -1069,8 +1082,16 @@ pub fn sweep_logged_partial(
             if dir == Direction::Down {
                 line.reverse();
             }
+            let still = still_of(&line);
             for (r, name) in opts.responses.iter().enumerate() {
                 for (k, well) in jump_candidates(&line, r) {
+                    // a still response's amplitude changes are its noise: no jump of
+                    // its own (the inceptor's stick.z, 1e-16 m of round-off, "jumped"
+                    // at seven edges of a sweep up and down); a change of well is the
+                    // mechanism's, and stays
+                    if still[r].is_some() && !well {
+                        continue;
+                    }
                     let (p0, p1) = (&line[k].steady, &line[k + 1].steady);
                     let jump = well || {
                         let back = match case(CaseKind::Back, dir, p0.omega, &relative_end(p1)?) {
@@ -1121,14 +1142,7 @@ pub fn sweep_logged_partial(
             line.sort_by(|a, b| a.steady.omega.total_cmp(&b.steady.omega));
             // a response that does not move, or whose amplitude does not change, has
             // round-off for its local maxima: no peaks to refine
-            let still = measure::stillness(
-                &(0..responses.len())
-                    .map(|r| line.iter().map(|p| p.steady.measures[r]).collect())
-                    .collect::<Vec<Vec<_>>>(),
-                &responses.iter().map(|o| o.unit(&sys0)).collect::<Vec<_>>(),
-                opts.steady.atol,
-                opts.steady.rtol,
-            );
+            let still = still_of(&line);
             for (r, why) in still.iter().enumerate() {
                 if let (Some(why), true) = (why, line.len() >= 3) {
                     no_peaks.push(NoPeaks {
