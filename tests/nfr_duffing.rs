@@ -426,14 +426,18 @@ fn a_forcing_frequency_that_follows_the_continued_parameter() {
         "w0 = {}: {a} continued in w0, {b} in ω",
         p.value
     );
-    // ω = w0 − 1 over 2 → 0.5: zero at w0 = 1, refused with where
+    // ω = w0 − 1 over 2 → 0.5: zero at w0 = 1, refused with where (the crossing, not
+    // the first sample past it, 0.95)
     let sys = with(&[("F0", "1e-3"), ("omega", "w0-1")]);
     let opts = NfrOptions::new("w0", 2.0, 0.5, vec![RESPONSE.into()]);
     let e = nfr(&sys, &opts, &|_, _| {}, &never)
         .err()
         .unwrap()
         .to_string();
-    assert!(e.contains("positive") && e.contains("w0 = "), "{e}");
+    assert!(
+        e.contains("reaches 0 rad/s at w0 = 1 ") && e.contains("positive"),
+        "{e}"
+    );
 }
 
 /// A peak over a parameter the forcing frequency does not depend on: the linear

@@ -570,20 +570,47 @@ pub fn nfr(
         opts.from.min(opts.to)
     } else {
         let mut slowest = omega0;
+        let omega_at = |v: f64| -> Result<f64> { Ok(sys.with_param(param, v)?.param(freq)) };
+        let mut positive = opts.from;
         for j in 1..=20 {
             let v = opts.from + (opts.to - opts.from) * j as f64 / 20.0;
-            let w = sys.with_param(param, v)?.param(freq);
+            let w = omega_at(v)?;
             if !(w > 0.0) {
+                // where it stops being positive: bisected between the samples
+                let (mut a, mut b) = (positive, v);
+                for _ in 0..60 {
+                    let m = 0.5 * (a + b);
+                    if m == a || m == b {
+                        break;
+                    }
+                    if omega_at(m)? > 0.0 {
+                        a = m;
+                    } else {
+                        b = m;
+                    }
+                }
+                // (6 significant digits, without trailing zeros: 1, not 1.00000)
+                let shown = |x: f64| {
+                    format!("{x:.5e}")
+                        .parse::<f64>()
+                        .map_or_else(|_| x.to_string(), |r| r.to_string())
+                };
                 return Err(Error::request(
                     format!(
-                        "the forcing frequency {omega_param} is {} rad/s at {} = {}: a periodic orbit needs a positive one all along the range",
-                        crate::output::units::significant(w, 6),
+                        "the forcing frequency {omega_param} reaches 0 rad/s at {} = {} (it is {} rad/s at {}): a periodic orbit needs a positive one all along the range",
                         opts.param,
-                        crate::output::units::significant(v, 6)
+                        shown(b),
+                        shown(w),
+                        shown(v)
                     ),
-                    format!("end the range where {omega_param} is still positive (--from/--to)"),
+                    format!(
+                        "end the range before {} = {} (--from/--to)",
+                        opts.param,
+                        shown(b)
+                    ),
                 ));
             }
+            positive = v;
             slowest = slowest.min(w);
         }
         slowest
