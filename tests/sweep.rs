@@ -275,13 +275,10 @@ fn bad_sweep_requests_are_refused() {
     assert!(e.contains("not finer than a peak's bracket"), "{e}");
 }
 
-/// Nor jumps: the inceptor's stick.z (round-off, 1e-16 m) "jumped" at seven edges of a
-/// sweep up and down (its relative changes are noise: 7e-16 → 2e-16 m), and each
-/// candidate edge cost a steady state stepped back. stick.y's resonance has no jump
-/// either way.
-#[test]
-fn still_responses_have_no_jumps() {
-    let (code, out, err) = common::detune(&[
+/// `sweep --json` of the inceptor at D0 = 1 mm over 25.5–27.5 rad/s (0.25 rad/s steps),
+/// with `more` (its responses, its mode), checked to succeed.
+fn inceptor_at_1mm(more: &[&str]) -> serde_json::Value {
+    let mut args = vec![
         "sweep",
         "models/inceptor.toml",
         "--set",
@@ -294,16 +291,28 @@ fn still_responses_have_no_jumps() {
         "27.5",
         "--step",
         "0.25",
+        "--json",
+    ];
+    args.extend_from_slice(more);
+    let (code, out, err) = common::detune(&args);
+    assert_eq!(code, 0, "{err}");
+    serde_json::from_str(&out).unwrap()
+}
+
+/// Nor jumps: the inceptor's stick.z (round-off, 1e-16 m) "jumped" at seven edges of a
+/// sweep up and down (its relative changes are noise: 7e-16 → 2e-16 m), and each
+/// candidate edge cost a steady state stepped back. stick.y's resonance has no jump
+/// either way.
+#[test]
+fn still_responses_have_no_jumps() {
+    let j = inceptor_at_1mm(&[
         "--mode",
         "both",
         "--response",
         "stick.y",
         "--response",
         "stick.z",
-        "--json",
     ]);
-    assert_eq!(code, 0, "{err}");
-    let j: serde_json::Value = serde_json::from_str(&out).unwrap();
     assert_eq!(j["jumps"].as_array().unwrap().len(), 0, "{}", j["jumps"]);
     assert_eq!(j["peaks"].as_array().unwrap().len(), 2, "{}", j["peaks"]);
 }
@@ -316,19 +325,7 @@ fn still_responses_have_no_jumps() {
 /// simulations).
 #[test]
 fn still_responses_have_no_peaks() {
-    let (code, out, err) = common::detune(&[
-        "sweep",
-        "models/inceptor.toml",
-        "--set",
-        "D0=1 mm",
-        "--param",
-        "omega",
-        "--from",
-        "25.5",
-        "--to",
-        "27.5",
-        "--step",
-        "0.25",
+    let j = inceptor_at_1mm(&[
         "--response",
         "stick.y",
         "--response",
@@ -337,10 +334,7 @@ fn still_responses_have_no_peaks() {
         "gearbox.x",
         "--response",
         "gearbox.y",
-        "--json",
     ]);
-    assert_eq!(code, 0, "{err}");
-    let j: serde_json::Value = serde_json::from_str(&out).unwrap();
     let peaks = j["peaks"].as_array().unwrap();
     assert_eq!(peaks.len(), 1, "{peaks:?}");
     assert_eq!(peaks[0]["response"], "stick.y");

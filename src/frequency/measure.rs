@@ -138,41 +138,15 @@ mod tests {
 }
 
 /// Below this fraction of the largest amplitude among the responses of its unit, a
-/// response's amplitude is round-off (see [`still`]): the inceptor's stick.z is 1e-13 of
+/// response's amplitude is round-off (see [`stillness`]): the inceptor's stick.z is 1e-13 of
 /// stick.y; a real small motion (a lateral one 1e-7 of the main) is well above it.
 const ROUND_OFF: f64 = 1e-9;
 
 /// How far above the integration's absolute tolerance, and above its relative tolerance
-/// of the amplitude itself, the noise of a settled amplitude may reach (see [`still`]).
+/// of the amplitude itself, the noise of a settled amplitude may reach (see [`stillness`]).
 const NOISE_REACH: f64 = 30.0;
 
-/// Which responses of a frequency-response curve have no peaks to find, given each
-/// one's measures at every point (`curves[r]`), its unit, and the tolerances the motion
-/// was integrated with. The noise of a response's amplitude is taken as
-/// `30 atol + rtol · |x|`, x its largest value (the integration's error control is
-/// relative to the coordinates' values, not to their motion):
-///
-/// * Those that do not move: their largest amplitude below that noise, or below
-///   [`ROUND_OFF`] of the largest among the responses of the same unit (the inceptor's
-///   stick.z, 1e-17 m beside stick.y's 1e-4 m; gearbox.y, 0 m;
-///   tests/data/weak_pair.toml's block2 at x = 3 m in `nfr`, 8e-10 m of motion under
-///   noise spikes of 4e-9 m at rtol 4e-9).
-/// * Those whose amplitude does not change along the curve by more than that noise and
-///   30 rtol of itself: a body carried by the moving ground, as the inceptor's gearbox.x,
-///   D0 at every frequency to 5e-11 of itself in a stepped sine (rtol 1e-10) and 1.6e-8
-///   along `nfr`'s orbits (rtol 1e-8).
-///
-/// Their local maxima are noise: `nfr` on the inceptor at 0.1 mm reported 207 of them as
-/// peaks besides the real ones. A real peak changes the amplitude by more than the noise
-/// over any range that shows it as a maximum.
-pub fn still(curves: &[Vec<Measures>], units: &[&str], atol: f64, rtol: f64) -> Vec<bool> {
-    stillness(curves, units, atol, rtol)
-        .iter()
-        .map(Option::is_some)
-        .collect()
-}
-
-/// Why a response has no peaks to find (see [`still`]).
+/// Why a response has no peaks to find (see [`stillness`]).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
 #[serde(rename_all = "snake_case")]
 pub enum StillKind {
@@ -204,8 +178,26 @@ pub struct Still {
     pub absolute: bool,
 }
 
-/// [`still`] with the reason and the numbers: None for a response whose peaks are
-/// sought.
+/// Which responses of a frequency-response curve have no peaks (nor jumps) to find, and
+/// why, with the numbers (None for one whose peaks are sought), given each
+/// one's measures at every point (`curves[r]`), its unit, and the tolerances the motion
+/// was integrated with. The noise of a response's amplitude is taken as
+/// `30 atol + rtol · |x|`, x its largest value (the integration's error control is
+/// relative to the coordinates' values, not to their motion):
+///
+/// * Those that do not move: their largest amplitude below that noise, or below
+///   [`ROUND_OFF`] of the largest among the responses of the same unit (the inceptor's
+///   stick.z, 1e-17 m beside stick.y's 1e-4 m; gearbox.y, 0 m;
+///   tests/data/weak_pair.toml's block2 at x = 3 m in `nfr`, 8e-10 m of motion under
+///   noise spikes of 4e-9 m at rtol 4e-9).
+/// * Those whose amplitude does not change along the curve by more than that noise and
+///   30 rtol of itself: a body carried by the moving ground, as the inceptor's gearbox.x,
+///   D0 at every frequency to 5e-11 of itself in a stepped sine (rtol 1e-10) and 1.6e-8
+///   along `nfr`'s orbits (rtol 1e-8).
+///
+/// Their local maxima are noise: `nfr` on the inceptor at 0.1 mm reported 207 of them as
+/// peaks besides the real ones. A real peak changes the amplitude by more than the noise
+/// over any range that shows it as a maximum.
 pub fn stillness(
     curves: &[Vec<Measures>],
     units: &[&str],

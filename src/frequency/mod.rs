@@ -631,7 +631,7 @@ pub struct Sweep {
     pub peaks: Vec<Peak>,
     /// The responses whose peaks were not sought, per direction, and why: they do not
     /// move beyond round-off, or their amplitude does not change along the curve by more
-    /// than the integration's noise (see [`measure::still`]). A real resonance of a motion
+    /// than the integration's noise (see [`measure::stillness`]). A real resonance of a motion
     /// too small against its coordinate's value for the tolerances is among them: said,
     /// not dropped without a word.
     pub no_peaks: Vec<NoPeaks>,
@@ -1059,7 +1059,7 @@ pub fn sweep_logged_partial(
     // curve (one response at ω_k, however steep the flank) it is the same response; past a
     // fold it is another (the branch the sweep jumped to still exists at ω_k): a jump.
     // which responses of a line have no peaks and no jumps to find: round-off, or an
-    // amplitude that does not change beyond the integration's noise (`measure::still`)
+    // amplitude that does not change beyond the integration's noise (`measure::stillness`)
     let units: Vec<&str> = responses.iter().map(|o| o.unit(&sys0)).collect();
     let still_of = |line: &[&SweepPoint]| {
         measure::stillness(

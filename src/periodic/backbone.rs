@@ -319,12 +319,7 @@ pub fn backbone(
     let units: Vec<&'static str> = outputs.iter().map(|o| o.unit(&sys0)).collect();
     // the columns' steps resolve the fastest mode (`COLUMN_STEP_RESOLUTION`)
     let mut shooting = opts.shooting.clone();
-    let fastest = ma
-        .modes
-        .iter()
-        .map(|m| m.omega_n_rad_s)
-        .filter(|w| w.is_finite())
-        .fold(0.0, f64::max);
+    let fastest = super::fastest(&ma.modes);
     if fastest > 0.0 && shooting.integrator == crate::dynamics::integrator::Integrator::Dop853 {
         shooting.max_column_step = super::COLUMN_STEP_RESOLUTION / fastest;
     }

@@ -240,7 +240,7 @@ pub struct Nfr {
     pub neimark_sacker: Vec<Special>,
     pub peaks: Vec<NfrPeak>,
     /// The responses whose peaks were not sought, and why (see
-    /// [`crate::frequency::measure::still`]).
+    /// [`crate::frequency::measure::stillness`]).
     pub no_peaks: Vec<NfrNoPeaks>,
     /// False when interrupted or stopped short: `points` holds what was computed.
     pub complete: bool,
@@ -589,12 +589,9 @@ pub fn nfr(
                         b = m;
                     }
                 }
-                // (6 significant digits, without trailing zeros: 1, not 1.00000)
-                let shown = |x: f64| {
-                    format!("{x:.5e}")
-                        .parse::<f64>()
-                        .map_or_else(|_| x.to_string(), |r| r.to_string())
-                };
+                // (6 significant digits, as `diag::about` gives 3: the crossing is
+                // where to end the range)
+                let shown = |x: f64| crate::diag::num(format!("{x:.5e}").parse().unwrap_or(x));
                 return Err(Error::request(
                     format!(
                         "the forcing frequency {omega_param} reaches 0 rad/s at {} = {} (it is {} rad/s at {}): a periodic orbit needs a positive one all along the range",
@@ -615,27 +612,11 @@ pub fn nfr(
         }
         slowest
     };
-    // the columns' steps resolve the fastest mode along the range
-    // (`COLUMN_STEP_RESOLUTION`): a parameter that stiffens the model (weak_pair's k2
-    // from 1e5 to 1e7 N/m) brings faster modes than the start's
-    let mut shooting = opts.shooting.clone();
-    if opts.shooting.integrator == crate::dynamics::integrator::Integrator::Dop853 {
-        let mut fastest = fastest_mode(&lin);
-        if param != freq {
-            for j in 1..=10 {
-                let v = opts.from + (opts.to - opts.from) * j as f64 / 10.0;
-                if let Ok(sv) = sys.with_param(param, v)
-                    && let Ok(l) = linear_start(&sv, freq, &omega_param)
-                {
-                    fastest = fastest.max(fastest_mode(&l.lin));
-                }
-            }
-        }
-        check_period(fastest, slowest)?;
-        if fastest > 0.0 {
-            shooting.max_column_step = crate::periodic::COLUMN_STEP_RESOLUTION / fastest;
-        }
-    }
+    // the fastest mode along the range, for DOP853's steps (`COLUMN_STEP_RESOLUTION`): a
+    // parameter that stiffens the model (weak_pair's k2 from 1e5 to 1e7 N/m) brings
+    // faster modes than the start's
+    let explicit = opts.shooting.integrator == crate::dynamics::integrator::Integrator::Dop853;
+    let mut fastest = if explicit { fastest_mode(&lin) } else { 0.0 };
     let n = sys0.nq();
     // The scales: the parameter's range, and the largest linear state over it.
     let sp = (opts.to - opts.from).abs();
@@ -672,7 +653,17 @@ pub fn nfr(
             {
                 sx = sx.max(state_norm(&l.y, sv.param(freq)));
                 smallest = smallest.min(displacement(&l.y));
+                if explicit {
+                    fastest = fastest.max(fastest_mode(&l.lin));
+                }
             }
+        }
+    }
+    let mut shooting = opts.shooting.clone();
+    if explicit {
+        check_period(fastest, slowest)?;
+        if fastest > 0.0 {
+            shooting.max_column_step = crate::periodic::COLUMN_STEP_RESOLUTION / fastest;
         }
     }
     let sx = sx.max(1e-12);
@@ -989,13 +980,8 @@ fn check_period(lambda: f64, omega: f64) -> Result<()> {
 /// The linearization's fastest natural frequency, rad/s (0 where its modes cannot be
 /// computed).
 fn fastest_mode(lin: &Linearization) -> f64 {
-    lin.modes(0).map_or(0.0, |modes| {
-        modes
-            .iter()
-            .map(|m| m.omega_n_rad_s)
-            .filter(|l| l.is_finite())
-            .fold(0.0, f64::max)
-    })
+    lin.modes(0)
+        .map_or(0.0, |modes| crate::periodic::fastest(&modes))
 }
 
 /// The linear response about the equilibrium at the system's parameter values.

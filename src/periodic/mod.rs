@@ -90,6 +90,16 @@ pub struct ShootingOptions {
 /// the state's own steps resolve (the overcentre, the inceptor) is untouched.
 pub const COLUMN_STEP_RESOLUTION: f64 = 2.0;
 
+/// The fastest natural frequency of `modes`, rad/s (0 for none): what a period's steps
+/// must resolve ([`COLUMN_STEP_RESOLUTION`]).
+pub(crate) fn fastest(modes: &[crate::linear::Mode]) -> f64 {
+    modes
+        .iter()
+        .map(|m| m.omega_n_rad_s)
+        .filter(|w| w.is_finite())
+        .fold(0.0, f64::max)
+}
+
 impl ShootingOptions {
     /// The Newton tolerance of an orbit (relative to its amplitude) whose largest
     /// multiplier's modulus is `growth` (at least 1): `tol`, or the integration's error
