@@ -690,8 +690,9 @@ pub fn check_frequencies(sys: &System, param: &str, values: &[f64]) -> Result<us
     match sys.forcing_param() {
         Some(f) if f != index => {
             // derived from it (`omega = w0/4`): its definition, for the words
-            let (seeded, _) = sys.seeded(index, num_dual::Dual64::new(sys.param(index), 1.0));
-            let definition = sys.param_definition(f).filter(|_| seeded[f].eps != 0.0);
+            let definition = sys
+                .param_definition(f)
+                .filter(|_| sys.param_rate(f, index) != 0.0);
             return Err(Invalid::NotForcingFrequency {
                 name: param.to_string(),
                 forcing: sys.param_names()[f].clone(),

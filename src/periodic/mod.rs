@@ -266,13 +266,7 @@ impl Shooting {
     /// expressions when ω is derived from it (`omega = w0/4` continued in w0), 0 when ω
     /// does not depend on it.
     pub fn omega_rate(&self) -> f64 {
-        if self.param == self.freq {
-            return 1.0;
-        }
-        let (params, _) = self
-            .sys
-            .seeded(self.param, num_dual::Dual64::new(self.value(), 1.0));
-        params[self.freq].eps
+        self.sys.param_rate(self.freq, self.param)
     }
 
     /// `Shooting::new`, its tolerances fitted to a motion `ratio` of its coordinates'

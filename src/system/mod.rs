@@ -585,6 +585,14 @@ impl System {
         )
     }
 
+    /// ∂p_of/∂p_wrt: how parameter `of` moves with parameter `wrt` through the
+    /// parameters' expressions (1 for itself, 0 where it does not depend on it), by dual
+    /// numbers.
+    pub fn param_rate(&self, of: usize, wrt: usize) -> f64 {
+        let (p, _) = self.seeded(wrt, Dual64::new(self.param(wrt), 1.0));
+        p[of].eps
+    }
+
     /// ∂q₀/∂p_i: how the initial pose the model gives (fixed coordinates exact, the rest
     /// guesses) moves with parameter `i`, by dual numbers.
     pub fn initial_dp(&self, i: usize) -> Vec<f64> {
